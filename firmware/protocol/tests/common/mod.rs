@@ -1,0 +1,274 @@
+//! Shared helpers for the integration tests.
+#![allow(dead_code)]
+
+use master_link::*;
+use proptest::array::uniform3;
+use proptest::prelude::*;
+
+/// Encodes one frame into a `Vec`, using a `MAX_FRAME_LEN` buffer.
+pub fn enc<M: WireMessage>(msg: &M, seq: Seq) -> Vec<u8> {
+    let mut buf = [0u8; MAX_FRAME_LEN];
+    let n = encode(msg, seq, &mut buf).expect("encode");
+    buf[..n].to_vec()
+}
+
+/// Builds a frame by hand: raw = version | seq LE | body | crc LE (the CRC
+/// is computed over the first part unless `crc` is given), COBS + 0x00.
+pub fn raw_frame(version: u8, seq: Seq, body: &[u8], crc: Option<u32>) -> Vec<u8> {
+    let mut raw = vec![version];
+    raw.extend_from_slice(&seq.to_le_bytes());
+    raw.extend_from_slice(body);
+    let crc = crc.unwrap_or_else(|| CRC32.checksum(&raw));
+    raw.extend_from_slice(&crc.to_le_bytes());
+    cobs_frame(&raw)
+}
+
+/// COBS-encodes arbitrary raw bytes and appends the delimiter.
+pub fn cobs_frame(raw: &[u8]) -> Vec<u8> {
+    let mut out = vec![0u8; cobs::max_encoded_len(raw.len()) + 1];
+    let n = cobs::encode(raw, &mut out).expect("cobs");
+    out.truncate(n);
+    out.push(0);
+    out
+}
+
+/// Postcard body of a message.
+pub fn body<M: WireMessage>(msg: &M) -> Vec<u8> {
+    let mut buf = [0u8; 512];
+    postcard::to_slice(msg, &mut buf)
+        .expect("postcard")
+        .to_vec()
+}
+
+/// Feeds `bytes` one by one and collects every result.
+pub fn decode_all<M: WireMessage, const N: usize>(
+    dec: &mut FrameDecoder<M, N>,
+    bytes: &[u8],
+) -> Vec<Result<(Seq, M), FrameError>> {
+    bytes.iter().filter_map(|b| dec.push(*b)).collect()
+}
+
+/// Variant index; the exhaustive match makes this file fail to compile when a
+/// variant is added, so the "every variant" tests get updated.
+pub fn master_variant(m: &MasterToBoard) -> usize {
+    use MasterToBoard::*;
+    match m {
+        Hello { .. } => 0,
+        Enable => 1,
+        Disable => 2,
+        Home => 3,
+        PoseTarget { .. } => 4,
+        Jog { .. } => 5,
+        Clutch { .. } => 6,
+        Heartbeat => 7,
+        EmergencyStop => 8,
+        ClearFault => 9,
+        StatusRequest => 10,
+    }
+}
+pub const MASTER_VARIANTS: usize = 11;
+
+pub fn board_variant(m: &BoardToMaster) -> usize {
+    use BoardToMaster::*;
+    match m {
+        HelloReply { .. } => 0,
+        Ack { .. } => 1,
+        Nack { .. } => 2,
+        Status(_) => 3,
+    }
+}
+pub const BOARD_VARIANTS: usize = 4;
+
+pub const ALL_NACK_REASONS: [NackReason; 15] = [
+    NackReason::UnsupportedVersion,
+    NackReason::NotConnected,
+    NackReason::InvalidState,
+    NackReason::NotHomed,
+    NackReason::Faulted,
+    NackReason::FaultStillActive,
+    NackReason::InvalidJoint,
+    NackReason::InvalidValue,
+    NackReason::OutOfWorkspace,
+    NackReason::JointLimit,
+    NackReason::NearSingularity,
+    NackReason::VelocityLimit,
+    NackReason::StaleTarget,
+    NackReason::ClutchDisengaged,
+    NackReason::Busy,
+];
+
+pub const ALL_STATES: [RobotState; 6] = [
+    RobotState::Boot,
+    RobotState::Disabled,
+    RobotState::Homing,
+    RobotState::Ready,
+    RobotState::Enabled,
+    RobotState::Fault,
+];
+
+/// Status with every varint at its maximum: the largest board message.
+pub fn max_status() -> StatusReport {
+    StatusReport {
+        state: RobotState::Fault,
+        position_m: [0.1, -0.2, 0.3],
+        rotation_vector_rad: [1.0, -2.0, 3.0],
+        joints: [0.01, 0.02, 0.03, 0.4, 0.5, 0.6],
+        warnings: Warnings::from_bits_retain(u32::MAX),
+        faults: Faults::from_bits_retain(u32::MAX),
+        serial_singularity_margin: 0.25,
+        parallel_singularity_margin: 0.75,
+        link: LinkCounters {
+            frames_ok: u32::MAX,
+            bad_checksum: u32::MAX,
+            malformed: u32::MAX,
+            oversized: u32::MAX,
+            wrong_version: u32::MAX,
+            out_of_order: u32::MAX,
+            dropped: u32::MAX,
+        },
+    }
+}
+
+/// One sample of every master -> board variant (with maximal varints).
+pub fn master_samples() -> Vec<MasterToBoard> {
+    vec![
+        MasterToBoard::Hello {
+            protocol_version: PROTOCOL_VERSION,
+        },
+        MasterToBoard::Enable,
+        MasterToBoard::Disable,
+        MasterToBoard::Home,
+        MasterToBoard::PoseTarget {
+            timestamp_us: u64::MAX,
+            position_m: [0.01, -0.02, 0.15],
+            rotation_vector_rad: [0.1, 0.0, -2.5],
+        },
+        MasterToBoard::Jog {
+            joint: 5,
+            velocity: -0.5,
+        },
+        MasterToBoard::Clutch { engaged: true },
+        MasterToBoard::Clutch { engaged: false },
+        MasterToBoard::Heartbeat,
+        MasterToBoard::EmergencyStop,
+        MasterToBoard::ClearFault,
+        MasterToBoard::StatusRequest,
+    ]
+}
+
+/// One sample of every board -> master variant, every Nack reason and
+/// every robot state.
+pub fn board_samples() -> Vec<BoardToMaster> {
+    let mut v = vec![
+        BoardToMaster::HelloReply {
+            firmware_version: FirmwareVersion {
+                major: 1,
+                minor: 2,
+                patch: 255,
+            },
+            protocol_version: PROTOCOL_VERSION,
+        },
+        BoardToMaster::Ack { seq: u16::MAX },
+        BoardToMaster::Status(max_status()),
+        BoardToMaster::Status(StatusReport::default()),
+    ];
+    v.extend(ALL_NACK_REASONS.iter().map(|&reason| BoardToMaster::Nack {
+        seq: 0x1234,
+        reason,
+    }));
+    v.extend(ALL_STATES.iter().map(|&state| {
+        BoardToMaster::Status(StatusReport {
+            state,
+            faults: Faults::EMERGENCY_STOP | Faults::ENCODER,
+            warnings: Warnings::NEAR_PARALLEL_SINGULARITY,
+            ..StatusReport::default()
+        })
+    }));
+    v
+}
+
+// ---- proptest strategies (any f32 bit pattern, NaN included) ----
+
+pub fn arb_f3() -> impl Strategy<Value = [f32; 3]> {
+    uniform3(any::<f32>())
+}
+
+pub fn arb_master() -> impl Strategy<Value = MasterToBoard> {
+    prop_oneof![
+        any::<u8>().prop_map(|v| MasterToBoard::Hello {
+            protocol_version: v
+        }),
+        Just(MasterToBoard::Enable),
+        Just(MasterToBoard::Disable),
+        Just(MasterToBoard::Home),
+        (any::<u64>(), arb_f3(), arb_f3()).prop_map(|(t, p, r)| MasterToBoard::PoseTarget {
+            timestamp_us: t,
+            position_m: p,
+            rotation_vector_rad: r
+        }),
+        (any::<u8>(), any::<f32>())
+            .prop_map(|(joint, velocity)| MasterToBoard::Jog { joint, velocity }),
+        any::<bool>().prop_map(|engaged| MasterToBoard::Clutch { engaged }),
+        Just(MasterToBoard::Heartbeat),
+        Just(MasterToBoard::EmergencyStop),
+        Just(MasterToBoard::ClearFault),
+        Just(MasterToBoard::StatusRequest),
+    ]
+}
+
+pub fn arb_counters() -> impl Strategy<Value = LinkCounters> {
+    proptest::array::uniform7(any::<u32>()).prop_map(|c| LinkCounters {
+        frames_ok: c[0],
+        bad_checksum: c[1],
+        malformed: c[2],
+        oversized: c[3],
+        wrong_version: c[4],
+        out_of_order: c[5],
+        dropped: c[6],
+    })
+}
+
+pub fn arb_status() -> impl Strategy<Value = StatusReport> {
+    (
+        proptest::sample::select(ALL_STATES.to_vec()),
+        arb_f3(),
+        arb_f3(),
+        proptest::array::uniform6(any::<f32>()),
+        any::<u32>(),
+        any::<u32>(),
+        any::<f32>(),
+        any::<f32>(),
+        arb_counters(),
+    )
+        .prop_map(|(state, p, r, joints, w, f, sm, pm, link)| StatusReport {
+            state,
+            position_m: p,
+            rotation_vector_rad: r,
+            joints,
+            warnings: Warnings::from_bits_retain(w),
+            faults: Faults::from_bits_retain(f),
+            serial_singularity_margin: sm,
+            parallel_singularity_margin: pm,
+            link,
+        })
+}
+
+pub fn arb_board() -> impl Strategy<Value = BoardToMaster> {
+    prop_oneof![
+        (any::<[u8; 3]>(), any::<u8>()).prop_map(|(v, p)| BoardToMaster::HelloReply {
+            firmware_version: FirmwareVersion {
+                major: v[0],
+                minor: v[1],
+                patch: v[2]
+            },
+            protocol_version: p
+        }),
+        any::<u16>().prop_map(|seq| BoardToMaster::Ack { seq }),
+        (
+            any::<u16>(),
+            proptest::sample::select(ALL_NACK_REASONS.to_vec())
+        )
+            .prop_map(|(seq, reason)| BoardToMaster::Nack { seq, reason }),
+        arb_status().prop_map(BoardToMaster::Status),
+    ]
+}

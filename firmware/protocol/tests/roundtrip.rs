@@ -1,0 +1,139 @@
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+//! Round trips of every message variant, frame size limits, encoder errors.
+
+mod common;
+use common::*;
+use master_link::*;
+
+/// Every master -> board variant survives encode -> byte-wise decode with
+/// its sequence number, and the samples cover all variants.
+#[test]
+fn every_master_to_board_variant_round_trips() {
+    let samples = master_samples();
+    let mut seen = [false; MASTER_VARIANTS];
+    let mut dec = BoardDecoder::new();
+    for (i, msg) in samples.iter().enumerate() {
+        seen[master_variant(msg)] = true;
+        let seq = 100 + i as Seq;
+        let frame = enc(msg, seq);
+        assert_eq!(frame.last(), Some(&0));
+        assert!(!frame[..frame.len() - 1].contains(&0), "COBS removes zeros");
+        assert_eq!(decode_all(&mut dec, &frame), vec![Ok((seq, *msg))]);
+    }
+    assert!(seen.iter().all(|s| *s), "a variant has no sample: {seen:?}");
+    assert_eq!(dec.counters().frames_ok as usize, samples.len());
+    assert_eq!(dec.counters().rejected(), 0);
+    assert_eq!(dec.counters().dropped, 0);
+}
+
+/// Every board -> master variant (all Nack reasons, all robot states,
+/// extreme status values) round-trips.
+#[test]
+fn every_board_to_master_variant_round_trips() {
+    let samples = board_samples();
+    let mut seen = [false; BOARD_VARIANTS];
+    let mut dec = MasterDecoder::new();
+    for (i, msg) in samples.iter().enumerate() {
+        seen[board_variant(msg)] = true;
+        let seq = (u16::MAX - 3).wrapping_add(i as Seq); // also crosses the wrap
+        let frame = enc(msg, seq);
+        assert_eq!(decode_all(&mut dec, &frame), vec![Ok((seq, *msg))]);
+    }
+    assert!(seen.iter().all(|s| *s), "a variant has no sample: {seen:?}");
+    assert_eq!(dec.counters().frames_ok as usize, samples.len());
+    assert_eq!(dec.counters().rejected(), 0);
+}
+
+/// The largest message (Status with every varint maximal; PoseTarget with
+/// u64::MAX timestamp) fits into MAX_FRAME_LEN, and so does every sample.
+#[test]
+fn largest_message_fits_in_max_frame() {
+    let status = enc(&BoardToMaster::Status(max_status()), u16::MAX).len();
+    let pose = enc(&master_samples()[4], u16::MAX).len();
+    let all_master = master_samples().iter().map(|m| enc(m, 1).len()).max();
+    let all_board = board_samples().iter().map(|m| enc(m, 1).len()).max();
+    println!(
+        "largest frames: Status {status} B, PoseTarget {pose} B (limit {MAX_FRAME_LEN} B, body {} B of {MAX_BODY_LEN})",
+        body(&BoardToMaster::Status(max_status())).len()
+    );
+    assert_eq!(all_board, Some(status), "max Status is the largest message");
+    assert!(all_master <= Some(pose));
+    assert!(status <= MAX_FRAME_LEN);
+    assert!(pose <= MAX_FRAME_LEN);
+    // Documented sizes (update the README/report if the messages change).
+    assert_eq!(status, 112);
+    assert_eq!(pose, 44);
+}
+
+/// encode() into a buffer that is too small returns BufferTooSmall for
+/// every length short of the frame, never panics; the exact size works.
+#[test]
+fn encode_into_too_small_buffer_is_an_error() {
+    let msg = BoardToMaster::Status(max_status());
+    let needed = enc(&msg, 9).len();
+    for len in 0..needed {
+        let mut buf = vec![0u8; len];
+        assert_eq!(encode(&msg, 9, &mut buf), Err(EncodeError::BufferTooSmall));
+    }
+    let mut buf = vec![0u8; needed];
+    assert_eq!(encode(&msg, 9, &mut buf), Ok(needed));
+}
+
+/// decode_frame() (single frame, no sequence check) inverts encode().
+#[test]
+fn decode_frame_inverts_encode() {
+    for msg in master_samples() {
+        let mut frame = enc(&msg, 42);
+        frame.pop(); // delimiter
+        assert_eq!(decode_frame::<MasterToBoard>(&mut frame), Ok((42, msg)));
+    }
+}
+
+/// feed() over slices yields the same results as push() byte by byte, and
+/// a frame split across feed() calls is reassembled.
+#[test]
+fn feed_by_slices_equals_push_by_bytes() {
+    let mut stream = Vec::new();
+    for (i, m) in master_samples().iter().enumerate() {
+        stream.extend(enc(m, i as Seq + 1));
+    }
+    let mut a = BoardDecoder::new();
+    let expected = decode_all(&mut a, &stream);
+    let mut b = BoardDecoder::new();
+    let mut got = Vec::new();
+    for chunk in stream.chunks(7) {
+        got.extend(b.feed(chunk));
+    }
+    assert_eq!(got, expected);
+    assert_eq!(a.counters(), b.counters());
+}
+
+/// The frame header is version | seq LE, and the CRC is CRC-32/ISO-HDLC
+/// (check value 0xCBF43926) in little endian at the end.
+#[test]
+fn frame_layout_matches_documentation() {
+    assert_eq!(CRC32.checksum(b"123456789"), 0xCBF4_3926);
+    let mut frame = enc(&MasterToBoard::Heartbeat, 0x0201);
+    frame.pop();
+    let n = cobs::decode_in_place(&mut frame).unwrap();
+    let raw = &frame[..n];
+    assert_eq!(raw.len(), HEADER_LEN + 1 + CRC_LEN);
+    assert_eq!(&raw[..3], &[PROTOCOL_VERSION, 0x01, 0x02]);
+    assert_eq!(raw[3], 7, "Heartbeat is variant index 7");
+    let crc = CRC32.checksum(&raw[..4]);
+    assert_eq!(&raw[4..], &crc.to_le_bytes());
+}
+
+/// SeqCounter wraps and seq_is_newer follows serial-number arithmetic.
+#[test]
+fn seq_counter_and_serial_arithmetic() {
+    let mut s = SeqCounter::new(u16::MAX);
+    assert_eq!(s.next(), u16::MAX);
+    assert_eq!(s.next(), 0);
+    assert_eq!(s.peek(), 1);
+    assert!(seq_is_newer(0, u16::MAX));
+    assert!(seq_is_newer(SEQ_WINDOW, 0));
+    assert!(!seq_is_newer(SEQ_WINDOW + 1, 0));
+    assert!(!seq_is_newer(5, 5));
+    assert!(!seq_is_newer(4, 5));
+}

@@ -1,0 +1,261 @@
+//! Robot geometries, validated on construction, and the reference robots.
+
+use crate::branch::Branch;
+use crate::chain::Chain;
+use crate::ik::{inverse, ChainSolution, IkError};
+use crate::mechanism::{JointKind, Mechanism, PlatformChain, SerialBlock};
+use crate::pose::Pose;
+use crate::scalar::{lit, Real};
+use core::fmt;
+
+/// A geometry that cannot be built.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum GeometryError {
+    /// A dimension is NaN or infinite.
+    NonFinite { field: &'static str },
+    /// A dimension is zero or negative where it must be positive (or negative where it
+    /// must be non-negative).
+    NotPositive { field: &'static str, value_m: f64 },
+    /// The robot cannot be assembled in its central configuration on some branch.
+    NotAssemblable { branch: Branch, error: IkError },
+}
+
+impl fmt::Display for GeometryError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            GeometryError::NonFinite { field } => write!(f, "{field} is not finite"),
+            GeometryError::NotPositive { field, value_m } => {
+                write!(f, "{field} must be positive, got {} mm", value_m * 1e3)
+            }
+            GeometryError::NotAssemblable { branch, error } => write!(
+                f,
+                "cannot be assembled in the central configuration on branch {branch}: {error}"
+            ),
+        }
+    }
+}
+
+fn check_dim<T: Real>(field: &'static str, v: T, allow_zero: bool) -> Result<(), GeometryError> {
+    if !v.is_finite() {
+        return Err(GeometryError::NonFinite { field });
+    }
+    let ok = if allow_zero {
+        v >= T::zero()
+    } else {
+        v > T::zero()
+    };
+    if ok {
+        Ok(())
+    } else {
+        Err(GeometryError::NotPositive {
+            field,
+            value_m: to_f64(v),
+        })
+    }
+}
+
+/// Best-effort conversion to f64 for error messages.
+pub(crate) fn to_f64<T: Real>(v: T) -> f64 {
+    // `RealField` offers no direct conversion; `to_subset` exists for f64 supersets.
+    v.to_subset().unwrap_or(f64::NAN)
+}
+
+fn check_central<T: Real, M: Mechanism<T>>(m: &M) -> Result<(), GeometryError> {
+    let central = Pose::central(m.hc());
+    for branch in Branch::ALL {
+        inverse(m, &central, branch)
+            .map_err(|error| GeometryError::NotAssemblable { branch, error })?;
+    }
+    Ok(())
+}
+
+/// RSPR dimensions (thesis Fig. 8.2a), metres.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RsprGeometry<T: Real> {
+    /// Eccentricity e: distance of the rotating links' axes from the base centre (≥ 0).
+    pub e: T,
+    /// Length rb of the rotating links.
+    pub rb: T,
+    /// Platform radius rp.
+    pub rp: T,
+    /// Central height hc.
+    pub hc: T,
+}
+
+impl<T: Real> RsprGeometry<T> {
+    /// A validated geometry: every dimension finite, e ≥ 0, the others > 0, and the central
+    /// configuration solvable on all 8 branches.
+    pub fn new(e: T, rb: T, rp: T, hc: T) -> Result<Self, GeometryError> {
+        check_dim("e", e, true)?;
+        check_dim("rb", rb, false)?;
+        check_dim("rp", rp, false)?;
+        check_dim("hc", hc, false)?;
+        let g = RsprGeometry { e, rb, rp, hc };
+        check_central(&g)?;
+        Ok(g)
+    }
+
+    /// The prototype of thesis chapter 11 (Table 11.1): e = 20, rb = 90, rp = 50,
+    /// hc = 160 mm. Validated by a test (`reference_geometries_validate`).
+    pub fn reference() -> Self {
+        RsprGeometry {
+            e: lit(0.020),
+            rb: lit(0.090),
+            rp: lit(0.050),
+            hc: lit(0.160),
+        }
+    }
+}
+
+/// USR dimensions (thesis Fig. 8.2b), metres.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UsrGeometry<T: Real> {
+    /// Eccentricity e: distance of the universal joints from the base centre (≥ 0).
+    pub e: T,
+    /// Platform radius rp.
+    pub rp: T,
+    /// Lower link length l1.
+    pub l1: T,
+    /// Upper link length l2.
+    pub l2: T,
+    /// Central height hc.
+    pub hc: T,
+}
+
+impl<T: Real> UsrGeometry<T> {
+    /// A validated geometry (see [`RsprGeometry::new`]).
+    pub fn new(e: T, rp: T, l1: T, l2: T, hc: T) -> Result<Self, GeometryError> {
+        check_dim("e", e, true)?;
+        check_dim("rp", rp, false)?;
+        check_dim("l1", l1, false)?;
+        check_dim("l2", l2, false)?;
+        check_dim("hc", hc, false)?;
+        let g = UsrGeometry { e, rp, l1, l2, hc };
+        check_central(&g)?;
+        Ok(g)
+    }
+
+    /// The USR of the thesis's Appendix A, Table 4.1: rp = 30, e = 30, hc = 80, l1 = 60,
+    /// l2 = 80 mm. Validated by a test (`reference_geometries_validate`).
+    pub fn reference() -> Self {
+        UsrGeometry {
+            e: lit(0.030),
+            rp: lit(0.030),
+            l1: lit(0.060),
+            l2: lit(0.080),
+            hc: lit(0.080),
+        }
+    }
+}
+
+/// Which architecture.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RobotKind {
+    Rspr,
+    Usr,
+}
+
+/// Either robot, for code that picks the architecture at run time (the CLI).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Robot<T: Real> {
+    Rspr(RsprGeometry<T>),
+    Usr(UsrGeometry<T>),
+}
+
+impl<T: Real> Robot<T> {
+    /// The architecture.
+    pub fn kind(&self) -> RobotKind {
+        match self {
+            Robot::Rspr(_) => RobotKind::Rspr,
+            Robot::Usr(_) => RobotKind::Usr,
+        }
+    }
+}
+
+impl<T: Real> Mechanism<T> for Robot<T> {
+    fn rp(&self) -> T {
+        match self {
+            Robot::Rspr(g) => g.rp(),
+            Robot::Usr(g) => g.rp(),
+        }
+    }
+    fn e(&self) -> T {
+        match self {
+            Robot::Rspr(g) => Mechanism::e(g),
+            Robot::Usr(g) => Mechanism::e(g),
+        }
+    }
+    fn hc(&self) -> T {
+        match self {
+            Robot::Rspr(g) => g.hc(),
+            Robot::Usr(g) => g.hc(),
+        }
+    }
+    fn joint_kinds(&self) -> [JointKind; 6] {
+        match self {
+            Robot::Rspr(g) => g.joint_kinds(),
+            Robot::Usr(g) => g.joint_kinds(),
+        }
+    }
+    fn length_scale(&self) -> T {
+        match self {
+            Robot::Rspr(g) => g.length_scale(),
+            Robot::Usr(g) => g.length_scale(),
+        }
+    }
+    fn chain_ik(
+        &self,
+        chain: Chain,
+        pc: &PlatformChain<T>,
+        bit_set: bool,
+    ) -> Result<ChainSolution<T>, crate::ik::IkFailure> {
+        match self {
+            Robot::Rspr(g) => g.chain_ik(chain, pc, bit_set),
+            Robot::Usr(g) => g.chain_ik(chain, pc, bit_set),
+        }
+    }
+    fn serial_block(&self, s: &ChainSolution<T>) -> SerialBlock<T> {
+        match self {
+            Robot::Rspr(g) => g.serial_block(s),
+            Robot::Usr(g) => g.serial_block(s),
+        }
+    }
+    fn serial_measure(&self, s: &ChainSolution<T>) -> (T, T) {
+        match self {
+            Robot::Rspr(g) => g.serial_measure(s),
+            Robot::Usr(g) => g.serial_measure(s),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reference_geometries_validate() {
+        let r = RsprGeometry::<f64>::reference();
+        assert_eq!(RsprGeometry::new(r.e, r.rb, r.rp, r.hc), Ok(r));
+        let u = UsrGeometry::<f64>::reference();
+        assert_eq!(UsrGeometry::new(u.e, u.rp, u.l1, u.l2, u.hc), Ok(u));
+        let r32 = RsprGeometry::<f32>::reference();
+        assert!(RsprGeometry::new(r32.e, r32.rb, r32.rp, r32.hc).is_ok());
+    }
+
+    #[test]
+    fn bad_dimensions_are_named() {
+        assert_eq!(
+            RsprGeometry::new(0.02, f64::NAN, 0.05, 0.16),
+            Err(GeometryError::NonFinite { field: "rb" })
+        );
+        assert!(matches!(
+            RsprGeometry::new(0.02, 0.09, -0.05, 0.16),
+            Err(GeometryError::NotPositive { field: "rp", .. })
+        ));
+        // A platform far above the reach of the links cannot be assembled.
+        assert!(matches!(
+            UsrGeometry::new(0.03, 0.03, 0.06, 0.08, 0.5),
+            Err(GeometryError::NotAssemblable { .. })
+        ));
+    }
+}

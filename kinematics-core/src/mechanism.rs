@@ -1,0 +1,88 @@
+//! What a robot must provide so that the generic solvers work on it: the per-chain inverse
+//! kinematics and the per-chain block of the serial Jacobian.
+
+use crate::chain::Chain;
+use crate::ik::{ChainSolution, IkFailure};
+use crate::scalar::{lit, Real};
+use nalgebra::Vector3;
+
+/// Whether a joint is a length (m) or an angle (rad); residuals of angles are wrapped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum JointKind {
+    /// Prismatic joint, metres.
+    Linear,
+    /// Revolute joint, radians.
+    Angular,
+}
+
+/// The 2×2 block of the serial (instantaneous inverse kinematics) matrix of one chain.
+///
+/// With `qa` the chain's first joint (RSPR l_i, USR α_i) and `qb` its second (θ_i, β_i):
+/// `[ŝ1·ṗ_rel; ŝ2·ṗ_rel] = [[a11, a12], [a21, a22]] [q̇a; q̇b]`, i.e. the rows of
+/// Jtilde times the twist equal this block times the joint rates (Eq. 7.16-7.21 for
+/// RSPR, Eq. 7.29-7.31 for USR).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SerialBlock<T: Real> {
+    pub a11: T,
+    pub a12: T,
+    pub a21: T,
+    pub a22: T,
+}
+
+impl<T: Real> SerialBlock<T> {
+    /// Determinant of the block; zero at a serial singularity of the chain.
+    pub fn det(&self) -> T {
+        self.a11 * self.a22 - self.a12 * self.a21
+    }
+}
+
+/// The platform-side quantities of one chain at a pose, computed once by the generic code.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PlatformChain<T: Real> {
+    /// Upper revolute centre p_i = t + R pp_i (Eq. 6.7).
+    pub p: Vector3<T>,
+    /// Unit radial direction of the chain on the platform, R pp_i / rp.
+    pub u: Vector3<T>,
+    /// Unit axis of the upper revolute joint in {0}, R r_i (Eq. 6.4).
+    pub m: Vector3<T>,
+    /// Platform normal n = R z (Eq. 6.6).
+    pub n: Vector3<T>,
+    /// Base pivot e_i (Eq. 6.2).
+    pub e: Vector3<T>,
+    /// Unit radial direction of the chain on the base, [cos ξ_i, sin ξ_i, 0].
+    pub radial: Vector3<T>,
+}
+
+/// Unit radial direction [cos ξ_i, sin ξ_i, 0] of a chain (Eq. 6.1-6.3).
+pub fn radial<T: Real>(chain: Chain) -> Vector3<T> {
+    let xi = T::two_pi() * lit::<T>(f64::from(chain.xi_thirds())) / lit(3.0);
+    Vector3::new(xi.cos(), xi.sin(), T::zero())
+}
+
+/// A robot of the thesis's class (Fig. 5.14): a tripod of SR dyads on top of three serial
+/// chains. Implementors supply only the per-chain pieces.
+pub trait Mechanism<T: Real> {
+    /// Platform radius rp (m).
+    fn rp(&self) -> T;
+    /// Eccentricity e (m): distance of the base pivots from the base centre.
+    fn e(&self) -> T;
+    /// Central height hc (m) of the central configuration.
+    fn hc(&self) -> T;
+    /// Kinds of the six joints, in q order.
+    fn joint_kinds(&self) -> [JointKind; 6];
+    /// A characteristic length (m) used to scale tolerances (e.g. rb or l1).
+    fn length_scale(&self) -> T;
+    /// Inverse kinematics of one chain on the chosen root (`bit_set` = the branch bit).
+    fn chain_ik(
+        &self,
+        chain: Chain,
+        pc: &PlatformChain<T>,
+        bit_set: bool,
+    ) -> Result<ChainSolution<T>, IkFailure>;
+    /// The chain's block of the serial Jacobian at a solution.
+    fn serial_block(&self, s: &ChainSolution<T>) -> SerialBlock<T>;
+    /// The serial-singularity measure of a chain and its dimensionless form
+    /// (RSPR |Cn2_i| in m and as a fraction of rb, Eq. 10.6; USR |Cn1 Cr2 - Cr1 Cn2| in m²
+    /// and over l1², Eq. 10.11).
+    fn serial_measure(&self, s: &ChainSolution<T>) -> (T, T);
+}
