@@ -1,0 +1,134 @@
+//! Incremental quadrature encoder on the motor shaft, read through a 16-bit hardware
+//! counter that wraps (like an STM32 timer in encoder mode).
+//!
+//! The ideal count is `floor((theta - theta_ref) * cpr / 2 pi)`: it increases with positive
+//! motor rotation (which moves the joint towards `+q`). At reset the reference sits half a
+//! count below the shaft angle, so the counter reads 0 and changes after half a count of
+//! motion either way. Each update adds the change of the ideal count to the counter,
+//! modulo 2^16; the controller must extend it to a wider count.
+//!
+//! Faults act on the counting, not on the shaft: a stuck encoder drops every change (the
+//! counter freezes; when the fault is cleared, counting resumes from the frozen value,
+//! the counts missed stay missed), and a lossy encoder drops one count in every `n`.
+
+use std::f64::consts::TAU;
+
+/// Encoder state of one joint.
+#[derive(Debug, Clone, PartialEq)]
+pub struct QuadratureEncoder {
+    counts_per_rev: u32,
+    reference_angle: f64,
+    last_ideal: i64,
+    counter: u16,
+    /// Counts dropped so far by a lossy encoder, towards the next dropped count.
+    loss_tally: u64,
+    /// Counter frozen.
+    pub stuck: bool,
+    /// Drop one count in every `n` (None: healthy).
+    pub lose_one_in: Option<u32>,
+}
+
+impl QuadratureEncoder {
+    /// An encoder with `counts_per_rev` counts per shaft revolution (lines x quadrature),
+    /// reset at shaft angle 0.
+    pub fn new(counts_per_rev: u32) -> Self {
+        let mut e = QuadratureEncoder {
+            counts_per_rev,
+            reference_angle: 0.0,
+            last_ideal: 0,
+            counter: 0,
+            loss_tally: 0,
+            stuck: false,
+            lose_one_in: None,
+        };
+        e.reset(0.0);
+        e
+    }
+
+    /// Counts per shaft revolution.
+    pub fn counts_per_rev(&self) -> u32 {
+        self.counts_per_rev
+    }
+
+    /// Shaft angle of one count, rad.
+    pub fn count_angle(&self) -> f64 {
+        TAU / f64::from(self.counts_per_rev)
+    }
+
+    /// Sets the counter to 0 at shaft angle `angle` (mid-count).
+    pub fn reset(&mut self, angle: f64) {
+        self.reference_angle = angle - 0.5 * self.count_angle();
+        self.last_ideal = 0;
+        self.counter = 0;
+        self.loss_tally = 0;
+    }
+
+    /// The ideal (unwrapped, fault-free) count at shaft angle `angle`.
+    pub fn ideal_count(&self, angle: f64) -> i64 {
+        ((angle - self.reference_angle) * f64::from(self.counts_per_rev) / TAU).floor() as i64
+    }
+
+    /// Follows the shaft to `angle`.
+    pub fn update(&mut self, angle: f64) {
+        let ideal = self.ideal_count(angle);
+        let mut delta = ideal - self.last_ideal;
+        self.last_ideal = ideal;
+        if self.stuck || delta == 0 {
+            return;
+        }
+        if let Some(n) = self.lose_one_in {
+            let n = u64::from(n.max(1));
+            self.loss_tally += delta.unsigned_abs();
+            let lost = self.loss_tally / n;
+            self.loss_tally %= n;
+            // The tally was below n before this update, so `lost <= |delta|`.
+            let lost = lost.min(delta.unsigned_abs()) as i64;
+            delta -= lost * delta.signum();
+        }
+        // Adding modulo 2^16 is exactly what the hardware counter does.
+        self.counter = self.counter.wrapping_add(delta.rem_euclid(1 << 16) as u16);
+    }
+
+    /// The 16-bit hardware counter.
+    pub fn counter(&self) -> u16 {
+        self.counter
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn one_revolution_is_2000_counts_and_the_counter_wraps_both_ways() {
+        let mut e = QuadratureEncoder::new(2000);
+        e.update(TAU);
+        assert_eq!(e.counter(), 2000);
+        e.update(40.0 * TAU); // 80 000 counts: wrapped once
+        assert_eq!(e.counter(), (80_000 % 65_536) as u16);
+        e.update(-TAU); // -2000 counts
+        assert_eq!(e.counter(), 63_536);
+    }
+
+    #[test]
+    fn counts_are_floored_with_the_sign_of_the_rotation() {
+        let mut e = QuadratureEncoder::new(2000);
+        let c = e.count_angle();
+        e.update(0.49 * c);
+        assert_eq!(e.counter(), 0);
+        e.update(0.51 * c);
+        assert_eq!(e.counter(), 1);
+        e.update(-0.51 * c);
+        assert_eq!(e.counter(), u16::MAX);
+    }
+
+    #[test]
+    fn a_lossy_encoder_drops_one_count_in_n() {
+        let mut e = QuadratureEncoder::new(2000);
+        e.lose_one_in = Some(100);
+        for k in 1..=1000 {
+            e.update(f64::from(k) * 10.0 * e.count_angle());
+        }
+        assert_eq!(e.counter(), 10_000 - 100);
+    }
+}

@@ -1,0 +1,416 @@
+//! The six joints together: the interface the host simulator drives.
+
+use crate::backlash::Backlash;
+use crate::config::{ConfigError, PlantConfig, PrismaticConfig, RotaryConfig, JOINT_NAMES};
+use crate::friction::Friction;
+use crate::gearing::Transmission;
+use crate::hbridge::HBridge;
+use crate::joint::{Joint, JointFaults, JointKind, JointModel};
+use crate::leadscrew::LeadScrew;
+use crate::motor::DcMotor;
+use std::fmt;
+
+/// Number of actuated joints.
+pub const NUM_JOINTS: usize = 6;
+
+/// A fault to inject into one joint (see [`Plant::inject`]). Faults add up; clear them
+/// with [`Plant::clear_faults`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Fault {
+    /// The encoder counter freezes while the shaft turns (e.g. a broken encoder cable).
+    EncoderStuck,
+    /// The encoder misses one count in every `one_in` (noise, too high an edge rate).
+    EncoderLosesCounts {
+        /// Drop one count in this many (>= 1).
+        one_in: u32,
+    },
+    /// The motor leads are open: no current, no torque, no back-EMF braking.
+    MotorDisconnected,
+    /// The load side jams (collision, seized bearing): it stops and stays.
+    LoadSeized,
+}
+
+/// Errors of the plant's run-time interface. Nothing in the plant panics on bad input.
+#[derive(Debug, Clone, PartialEq)]
+pub enum PlantError {
+    /// A joint index outside 0..6.
+    JointOutOfRange {
+        /// The index given.
+        joint: usize,
+    },
+    /// A command or setting that is NaN or infinite; the previous value is kept.
+    NotFinite {
+        /// What was being set.
+        what: &'static str,
+        /// Joint index.
+        joint: usize,
+        /// The rejected value.
+        value: f64,
+    },
+    /// A step length that is not finite and positive.
+    InvalidStep {
+        /// The rejected step, s.
+        dt: f64,
+    },
+    /// A fault parameter out of range.
+    InvalidFault(Fault),
+}
+
+impl fmt::Display for PlantError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            PlantError::JointOutOfRange { joint } => {
+                write!(f, "joint index {joint} out of range 0..{NUM_JOINTS}")
+            }
+            PlantError::NotFinite { what, joint, value } => write!(
+                f,
+                "{what} of joint {} is not finite: {value}",
+                JOINT_NAMES.get(*joint).copied().unwrap_or("?")
+            ),
+            PlantError::InvalidStep { dt } => {
+                write!(f, "step length must be finite and positive, got {dt} s")
+            }
+            PlantError::InvalidFault(fault) => write!(f, "invalid fault parameters: {fault:?}"),
+        }
+    }
+}
+
+impl std::error::Error for PlantError {}
+
+/// Which joints' duty commands were outside [-1, 1] and were saturated by the supply.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct DutySaturation(pub [bool; NUM_JOINTS]);
+
+impl DutySaturation {
+    /// At least one joint saturated.
+    pub fn any(&self) -> bool {
+        self.0.iter().any(|s| *s)
+    }
+}
+
+/// Running statistics since construction or [`Plant::reset_stats`].
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct PlantStats {
+    /// Steps taken.
+    pub steps: u64,
+    /// Simulated time, s.
+    pub time_s: f64,
+    /// Largest |current| at the end of any step, A.
+    pub peak_abs_current_a: [f64; NUM_JOINTS],
+    /// Steps taken while the joint's duty command was saturated.
+    pub saturated_steps: [u64; NUM_JOINTS],
+    /// Steps that ended with |current| above the motor's nominal (continuous) current.
+    pub over_nominal_current_steps: [u64; NUM_JOINTS],
+}
+
+/// The physical plant: six actuated joints `q = [l1, l2, l3, theta1, theta2, theta3]`
+/// (m, m, m, rad, rad, rad). SI units throughout.
+#[derive(Debug, Clone)]
+pub struct Plant {
+    config: PlantConfig,
+    joints: [Joint; NUM_JOINTS],
+    time: f64,
+    stats: PlantStats,
+}
+
+fn prismatic_model(p: &PrismaticConfig, bridge: HBridge) -> JointModel {
+    JointModel {
+        kind: JointKind::Prismatic,
+        motor: DcMotor {
+            resistance: p.resistance_ohm,
+            inductance: p.inductance_h,
+            torque_constant: p.torque_constant_nm_per_a,
+            back_emf_constant: p.back_emf_v_s_per_rad,
+            rotor_inertia: p.rotor_inertia_kg_m2,
+            nominal_current: p.nominal_current_a,
+        },
+        bridge,
+        transmission: Transmission::gear_and_screw(
+            p.gear_ratio,
+            p.gear_efficiency,
+            LeadScrew {
+                lead: p.lead_mm * 1e-3,
+                efficiency: p.leadscrew_efficiency,
+            },
+            p.transmission_inertia_kg_m2,
+        ),
+        backlash: Backlash {
+            width: p.backlash_mm * 1e-3,
+        },
+        motor_friction: Friction {
+            coulomb: p.coulomb_friction_motor_side_nm,
+            viscous: p.viscous_friction_motor_side_nm_s_per_rad,
+            breakaway_ratio: p.breakaway_to_coulomb_ratio,
+        },
+        load_inertia: p.load_mass_kg,
+        load_friction: Friction {
+            coulomb: p.load_coulomb_friction_n,
+            viscous: p.load_viscous_friction_n_s_per_m,
+            breakaway_ratio: p.breakaway_to_coulomb_ratio,
+        },
+    }
+}
+
+fn rotary_model(r: &RotaryConfig, bridge: HBridge) -> JointModel {
+    JointModel {
+        kind: JointKind::Rotary,
+        motor: DcMotor {
+            resistance: r.resistance_ohm,
+            inductance: r.inductance_h,
+            torque_constant: r.torque_constant_nm_per_a,
+            back_emf_constant: r.back_emf_v_s_per_rad,
+            rotor_inertia: r.rotor_inertia_kg_m2,
+            nominal_current: r.nominal_current_a,
+        },
+        bridge,
+        transmission: Transmission::gearhead(
+            r.gear_ratio,
+            r.gear_efficiency,
+            r.transmission_inertia_kg_m2,
+        ),
+        backlash: Backlash {
+            width: (r.backlash_arcsec / 3600.0).to_radians(),
+        },
+        motor_friction: Friction {
+            coulomb: r.coulomb_friction_motor_side_nm,
+            viscous: r.viscous_friction_motor_side_nm_s_per_rad,
+            breakaway_ratio: r.breakaway_to_coulomb_ratio,
+        },
+        load_inertia: r.load_inertia_kg_m2,
+        load_friction: Friction {
+            coulomb: r.load_coulomb_friction_nm,
+            viscous: r.load_viscous_friction_nm_s_per_rad,
+            breakaway_ratio: r.breakaway_to_coulomb_ratio,
+        },
+    }
+}
+
+fn check_finite(what: &'static str, values: &[f64; NUM_JOINTS]) -> Result<(), PlantError> {
+    match values.iter().position(|v| !v.is_finite()) {
+        Some(joint) => Err(PlantError::NotFinite {
+            what,
+            joint,
+            value: values[joint],
+        }),
+        None => Ok(()),
+    }
+}
+
+impl Plant {
+    /// Builds the plant from a configuration (validated again here), all joints at rest
+    /// at `q = 0` with the backlash gap centred and the counters at 0.
+    pub fn new(config: &PlantConfig) -> Result<Self, ConfigError> {
+        config.validate()?;
+        let bridge = HBridge {
+            supply: config.hbridge.supply_v,
+            on_resistance: config.hbridge.on_resistance_ohm,
+        };
+        let cpr = config.encoder.counts_per_rev();
+        let joints = std::array::from_fn(|j| {
+            let model = if j < 3 {
+                prismatic_model(&config.prismatic[j], bridge)
+            } else {
+                rotary_model(&config.rotary[j - 3], bridge)
+            };
+            Joint::new(model, cpr)
+        });
+        Ok(Plant {
+            config: config.clone(),
+            joints,
+            time: 0.0,
+            stats: PlantStats::default(),
+        })
+    }
+
+    /// The configuration the plant was built from.
+    pub fn config(&self) -> &PlantConfig {
+        &self.config
+    }
+
+    /// Read-only access to one joint (its model, gap, transmitted force, ...).
+    pub fn joint(&self, joint: usize) -> Result<&Joint, PlantError> {
+        self.joints
+            .get(joint)
+            .ok_or(PlantError::JointOutOfRange { joint })
+    }
+
+    /// Puts every joint at rest at `q`: motor and load at rest, backlash gap centred, no
+    /// current, encoder counters 0 here. Duty, external load and faults are kept.
+    pub fn set_joint_positions(&mut self, q: [f64; NUM_JOINTS]) -> Result<(), PlantError> {
+        check_finite("position", &q)?;
+        for (joint, qj) in self.joints.iter_mut().zip(q) {
+            joint.set_position(qj);
+        }
+        Ok(())
+    }
+
+    /// Sets the H-bridge duties, held until changed. A duty outside [-1, 1] is saturated
+    /// to the supply voltage and reported in the result (and counted in the stats while
+    /// held); a non-finite duty is rejected and nothing changes.
+    pub fn set_duty(&mut self, duty: [f64; NUM_JOINTS]) -> Result<DutySaturation, PlantError> {
+        check_finite("duty", &duty)?;
+        let mut sat = DutySaturation::default();
+        for (j, (joint, d)) in self.joints.iter_mut().zip(duty).enumerate() {
+            let applied = HBridge::saturate(d).ok_or(PlantError::NotFinite {
+                what: "duty",
+                joint: j,
+                value: d,
+            })?;
+            sat.0[j] = applied.saturated;
+            joint.set_duty(applied);
+        }
+        Ok(sat)
+    }
+
+    /// The duties being applied (after saturation).
+    pub fn duty(&self) -> [f64; NUM_JOINTS] {
+        std::array::from_fn(|j| self.joints[j].duty().applied)
+    }
+
+    /// Sets the external loads, held until changed: the force (N, prismatic joints, along
+    /// the leg) or torque (N m, rotary joints, about the link axis) that the environment
+    /// (platform, payload, gravity) applies to the joint **in the +q direction**. Gravity
+    /// pulling a leg shorter is negative; a load that resists extension is negative.
+    pub fn set_external_load(&mut self, load: [f64; NUM_JOINTS]) -> Result<(), PlantError> {
+        check_finite("external load", &load)?;
+        for (joint, l) in self.joints.iter_mut().zip(load) {
+            joint.set_external_load(l);
+        }
+        Ok(())
+    }
+
+    /// Advances the plant by `dt` seconds. Any finite `dt > 0` is stable; for accuracy
+    /// use at most 100 us (see the crate documentation).
+    pub fn step(&mut self, dt: f64) -> Result<(), PlantError> {
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(PlantError::InvalidStep { dt });
+        }
+        for (j, joint) in self.joints.iter_mut().enumerate() {
+            joint.step(dt);
+            let i = joint.current().abs();
+            let s = &mut self.stats;
+            s.peak_abs_current_a[j] = s.peak_abs_current_a[j].max(i);
+            if joint.duty().saturated {
+                s.saturated_steps[j] += 1;
+            }
+            if i > joint.model().motor.nominal_current {
+                s.over_nominal_current_steps[j] += 1;
+            }
+        }
+        self.time += dt;
+        self.stats.steps += 1;
+        self.stats.time_s += dt;
+        Ok(())
+    }
+
+    /// Takes `round(duration / dt)` steps of `dt`.
+    pub fn advance(&mut self, duration: f64, dt: f64) -> Result<(), PlantError> {
+        if !(dt.is_finite() && dt > 0.0 && duration.is_finite()) {
+            return Err(PlantError::InvalidStep { dt });
+        }
+        let steps = (duration / dt).round().max(0.0) as u64;
+        for _ in 0..steps {
+            self.step(dt)?;
+        }
+        Ok(())
+    }
+
+    /// Simulated time since construction, s.
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    /// The six 16-bit hardware encoder counters (wrapping), as the MCU's timers read them.
+    pub fn encoder_counts(&self) -> [u16; NUM_JOINTS] {
+        std::array::from_fn(|j| self.joints[j].encoder_counter())
+    }
+
+    /// True load-side joint positions (after backlash): what the robot's pose uses.
+    pub fn joint_positions(&self) -> [f64; NUM_JOINTS] {
+        std::array::from_fn(|j| self.joints[j].position())
+    }
+
+    /// Motor angles mapped to joint units (what a perfect encoder would report).
+    pub fn motor_side_joint_positions(&self) -> [f64; NUM_JOINTS] {
+        std::array::from_fn(|j| self.joints[j].motor_side_position())
+    }
+
+    /// Load-side joint velocities, m/s and rad/s.
+    pub fn joint_velocities(&self) -> [f64; NUM_JOINTS] {
+        std::array::from_fn(|j| self.joints[j].velocity())
+    }
+
+    /// Motor velocities mapped to joint units.
+    pub fn motor_side_joint_velocities(&self) -> [f64; NUM_JOINTS] {
+        std::array::from_fn(|j| self.joints[j].motor_side_velocity())
+    }
+
+    /// Armature currents, A (+ drives towards +q).
+    pub fn currents(&self) -> [f64; NUM_JOINTS] {
+        std::array::from_fn(|j| self.joints[j].current())
+    }
+
+    /// Encoder counts per joint unit: counts/m for l1..l3, counts/rad for theta1..3.
+    pub fn counts_per_joint_unit(&self) -> [f64; NUM_JOINTS] {
+        let cpr = self.config.encoder.counts_per_rev();
+        std::array::from_fn(|j| self.joints[j].model().counts_per_joint_unit(cpr))
+    }
+
+    /// Continuous effort each joint delivers at its motor's nominal current (N, N m).
+    pub fn rated_efforts(&self) -> [f64; NUM_JOINTS] {
+        std::array::from_fn(|j| self.joints[j].model().rated_effort())
+    }
+
+    /// Steady no-load joint speeds at full duty (m/s, rad/s).
+    pub fn no_load_speeds(&self) -> [f64; NUM_JOINTS] {
+        std::array::from_fn(|j| self.joints[j].model().no_load_speed(1.0))
+    }
+
+    /// Injects a fault into joint `joint` (0..6); faults add up.
+    pub fn inject(&mut self, joint: usize, fault: Fault) -> Result<(), PlantError> {
+        let j = self
+            .joints
+            .get_mut(joint)
+            .ok_or(PlantError::JointOutOfRange { joint })?;
+        let mut f = j.faults();
+        match fault {
+            Fault::EncoderStuck => f.encoder_stuck = true,
+            Fault::EncoderLosesCounts { one_in } => {
+                if one_in == 0 {
+                    return Err(PlantError::InvalidFault(fault));
+                }
+                f.encoder_lose_one_in = Some(one_in);
+            }
+            Fault::MotorDisconnected => f.motor_disconnected = true,
+            Fault::LoadSeized => f.load_seized = true,
+        }
+        j.set_faults(f);
+        Ok(())
+    }
+
+    /// Removes every fault of joint `joint`. Counts missed while the encoder was faulty
+    /// stay missed.
+    pub fn clear_faults(&mut self, joint: usize) -> Result<(), PlantError> {
+        let j = self
+            .joints
+            .get_mut(joint)
+            .ok_or(PlantError::JointOutOfRange { joint })?;
+        j.set_faults(JointFaults::default());
+        Ok(())
+    }
+
+    /// The faults injected into joint `joint`.
+    pub fn faults(&self, joint: usize) -> Result<JointFaults, PlantError> {
+        Ok(self.joint(joint)?.faults())
+    }
+
+    /// Running statistics.
+    pub fn stats(&self) -> &PlantStats {
+        &self.stats
+    }
+
+    /// Restarts the statistics.
+    pub fn reset_stats(&mut self) {
+        self.stats = PlantStats::default();
+    }
+}
