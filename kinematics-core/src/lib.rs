@@ -31,6 +31,7 @@ pub mod branch;
 pub mod chain;
 pub mod fk;
 pub mod geometry;
+pub mod guards;
 pub mod ik;
 pub mod jacobian;
 pub mod mechanism;
@@ -39,6 +40,7 @@ pub mod rspr;
 pub mod scalar;
 pub mod singularity;
 pub mod statics;
+pub mod supervisor;
 pub mod tilt;
 pub mod usr;
 

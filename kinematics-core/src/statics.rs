@@ -65,6 +65,20 @@ pub fn actuator_forces<T: Real>(
         return Err(ForceError::NonFiniteWrench);
     }
     let inv_cond = parallel_inv_cond(&jac.jtilde, rp).map_err(ForceError::Svd)?;
+    forces_with_inv_cond(jac, se, inv_cond, min_inv_cond)
+}
+
+/// [`actuator_forces`] when the inverse condition number of the scaled Jtilde is already
+/// known (the guards compute it once for the singularity measure and the forces).
+pub fn forces_with_inv_cond<T: Real>(
+    jac: &Jacobians<T>,
+    se: &Wrench<T>,
+    inv_cond: T,
+    min_inv_cond: T,
+) -> Result<Statics<T>, ForceError> {
+    if !se.iter().all(|x| x.is_finite()) {
+        return Err(ForceError::NonFiniteWrench);
+    }
     let singular = || ForceError::ParallelSingular {
         inv_cond: crate::geometry::to_f64(inv_cond),
         limit: crate::geometry::to_f64(min_inv_cond),

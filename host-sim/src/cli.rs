@@ -1,0 +1,135 @@
+//! The command line: the robot selection shared by every subcommand and the subcommands.
+//! New subcommands are new variants of [`Command`] with their own `Args` struct.
+
+use crate::commands::{fk, forces, ik, jacobian, singularity};
+use crate::geometry_file;
+use crate::report;
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use kinematics_core::{Robot, RsprGeometry, UsrGeometry};
+use std::path::PathBuf;
+
+/// Host tool of the RSPR/USR surgical robots: kinematics, statics and design reports.
+///
+/// Lengths are millimetres and angles degrees at this edge; poses are
+/// x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg with (rx, ry, rz) the rotation vector (axis * angle).
+/// Every row-wise command has a single-pose form (flags) and a batch form (--csv: CSV with a
+/// header on stdin, CSV on stdout, one output row per input row).
+#[derive(Debug, Parser)]
+#[command(name = "host-sim", version)]
+pub struct Cli {
+    #[command(flatten)]
+    pub robot: RobotArgs,
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// A built-in robot.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum RobotChoice {
+    /// The RSPR prototype of thesis chapter 11 (Table 11.1): e 20, rb 90, rp 50, hc 160 mm.
+    Rspr,
+    /// The USR of thesis Appendix A (Table 4.1): e 30, rp 30, l1 60, l2 80, hc 80 mm.
+    Usr,
+}
+
+/// Which robot the command works on.
+#[derive(Debug, Args)]
+pub struct RobotArgs {
+    /// Built-in reference robot [default: rspr].
+    #[arg(long, global = true, value_enum, conflicts_with = "geometry")]
+    pub robot: Option<RobotChoice>,
+    /// Geometry file (TOML, mm): robot = "rspr" with e_mm, rb_mm, rp_mm, hc_mm, or
+    /// robot = "usr" with e_mm, rp_mm, l1_mm, l2_mm, hc_mm.
+    #[arg(long, global = true, value_name = "FILE.toml")]
+    pub geometry: Option<PathBuf>,
+}
+
+/// The robot chosen on the command line and where it came from.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SelectedRobot {
+    /// The validated geometry.
+    pub robot: Robot<f64>,
+    /// Where it came from, for reports.
+    pub source: String,
+}
+
+impl RobotArgs {
+    /// The robot: the geometry file if given, else the chosen or default reference robot.
+    pub fn select(&self) -> Result<SelectedRobot, String> {
+        if let Some(path) = &self.geometry {
+            return Ok(SelectedRobot {
+                robot: geometry_file::load(path)?,
+                source: format!("geometry file {}", path.display()),
+            });
+        }
+        Ok(match self.robot.unwrap_or(RobotChoice::Rspr) {
+            RobotChoice::Rspr => SelectedRobot {
+                robot: Robot::Rspr(RsprGeometry::reference()),
+                source: "built-in reference RSPR prototype (thesis Table 11.1)".into(),
+            },
+            RobotChoice::Usr => SelectedRobot {
+                robot: Robot::Usr(UsrGeometry::reference()),
+                source: "built-in reference USR (thesis Appendix A, Table 4.1)".into(),
+            },
+        })
+    }
+}
+
+/// The subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Inverse kinematics: the joints q1..q6 of a pose on a branch.
+    ///
+    /// In: x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg,branch. Out: the input, then RSPR
+    /// l1_mm,l2_mm,l3_mm,theta1_deg,theta2_deg,theta3_deg or USR
+    /// alpha1_deg,alpha2_deg,alpha3_deg,beta1_deg,beta2_deg,beta3_deg, then error.
+    Ik(ik::IkArgs),
+    /// Forward kinematics: the pose of joints q1..q6 on a branch (Newton iteration).
+    ///
+    /// In: branch, the joints (the names ik writes), optionally the initial pose
+    /// x0_mm..rz0_deg (absent or empty = [0, 0, hc], R = I). Out: the
+    /// input, then x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg,iterations,error. Input columns
+    /// named like an output column are echoed as in_<name>.
+    Fk(fk::FkArgs),
+    /// The Jacobian J = dq/dx (SI, rows in q order, columns [v; w]) and its conditioning.
+    ///
+    /// In: x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg,branch. Out: the input, then j11..j66
+    /// (row-major; m/m, m/rad, rad/m, rad/rad), inv_cond (of the tripod Jacobian with its
+    /// moment columns divided by rp), error.
+    Jacobian(jacobian::JacobianArgs),
+    /// Actuator forces tau = J^-T s_e for a wrench the platform exerts on its environment.
+    ///
+    /// In: x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg,branch,fx_n,fy_n,fz_n,tx_nm,ty_nm,tz_nm.
+    /// Out: the input, then tau1..tau6 in q order (RSPR: N on l1..l3, N m on theta1..3;
+    /// USR: N m), error.
+    Forces(forces::ForcesArgs),
+    /// Serial and parallel singularity measures and the nearest singularity.
+    ///
+    /// In: x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg,branch. Out: the input, then RSPR
+    /// serial1_mm..serial3_mm (|Cn2_i|) or USR serial1_mm2..serial3_mm2
+    /// (|Cn1 Cr2 - Cr1 Cn2|), serial1_frac..serial3_frac (over rb, or l1^2),
+    /// parallel_inv_cond, det_sign, nearest (parallel or serial:N), error.
+    Singularity(singularity::SingularityArgs),
+    /// A readable report of the robot over the thesis's task box.
+    ///
+    /// Dimensions, the inverse kinematics of the central pose on all 8 branches, the
+    /// measures and forces at the central pose, and over the task box (branch 0, platform
+    /// parallel and tilted) the joint ranges, Jacobian conditioning, serial margins,
+    /// spherical-joint tilt, actuator force ranges and every pose that failed.
+    Report(report::ReportArgs),
+}
+
+impl Command {
+    /// Runs the subcommand on the selected robot.
+    pub fn run(&self, selected: &SelectedRobot) -> Result<(), String> {
+        let robot = &selected.robot;
+        match self {
+            Command::Ik(args) => ik::run(args, robot),
+            Command::Fk(args) => fk::run(args, robot),
+            Command::Jacobian(args) => jacobian::run(args, robot),
+            Command::Forces(args) => forces::run(args, robot),
+            Command::Singularity(args) => singularity::run(args, robot),
+            Command::Report(args) => report::run(args, selected),
+        }
+    }
+}

@@ -1,0 +1,83 @@
+//! The row-wise commands. Each one is a [`Calculation`] (its columns and its computation);
+//! the CSV loop, the single-pose form and the error handling live in [`crate::batch`].
+
+pub mod fk;
+pub mod forces;
+pub mod ik;
+pub mod jacobian;
+pub mod singularity;
+
+use crate::batch::{self, Calculation, FlagValue, Row};
+use crate::columns::{self, BRANCH, POSE};
+use clap::Args;
+use kinematics_core::{inverse, Robot, Solution};
+use std::io::Write;
+
+/// Input of the commands that work on a pose and a branch.
+#[derive(Debug, Args)]
+pub struct PoseInput {
+    /// Batch form: read CSV with a header from stdin (columns found by name, extra columns
+    /// echoed), write CSV to stdout, one row per input row; bad rows are reported in the
+    /// `error` column and do not stop the run.
+    #[arg(long, conflicts_with_all = ["pose", "branch"])]
+    pub csv: bool,
+    /// Single pose x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg; (rx, ry, rz) is the rotation
+    /// vector (axis * angle) in degrees.
+    #[arg(
+        long,
+        value_name = "X,Y,Z,RX,RY,RZ",
+        allow_hyphen_values = true,
+        required_unless_present = "csv"
+    )]
+    pub pose: Option<String>,
+    /// Inverse-kinematics branch 0..=7, one bit per chain, chain 1 in bit 0 (0 = the
+    /// prototype's all-outer branch).
+    #[arg(long, value_name = "0..7", default_value = "0")]
+    pub branch: String,
+}
+
+impl PoseInput {
+    /// The columns of the single-pose form, in batch order (pose, then branch).
+    pub fn flags(&self) -> Vec<FlagValue> {
+        vec![
+            FlagValue::new("--pose", &POSE, self.pose.as_deref().unwrap_or_default()),
+            FlagValue::new("--branch", &[BRANCH], &self.branch),
+        ]
+    }
+}
+
+/// Input columns of the commands that read a pose and a branch.
+pub fn pose_columns() -> Vec<&'static str> {
+    let mut c = POSE.to_vec();
+    c.push(BRANCH);
+    c
+}
+
+/// Shared first step: the inverse kinematics of a row's pose on its branch.
+pub fn solve_row(robot: &Robot<f64>, row: &Row<'_>) -> Result<Solution<f64>, String> {
+    let pose = columns::read_pose(row)?;
+    let branch = columns::read_branch(row)?;
+    inverse(robot, &pose, branch).map_err(|e| format!("ik: {e}"))
+}
+
+/// Runs a calculation in the batch form (stdin to stdout, a count of bad rows on stderr)
+/// or the single form (the flags' one row).
+pub fn execute(calc: &dyn Calculation, csv: bool, flags: &[FlagValue]) -> Result<(), String> {
+    let stdout = std::io::stdout();
+    if csv {
+        let summary = batch::run_csv(calc, std::io::stdin().lock(), stdout.lock())?;
+        eprintln!(
+            "{}: {} rows, {} with errors (see the error column)",
+            calc.name(),
+            summary.rows,
+            summary.bad_rows
+        );
+        Ok(())
+    } else {
+        batch::run_single(calc, flags, stdout.lock())?;
+        stdout
+            .lock()
+            .flush()
+            .map_err(|e| format!("{}: cannot write the output: {e}", calc.name()))
+    }
+}

@@ -1,0 +1,25 @@
+//! `host-sim`: the host-side command-line tool of the RSPR/USR surgical robots.
+//!
+//! The core (`kinematics-core`) is SI; this crate is the edge in millimetres and degrees
+//! (shared/CONVENTIONS.md). Modules:
+//! - [`cli`]: the clap command line and the robot selection;
+//! - [`geometry_file`]: TOML geometry files;
+//! - [`units`]: mm/deg <-> SI and the output number formats;
+//! - [`columns`]: CSV column names and the readers of poses, joints, wrenches, branches;
+//! - [`batch`]: the one CSV loop (and single-pose form) all row-wise commands share;
+//! - [`commands`]: the row-wise commands `ik`, `fk`, `jacobian`, `forces`, `singularity`;
+//! - [`report`]: the text report over the task box.
+
+pub mod batch;
+pub mod cli;
+pub mod columns;
+pub mod commands;
+pub mod geometry_file;
+pub mod report;
+pub mod units;
+
+/// Runs a parsed command line.
+pub fn run(cli: &cli::Cli) -> Result<(), String> {
+    let selected = cli.robot.select()?;
+    cli.command.run(&selected)
+}

@@ -1,0 +1,801 @@
+//! The guards that keep every setpoint safe (thesis 3.2 and 11.4).
+//!
+//! One [`Limits`] value holds every limit; [`Guards`] prepares it for one robot and branch
+//! (socket axes, central joint values) and evaluates a pose. Every guard produces a
+//! [`Reading`] with the measured value, the limit and the signed margin, so the same code
+//! gives a [`Verdict`] (the violations, each with its severity) for the supervisor and the
+//! worst margins for the design tools. Nothing here allocates or panics.
+
+use crate::branch::Branch;
+use crate::chain::{Chain, PerChain};
+use crate::ik::{inverse, IkError, Solution};
+use crate::jacobian::{jacobian, JacobianError};
+use crate::mechanism::{JointKind, Mechanism};
+use crate::pose::{rotation_angle, Pose};
+use crate::scalar::{lit, wrap_angle, Real};
+use crate::singularity::measures;
+use crate::statics::forces_with_inv_cond;
+use crate::tilt::{tilt_angles, SocketAxes};
+use crate::{Joints, Twist, Wrench};
+use core::fmt;
+use nalgebra::Vector3;
+
+/// How serious a violation is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Severity {
+    /// Continue, but raise the warning flag (e.g. approaching a singularity).
+    Warn,
+    /// Refuse the setpoint: hold the last safe one.
+    Stop,
+}
+
+impl fmt::Display for Severity {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Severity::Warn => "warn",
+            Severity::Stop => "stop",
+        })
+    }
+}
+
+/// The guards, by name.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Guard {
+    /// The pose has no inverse-kinematics solution on the branch.
+    Reach,
+    /// Prismatic stroke (RSPR l_i), m.
+    Stroke,
+    /// Rotating-link angle θ_i (RSPR) away from its central value, rad.
+    LinkAngle,
+    /// Lower-link yaw α_i (USR) away from its central value, rad.
+    Yaw,
+    /// Lower-link pitch β_i (USR) away from its central value, rad.
+    Pitch,
+    /// Spherical-joint tilt, rad (CONVENTIONS.md).
+    Tilt,
+    /// Piercing radius of the leg axis in the plane of the central motors' tops, m (11.4).
+    Collision,
+    /// Distance of the platform centre outside the task box plus margin, m (per axis).
+    Workspace,
+    /// Platform tilt (angle between n and z0), rad.
+    TiltCone,
+    /// Serial singularity measure, dimensionless (Eq. 10.6 / 10.11).
+    SerialSingularity,
+    /// Parallel singularity measure: inverse condition number of scaled Jtilde.
+    ParallelSingularity,
+    /// Prismatic actuator force for the declared payload wrench, N.
+    Force,
+    /// Revolute actuator torque for the declared payload wrench, N m.
+    Torque,
+    /// Speed of o_p, m/s.
+    TipSpeed,
+    /// Angular speed of the platform, rad/s.
+    AngularSpeed,
+    /// Acceleration of o_p, m/s².
+    TipAccel,
+    /// Angular acceleration of the platform, rad/s².
+    AngularAccel,
+    /// Joint speed, m/s or rad/s.
+    JointSpeed,
+    /// Joint acceleration, m/s² or rad/s².
+    JointAccel,
+}
+
+impl Guard {
+    /// Every guard, in report order.
+    pub const ALL: [Guard; 19] = [
+        Guard::Reach,
+        Guard::Stroke,
+        Guard::LinkAngle,
+        Guard::Yaw,
+        Guard::Pitch,
+        Guard::Tilt,
+        Guard::Collision,
+        Guard::Workspace,
+        Guard::TiltCone,
+        Guard::SerialSingularity,
+        Guard::ParallelSingularity,
+        Guard::Force,
+        Guard::Torque,
+        Guard::TipSpeed,
+        Guard::AngularSpeed,
+        Guard::TipAccel,
+        Guard::AngularAccel,
+        Guard::JointSpeed,
+        Guard::JointAccel,
+    ];
+
+    /// The name used at the edges (`guard:chain:value:limit`).
+    pub const fn name(self) -> &'static str {
+        match self {
+            Guard::Reach => "reach",
+            Guard::Stroke => "stroke",
+            Guard::LinkAngle => "link_angle",
+            Guard::Yaw => "yaw",
+            Guard::Pitch => "pitch",
+            Guard::Tilt => "tilt",
+            Guard::Collision => "collision",
+            Guard::Workspace => "workspace",
+            Guard::TiltCone => "tilt_cone",
+            Guard::SerialSingularity => "serial",
+            Guard::ParallelSingularity => "parallel",
+            Guard::Force => "force",
+            Guard::Torque => "torque",
+            Guard::TipSpeed => "tip_speed",
+            Guard::AngularSpeed => "angular_speed",
+            Guard::TipAccel => "tip_accel",
+            Guard::AngularAccel => "angular_accel",
+            Guard::JointSpeed => "joint_speed",
+            Guard::JointAccel => "joint_accel",
+        }
+    }
+
+    /// Unit of the value in SI, and the factor and unit used at the edges (mm, deg).
+    pub const fn edge_unit(self) -> (f64, &'static str) {
+        const DEG: f64 = 180.0 / core::f64::consts::PI;
+        match self {
+            Guard::Reach | Guard::SerialSingularity | Guard::ParallelSingularity => (1.0, ""),
+            Guard::Stroke | Guard::Collision | Guard::Workspace => (1e3, "mm"),
+            Guard::LinkAngle | Guard::Yaw | Guard::Pitch | Guard::Tilt | Guard::TiltCone => {
+                (DEG, "deg")
+            }
+            Guard::Force => (1.0, "N"),
+            Guard::Torque => (1.0, "N m"),
+            Guard::TipSpeed => (1e3, "mm/s"),
+            Guard::AngularSpeed => (DEG, "deg/s"),
+            Guard::TipAccel => (1e3, "mm/s^2"),
+            Guard::AngularAccel => (DEG, "deg/s^2"),
+            // Joint rates mix units; the edge uses mm/s for legs and deg/s for angles.
+            Guard::JointSpeed | Guard::JointAccel => (1.0, "SI"),
+        }
+    }
+}
+
+impl fmt::Display for Guard {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// What a reading is about.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Subject {
+    /// The whole robot or platform.
+    Robot,
+    /// One chain.
+    Chain(Chain),
+    /// One joint, 1..=6 in q order.
+    Joint(u8),
+    /// One world axis: 0 = x, 1 = y, 2 = z.
+    Axis(u8),
+}
+
+impl fmt::Display for Subject {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Subject::Robot => f.write_str("-"),
+            Subject::Chain(c) => write!(f, "{}", c.number()),
+            Subject::Joint(j) => write!(f, "q{j}"),
+            Subject::Axis(a) => f.write_str(match a {
+                0 => "x",
+                1 => "y",
+                _ => "z",
+            }),
+        }
+    }
+}
+
+/// One guard's measurement.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Reading<T: Real> {
+    pub guard: Guard,
+    pub subject: Subject,
+    /// The measured value (SI).
+    pub value: T,
+    /// The limit it was compared with: the violated level, or the stop level when fine.
+    pub limit: T,
+    /// Signed distance to the stop level, positive inside (SI, the guard's unit).
+    pub margin: T,
+    /// `None` when fine.
+    pub severity: Option<Severity>,
+}
+
+/// Most violations a single evaluation can produce (joint ranges, tilt, collision, forces
+/// per chain or joint, plus the robot-wide guards, plus the motion guards).
+pub const MAX_VIOLATIONS: usize = 48;
+
+/// Every violation of one evaluation, not just the first.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Verdict<T: Real> {
+    /// The violations in evaluation order.
+    pub violations: heapless::Vec<Reading<T>, MAX_VIOLATIONS>,
+    /// Violations that did not fit (never expected; counted rather than lost silently).
+    pub overflow: u16,
+    /// The worst severity seen, including overflowed ones.
+    pub worst: Option<Severity>,
+}
+
+impl<T: Real> Default for Verdict<T> {
+    fn default() -> Self {
+        Verdict {
+            violations: heapless::Vec::new(),
+            overflow: 0,
+            worst: None,
+        }
+    }
+}
+
+impl<T: Real> Verdict<T> {
+    /// Records a reading if it is a violation.
+    pub fn record(&mut self, r: &Reading<T>) {
+        if let Some(s) = r.severity {
+            self.worst = self.worst.max(Some(s));
+            if self.violations.push(*r).is_err() {
+                self.overflow = self.overflow.saturating_add(1);
+            }
+        }
+    }
+    /// True when no guard is violated at all.
+    pub fn is_ok(&self) -> bool {
+        self.worst.is_none()
+    }
+    /// True when a stop-level guard is violated.
+    pub fn is_stop(&self) -> bool {
+        self.worst == Some(Severity::Stop)
+    }
+    /// The first stop-level violation, if any.
+    pub fn first_stop(&self) -> Option<&Reading<T>> {
+        self.violations
+            .iter()
+            .find(|r| r.severity == Some(Severity::Stop))
+    }
+}
+
+/// A warn level and a stop level for one guard.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Levels<T: Real> {
+    pub warn: T,
+    pub stop: T,
+}
+
+/// Every limit, in SI. See [`Limits::reference`] for the defaults and where they come from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Limits<T: Real> {
+    /// Prismatic stroke (RSPR), m: [min, max].
+    pub stroke: [T; 2],
+    /// Largest deviation of θ_i (RSPR) or α_i (USR) from its central value, rad.
+    pub link_angle_max: T,
+    /// Largest deviation of β_i (USR) from its central value, rad.
+    pub pitch_max: T,
+    /// Largest spherical-joint tilt, rad.
+    pub tilt_max: T,
+    /// Height of the plane of the central motors' tops above the base plane, m (11.4).
+    pub collision_plane_height: T,
+    /// Safety-circle radius in that plane, m; 0 disables the collision guard.
+    pub collision_radius: T,
+    /// Half-extents of the task box centred at [0, 0, hc], m.
+    pub box_half: Vector3<T>,
+    /// Margin around the task box, m.
+    pub box_margin: T,
+    /// Largest platform tilt (angle between n and z0), rad.
+    pub tilt_cone: T,
+    /// Serial measure (dimensionless, lower bound): warn and stop levels.
+    pub serial: Levels<T>,
+    /// Parallel inverse condition number (lower bound): warn and stop levels.
+    pub parallel: Levels<T>,
+    /// Largest speed of o_p, m/s.
+    pub tip_speed: T,
+    /// Largest angular speed, rad/s.
+    pub angular_speed: T,
+    /// Largest acceleration of o_p, m/s².
+    pub tip_accel: T,
+    /// Largest angular acceleration, rad/s².
+    pub angular_accel: T,
+    /// Largest joint speed: [prismatic m/s, revolute rad/s].
+    pub joint_speed: [T; 2],
+    /// Largest joint acceleration: [prismatic m/s², revolute rad/s²].
+    pub joint_accel: [T; 2],
+    /// The declared payload wrench the platform exerts on its environment.
+    pub payload: Wrench<T>,
+    /// Prismatic force (upper bound, N): warn = continuous rating, stop = peak.
+    pub force: Levels<T>,
+    /// Revolute torque (upper bound, N m): warn = continuous rating, stop = peak.
+    pub torque: Levels<T>,
+}
+
+/// A limit that makes no sense.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LimitsError {
+    /// The field (as in the TOML form).
+    pub field: &'static str,
+    /// What is wrong with it.
+    pub reason: &'static str,
+}
+
+impl fmt::Display for LimitsError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: {}", self.field, self.reason)
+    }
+}
+
+impl<T: Real> Limits<T> {
+    /// The reference robot's limits (CONVENTIONS.md, thesis chapter 4 and Table 11.2):
+    /// - stroke 144 .. 210 mm, spherical-joint tilt 30 deg, tip speed 25 mm/s, the thesis
+    ///   wrench [7, 7, 7 N, 0.7, 0.7, 0.7 N m] as the declared payload, continuous ratings
+    ///   220 N and 0.5 N m as warn levels (thesis Table 11.2);
+    /// - estimates to be measured on the robot: link angle ±80 deg about the central value
+    ///   (the task needs -73 .. +42 deg); collision plane 60 mm, safety circle 40 mm (the
+    ///   thesis found its radius experimentally; the task keeps the legs ≥ 71 mm out);
+    ///   peak force and torque 2× the continuous ratings (typical of small gearmotors;
+    ///   1.0 N m is also the thesis's synthesis bound); box margin 5 mm; tilt cone 25 deg;
+    ///   singularity levels with the task's worst values (serial 0.265, parallel 0.059)
+    ///   above warn; angular speed 30 deg/s; accelerations 0.25 m/s² and 300 deg/s²;
+    ///   joint speeds 60 mm/s and 3 rad/s; joint accelerations 2 m/s² and 60 rad/s².
+    pub fn reference() -> Self {
+        let deg = |d: f64| lit::<T>(d.to_radians());
+        Limits {
+            stroke: [lit(0.144), lit(0.210)],
+            link_angle_max: deg(80.0),
+            pitch_max: deg(80.0),
+            tilt_max: deg(30.0),
+            collision_plane_height: lit(0.060),
+            collision_radius: lit(0.040),
+            box_half: Vector3::new(lit(0.020), lit(0.020), lit(0.010)),
+            box_margin: lit(0.005),
+            tilt_cone: deg(25.0),
+            serial: Levels {
+                warn: lit(0.15),
+                stop: lit(0.05),
+            },
+            parallel: Levels {
+                warn: lit(0.03),
+                stop: lit(0.01),
+            },
+            tip_speed: lit(0.025),
+            angular_speed: deg(30.0),
+            tip_accel: lit(0.25),
+            angular_accel: deg(300.0),
+            joint_speed: [lit(0.060), lit(3.0)],
+            joint_accel: [lit(2.0), lit(60.0)],
+            payload: Wrench::new(lit(7.0), lit(7.0), lit(7.0), lit(0.7), lit(0.7), lit(0.7)),
+            force: Levels {
+                warn: lit(220.0),
+                stop: lit(440.0),
+            },
+            torque: Levels {
+                warn: lit(0.5),
+                stop: lit(1.0),
+            },
+        }
+    }
+
+    /// Checks that every limit is finite and consistent.
+    pub fn validate(&self) -> Result<(), LimitsError> {
+        let err = |field, reason| Err(LimitsError { field, reason });
+        let scalars: [(&'static str, T); 15] = [
+            ("stroke_min_mm", self.stroke[0]),
+            ("stroke_max_mm", self.stroke[1]),
+            ("link_angle_max_deg", self.link_angle_max),
+            ("pitch_max_deg", self.pitch_max),
+            ("tilt_max_deg", self.tilt_max),
+            ("collision_plane_height_mm", self.collision_plane_height),
+            ("collision_radius_mm", self.collision_radius),
+            ("box_margin_mm", self.box_margin),
+            ("tilt_cone_deg", self.tilt_cone),
+            ("tip_speed_mm_s", self.tip_speed),
+            ("angular_speed_deg_s", self.angular_speed),
+            ("tip_accel_mm_s2", self.tip_accel),
+            ("angular_accel_deg_s2", self.angular_accel),
+            ("joint_speed_linear_mm_s", self.joint_speed[0]),
+            ("joint_speed_angular_deg_s", self.joint_speed[1]),
+        ];
+        for (field, v) in scalars {
+            if !v.is_finite() {
+                return err(field, "is not finite");
+            }
+            if v < T::zero() {
+                return err(field, "is negative");
+            }
+        }
+        let positive: [(&'static str, T); 8] = [
+            ("tip_speed_mm_s", self.tip_speed),
+            ("angular_speed_deg_s", self.angular_speed),
+            ("tip_accel_mm_s2", self.tip_accel),
+            ("angular_accel_deg_s2", self.angular_accel),
+            ("joint_speed_linear_mm_s", self.joint_speed[0]),
+            ("joint_speed_angular_deg_s", self.joint_speed[1]),
+            ("joint_accel_linear_mm_s2", self.joint_accel[0]),
+            ("joint_accel_angular_deg_s2", self.joint_accel[1]),
+        ];
+        for (field, v) in positive {
+            if !(v > T::zero() && v.is_finite()) {
+                return err(field, "must be positive and finite");
+            }
+        }
+        if !(self.stroke[0] < self.stroke[1]) {
+            return err("stroke_min_mm", "must be below stroke_max_mm");
+        }
+        if !self
+            .box_half
+            .iter()
+            .all(|h| *h >= T::zero() && h.is_finite())
+        {
+            return err("box_half_mm", "must be non-negative and finite");
+        }
+        if !self.payload.iter().all(|x| x.is_finite()) {
+            return err("payload", "is not finite");
+        }
+        for (field, l) in [("serial", self.serial), ("parallel", self.parallel)] {
+            if !(l.stop >= T::zero() && l.warn >= l.stop && l.warn.is_finite()) {
+                return err(field, "needs 0 <= stop <= warn (finite)");
+            }
+        }
+        for (field, l) in [("force", self.force), ("torque", self.torque)] {
+            if !(l.warn > T::zero() && l.stop >= l.warn && l.stop.is_finite()) {
+                return err(field, "needs 0 < warn <= stop (finite)");
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Why the guards cannot be set up.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum GuardSetupError {
+    Limits(LimitsError),
+    /// The central configuration (the reference of link angles and socket axes) has no
+    /// solution.
+    Central(IkError),
+}
+
+impl fmt::Display for GuardSetupError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            GuardSetupError::Limits(e) => write!(f, "limits: {e}"),
+            GuardSetupError::Central(e) => write!(f, "central configuration: {e}"),
+        }
+    }
+}
+
+/// A lower-bound reading (value must stay ≥ the levels).
+fn lower<T: Real>(guard: Guard, subject: Subject, value: T, levels: Levels<T>) -> Reading<T> {
+    let (severity, limit) = if !(value >= levels.stop) {
+        (Some(Severity::Stop), levels.stop)
+    } else if value < levels.warn {
+        (Some(Severity::Warn), levels.warn)
+    } else {
+        (None, levels.stop)
+    };
+    Reading {
+        guard,
+        subject,
+        value,
+        limit,
+        margin: value - levels.stop,
+        severity,
+    }
+}
+
+/// An upper-bound reading (value must stay ≤ the levels).
+fn upper<T: Real>(guard: Guard, subject: Subject, value: T, levels: Levels<T>) -> Reading<T> {
+    let (severity, limit) = if !(value <= levels.stop) {
+        (Some(Severity::Stop), levels.stop)
+    } else if value > levels.warn {
+        (Some(Severity::Warn), levels.warn)
+    } else {
+        (None, levels.stop)
+    };
+    Reading {
+        guard,
+        subject,
+        value,
+        limit,
+        margin: levels.stop - value,
+        severity,
+    }
+}
+
+fn stop_only<T: Real>(l: T) -> Levels<T> {
+    Levels { warn: l, stop: l }
+}
+
+/// One platform motion sample for the motion guards.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MotionSample<T: Real> {
+    /// Platform twist [v; ω] (m/s, rad/s).
+    pub twist: Twist<T>,
+    /// Joint rates in q order.
+    pub qdot: Joints<T>,
+}
+
+/// The guards prepared for one robot and branch.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Guards<T: Real, M: Mechanism<T>> {
+    robot: M,
+    branch: Branch,
+    limits: Limits<T>,
+    axes: SocketAxes<T>,
+    /// (qa, qb) of each chain at the central configuration: the reference of the angle ranges.
+    central: PerChain<(T, T)>,
+}
+
+impl<T: Real, M: Mechanism<T>> Guards<T, M> {
+    /// Prepares the guards: validates the limits and computes the central joint values and
+    /// socket axes.
+    pub fn new(robot: M, branch: Branch, limits: Limits<T>) -> Result<Self, GuardSetupError> {
+        limits.validate().map_err(GuardSetupError::Limits)?;
+        let central = inverse(&robot, &Pose::central(robot.hc()), branch)
+            .map_err(GuardSetupError::Central)?;
+        let axes = SocketAxes::new(&robot).map_err(GuardSetupError::Central)?;
+        Ok(Guards {
+            robot,
+            branch,
+            limits,
+            axes,
+            central: central.chains.map(|_, c| (c.qa, c.qb)),
+        })
+    }
+
+    /// The robot.
+    pub fn robot(&self) -> &M {
+        &self.robot
+    }
+    /// The branch.
+    pub fn branch(&self) -> Branch {
+        self.branch
+    }
+    /// The limits.
+    pub fn limits(&self) -> &Limits<T> {
+        &self.limits
+    }
+
+    /// Evaluates every pose guard at `pose`, handing each reading to `visit` (violations
+    /// and fine ones alike). Returns the inverse-kinematics solution when there is one.
+    pub fn evaluate_pose(
+        &self,
+        pose: &Pose<T>,
+        visit: &mut impl FnMut(&Reading<T>),
+    ) -> Option<Solution<T>> {
+        let stop = Some(Severity::Stop);
+        self.workspace_readings(pose, visit);
+        let sol = match inverse(&self.robot, pose, self.branch) {
+            Ok(s) => s,
+            Err(e) => {
+                visit(&Reading {
+                    guard: Guard::Reach,
+                    subject: Subject::Chain(e.chain),
+                    value: T::zero(),
+                    limit: T::zero(),
+                    margin: -T::one(),
+                    severity: stop,
+                });
+                return None;
+            }
+        };
+        self.solution_readings(&sol, visit);
+        Some(sol)
+    }
+
+    /// The verdict at a pose: every violation, with its severity.
+    pub fn check_pose(&self, pose: &Pose<T>) -> (Verdict<T>, Option<Solution<T>>) {
+        let mut v = Verdict::default();
+        let sol = self.evaluate_pose(pose, &mut |r| v.record(r));
+        (v, sol)
+    }
+
+    fn workspace_readings(&self, pose: &Pose<T>, visit: &mut impl FnMut(&Reading<T>)) {
+        let l = &self.limits;
+        let centre = Vector3::new(T::zero(), T::zero(), self.robot.hc());
+        let d = pose.t - centre;
+        // The worst axis of the box (the one closest to or furthest beyond its face).
+        let mut worst: Option<Reading<T>> = None;
+        for (k, (di, hi)) in d.iter().zip(l.box_half.iter()).enumerate() {
+            let r = upper(
+                Guard::Workspace,
+                Subject::Axis(k as u8),
+                di.abs(),
+                stop_only(*hi + l.box_margin),
+            );
+            if worst.is_none_or(|w| r.margin < w.margin || !(r.margin >= w.margin)) {
+                worst = Some(r);
+            }
+        }
+        if let Some(w) = worst {
+            visit(&w);
+        }
+        // Platform tilt: angle between n = R z and z0.
+        let n = pose.r * Vector3::z();
+        let tilt = n.xy().norm().atan2(n.z);
+        visit(&upper(
+            Guard::TiltCone,
+            Subject::Robot,
+            tilt,
+            stop_only(l.tilt_cone),
+        ));
+    }
+
+    fn solution_readings(&self, sol: &Solution<T>, visit: &mut impl FnMut(&Reading<T>)) {
+        let l = &self.limits;
+        let kinds = self.robot.joint_kinds();
+        let (guard_a, guard_b) = match kinds[0] {
+            JointKind::Linear => (Guard::Stroke, Guard::LinkAngle),
+            JointKind::Angular => (Guard::Yaw, Guard::Pitch),
+        };
+        let tilts = tilt_angles(sol, &self.axes);
+        for chain in Chain::ALL {
+            let subject = Subject::Chain(chain);
+            let (qa, qb) = (sol.chains[chain].qa, sol.chains[chain].qb);
+            let (ca, cb) = self.central[chain];
+            // Joint ranges.
+            match kinds[0] {
+                JointKind::Linear => {
+                    let low = lower(guard_a, subject, qa, stop_only(l.stroke[0]));
+                    let high = upper(guard_a, subject, qa, stop_only(l.stroke[1]));
+                    visit(if low.margin < high.margin {
+                        &low
+                    } else {
+                        &high
+                    });
+                    visit(&upper(
+                        guard_b,
+                        subject,
+                        wrap_angle(qb - cb).abs(),
+                        stop_only(l.link_angle_max),
+                    ));
+                }
+                JointKind::Angular => {
+                    visit(&upper(
+                        guard_a,
+                        subject,
+                        wrap_angle(qa - ca).abs(),
+                        stop_only(l.link_angle_max),
+                    ));
+                    visit(&upper(
+                        guard_b,
+                        subject,
+                        wrap_angle(qb - cb).abs(),
+                        stop_only(l.pitch_max),
+                    ));
+                }
+            }
+            // Spherical-joint tilt.
+            visit(&upper(
+                Guard::Tilt,
+                subject,
+                tilts[chain],
+                stop_only(l.tilt_max),
+            ));
+            // Section 11.4: the leg axis must pierce the motors' plane outside the circle.
+            if l.collision_radius > T::zero() {
+                let c = &sol.chains[chain];
+                let radius = if c.s1.z.abs() > T::default_epsilon() {
+                    let p = c.b + c.s1 * ((l.collision_plane_height - c.b.z) / c.s1.z);
+                    p.xy().norm()
+                } else {
+                    // A horizontal leg never meets the plane.
+                    T::max_value().unwrap_or(T::one() / T::default_epsilon())
+                };
+                visit(&lower(
+                    Guard::Collision,
+                    subject,
+                    radius,
+                    stop_only(l.collision_radius),
+                ));
+            }
+        }
+        // Singularities.
+        let stop = Some(Severity::Stop);
+        let m = match measures(&self.robot, sol) {
+            Ok(m) => m,
+            Err(_) => {
+                visit(&Reading {
+                    guard: Guard::ParallelSingularity,
+                    subject: Subject::Robot,
+                    value: T::zero(),
+                    limit: l.parallel.stop,
+                    margin: -l.parallel.stop,
+                    severity: stop,
+                });
+                return;
+            }
+        };
+        for (chain, r) in m.serial_relative.iter() {
+            visit(&lower(
+                Guard::SerialSingularity,
+                Subject::Chain(chain),
+                *r,
+                l.serial,
+            ));
+        }
+        visit(&lower(
+            Guard::ParallelSingularity,
+            Subject::Robot,
+            m.parallel_inv_cond,
+            l.parallel,
+        ));
+        // Forces for the declared payload.
+        let jac = match jacobian(&self.robot, sol) {
+            Ok(j) => j,
+            Err(JacobianError::SerialSingular { .. }) => return, // already a serial reading
+        };
+        let Ok(st) = forces_with_inv_cond(&jac, &l.payload, m.parallel_inv_cond, l.parallel.stop)
+        else {
+            return; // already a parallel reading
+        };
+        for (j, (tau, kind)) in st.tau.iter().zip(kinds.iter()).enumerate() {
+            let (guard, levels) = match kind {
+                JointKind::Linear => (Guard::Force, l.force),
+                JointKind::Angular => (Guard::Torque, l.torque),
+            };
+            visit(&upper(
+                guard,
+                Subject::Joint(j as u8 + 1),
+                tau.abs(),
+                levels,
+            ));
+        }
+    }
+
+    /// Evaluates the motion guards between two samples `dt` apart (speeds of `cur`,
+    /// accelerations from `prev` to `cur`).
+    pub fn evaluate_motion(
+        &self,
+        prev: &MotionSample<T>,
+        cur: &MotionSample<T>,
+        dt: T,
+        visit: &mut impl FnMut(&Reading<T>),
+    ) {
+        let l = &self.limits;
+        let v = cur.twist.fixed_rows::<3>(0).norm();
+        let w = cur.twist.fixed_rows::<3>(3).norm();
+        let dtw = (cur.twist - prev.twist) / dt;
+        let a = dtw.fixed_rows::<3>(0).norm();
+        let alpha = dtw.fixed_rows::<3>(3).norm();
+        let r = Subject::Robot;
+        visit(&upper(Guard::TipSpeed, r, v, stop_only(l.tip_speed)));
+        visit(&upper(
+            Guard::AngularSpeed,
+            r,
+            w,
+            stop_only(l.angular_speed),
+        ));
+        visit(&upper(Guard::TipAccel, r, a, stop_only(l.tip_accel)));
+        visit(&upper(
+            Guard::AngularAccel,
+            r,
+            alpha,
+            stop_only(l.angular_accel),
+        ));
+        let kinds = self.robot.joint_kinds();
+        for (j, ((qd, qd0), kind)) in cur
+            .qdot
+            .iter()
+            .zip(prev.qdot.iter())
+            .zip(kinds.iter())
+            .enumerate()
+        {
+            let k = match kind {
+                JointKind::Linear => 0,
+                JointKind::Angular => 1,
+            };
+            let (vmax, amax) = if k == 0 {
+                (l.joint_speed[0], l.joint_accel[0])
+            } else {
+                (l.joint_speed[1], l.joint_accel[1])
+            };
+            let s = Subject::Joint(j as u8 + 1);
+            visit(&upper(Guard::JointSpeed, s, qd.abs(), stop_only(vmax)));
+            visit(&upper(
+                Guard::JointAccel,
+                s,
+                ((*qd - *qd0) / dt).abs(),
+                stop_only(amax),
+            ));
+        }
+    }
+}
+
+/// Rotation angle between two orientations (rad).
+pub fn orientation_distance<T: Real>(a: &Pose<T>, b: &Pose<T>) -> T {
+    rotation_angle(&(a.r.inverse() * b.r))
+}

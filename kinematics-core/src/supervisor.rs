@@ -1,0 +1,598 @@
+//! The setpoint supervisor: turns a stream of master targets (pose, timestamp) into joint
+//! setpoints at the control rate, so that no setpoint ever violates a stop-level guard.
+//!
+//! Per tick, with constant bounded work (at most `samples_per_tick` + 2 guard evaluations,
+//! each one inverse kinematics, singularity measures, Jacobian and statics):
+//! 1. **Verify** the pending target: the straight segment from the setpoint at submission
+//!    to the target is sampled at `path_step` / `path_step_angle`, the end point first; a
+//!    stop-level violation anywhere refuses the target (the robot keeps its goal).
+//! 2. **Move** towards the verified goal with a speed- and acceleration-limited profile in
+//!    Cartesian space: speeds capped by the tip and angular speed limits and scaled down so
+//!    that J·twist stays within the joint speed limits; the braking profile √(2 a d) makes
+//!    it stop at the goal.
+//! 3. **Check** the candidate setpoint and the point where braking from it would stop. A
+//!    stop-level violation of the candidate holds the last safe setpoint and latches the
+//!    reason until [`Supervisor::clear`]; one of the braking point turns the motion into a
+//!    controlled stop on the path verified one tick earlier.
+
+use crate::branch::Branch;
+use crate::guards::{GuardSetupError, Guards, Limits, MotionSample, Reading, Severity, Verdict};
+use crate::jacobian::jacobian;
+use crate::mechanism::{JointKind, Mechanism};
+use crate::pose::{rotation_angle, rotation_vector, Pose};
+use crate::scalar::{lit, wrap_angle, Real};
+use crate::{Joints, Twist};
+use core::fmt;
+use nalgebra::Vector3;
+
+/// Supervisor settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SupervisorConfig<T: Real> {
+    /// Control period, s (default 1 ms; 0.1 ms .. 100 ms).
+    pub dt: T,
+    /// Targets older than this relative to the clock are stale, µs (default 100 ms).
+    pub stale_after_us: u64,
+    /// Spacing of the path-check samples in translation, m (default 0.5 mm).
+    pub path_step: T,
+    /// Spacing of the path-check samples in rotation, rad (default 0.5 deg).
+    pub path_step_angle: T,
+    /// Path-check samples evaluated per tick (default 4).
+    pub samples_per_tick: u16,
+    /// Targets farther than this from the setpoint are refused outright, m (default 60 mm).
+    pub max_segment: T,
+    /// ... or rotated farther than this, rad (default 45 deg).
+    pub max_segment_angle: T,
+    /// Fraction of each joint speed limit the motion may use (default 0.8).
+    pub joint_speed_headroom: T,
+}
+
+impl<T: Real> Default for SupervisorConfig<T> {
+    fn default() -> Self {
+        SupervisorConfig {
+            dt: lit(1e-3),
+            stale_after_us: 100_000,
+            path_step: lit(0.5e-3),
+            path_step_angle: lit(0.5f64.to_radians()),
+            samples_per_tick: 4,
+            max_segment: lit(0.060),
+            max_segment_angle: lit(45f64.to_radians()),
+            joint_speed_headroom: lit(0.8),
+        }
+    }
+}
+
+/// The supervisor's state, by name.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Mode {
+    /// At the goal, nothing to do.
+    Holding,
+    /// A target is being verified (the robot keeps moving to its previous goal).
+    Verifying,
+    /// Moving towards the goal.
+    Moving,
+    /// Braking to a stop because the path ahead is unsafe.
+    Braking,
+    /// Stopped by a stop-level violation; latched until cleared.
+    Stopped,
+}
+
+/// Why a target was refused.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Refusal<T: Real> {
+    /// A component is NaN or infinite.
+    NonFinite,
+    /// The timestamp is older than `stale_after_us` (or from the future by as much).
+    Stale { age_us: i64 },
+    /// The timestamp is not newer than the last accepted one.
+    OutOfOrder,
+    /// Too far from the current setpoint (m, rad).
+    TooFar { distance: T, angle: T },
+    /// The straight path to it crosses a stop-level region at this fraction of the way.
+    Path { fraction: T, reading: Reading<T> },
+    /// The supervisor is stopped; clear it first.
+    Latched,
+}
+
+impl<T: Real> fmt::Display for Refusal<T> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Refusal::NonFinite => f.write_str("target is not finite"),
+            Refusal::Stale { age_us } => write!(f, "target is stale ({age_us} µs old)"),
+            Refusal::OutOfOrder => f.write_str("target timestamp is not newer than the last"),
+            Refusal::TooFar { distance, angle } => write!(
+                f,
+                "target too far from the setpoint ({:.1} mm, {:.1} deg)",
+                crate::geometry::to_f64(*distance) * 1e3,
+                crate::geometry::to_f64(*angle).to_degrees()
+            ),
+            Refusal::Path { fraction, reading } => write!(
+                f,
+                "path crosses {} at {:.0}% of the way",
+                reading.guard,
+                crate::geometry::to_f64(*fraction) * 100.0
+            ),
+            Refusal::Latched => f.write_str("supervisor is stopped; clear the fault first"),
+        }
+    }
+}
+
+/// Counts of what the supervisor refused or did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Counters {
+    pub accepted: u32,
+    pub non_finite: u32,
+    pub stale: u32,
+    pub out_of_order: u32,
+    pub too_far: u32,
+    pub path_refused: u32,
+    pub refused_latched: u32,
+    pub superseded: u32,
+    pub brakes: u32,
+    pub stops: u32,
+    pub warn_ticks: u32,
+}
+
+/// What one tick produces.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TickOutput<T: Real> {
+    /// The setpoint pose.
+    pub pose: Pose<T>,
+    /// The joint setpoints.
+    pub q: Joints<T>,
+    /// Joint velocity feed-forward J · twist.
+    pub qdot: Joints<T>,
+    /// The setpoint's twist [v; ω].
+    pub twist: Twist<T>,
+    /// The state.
+    pub mode: Mode,
+    /// A warn-level guard is violated at the setpoint.
+    pub warning: bool,
+    /// The latched stop reason, if stopped.
+    pub stop: Option<Reading<T>>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Pending<T: Real> {
+    from: Pose<T>,
+    to: Pose<T>,
+    samples: u16,
+    /// Next sample to check; sample `samples` (the end) is checked first.
+    next: u16,
+    end_checked: bool,
+}
+
+/// Why the supervisor cannot start.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SupervisorError<T: Real> {
+    Setup(GuardSetupError),
+    Config(&'static str),
+    /// The start pose violates a stop-level guard.
+    UnsafeStart(Option<Reading<T>>),
+}
+
+impl<T: Real> fmt::Display for SupervisorError<T> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            SupervisorError::Setup(e) => write!(f, "{e}"),
+            SupervisorError::Config(s) => write!(f, "supervisor config: {s}"),
+            SupervisorError::UnsafeStart(Some(r)) => {
+                write!(f, "start pose violates {} ({})", r.guard, r.subject)
+            }
+            SupervisorError::UnsafeStart(None) => f.write_str("start pose is unsafe"),
+        }
+    }
+}
+
+/// The setpoint supervisor.
+#[derive(Clone, Debug)]
+pub struct Supervisor<T: Real, M: Mechanism<T>> {
+    guards: Guards<T, M>,
+    cfg: SupervisorConfig<T>,
+    pose: Pose<T>,
+    q: Joints<T>,
+    qdot: Joints<T>,
+    twist: Twist<T>,
+    /// J at the setpoint (for the joint-speed cap); None near a serial singularity.
+    j: Option<nalgebra::Matrix6<T>>,
+    goal: Pose<T>,
+    pending: Option<Pending<T>>,
+    last_stamp_us: Option<u64>,
+    latched: Option<Reading<T>>,
+    braking: bool,
+    warning: bool,
+    counters: Counters,
+    last_refusal: Option<Refusal<T>>,
+}
+
+/// Pose at fraction `s` of the straight segment a → b (translation linear, rotation about
+/// the fixed world axis of b·aᵀ).
+pub fn interpolate<T: Real>(a: &Pose<T>, b: &Pose<T>, s: T) -> Pose<T> {
+    let dw = rotation_vector(&(b.r * a.r.inverse()));
+    a.displaced(&((b.t - a.t) * s), &(dw * s))
+}
+
+impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
+    /// A supervisor holding at `start`, which must be safe.
+    pub fn new(
+        robot: M,
+        branch: Branch,
+        limits: Limits<T>,
+        cfg: SupervisorConfig<T>,
+        start: &Pose<T>,
+    ) -> Result<Self, SupervisorError<T>> {
+        let pos = |x: T| x > T::zero() && x.is_finite();
+        if !(pos(cfg.dt) && cfg.dt >= lit(1e-4) && cfg.dt <= lit(0.1)) {
+            return Err(SupervisorError::Config("dt must be within 0.1 .. 100 ms"));
+        }
+        if !(pos(cfg.path_step) && pos(cfg.path_step_angle)) {
+            return Err(SupervisorError::Config("path steps must be positive"));
+        }
+        if !(pos(cfg.max_segment) && pos(cfg.max_segment_angle)) {
+            return Err(SupervisorError::Config("max segment must be positive"));
+        }
+        if cfg.samples_per_tick == 0 {
+            return Err(SupervisorError::Config(
+                "samples_per_tick must be at least 1",
+            ));
+        }
+        let n = (cfg.max_segment / cfg.path_step).max(cfg.max_segment_angle / cfg.path_step_angle);
+        if !(n <= lit(4096.0)) {
+            return Err(SupervisorError::Config(
+                "max segment / path step exceeds 4096 samples",
+            ));
+        }
+        if !(pos(cfg.joint_speed_headroom) && cfg.joint_speed_headroom <= T::one()) {
+            return Err(SupervisorError::Config(
+                "joint_speed_headroom must be in (0, 1]",
+            ));
+        }
+        let guards = Guards::new(robot, branch, limits).map_err(SupervisorError::Setup)?;
+        let (verdict, sol) = guards.check_pose(start);
+        let sol = match (verdict.is_stop(), sol) {
+            (false, Some(s)) => s,
+            _ => return Err(SupervisorError::UnsafeStart(verdict.first_stop().copied())),
+        };
+        let j = jacobian(guards.robot(), &sol).ok().map(|j| j.j);
+        Ok(Supervisor {
+            guards,
+            cfg,
+            pose: *start,
+            q: sol.q(),
+            qdot: Joints::zeros(),
+            twist: Twist::zeros(),
+            j,
+            goal: *start,
+            pending: None,
+            last_stamp_us: None,
+            latched: None,
+            braking: false,
+            warning: !verdict.is_ok(),
+            counters: Counters::default(),
+            last_refusal: None,
+        })
+    }
+
+    /// The guards in use.
+    pub fn guards(&self) -> &Guards<T, M> {
+        &self.guards
+    }
+    /// The counters.
+    pub fn counters(&self) -> &Counters {
+        &self.counters
+    }
+    /// The last refusal, if any.
+    pub fn last_refusal(&self) -> Option<&Refusal<T>> {
+        self.last_refusal.as_ref()
+    }
+    /// The current setpoint pose.
+    pub fn setpoint(&self) -> &Pose<T> {
+        &self.pose
+    }
+    /// The latched stop reason.
+    pub fn latched(&self) -> Option<&Reading<T>> {
+        self.latched.as_ref()
+    }
+
+    fn refuse(&mut self, r: Refusal<T>) -> Result<(), Refusal<T>> {
+        let c = &mut self.counters;
+        match r {
+            Refusal::NonFinite => c.non_finite += 1,
+            Refusal::Stale { .. } => c.stale += 1,
+            Refusal::OutOfOrder => c.out_of_order += 1,
+            Refusal::TooFar { .. } => c.too_far += 1,
+            Refusal::Path { .. } => c.path_refused += 1,
+            Refusal::Latched => c.refused_latched += 1,
+        }
+        self.last_refusal = Some(r);
+        Err(r)
+    }
+
+    /// Submits a master target stamped `stamp_us`, at clock time `now_us`. Accepted targets
+    /// are verified over the next ticks; a refusal is returned (and counted) at once for
+    /// non-finite, stale, out-of-order or too-distant targets.
+    pub fn submit(
+        &mut self,
+        target: &Pose<T>,
+        stamp_us: u64,
+        now_us: u64,
+    ) -> Result<(), Refusal<T>> {
+        if self.latched.is_some() {
+            return self.refuse(Refusal::Latched);
+        }
+        if !target.is_finite() {
+            return self.refuse(Refusal::NonFinite);
+        }
+        let age = now_us as i128 - stamp_us as i128;
+        if age.unsigned_abs() > u128::from(self.cfg.stale_after_us) {
+            let age_us = age.clamp(i128::from(i64::MIN), i128::from(i64::MAX)) as i64;
+            return self.refuse(Refusal::Stale { age_us });
+        }
+        if self.last_stamp_us.is_some_and(|last| stamp_us <= last) {
+            return self.refuse(Refusal::OutOfOrder);
+        }
+        let distance = (target.t - self.pose.t).norm();
+        let angle = rotation_angle(&(target.r * self.pose.r.inverse()));
+        if !(distance <= self.cfg.max_segment && angle <= self.cfg.max_segment_angle) {
+            return self.refuse(Refusal::TooFar { distance, angle });
+        }
+        self.last_stamp_us = Some(stamp_us);
+        if self.pending.is_some() {
+            self.counters.superseded += 1;
+        }
+        let n = (distance / self.cfg.path_step)
+            .max(angle / self.cfg.path_step_angle)
+            .ceil()
+            .max(T::one());
+        let samples = crate::geometry::to_f64(n) as u16;
+        self.pending = Some(Pending {
+            from: self.pose,
+            to: *target,
+            samples: samples.max(1),
+            next: 1,
+            end_checked: false,
+        });
+        Ok(())
+    }
+
+    /// Clears a latched stop when the current setpoint is safe again (e.g. after the
+    /// limits were reviewed); the goal becomes the current setpoint.
+    pub fn clear(&mut self) -> Result<(), Option<Reading<T>>> {
+        let (verdict, _) = self.guards.check_pose(&self.pose);
+        if verdict.is_stop() {
+            return Err(verdict.first_stop().copied());
+        }
+        self.latched = None;
+        self.goal = self.pose;
+        self.pending = None;
+        self.braking = false;
+        Ok(())
+    }
+
+    /// First stop-level reading at a pose, if any; also reports warn-level ones.
+    fn first_stop_at(
+        &self,
+        pose: &Pose<T>,
+    ) -> (Option<Reading<T>>, bool, Option<crate::ik::Solution<T>>) {
+        let mut stop = None;
+        let mut warn = false;
+        let sol = self.guards.evaluate_pose(pose, &mut |r| match r.severity {
+            Some(Severity::Stop) if stop.is_none() => stop = Some(*r),
+            Some(Severity::Warn) => warn = true,
+            _ => {}
+        });
+        (stop, warn, sol)
+    }
+
+    fn verify_pending(&mut self) {
+        let Some(mut p) = self.pending else { return };
+        for _ in 0..self.cfg.samples_per_tick {
+            let k = if p.end_checked { p.next } else { p.samples };
+            let s = lit::<T>(f64::from(k)) / lit(f64::from(p.samples));
+            let at = interpolate(&p.from, &p.to, s);
+            if let (Some(reading), _, _) = self.first_stop_at(&at) {
+                self.pending = None;
+                let _ = self.refuse(Refusal::Path {
+                    fraction: s,
+                    reading,
+                });
+                return;
+            }
+            if p.end_checked {
+                p.next += 1;
+            } else {
+                p.end_checked = true;
+            }
+            if p.next >= p.samples {
+                self.pending = None;
+                self.goal = p.to;
+                self.braking = false;
+                self.counters.accepted += 1;
+                return;
+            }
+        }
+        self.pending = Some(p);
+    }
+
+    /// Speed caps (m/s, rad/s) for motion along the unit directions, within the joint
+    /// speed limits (with headroom) at the current setpoint's Jacobian.
+    fn speed_caps(&self, dir_v: &Vector3<T>, dir_w: &Vector3<T>) -> (T, T) {
+        let l = self.guards.limits();
+        let (vmax, wmax) = (l.tip_speed, l.angular_speed);
+        let Some(j) = self.j else {
+            return (vmax, wmax);
+        };
+        let probe = Twist::new(
+            dir_v.x * vmax,
+            dir_v.y * vmax,
+            dir_v.z * vmax,
+            dir_w.x * wmax,
+            dir_w.y * wmax,
+            dir_w.z * wmax,
+        );
+        let qd = j * probe;
+        let mut scale = T::one();
+        for (v, kind) in qd.iter().zip(self.guards.robot().joint_kinds().iter()) {
+            let lim = match kind {
+                JointKind::Linear => l.joint_speed[0],
+                JointKind::Angular => l.joint_speed[1],
+            } * self.cfg.joint_speed_headroom;
+            if v.abs() * scale > lim {
+                scale = lim / v.abs();
+            }
+        }
+        (vmax * scale, wmax * scale)
+    }
+
+    fn hold(&mut self, reason: Reading<T>) -> TickOutput<T> {
+        self.latched = Some(reason);
+        self.counters.stops += 1;
+        self.twist = Twist::zeros();
+        self.qdot = Joints::zeros();
+        self.pending = None;
+        self.output(false)
+    }
+
+    fn output(&self, warning: bool) -> TickOutput<T> {
+        let moving = self.twist.iter().any(|x| *x != T::zero());
+        let mode = if self.latched.is_some() {
+            Mode::Stopped
+        } else if self.braking {
+            Mode::Braking
+        } else if self.pending.is_some() {
+            Mode::Verifying
+        } else if moving {
+            Mode::Moving
+        } else {
+            Mode::Holding
+        };
+        TickOutput {
+            pose: self.pose,
+            q: self.q,
+            qdot: self.qdot,
+            twist: self.twist,
+            mode,
+            warning,
+            stop: self.latched,
+        }
+    }
+
+    /// One control tick.
+    pub fn tick(&mut self) -> TickOutput<T> {
+        if self.latched.is_some() {
+            return self.output(false);
+        }
+        self.verify_pending();
+        let l = *self.guards.limits();
+        let dt = self.cfg.dt;
+        let two = lit::<T>(2.0);
+        // Desired twist towards the goal (world frame), with the braking profile.
+        let e_t = self.goal.t - self.pose.t;
+        let e_r = rotation_vector(&(self.goal.r * self.pose.r.inverse()));
+        let (d, a) = (e_t.norm(), e_r.norm());
+        let dir_v = if d > T::zero() {
+            e_t / d
+        } else {
+            Vector3::zeros()
+        };
+        let dir_w = if a > T::zero() {
+            e_r / a
+        } else {
+            Vector3::zeros()
+        };
+        let (vcap, wcap) = self.speed_caps(&dir_v, &dir_w);
+        let v_des = dir_v * vcap.min((two * l.tip_accel * d).sqrt()).min(d / dt);
+        let w_des = dir_w * wcap.min((two * l.angular_accel * a).sqrt()).min(a / dt);
+        // Acceleration limit on the change of twist.
+        let v0 = Vector3::new(self.twist.x, self.twist.y, self.twist.z);
+        let w0 = Vector3::new(self.twist.w, self.twist.a, self.twist.b);
+        let limit_step = |dv: Vector3<T>, amax: T| {
+            let n = dv.norm();
+            let m = amax * dt;
+            if n > m {
+                dv * (m / n)
+            } else {
+                dv
+            }
+        };
+        let mut v1 = v0 + limit_step(v_des - v0, l.tip_accel);
+        let mut w1 = w0 + limit_step(w_des - w0, l.angular_accel);
+        if v1.norm() + w1.norm() == T::zero() && d + a == T::zero() {
+            self.twist = Twist::zeros();
+            self.qdot = Joints::zeros();
+            self.braking = false;
+            return self.output(self.warning);
+        }
+        let mut candidate = self.pose.displaced(&(v1 * dt), &(w1 * dt));
+        // Where braking from the candidate would stop.
+        let stop_point = |v: &Vector3<T>, w: &Vector3<T>, from: &Pose<T>| {
+            let sv = v.norm() / (two * l.tip_accel);
+            let sw = w.norm() / (two * l.angular_accel);
+            from.displaced(&(v * sv), &(w * sw))
+        };
+        let ahead = stop_point(&v1, &w1, &candidate);
+        if let (Some(_), _, _) = self.first_stop_at(&ahead) {
+            // Brake on the path verified last tick: decelerate along the current twist.
+            if !self.braking {
+                self.counters.brakes += 1;
+            }
+            self.braking = true;
+            self.pending = None;
+            v1 = v0 - limit_step(v0, l.tip_accel);
+            w1 = w0 - limit_step(w0, l.angular_accel);
+            candidate = self.pose.displaced(&(v1 * dt), &(w1 * dt));
+            self.goal = stop_point(&v1, &w1, &candidate);
+        }
+        let (stop, warn, sol) = self.first_stop_at(&candidate);
+        let sol = match (stop, sol) {
+            (None, Some(sol)) => sol,
+            (Some(r), _) => return self.hold(r),
+            (None, None) => return self.output(warn), // unreachable: no solution is a stop
+        };
+        let twist = Twist::new(v1.x, v1.y, v1.z, w1.x, w1.y, w1.z);
+        let jac = jacobian(self.guards.robot(), &sol).ok().map(|j| j.j);
+        let qdot = match jac {
+            Some(j) => j * twist,
+            None => {
+                // Finite differences when J is singular (the serial guard stops long before).
+                let mut qd = (sol.q() - self.q) / dt;
+                for (x, k) in qd.iter_mut().zip(self.guards.robot().joint_kinds().iter()) {
+                    if *k == JointKind::Angular {
+                        *x = wrap_angle(*x * dt) / dt;
+                    }
+                }
+                qd
+            }
+        };
+        // Motion guards on the output itself.
+        let mut motion_stop = None;
+        let prev = MotionSample {
+            twist: self.twist,
+            qdot: self.qdot,
+        };
+        let cur = MotionSample { twist, qdot };
+        let mut verdict = Verdict::default();
+        self.guards.evaluate_motion(&prev, &cur, dt, &mut |r| {
+            verdict.record(r);
+        });
+        if let Some(r) = verdict.first_stop() {
+            motion_stop = Some(*r);
+        }
+        if let Some(r) = motion_stop {
+            return self.hold(r);
+        }
+        self.pose = candidate;
+        self.q = sol.q();
+        self.qdot = qdot;
+        self.twist = twist;
+        self.j = jac;
+        self.warning = warn;
+        if warn {
+            self.counters.warn_ticks += 1;
+        }
+        if self.braking && v1.norm() + w1.norm() == T::zero() {
+            self.braking = false;
+            self.goal = self.pose;
+        }
+        self.output(warn)
+    }
+}
