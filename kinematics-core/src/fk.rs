@@ -166,6 +166,19 @@ pub fn forward<T: Real, M: Mechanism<T> + ?Sized>(
     loop {
         let (r, ok, worst) = residual(&kinds, q, &sol.q(), cfg);
         if ok {
+            // Polish: within tolerance, one more step is kept while it still lowers the
+            // residual, so the result sits at the scalar's rounding floor (this matters in
+            // f32, where the tolerance is a few µm-equivalents of joint error).
+            if iteration < cfg.max_iterations {
+                if let Ok(Step::Improved(p, s)) =
+                    newton_step(m, &pose, &sol, &r, branch, &kinds, q, cfg, scale, iteration + 1)
+                {
+                    iteration += 1;
+                    pose = p;
+                    sol = s;
+                    continue;
+                }
+            }
             return Ok(FkSolution {
                 pose,
                 solution: sol,
@@ -180,65 +193,92 @@ pub fn forward<T: Real, M: Mechanism<T> + ?Sized>(
             });
         }
         iteration += 1;
-        // Jtilde Δx = Js Δq: per chain, rows (i, 3+i) of the right side are B_i [Δqa_i; Δqb_i].
-        let ra = PerChain([r.x, r.y, r.z]);
-        let rb = PerChain([r.w, r.a, r.b]);
-        let rhs = PerChain::from_fn(|c: Chain| {
-            let blk = m.serial_block(&sol.chains[c]);
-            (
-                blk.a11 * ra[c] + blk.a12 * rb[c],
-                blk.a21 * ra[c] + blk.a22 * rb[c],
-            )
-        });
-        let [(t1, b1), (t2, b2), (t3, b3)] = rhs.0;
-        let rhs = Vector6::new(t1, t2, t3, b1, b2, b3);
-        let dx = tripod_jacobian(&sol)
-            .lu()
-            .solve(&rhs)
-            .filter(|d| d.iter().all(|x| x.is_finite()))
-            .ok_or(FkError::SingularStep { iteration })?;
-        let mut dv = Vector3::new(dx.x, dx.y, dx.z);
-        let mut dw = Vector3::new(dx.w, dx.a, dx.b);
-        // Limit the step so that a poor guess cannot throw the iterate far away.
-        let shrink = (dv.norm() / cfg.max_step_linear)
-            .max(dw.norm() / cfg.max_step_angular)
-            .max(T::one());
-        dv /= shrink;
-        dw /= shrink;
-        // Backtracking: halve the step while it leaves the branch or does not reduce the
-        // residual (joint angles weighted by the length scale).
-        let merit = |r: &Joints<T>| weighted_norm(&kinds, r, scale);
-        let current = merit(&r);
-        let mut last_error = None;
-        let mut accepted = None;
-        let half = lit::<T>(0.5);
-        for _ in 0..MAX_HALVINGS {
-            let trial = pose.displaced(&dv, &dw);
-            match inverse(m, &trial, branch) {
-                Ok(s) => {
-                    let (rt, _, _) = residual(&kinds, q, &s.q(), cfg);
-                    if merit(&rt) < current {
-                        accepted = Some((trial, s));
-                        break;
-                    }
-                    // No decrease: at the rounding floor a full step is still taken once.
-                    if accepted.is_none() {
-                        accepted = Some((trial, s));
-                    }
-                }
-                Err(e) => last_error = Some(e),
-            }
-            dv *= half;
-            dw *= half;
-        }
-        match (accepted, last_error) {
-            (Some((p, s)), _) => {
+        match newton_step(m, &pose, &sol, &r, branch, &kinds, q, cfg, scale, iteration)? {
+            Step::Improved(p, s) | Step::NotImproved(p, s) => {
                 pose = p;
                 sol = s;
             }
-            (None, Some(error)) => return Err(FkError::LeftBranch { iteration, error }),
-            (None, None) => return Err(FkError::SingularStep { iteration }),
         }
+    }
+}
+
+/// The outcome of one damped Newton step.
+enum Step<T: Real> {
+    /// The residual went down.
+    Improved(Pose<T>, Solution<T>),
+    /// No halving lowered the residual; the full step is taken anyway (rounding floor).
+    NotImproved(Pose<T>, Solution<T>),
+}
+
+/// One Newton step from `pose` (where the inverse kinematics gives `sol` and the residual
+/// is `r`): solves Jtilde Δx = Js Δq, limits the step, and halves it while it leaves the
+/// branch or does not lower the residual.
+#[allow(clippy::too_many_arguments)]
+fn newton_step<T: Real, M: Mechanism<T> + ?Sized>(
+    m: &M,
+    pose: &Pose<T>,
+    sol: &Solution<T>,
+    r: &Joints<T>,
+    branch: Branch,
+    kinds: &[JointKind; 6],
+    q: &Joints<T>,
+    cfg: &FkConfig<T>,
+    scale: T,
+    iteration: u32,
+) -> Result<Step<T>, FkError> {
+    // Jtilde Δx = Js Δq: per chain, rows (i, 3+i) of the right side are B_i [Δqa_i; Δqb_i].
+    let ra = PerChain([r.x, r.y, r.z]);
+    let rb = PerChain([r.w, r.a, r.b]);
+    let rhs = PerChain::from_fn(|c: Chain| {
+        let blk = m.serial_block(&sol.chains[c]);
+        (
+            blk.a11 * ra[c] + blk.a12 * rb[c],
+            blk.a21 * ra[c] + blk.a22 * rb[c],
+        )
+    });
+    let [(t1, b1), (t2, b2), (t3, b3)] = rhs.0;
+    let rhs = Vector6::new(t1, t2, t3, b1, b2, b3);
+    let dx = tripod_jacobian(sol)
+        .lu()
+        .solve(&rhs)
+        .filter(|d| d.iter().all(|x| x.is_finite()))
+        .ok_or(FkError::SingularStep { iteration })?;
+    let mut dv = Vector3::new(dx.x, dx.y, dx.z);
+    let mut dw = Vector3::new(dx.w, dx.a, dx.b);
+    // Limit the step so that a poor guess cannot throw the iterate far away.
+    let shrink = (dv.norm() / cfg.max_step_linear)
+        .max(dw.norm() / cfg.max_step_angular)
+        .max(T::one());
+    dv /= shrink;
+    dw /= shrink;
+    // Backtracking: halve the step while it leaves the branch or does not reduce the
+    // residual (joint angles weighted by the length scale).
+    let merit = |r: &Joints<T>| weighted_norm(kinds, r, scale);
+    let current = merit(r);
+    let mut last_error = None;
+    let mut fallback = None;
+    let half = lit::<T>(0.5);
+    for _ in 0..MAX_HALVINGS {
+        let trial = pose.displaced(&dv, &dw);
+        match inverse(m, &trial, branch) {
+            Ok(s) => {
+                let (rt, _, _) = residual(kinds, q, &s.q(), cfg);
+                if merit(&rt) < current {
+                    return Ok(Step::Improved(trial, s));
+                }
+                if fallback.is_none() {
+                    fallback = Some((trial, s));
+                }
+            }
+            Err(e) => last_error = Some(e),
+        }
+        dv *= half;
+        dw *= half;
+    }
+    match (fallback, last_error) {
+        (Some((p, s)), _) => Ok(Step::NotImproved(p, s)),
+        (None, Some(error)) => Err(FkError::LeftBranch { iteration, error }),
+        (None, None) => Err(FkError::SingularStep { iteration }),
     }
 }
 

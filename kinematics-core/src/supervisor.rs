@@ -211,6 +211,18 @@ pub fn interpolate<T: Real>(a: &Pose<T>, b: &Pose<T>, s: T) -> Pose<T> {
     a.displaced(&((b.t - a.t) * s), &(dw * s))
 }
 
+/// The motion limits scaled by (1 - 1000 ε).
+fn shaved<T: Real>(l: &Limits<T>) -> Limits<T> {
+    let k = T::one() - T::default_epsilon() * lit(1000.0);
+    Limits {
+        tip_speed: l.tip_speed * k,
+        angular_speed: l.angular_speed * k,
+        tip_accel: l.tip_accel * k,
+        angular_accel: l.angular_accel * k,
+        ..*l
+    }
+}
+
 impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
     /// A supervisor holding at `start`, which must be safe.
     pub fn new(
@@ -415,8 +427,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
 
     /// Speed caps (m/s, rad/s) for motion along the unit directions, within the joint
     /// speed limits (with headroom) at the current setpoint's Jacobian.
-    fn speed_caps(&self, dir_v: &Vector3<T>, dir_w: &Vector3<T>) -> (T, T) {
-        let l = self.guards.limits();
+    fn speed_caps(&self, l: &Limits<T>, dir_v: &Vector3<T>, dir_w: &Vector3<T>) -> (T, T) {
         let (vmax, wmax) = (l.tip_speed, l.angular_speed);
         let Some(j) = self.j else {
             return (vmax, wmax);
@@ -482,7 +493,9 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             return self.output(false);
         }
         self.verify_pending();
-        let l = *self.guards.limits();
+        // The limiter runs a hair inside the limits so that rounding never trips the
+        // motion guards that check its output.
+        let l = shaved(self.guards.limits());
         let dt = self.cfg.dt;
         let two = lit::<T>(2.0);
         // Desired twist towards the goal (world frame), with the braking profile.
@@ -499,7 +512,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         } else {
             Vector3::zeros()
         };
-        let (vcap, wcap) = self.speed_caps(&dir_v, &dir_w);
+        let (vcap, wcap) = self.speed_caps(&l, &dir_v, &dir_w);
         let v_des = dir_v * vcap.min((two * l.tip_accel * d).sqrt()).min(d / dt);
         let w_des = dir_w * wcap.min((two * l.angular_accel * a).sqrt()).min(a / dt);
         // Acceleration limit on the change of twist.
@@ -516,10 +529,25 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         };
         let mut v1 = v0 + limit_step(v_des - v0, l.tip_accel);
         let mut w1 = w0 + limit_step(w_des - w0, l.angular_accel);
-        if v1.norm() + w1.norm() == T::zero() && d + a == T::zero() {
+        // Arrival: within one tick's worth of braking of the (verified) goal, at a speed that
+        // one tick of deceleration cancels, snap onto it and stop.
+        let (dt2, adt) = (dt * dt, dt);
+        if !self.braking
+            && self.pending.is_none()
+            && d <= l.tip_accel * dt2
+            && a <= l.angular_accel * dt2
+            && v0.norm() <= l.tip_accel * adt
+            && w0.norm() <= l.angular_accel * adt
+        {
+            if d + a > T::zero() {
+                if let (None, warn, Some(sol)) = self.first_stop_at(&self.goal) {
+                    self.pose = self.goal;
+                    self.q = sol.q();
+                    self.warning = warn;
+                }
+            }
             self.twist = Twist::zeros();
             self.qdot = Joints::zeros();
-            self.braking = false;
             return self.output(self.warning);
         }
         let mut candidate = self.pose.displaced(&(v1 * dt), &(w1 * dt));

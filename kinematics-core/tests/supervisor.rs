@@ -1,0 +1,360 @@
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+//! The setpoint supervisor: whatever the master sends, no output setpoint violates a
+//! stop-level guard or exceeds the speed and acceleration limits.
+
+mod common;
+
+use common::*;
+use kinematics_core::guards::*;
+use kinematics_core::supervisor::*;
+use kinematics_core::*;
+use nalgebra::{Rotation3, Vector3};
+use proptest::prelude::*;
+
+type Sup = Supervisor<f64, RsprGeometry<f64>>;
+
+fn supervisor(limits: Limits<f64>) -> Sup {
+    Supervisor::new(
+        RsprGeometry::reference(),
+        Branch::OUTER,
+        limits,
+        SupervisorConfig::default(),
+        &Pose::central(0.160),
+    )
+    .unwrap()
+}
+
+/// What the master may send in one tick.
+#[derive(Clone, Debug)]
+enum Event {
+    Nothing,
+    /// A target near the task box (mm offsets, rotation vector in rad).
+    Target([f64; 3], [f64; 3]),
+    NaN,
+    /// A jump of metres.
+    Jump,
+    /// Outside the workspace (box + 40 mm in x).
+    Outside,
+    /// Rotated 100 deg about z: through serial singularities and link-angle limits.
+    Twisted,
+    /// A stamp older than the last one.
+    Replay,
+    /// A stamp older than the stale limit.
+    Stale,
+}
+
+fn event() -> impl Strategy<Value = Event> {
+    prop_oneof![
+        6 => Just(Event::Nothing),
+        6 => (prop::array::uniform3(-30.0..30.0f64), prop::array::uniform3(-0.4..0.4f64)).prop_map(|(t, r)| Event::Target(t, r)),
+        1 => Just(Event::NaN),
+        1 => Just(Event::Jump),
+        1 => Just(Event::Outside),
+        1 => Just(Event::Twisted),
+        1 => Just(Event::Replay),
+        1 => Just(Event::Stale),
+    ]
+}
+
+/// Runs a stream of events, one per `hold` ticks, and checks every output.
+fn run(events: &[(Event, u16)]) -> Result<Counters, TestCaseError> {
+    let limits = Limits::reference();
+    let mut sup = supervisor(limits);
+    let dt = 1e-3;
+    let mut now_us: u64 = 1_000_000;
+    let mut last = sup.tick();
+    let slack = 1.0 + 1e-9;
+    for (ev, hold) in events {
+        let (target, stamp) = match ev {
+            Event::Nothing => (None, now_us),
+            Event::Target(t, r) => (
+                Some(Pose {
+                    t: Vector3::new(t[0] * 1e-3, t[1] * 1e-3, 0.160 + t[2] * 0.5e-3),
+                    r: Rotation3::from_scaled_axis(Vector3::from_row_slice(r)),
+                }),
+                now_us,
+            ),
+            Event::NaN => (
+                Some(Pose {
+                    t: Vector3::new(f64::NAN, 0.0, 0.16),
+                    r: Rotation3::identity(),
+                }),
+                now_us,
+            ),
+            Event::Jump => (Some(Pose::central(2.5)), now_us),
+            Event::Outside => (
+                Some(Pose {
+                    t: Vector3::new(0.065, 0.0, 0.16),
+                    r: Rotation3::identity(),
+                }),
+                now_us,
+            ),
+            Event::Twisted => (
+                Some(Pose {
+                    t: Vector3::new(0.0, 0.0, 0.16),
+                    r: Rotation3::from_scaled_axis(Vector3::new(0.0, 0.0, 100.0 * DEG)),
+                }),
+                now_us,
+            ),
+            Event::Replay => (Some(Pose::central(0.16)), now_us.saturating_sub(500)),
+            Event::Stale => (Some(Pose::central(0.16)), now_us.saturating_sub(1_000_000)),
+        };
+        if let Some(t) = target {
+            let _ = sup.submit(&t, stamp, now_us);
+        }
+        for _ in 0..*hold {
+            now_us += 1000;
+            let out = sup.tick();
+            // Never a stop-level violation at the output.
+            let (verdict, _) = sup.guards().check_pose(&out.pose);
+            prop_assert!(
+                !verdict.is_stop(),
+                "output violates {:?}",
+                verdict.first_stop()
+            );
+            prop_assert!(out.mode != Mode::Stopped, "latched stop {:?}", out.stop);
+            // Never faster or harder than the limits.
+            let v = out.twist.fixed_rows::<3>(0).norm();
+            let w = out.twist.fixed_rows::<3>(3).norm();
+            let dv = (out.twist - last.twist).fixed_rows::<3>(0).norm() / dt;
+            let dw = (out.twist - last.twist).fixed_rows::<3>(3).norm() / dt;
+            prop_assert!(
+                v <= limits.tip_speed * slack && w <= limits.angular_speed * slack,
+                "speed {v} m/s, {w} rad/s"
+            );
+            prop_assert!(
+                dv <= limits.tip_accel * slack && dw <= limits.angular_accel * slack,
+                "accel {dv} m/s², {dw} rad/s²"
+            );
+            // The setpoint moves by what its twist says.
+            let moved = (out.pose.t - last.pose.t).norm();
+            prop_assert!(moved <= limits.tip_speed * dt * slack + 1e-15);
+            for j in 0..6 {
+                let (vmax, amax) = if j < 3 {
+                    (limits.joint_speed[0], limits.joint_accel[0])
+                } else {
+                    (limits.joint_speed[1], limits.joint_accel[1])
+                };
+                prop_assert!(
+                    out.qdot[j].abs() <= vmax * slack,
+                    "joint {} speed {}",
+                    j + 1,
+                    out.qdot[j]
+                );
+                prop_assert!(
+                    (out.qdot[j] - last.qdot[j]).abs() / dt <= amax * slack,
+                    "joint {} accel",
+                    j + 1
+                );
+            }
+            last = out;
+        }
+    }
+    Ok(*sup.counters())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+
+    /// For random target streams (including NaN, jumps of metres, poses outside the
+    /// workspace, paths through singular configurations, replays and stale stamps), the
+    /// output never violates a stop-level guard and never exceeds the speed and
+    /// acceleration limits.
+    #[test]
+    fn output_is_always_safe_and_limited(events in prop::collection::vec((event(), 1u16..200), 1..40)) {
+        let c = run(&events)?;
+        // Every bad target was counted.
+        let nan = events.iter().filter(|(e, _)| matches!(e, Event::NaN)).count() as u32;
+        prop_assert_eq!(c.non_finite, nan);
+        let jumps = events.iter().filter(|(e, _)| matches!(e, Event::Jump)).count() as u32;
+        prop_assert!(c.too_far >= jumps);
+    }
+}
+
+/// Non-finite, stale, replayed and too-distant targets are refused at once and counted.
+#[test]
+fn bad_targets_are_refused_and_counted() {
+    let mut sup = supervisor(Limits::reference());
+    let now = 10_000_000;
+    let nan = Pose {
+        t: Vector3::new(0.0, f64::NAN, 0.16),
+        r: Rotation3::identity(),
+    };
+    assert_eq!(sup.submit(&nan, now, now), Err(Refusal::NonFinite));
+    assert!(matches!(
+        sup.submit(&Pose::central(0.16), now - 200_000, now),
+        Err(Refusal::Stale { age_us: 200_000 })
+    ));
+    assert!(sup.submit(&Pose::central(0.161), now, now).is_ok());
+    assert_eq!(
+        sup.submit(&Pose::central(0.162), now, now),
+        Err(Refusal::OutOfOrder)
+    );
+    assert!(matches!(
+        sup.submit(&Pose::central(3.0), now + 1, now),
+        Err(Refusal::TooFar { .. })
+    ));
+    let c = sup.counters();
+    assert_eq!(
+        (c.non_finite, c.stale, c.out_of_order, c.too_far),
+        (1, 1, 1, 1)
+    );
+}
+
+/// A target outside the workspace is refused by the path check and the robot holds.
+#[test]
+fn target_outside_the_workspace_is_refused_and_the_robot_holds() {
+    let mut sup = supervisor(Limits::reference());
+    let target = Pose {
+        t: Vector3::new(0.035, 0.0, 0.16),
+        r: Rotation3::identity(),
+    };
+    sup.submit(&target, 1000, 1000).unwrap();
+    let out = sup.tick();
+    assert!(
+        matches!(sup.last_refusal(), Some(Refusal::Path { reading, .. }) if reading.guard == Guard::Workspace)
+    );
+    for _ in 0..100 {
+        let o = sup.tick();
+        assert_eq!(o.pose, out.pose);
+        assert_eq!(o.mode, Mode::Holding);
+    }
+    assert_eq!(sup.counters().path_refused, 1);
+}
+
+/// The robot reaches a verified target and stops there, at the speed limit in between.
+#[test]
+fn reaches_a_safe_target_at_the_speed_limit() {
+    let mut sup = supervisor(Limits::reference());
+    let target = Pose {
+        t: Vector3::new(0.015, -0.010, 0.165),
+        r: Rotation3::from_scaled_axis(Vector3::new(0.1, 0.05, 0.0)),
+    };
+    sup.submit(&target, 1000, 1000).unwrap();
+    let mut peak: f64 = 0.0;
+    let mut ticks = 0;
+    loop {
+        let o = sup.tick();
+        peak = peak.max(o.twist.fixed_rows::<3>(0).norm());
+        ticks += 1;
+        if o.mode == Mode::Holding && ticks > 10 {
+            break;
+        }
+        assert!(ticks < 10_000, "did not arrive");
+    }
+    let (dp, dr) = pose_error(sup.setpoint(), &target);
+    assert!(dp < 1e-9 && dr < 1e-9, "{dp} m {dr} rad off");
+    println!(
+        "reached an 18.7 mm / 6.4 deg target in {ticks} ticks, peak speed {:.2} mm/s",
+        peak * 1e3
+    );
+    assert!(peak > 0.9 * 0.025);
+}
+
+/// A straight segment between two safe poses that crosses an out-of-limit region is
+/// refused, at the check's resolution. A leg's length bulges along many straight segments
+/// (its spherical joint runs on the link circle, whose chord is concave); for random
+/// segments through the task box with such a bulge, the stroke maximum is set halfway
+/// between the longest leg at the ends and the longest leg along a 200-sample dense path,
+/// so the ends are safe and the middle is not. The supervisor must refuse every one.
+#[test]
+fn unsafe_paths_between_safe_poses_are_refused_at_the_check_resolution() {
+    let g = RsprGeometry::<f64>::reference();
+    let cfg = SupervisorConfig::<f64>::default();
+    let mut rng = 0x2545F4914F6CDD1Du64;
+    let mut next = move || {
+        rng ^= rng << 13;
+        rng ^= rng >> 7;
+        rng ^= rng << 17;
+        (rng >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let longest = |p: &Pose<f64>| {
+        inverse(&g, p, Branch::OUTER)
+            .unwrap()
+            .q()
+            .fixed_rows::<3>(0)
+            .max()
+    };
+    let (mut bulging, mut refused, mut thinnest) = (0, 0, f64::INFINITY);
+    for _ in 0..3000 {
+        let mid = Vector3::new(
+            (next() - 0.5) * 0.03,
+            (next() - 0.5) * 0.03,
+            0.16 + (next() - 0.5) * 0.02,
+        );
+        let dir = Vector3::new(next() - 0.5, next() - 0.5, (next() - 0.5) * 0.2).normalize()
+            * (0.005 + 0.015 * next());
+        let r = Rotation3::from_scaled_axis(Vector3::new(
+            (next() - 0.5) * 0.3,
+            (next() - 0.5) * 0.3,
+            0.0,
+        ));
+        let a = Pose { t: mid - dir, r };
+        let b = Pose { t: mid + dir, r };
+        let ends = longest(&a).max(longest(&b));
+        let path = (0..=200)
+            .map(|k| longest(&interpolate(&a, &b, k as f64 / 200.0)))
+            .fold(0.0, f64::max);
+        if path < ends + 1e-6 {
+            continue;
+        }
+        let mut limits = Limits::reference();
+        limits.stroke[1] = 0.5 * (ends + path);
+        let guards = Guards::new(g, Branch::OUTER, limits).unwrap();
+        if guards.check_pose(&a).0.is_stop() || guards.check_pose(&b).0.is_stop() {
+            continue;
+        }
+        bulging += 1;
+        // The width of the unsafe stretch, as a fraction of the segment.
+        let unsafe_samples = (0..=200)
+            .filter(|k| longest(&interpolate(&a, &b, *k as f64 / 200.0)) > limits.stroke[1])
+            .count();
+        thinnest = thinnest.min(unsafe_samples as f64 / 200.0 * 2.0 * dir.norm());
+        let mut sup = Supervisor::new(g, Branch::OUTER, limits, cfg, &a).unwrap();
+        sup.submit(&b, 1, 1).unwrap();
+        for _ in 0..200 {
+            sup.tick();
+        }
+        if matches!(sup.last_refusal(), Some(Refusal::Path { reading, .. }) if reading.guard == Guard::Stroke)
+        {
+            refused += 1;
+        }
+    }
+    println!("{bulging} segments with a bulging leg (unsafe stretch down to {:.2} mm long): {refused} refused", thinnest * 1e3);
+    assert!(
+        bulging >= 20,
+        "the test needs unsafe segments to mean anything"
+    );
+    assert_eq!(refused, bulging);
+}
+
+/// Constant bounded work per tick: a tick evaluates at most samples_per_tick + 2 poses.
+/// (The instruction count per tick on the Cortex-M4 is measured by the firmware's QEMU run.)
+#[test]
+fn supervisor_settings_are_validated() {
+    let bad = SupervisorConfig {
+        dt: 0.0,
+        ..SupervisorConfig::<f64>::default()
+    };
+    assert!(matches!(
+        Supervisor::new(
+            RsprGeometry::reference(),
+            Branch::OUTER,
+            Limits::reference(),
+            bad,
+            &Pose::central(0.16)
+        ),
+        Err(SupervisorError::Config(_))
+    ));
+    let outside = Pose::central(0.125);
+    assert!(matches!(
+        Supervisor::new(
+            RsprGeometry::reference(),
+            Branch::OUTER,
+            Limits::reference(),
+            SupervisorConfig::default(),
+            &outside
+        ),
+        Err(SupervisorError::UnsafeStart(Some(_)))
+    ));
+}
