@@ -15,6 +15,8 @@ proptest! {
     /// prototype's, over and around the task box), warm-started as in the control loop.
     #[test]
     fn f32_ik_then_fk_returns_the_pose(pose in pose_near_box(0.160), (dv, dw) in perturbation()) {
+        // Poses the robot cannot reach at all (in f64) are not this property's business.
+        prop_assume!(inverse(&RsprGeometry::<f64>::reference(), &pose, Branch::OUTER).is_ok());
         let g32 = RsprGeometry::<f32>::reference();
         let p32: Pose<f32> = pose.cast();
         let sol = inverse(&g32, &p32, Branch::OUTER).map_err(|e| TestCaseError::fail(e.to_string()))?;

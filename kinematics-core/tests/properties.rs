@@ -34,9 +34,10 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(512))]
 
     /// IK then FK returns the pose (f64: 1e-9 m and 1e-9 rad), on every branch that has a
-    /// solution away from parallel singularities (inverse condition number ≥ 1e-3; closer
-    /// to one the direct problem's solutions merge and FK is ill-posed), warm-started from a
-    /// pose up to 0.5 mm and 0.5 deg away.
+    /// solution outside the parallel-singularity stop level of the guards (inverse condition
+    /// number ≥ 0.01; closer to a singularity the direct problem's solutions merge and a
+    /// warm start 0.5 mm away may converge to the neighbouring one), warm-started from a pose
+    /// up to 0.5 mm and 0.5 deg away.
     #[test]
     fn ik_then_fk_returns_the_pose(pose in pose_near_box(0.0), (dv, dw) in perturbation()) {
         for robot in robots() {
@@ -44,7 +45,7 @@ proptest! {
             let mut solved = 0;
             for branch in Branch::ALL {
                 let Ok(sol) = inverse(&robot, &pose, branch) else { continue };
-                if measures(&robot, &sol).map_or(true, |m| m.parallel_inv_cond < 1e-3) { continue }
+                if measures(&robot, &sol).map_or(true, |m| m.parallel_inv_cond < 0.01) { continue }
                 solved += 1;
                 let guess = pose.displaced(&dv, &dw);
                 let fk = forward(&robot, &sol.q(), branch, &guess, &FkConfig::default());
@@ -52,9 +53,12 @@ proptest! {
                 let (dp, dr) = pose_error(&fk.pose, &pose);
                 prop_assert!(dp < 1e-9 && dr < 1e-9, "{:?} branch {branch}: {dp:e} m, {dr:e} rad", robot.kind());
             }
-            // The RSPR reaches every pose of this region on at least one well-conditioned
-            // branch; the smaller reference USR need not.
-            prop_assert!(solved >= 1 || robot.kind() == RobotKind::Usr);
+            // Inside the thesis's task (the box, tilts up to 20 deg) the RSPR has at least its
+            // prototype branch well conditioned; outside it, and for the smaller reference
+            // USR, some poses are out of reach on every branch.
+            let d = pose.t - Vector3::new(0.0, 0.0, robot.hc());
+            let in_task = d.x.abs() <= 0.02 && d.y.abs() <= 0.02 && d.z.abs() <= 0.01 && pose.r.angle() <= 20f64.to_radians();
+            prop_assert!(solved >= 1 || robot.kind() == RobotKind::Usr || !in_task);
         }
     }
 
