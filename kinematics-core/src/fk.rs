@@ -163,16 +163,28 @@ pub fn forward<T: Real, M: Mechanism<T> + ?Sized>(
         error,
     })?;
     let mut iteration = 0u32;
+    let mut polished = 0u32;
     loop {
         let (r, ok, worst) = residual(&kinds, q, &sol.q(), cfg);
         if ok {
             // Polish: within tolerance, one more step is kept while it still lowers the
             // residual, so the result sits at the scalar's rounding floor (this matters in
             // f32, where the tolerance is a few µm-equivalents of joint error).
-            if iteration < cfg.max_iterations {
-                if let Ok(Step::Improved(p, s)) =
-                    newton_step(m, &pose, &sol, &r, branch, &kinds, q, cfg, scale, iteration + 1)
-                {
+            if iteration < cfg.max_iterations && polished < MAX_POLISH {
+                polished += 1;
+                if let Ok(Step::Improved(p, s)) = newton_step(
+                    m,
+                    &pose,
+                    &sol,
+                    &r,
+                    branch,
+                    &kinds,
+                    q,
+                    cfg,
+                    scale,
+                    iteration + 1,
+                    1,
+                ) {
                     iteration += 1;
                     pose = p;
                     sol = s;
@@ -193,7 +205,19 @@ pub fn forward<T: Real, M: Mechanism<T> + ?Sized>(
             });
         }
         iteration += 1;
-        match newton_step(m, &pose, &sol, &r, branch, &kinds, q, cfg, scale, iteration)? {
+        match newton_step(
+            m,
+            &pose,
+            &sol,
+            &r,
+            branch,
+            &kinds,
+            q,
+            cfg,
+            scale,
+            iteration,
+            MAX_HALVINGS,
+        )? {
             Step::Improved(p, s) | Step::NotImproved(p, s) => {
                 pose = p;
                 sol = s;
@@ -211,8 +235,8 @@ enum Step<T: Real> {
 }
 
 /// One Newton step from `pose` (where the inverse kinematics gives `sol` and the residual
-/// is `r`): solves Jtilde Δx = Js Δq, limits the step, and halves it while it leaves the
-/// branch or does not lower the residual.
+/// is `r`): solves Jtilde Δx = Js Δq, limits the step, and halves it (up to `tries` trials
+/// in all) while it leaves the branch or does not lower the residual.
 #[allow(clippy::too_many_arguments)]
 fn newton_step<T: Real, M: Mechanism<T> + ?Sized>(
     m: &M,
@@ -225,6 +249,7 @@ fn newton_step<T: Real, M: Mechanism<T> + ?Sized>(
     cfg: &FkConfig<T>,
     scale: T,
     iteration: u32,
+    tries: usize,
 ) -> Result<Step<T>, FkError> {
     // Jtilde Δx = Js Δq: per chain, rows (i, 3+i) of the right side are B_i [Δqa_i; Δqb_i].
     let ra = PerChain([r.x, r.y, r.z]);
@@ -258,7 +283,7 @@ fn newton_step<T: Real, M: Mechanism<T> + ?Sized>(
     let mut last_error = None;
     let mut fallback = None;
     let half = lit::<T>(0.5);
-    for _ in 0..MAX_HALVINGS {
+    for _ in 0..tries {
         let trial = pose.displaced(&dv, &dw);
         match inverse(m, &trial, branch) {
             Ok(s) => {
@@ -281,6 +306,9 @@ fn newton_step<T: Real, M: Mechanism<T> + ?Sized>(
         (None, None) => Err(FkError::SingularStep { iteration }),
     }
 }
+
+/// Extra Newton steps taken once within tolerance (quadratic convergence needs one).
+const MAX_POLISH: u32 = 1;
 
 /// Halvings of a Newton step tried before giving up (2⁻¹² of the step at the last try).
 const MAX_HALVINGS: usize = 12;

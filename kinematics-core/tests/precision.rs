@@ -21,6 +21,7 @@ proptest! {
         let p32: Pose<f32> = pose.cast();
         let sol = inverse(&g32, &p32, Branch::OUTER).map_err(|e| TestCaseError::fail(e.to_string()))?;
         let guess = p32.displaced(&dv.cast(), &dw.cast());
+        prop_assume!(inverse(&g32, &guess, Branch::OUTER).is_ok());
         let fk = forward(&g32, &sol.q(), Branch::OUTER, &guess, &FkConfig::default())
             .map_err(|e| TestCaseError::fail(e.to_string()))?;
         let (dp, dr) = pose_error(&fk.pose.cast::<f64>(), &pose);
