@@ -1,8 +1,9 @@
 //! The command line: the robot selection shared by every subcommand and the subcommands.
 //! New subcommands are new variants of [`Command`] with their own `Args` struct.
 
-use crate::commands::{fk, forces, ik, jacobian, singularity};
+use crate::commands::{check, fk, forces, ik, jacobian, singularity};
 use crate::geometry_file;
+use crate::limits_file::{self, SelectedLimits};
 use crate::report;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use kinematics_core::{Robot, RsprGeometry, UsrGeometry};
@@ -19,6 +20,8 @@ use std::path::PathBuf;
 pub struct Cli {
     #[command(flatten)]
     pub robot: RobotArgs,
+    #[command(flatten)]
+    pub limits: LimitsArgs,
     #[command(subcommand)]
     pub command: Command,
 }
@@ -42,6 +45,23 @@ pub struct RobotArgs {
     /// robot = "usr" with e_mm, rp_mm, l1_mm, l2_mm, hc_mm.
     #[arg(long, global = true, value_name = "FILE.toml")]
     pub geometry: Option<PathBuf>,
+}
+
+/// Which limits the guards use (`check`).
+#[derive(Debug, Args)]
+pub struct LimitsArgs {
+    /// Limits file (TOML; mm, deg, N, N m; unit-suffixed keys, each optional, defaulting
+    /// to the reference limits; see host-sim/limits/reference.toml) [default: the
+    /// reference limits]. Loaded and validated whenever given.
+    #[arg(long, global = true, value_name = "FILE.toml")]
+    pub limits: Option<PathBuf>,
+}
+
+impl LimitsArgs {
+    /// The limits: the file if given, else the reference limits.
+    pub fn select(&self) -> Result<SelectedLimits, String> {
+        limits_file::select(self.limits.as_ref())
+    }
 }
 
 /// The robot chosen on the command line and where it came from.
@@ -117,11 +137,24 @@ pub enum Command {
     /// parallel and tilted) the joint ranges, Jacobian conditioning, serial margins,
     /// spherical-joint tilt, actuator force ranges and every pose that failed.
     Report(report::ReportArgs),
+    /// The guards' verdict at a pose, or the worst margins over the thesis's task box.
+    ///
+    /// Single pose or batch: in x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg,branch; out the input,
+    /// then ok (true unless a stop-level guard is violated), severity (empty, warn or
+    /// stop), violations (guard:subject:value:limit;... in mm, deg, N, N m or as is for
+    /// dimensionless measures) and error. A computed verdict exits 0 whatever it says;
+    /// only bad input fails.
+    ///
+    /// --task-box: every static guard's worst margin over the task box (40 x 40 x 20 mm
+    /// at [0, 0, hc], platform parallel and rotated +20 deg about [1,1,0]), where it
+    /// occurs, the counts of grid points with stop and warn violations, and a conclusion.
+    /// The limits come from --limits FILE or the reference limits.
+    Check(check::CheckArgs),
 }
 
 impl Command {
-    /// Runs the subcommand on the selected robot.
-    pub fn run(&self, selected: &SelectedRobot) -> Result<(), String> {
+    /// Runs the subcommand on the selected robot with the selected limits.
+    pub fn run(&self, selected: &SelectedRobot, limits: &SelectedLimits) -> Result<(), String> {
         let robot = &selected.robot;
         match self {
             Command::Ik(args) => ik::run(args, robot),
@@ -130,6 +163,7 @@ impl Command {
             Command::Forces(args) => forces::run(args, robot),
             Command::Singularity(args) => singularity::run(args, robot),
             Command::Report(args) => report::run(args, selected),
+            Command::Check(args) => check::run(args, selected, limits),
         }
     }
 }

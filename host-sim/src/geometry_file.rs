@@ -75,21 +75,25 @@ fn line_at(text: &str, offset: usize) -> (usize, &str) {
     (number, line.trim())
 }
 
+/// A TOML error of `text` with the line it points at: "line N `key = value`: message".
+/// Shared by the geometry and limits files.
+pub(crate) fn located(text: &str, e: &toml::de::Error) -> String {
+    let message = e.message().trim().to_string();
+    match e.span() {
+        Some(span) => {
+            let (number, line) = line_at(text, span.start);
+            format!("line {number} `{line}`: {message}")
+        }
+        None => message,
+    }
+}
+
 /// Parses and validates the text of a geometry file; messages name the key or value but
 /// not the file (see [`load`]).
 pub fn parse(text: &str) -> Result<Robot<f64>, String> {
     // Two passes, so that the second deserialises straight from the text and its errors
     // keep their position (an internally tagged enum would buffer and lose it).
-    let located = |e: toml::de::Error| {
-        let message = e.message().trim().to_string();
-        match e.span() {
-            Some(span) => {
-                let (number, line) = line_at(text, span.start);
-                format!("line {number} `{line}`: {message}")
-            }
-            None => message,
-        }
-    };
+    let located = |e: toml::de::Error| located(text, &e);
     let header: Header = toml::from_str(text).map_err(located)?;
     let checked = |error: GeometryError| match key_of(&error) {
         Some(key) => format!("{key}: {error}"),

@@ -4,7 +4,8 @@
 //! serial margins, the spherical-joint tilt and the actuator forces for a wrench.
 
 use crate::cli::SelectedRobot;
-use crate::columns::{joint_columns, joints_to_edge, parse_number, pose_from_edge, POSE};
+use crate::columns::{joint_columns, joints_to_edge, pose_from_edge, POSE};
+use crate::task_box::{numbers, pose_label, TaskBox};
 use crate::units::{fixed, m_to_mm, rad_to_deg};
 use clap::Args;
 use kinematics_core::{
@@ -51,12 +52,8 @@ pub struct ReportArgs {
 /// What the report evaluates.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Task {
-    /// Grid points along x, y, z (each >= 1).
-    pub grid: [usize; 3],
-    /// Box edge lengths, mm.
-    pub box_mm: [f64; 3],
-    /// Rotation of the second orientation about [1,1,0]/sqrt(2), deg.
-    pub tilt_deg: f64,
+    /// The task box, its grid and its orientations.
+    pub task_box: TaskBox,
     /// Wrench, N and N m.
     pub wrench: [f64; 6],
     /// Smallest inverse condition number for the forces.
@@ -67,47 +64,17 @@ impl Default for Task {
     /// The thesis task: 40 x 40 x 20 mm on a 5 x 5 x 3 grid, +20 deg, [7,7,7,0.7,0.7,0.7].
     fn default() -> Self {
         Task {
-            grid: [5, 5, 3],
-            box_mm: [40.0, 40.0, 20.0],
-            tilt_deg: 20.0,
+            task_box: TaskBox::thesis([5, 5, 3]),
             wrench: [7.0, 7.0, 7.0, 0.7, 0.7, 0.7],
             min_inv_cond: 1e-6,
         }
     }
 }
 
-/// Splits a flag's comma-separated numbers; messages name the flag.
-fn numbers<const N: usize>(flag: &str, text: &str) -> Result<[f64; N], String> {
-    let parts: Vec<&str> = text.split(',').collect();
-    if parts.len() != N {
-        return Err(format!(
-            "{flag}: expected {N} comma-separated numbers, got {}",
-            parts.len()
-        ));
-    }
-    let mut out = [0.0; N];
-    for (o, p) in out.iter_mut().zip(parts) {
-        *o = parse_number(flag, p)?;
-    }
-    Ok(out)
-}
-
 impl Task {
     /// The task described by the flags.
     pub fn from_args(args: &ReportArgs) -> Result<Task, String> {
-        let grid_f: [f64; 3] = numbers("--grid", &args.grid)?;
-        let mut grid = [1usize; 3];
-        for (g, &f) in grid.iter_mut().zip(grid_f.iter()) {
-            if !((1.0..=1000.0).contains(&f) && f.fract() == 0.0) {
-                return Err(format!("--grid: {f} is not a whole number 1..=1000"));
-            }
-            *g = f as usize;
-        }
-        let box_mm: [f64; 3] = numbers("--box", &args.box_mm)?;
-        if box_mm.iter().any(|&b| b < 0.0) {
-            return Err("--box: edge lengths must be >= 0 mm".into());
-        }
-        let [tilt_deg] = numbers("--tilt-deg", &args.tilt_deg)?;
+        let task_box = TaskBox::from_flags(&args.grid, &args.box_mm, &args.tilt_deg)?;
         if !(args.min_inv_cond.is_finite() && args.min_inv_cond >= 0.0) {
             return Err(format!(
                 "--min-inv-cond: {} is not a number >= 0",
@@ -115,51 +82,10 @@ impl Task {
             ));
         }
         Ok(Task {
-            grid,
-            box_mm,
-            tilt_deg,
+            task_box,
             wrench: numbers("--wrench", &args.wrench)?,
             min_inv_cond: args.min_inv_cond,
         })
-    }
-
-    /// The two orientations as rotation vectors in degrees, with their names.
-    fn orientations(&self) -> [(String, [f64; 3]); 2] {
-        let c = self.tilt_deg / std::f64::consts::SQRT_2;
-        [
-            ("parallel".to_string(), [0.0; 3]),
-            (
-                format!("{:+} deg about [1,1,0]/sqrt(2)", self.tilt_deg),
-                [c, c, 0.0],
-            ),
-        ]
-    }
-
-    /// The grid coordinates along one axis: `n` points spanning `length` around `centre`.
-    fn axis(n: usize, length: f64, centre: f64) -> Vec<f64> {
-        if n <= 1 {
-            return vec![centre];
-        }
-        (0..n)
-            .map(|i| centre - length / 2.0 + length * i as f64 / (n - 1) as f64)
-            .collect()
-    }
-
-    /// Every task pose (mm, deg): the grid at each orientation.
-    fn poses(&self, hc_mm: f64) -> Vec<[f64; 6]> {
-        let [nx, ny, nz] = self.grid;
-        let [dx, dy, dz] = self.box_mm;
-        let mut out = Vec::new();
-        for (_, [rx, ry, rz]) in self.orientations() {
-            for &z in &Self::axis(nz, dz, hc_mm) {
-                for &y in &Self::axis(ny, dy, 0.0) {
-                    for &x in &Self::axis(nx, dx, 0.0) {
-                        out.push([x, y, z, rx, ry, rz]);
-                    }
-                }
-            }
-        }
-        out
     }
 }
 
@@ -168,12 +94,6 @@ pub fn run(args: &ReportArgs, selected: &SelectedRobot) -> Result<(), String> {
     let task = Task::from_args(args)?;
     print!("{}", render(selected, &task));
     Ok(())
-}
-
-/// A pose for people: position in mm, rotation vector in deg.
-fn pose_label(p: &[f64; 6]) -> String {
-    let [x, y, z, rx, ry, rz] = p;
-    format!("({x:.1}, {y:.1}, {z:.1}) mm, r ({rx:.2}, {ry:.2}, {rz:.2}) deg")
 }
 
 /// The largest or smallest value seen, with the chain and pose where it occurred.
@@ -264,7 +184,12 @@ fn force_unit(kind: JointKind) -> &'static str {
 fn sweep(robot: &Robot<f64>, task: &Task, axes: Option<&SocketAxes<f64>>) -> Sweep {
     let hc_mm = m_to_mm(robot.hc());
     let wrench = Wrench::from(task.wrench);
-    let poses = task.poses(hc_mm);
+    let poses: Vec<[f64; 6]> = task
+        .task_box
+        .poses(hc_mm)
+        .into_iter()
+        .map(|p| p.pose)
+        .collect();
     let mut s = Sweep {
         poses: poses.len(),
         solved: 0,
@@ -463,18 +388,18 @@ fn central_pose(out: &mut String, robot: &Robot<f64>, task: &Task) {
 /// The sections over the task box.
 fn task_sections(out: &mut String, robot: &Robot<f64>, task: &Task) {
     let hc_mm = m_to_mm(robot.hc());
-    let [nx, ny, nz] = task.grid;
-    let [dx, dy, dz] = task.box_mm;
     let [f1, f2, f3, t1, t2, t3] = task.wrench;
     let _ = writeln!(
         out,
-        "\nTask box: {dx} x {dy} x {dz} mm centred at (0, 0, {hc_mm:.1}) mm, {nx} x {ny} x {nz} grid, branch 0"
+        "\nTask box: {}, branch 0",
+        task.task_box.describe(hc_mm)
     );
-    for (name, r) in task.orientations() {
+    for o in task.task_box.orientations() {
+        let r = o.rotation_deg;
         let _ = writeln!(
             out,
-            "  orientation {name}: r ({:.3}, {:.3}, {:.3}) deg",
-            r[0], r[1], r[2]
+            "  orientation {}: r ({:.3}, {:.3}, {:.3}) deg",
+            o.label, r[0], r[1], r[2]
         );
     }
     let axes = SocketAxes::new(robot);
@@ -588,13 +513,18 @@ fn task_sections(out: &mut String, robot: &Robot<f64>, task: &Task) {
     }
 }
 
+/// The architecture's name for people: `RSPR` or `USR`.
+pub fn kind_name(kind: RobotKind) -> &'static str {
+    match kind {
+        RobotKind::Rspr => "RSPR",
+        RobotKind::Usr => "USR",
+    }
+}
+
 /// The whole report as text.
 pub fn render(selected: &SelectedRobot, task: &Task) -> String {
     let robot = &selected.robot;
-    let kind = match robot.kind() {
-        RobotKind::Rspr => "RSPR",
-        RobotKind::Usr => "USR",
-    };
+    let kind = kind_name(robot.kind());
     let mut out = format!("host-sim report: {kind} robot, {}\n\n", selected.source);
     dimensions(&mut out, robot);
     central_branches(&mut out, robot);

@@ -1,6 +1,7 @@
 //! The row-wise commands. Each one is a [`Calculation`] (its columns and its computation);
 //! the CSV loop, the single-pose form and the error handling live in [`crate::batch`].
 
+pub mod check;
 pub mod fk;
 pub mod forces;
 pub mod ik;
@@ -39,11 +40,16 @@ pub struct PoseInput {
 impl PoseInput {
     /// The columns of the single-pose form, in batch order (pose, then branch).
     pub fn flags(&self) -> Vec<FlagValue> {
-        vec![
-            FlagValue::new("--pose", &POSE, self.pose.as_deref().unwrap_or_default()),
-            FlagValue::new("--branch", &[BRANCH], &self.branch),
-        ]
+        pose_flags(self.pose.as_deref(), &self.branch)
     }
+}
+
+/// The single-pose form's flags `--pose` and `--branch` as columns, in batch order.
+pub fn pose_flags(pose: Option<&str>, branch: &str) -> Vec<FlagValue> {
+    vec![
+        FlagValue::new("--pose", &POSE, pose.unwrap_or_default()),
+        FlagValue::new("--branch", &[BRANCH], branch),
+    ]
 }
 
 /// Input columns of the commands that read a pose and a branch.
