@@ -412,6 +412,17 @@ impl<T: Real> Limits<T> {
                 return err(field, "must be positive and finite");
             }
         }
+        let angles: [(&'static str, T); 4] = [
+            ("link_angle_max_deg", self.link_angle_max),
+            ("pitch_max_deg", self.pitch_max),
+            ("tilt_max_deg", self.tilt_max),
+            ("tilt_cone_deg", self.tilt_cone),
+        ];
+        for (field, v) in angles {
+            if v > T::pi() {
+                return err(field, "exceeds 180 deg");
+            }
+        }
         if !(self.stroke[0] < self.stroke[1]) {
             return err("stroke_min_mm", "must be below stroke_max_mm");
         }
@@ -426,8 +437,8 @@ impl<T: Real> Limits<T> {
             return err("payload", "is not finite");
         }
         for (field, l) in [("serial", self.serial), ("parallel", self.parallel)] {
-            if !(l.stop >= T::zero() && l.warn >= l.stop && l.warn.is_finite()) {
-                return err(field, "needs 0 <= stop <= warn (finite)");
+            if !(l.stop >= T::zero() && l.warn >= l.stop && l.warn <= T::one()) {
+                return err(field, "needs 0 <= stop <= warn <= 1");
             }
         }
         for (field, l) in [("force", self.force), ("torque", self.torque)] {
