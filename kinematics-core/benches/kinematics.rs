@@ -40,6 +40,35 @@ fn bench_scalar<T: Real>(c: &mut Criterion, name: &str) {
     group.bench_function("fk_from_central", |b| {
         b.iter(|| forward(&g, black_box(&q), Branch::OUTER, &Pose::central(g.hc), &cfg))
     });
+    // One supervisor tick while moving towards a verified target (guards at the candidate
+    // and at its braking point, plus the path check of a freshly submitted target).
+    let mut sup = kinematics_core::supervisor::Supervisor::new(
+        g,
+        Branch::OUTER,
+        kinematics_core::guards::Limits::reference(),
+        kinematics_core::supervisor::SupervisorConfig::default(),
+        &Pose::central(g.hc),
+    )
+    .unwrap();
+    let far = Pose::from_position_rotation_vector(
+        Vector3::new(s(0.015), s(-0.01), s(0.165)),
+        Vector3::new(s(0.1), s(0.05), s(0.0)),
+    )
+    .unwrap();
+    let mut stamp = 1u64;
+    group.bench_function("supervisor_tick", |b| {
+        b.iter(|| {
+            if sup.tick().mode == kinematics_core::supervisor::Mode::Holding {
+                stamp += 1;
+                let target = if (sup.setpoint().t - far.t).norm() < s(1e-6) {
+                    Pose::central(g.hc)
+                } else {
+                    far
+                };
+                let _ = sup.submit(&target, stamp, stamp);
+            }
+        })
+    });
     group.finish();
 }
 

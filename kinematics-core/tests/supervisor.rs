@@ -358,3 +358,34 @@ fn supervisor_settings_are_validated() {
         Err(SupervisorError::UnsafeStart(Some(_)))
     ));
 }
+
+/// A stop-level violation holds the last safe setpoint, latches the reason and refuses new
+/// targets until cleared; clearing resumes from where it held.
+#[test]
+fn stop_holds_latches_and_clears() {
+    let mut limits = Limits::reference();
+    // A joint acceleration limit so low that the first motion breaks it.
+    limits.joint_accel = [1e-6, 1e-6];
+    let mut sup = supervisor(limits);
+    let target = Pose {
+        t: Vector3::new(0.005, 0.0, 0.160),
+        r: Rotation3::identity(),
+    };
+    sup.submit(&target, 1000, 1000).unwrap();
+    let held = *sup.setpoint();
+    let mut out = sup.tick();
+    for _ in 0..5 {
+        out = sup.tick();
+    }
+    assert_eq!(out.mode, Mode::Stopped);
+    assert_eq!(out.stop.unwrap().guard, Guard::JointAccel);
+    assert_eq!(out.pose, held, "holds the last safe setpoint");
+    assert_eq!(sup.submit(&target, 2000, 2000), Err(Refusal::Latched));
+    for _ in 0..10 {
+        assert_eq!(sup.tick().mode, Mode::Stopped);
+    }
+    assert_eq!(sup.counters().stops, 1);
+    assert!(sup.clear().is_ok());
+    assert_eq!(sup.tick().mode, Mode::Holding);
+    assert!(sup.latched().is_none());
+}
