@@ -1,0 +1,65 @@
+//! Small numeric helpers shared by the modules (no panics, NaN-safe).
+
+use num_traits::{Float, NumCast};
+
+/// A literal in the scalar type. Every `f64` literal used in this crate is representable
+/// (possibly rounded) in `f32` and `f64`, so the fallback is never taken.
+#[inline]
+pub(crate) fn lit<S: Float>(x: f64) -> S {
+    <S as NumCast>::from(x).unwrap_or_else(S::zero)
+}
+
+/// `x` limited to `[lo, hi]`; NaN gives 0 (itself clamped). Needs `lo <= hi`; with a NaN
+/// bound the bound is ignored by `max`/`min`, so callers pass sanitized bounds.
+#[inline]
+pub(crate) fn clamp<S: Float>(x: S, lo: S, hi: S) -> S {
+    let x = if x.is_nan() { S::zero() } else { x };
+    x.max(lo).min(hi)
+}
+
+/// `x` limited to `[-bound, bound]` (bound >= 0); NaN gives 0.
+#[inline]
+pub(crate) fn clamp_sym<S: Float>(x: S, bound: S) -> S {
+    clamp(x, -bound, bound)
+}
+
+/// A usable limit: NaN, negative or infinite values give 0 / `max` (the limit is then
+/// within `[0, max]`).
+#[inline]
+pub(crate) fn sane_limit<S: Float>(limit: S, max: S) -> S {
+    if limit.is_nan() {
+        S::zero()
+    } else {
+        limit.max(S::zero()).min(max)
+    }
+}
+
+/// A sample time that the filters and integrators can use: finite and > 0.
+#[inline]
+pub(crate) fn valid_dt<S: Float>(dt: S) -> bool {
+    dt.is_finite() && dt > S::zero()
+}
+
+/// Sign of `x` with `sign(0) = 0` (and NaN -> 0).
+#[inline]
+pub(crate) fn sign<S: Float>(x: S) -> S {
+    if x > S::zero() {
+        S::one()
+    } else if x < S::zero() {
+        -S::one()
+    } else {
+        S::zero()
+    }
+}
+
+/// `dt` seconds as whole microseconds (rounded; 0 for anything invalid).
+#[inline]
+pub(crate) fn seconds_to_us<S: Float>(dt: S) -> u64 {
+    (dt * lit(1e6)).round().to_u64().unwrap_or(0)
+}
+
+/// A count difference as a scalar (exact below 2^24 in f32, 2^53 in f64).
+#[inline]
+pub(crate) fn from_i64<S: Float>(x: i64) -> S {
+    <S as NumCast>::from(x).unwrap_or_else(S::zero)
+}

@@ -1,0 +1,492 @@
+//! Per-joint PID position controller with feed-forward, producing an H-bridge duty.
+//!
+//! ## The law (sample `k`, sample time `dt`; units: joint units m or rad, duty)
+//! ```text
+//! e      = r - y                                      position error
+//! e_db   = sign(e) * max(|e| - deadband, 0)           deadband, continuous at the edge
+//! P      = kp * e_db
+//! v_raw  = (y - y_prev) / dt                          measured velocity (backward difference)
+//! a      = 1 - exp(-2 pi fc dt)                       exact first-order low-pass coefficient
+//! v_f   += a * (v_raw - v_f)                          filtered measured velocity
+//! D      = kd * (r_dot - v_f)    (or -kd * v_f)       derivative on the measurement
+//! FF     = kv r_dot + ka r_ddot + f_c clamp(r_dot / v_band, -1, 1)
+//! u_raw  = P + I + D + FF ;  u = clamp(u_raw, -limit, limit) ; saturated = u != u_raw
+//! I     += ki e_db dt       (anti-windup: see [`AntiWindup`]) ; |I| <= integral_limit
+//! ```
+//! * The derivative acts on the measured velocity, never on the difference of the
+//!   position error, so a position setpoint step causes no derivative kick. `r_dot` is
+//!   the desired velocity the caller passes (from the Jacobian), not a differenced
+//!   setpoint; with [`PidGains::derivative_uses_setpoint_velocity`] the D term damps the
+//!   velocity *error*, so tracking at constant speed is not dragged by the damping.
+//! * The integral stores duty (ki already applied), so changing `ki` does not bump the
+//!   output, and it is used one sample later (forward Euler), as in Astrom & Hagglund.
+//! * Inside the deadband P and I see zero error; the deadband shrinks the error by its
+//!   width instead of cutting it, so entering or leaving it causes no step in the output.
+//! * Every term is bounded and every state is kept finite, so for any finite input the
+//!   duty is finite and within the limit; a non-finite input or time step gives duty 0 and
+//!   an [`InputError`] and leaves the state untouched.
+
+use num_traits::Float;
+
+use crate::config::{is_leg, Check, ConfigError};
+use crate::num::{clamp, clamp_sym, lit, sane_limit, sign, valid_dt};
+use crate::NUM_JOINTS;
+
+/// Bound on each term of the law, duty. Far above any useful value (the output is
+/// limited to <= 1), it only keeps the sum finite for absurd inputs.
+const TERM_BOUND: f64 = 1e9;
+
+/// How the integral is kept from winding up while the output is saturated.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum AntiWindup<S> {
+    /// No anti-windup beyond [`PidGains::integral_limit`]. For analysis and tests only.
+    None,
+    /// Conditional integration (clamping): while the output is saturated the integral is
+    /// not updated with an error that would drive it further into saturation.
+    Clamp,
+    /// Back-calculation: `I += ki e_db dt + (1 - exp(-kt dt)) (u - u_raw)`, i.e. the
+    /// integral is pulled back towards the value that just saturates the output with time
+    /// constant `1 / kt` (exact discretisation, stable for every `dt`).
+    BackCalculation {
+        /// `kt`, 1/s, finite and >= 0. Rules of thumb: `ki / kp` (1/Ti) or, with D,
+        /// `sqrt(ki / kd)` (Astrom: Tt = sqrt(Ti Td)).
+        tracking_gain: S,
+    },
+}
+
+/// PID gains and feed-forward of one joint. Units: `u` = m for the legs, rad for the
+/// links; duty is dimensionless in `[-1, 1]`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PidGains<S> {
+    /// Proportional gain, duty/u. Default legs 500 duty/m (0.1 mm of error -> 0.05 duty),
+    /// links 12 duty/rad: a ~30 Hz / ~25 Hz position loop, damping ~0.8 with `kd`, on
+    /// the plant's mechanical time constants (5.6 ms legs, 15 ms links).
+    pub kp: S,
+    /// Integral gain, duty/(u s). Default legs 10 000, links 240 (`ki = kp * 20 /s`:
+    /// the integral acts below ~3 Hz; it only has to cancel friction and gravity).
+    pub ki: S,
+    /// Derivative gain, duty/(u/s). Default legs 1.5, links 0.08 (damping ~0.8).
+    pub kd: S,
+    /// Cutoff of the low-pass filter on the measured velocity, Hz, finite and > 0.
+    /// Default 200 Hz: attenuates the 1-count quantisation steps (1.5 mm/s on a leg at
+    /// 1 kHz) while adding only ~8 deg of phase at the 30 Hz loop crossover.
+    pub derivative_cutoff_hz: S,
+    /// `true` (default): `D = kd (r_dot - v_f)` (damps the velocity error, no drag when
+    /// tracking); `false`: `D = -kd v_f` (classic derivative on measurement only).
+    pub derivative_uses_setpoint_velocity: bool,
+    /// Velocity feed-forward, duty/(u/s). Default `1 / no-load speed`: legs 1/0.378 =
+    /// 2.65 duty/(m/s), links 1/28.5 = 0.0351 duty/(rad/s) (24 V, 317 rpm/V and 3 mm/rev;
+    /// 408 rpm/V and 36:1).
+    pub kv: S,
+    /// Acceleration feed-forward, duty/(u/s^2). Default: reflected inertia over stall
+    /// torque at full duty: legs 0.0147, links 5.3e-4. Only used through
+    /// [`JointServo::update_with_acceleration`](crate::JointServo::update_with_acceleration).
+    pub ka: S,
+    /// Coulomb friction feed-forward, duty, applied as `friction_ff * clamp(r_dot /
+    /// friction_band, -1, 1)`. Default legs 0.003, links 0.004 (motor + gear friction over
+    /// stall torque).
+    pub friction_ff: S,
+    /// Desired speed at which the friction feed-forward reaches full value, u/s, finite
+    /// and > 0 (a linear ramp avoids chattering at zero speed). Default legs 1e-3 m/s,
+    /// links 0.01 rad/s.
+    pub friction_band: S,
+    /// Output saturation, duty, in (0, 1]. Default 1.
+    pub output_limit: S,
+    /// Bound on the integral term, duty, finite and >= 0. Default 0.25: the steady loads
+    /// (nominal current at stall) need < 0.11 duty on either joint type.
+    pub integral_limit: S,
+    /// Error deadband, u, finite and >= 0. Default 0 (off). Inside `|e| <= deadband` P
+    /// and I see zero error (the integral holds).
+    pub deadband: S,
+    /// Anti-windup strategy. Default [`AntiWindup::Clamp`].
+    pub anti_windup: AntiWindup<S>,
+}
+
+impl<S: Float> PidGains<S> {
+    /// The default gains of a prismatic leg (see the field docs).
+    pub fn leg() -> Self {
+        PidGains {
+            kp: lit(500.0),
+            ki: lit(10_000.0),
+            kd: lit(1.5),
+            derivative_cutoff_hz: lit(200.0),
+            derivative_uses_setpoint_velocity: true,
+            kv: lit(1.0 / 0.378),
+            ka: lit(0.0147),
+            friction_ff: lit(0.003),
+            friction_band: lit(1e-3),
+            output_limit: S::one(),
+            integral_limit: lit(0.25),
+            deadband: S::zero(),
+            anti_windup: AntiWindup::Clamp,
+        }
+    }
+
+    /// The default gains of a rotating link (see the field docs).
+    pub fn link() -> Self {
+        PidGains {
+            kp: lit(12.0),
+            ki: lit(240.0),
+            kd: lit(0.08),
+            derivative_cutoff_hz: lit(200.0),
+            derivative_uses_setpoint_velocity: true,
+            kv: lit(1.0 / 28.5),
+            ka: lit(5.3e-4),
+            friction_ff: lit(0.004),
+            friction_band: lit(0.01),
+            output_limit: S::one(),
+            integral_limit: lit(0.25),
+            deadband: S::zero(),
+            anti_windup: AntiWindup::Clamp,
+        }
+    }
+
+    /// Proportional-only gains (everything else zero or off), limit 1.
+    pub fn proportional(kp: S) -> Self {
+        PidGains {
+            kp,
+            ki: S::zero(),
+            kd: S::zero(),
+            derivative_cutoff_hz: lit(200.0),
+            derivative_uses_setpoint_velocity: true,
+            kv: S::zero(),
+            ka: S::zero(),
+            friction_ff: S::zero(),
+            friction_band: S::one(),
+            output_limit: S::one(),
+            integral_limit: S::one(),
+            deadband: S::zero(),
+            anti_windup: AntiWindup::Clamp,
+        }
+    }
+
+    /// Checks every field of joint `joint`; the error names the first bad one.
+    pub fn validate(&self, joint: usize) -> Result<(), ConfigError> {
+        let c = Check {
+            section: "pid",
+            joint,
+        };
+        c.non_negative("kp", self.kp)?;
+        c.non_negative("ki", self.ki)?;
+        c.non_negative("kd", self.kd)?;
+        c.positive("derivative_cutoff_hz", self.derivative_cutoff_hz)?;
+        c.non_negative("kv", self.kv)?;
+        c.non_negative("ka", self.ka)?;
+        c.non_negative("friction_ff", self.friction_ff)?;
+        c.positive("friction_band", self.friction_band)?;
+        c.unit_fraction("output_limit", self.output_limit)?;
+        c.non_negative("integral_limit", self.integral_limit)?;
+        c.non_negative("deadband", self.deadband)?;
+        if let AntiWindup::BackCalculation { tracking_gain } = self.anti_windup {
+            c.non_negative("anti_windup.tracking_gain", tracking_gain)?;
+        }
+        Ok(())
+    }
+}
+
+/// PID gains of the six joints.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PidConfig<S> {
+    /// Per-joint gains, joint order. Default: [`PidGains::leg`] x3, [`PidGains::link`] x3.
+    pub joints: [PidGains<S>; NUM_JOINTS],
+}
+
+impl<S: Float> Default for PidConfig<S> {
+    fn default() -> Self {
+        let mut joints = [PidGains::leg(); NUM_JOINTS];
+        for (j, g) in joints.iter_mut().enumerate() {
+            if !is_leg(j) {
+                *g = PidGains::link();
+            }
+        }
+        PidConfig { joints }
+    }
+}
+
+impl<S: Float> PidConfig<S> {
+    /// Checks every joint; the error names the first bad field and its joint.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        for (j, g) in self.joints.iter().enumerate() {
+            g.validate(j)?;
+        }
+        Ok(())
+    }
+}
+
+/// One sample's input.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PidInput<S> {
+    /// Position setpoint `r`, u.
+    pub setpoint: S,
+    /// Desired velocity `r_dot`, u/s (feed-forward and D term).
+    pub setpoint_velocity: S,
+    /// Desired acceleration `r_ddot`, u/s^2 (feed-forward only).
+    pub setpoint_acceleration: S,
+    /// Measured position `y`, u.
+    pub measured: S,
+}
+
+impl<S: Float> PidInput<S> {
+    /// A position-only input (zero desired velocity and acceleration).
+    pub fn new(setpoint: S, measured: S) -> Self {
+        PidInput {
+            setpoint,
+            setpoint_velocity: S::zero(),
+            setpoint_acceleration: S::zero(),
+            measured,
+        }
+    }
+
+    /// The same input with desired velocity `v`.
+    pub fn with_velocity(mut self, v: S) -> Self {
+        self.setpoint_velocity = v;
+        self
+    }
+
+    /// The same input with desired acceleration `a`.
+    pub fn with_acceleration(mut self, a: S) -> Self {
+        self.setpoint_acceleration = a;
+        self
+    }
+}
+
+/// Why a sample was rejected (duty 0, state untouched).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum InputError {
+    /// The position setpoint is NaN or infinite.
+    NonFiniteSetpoint,
+    /// The desired velocity is NaN or infinite.
+    NonFiniteVelocity,
+    /// The desired acceleration is NaN or infinite.
+    NonFiniteAcceleration,
+    /// The measured position is NaN or infinite.
+    NonFiniteMeasurement,
+    /// The sample time is not finite and > 0.
+    InvalidTimeStep,
+}
+
+impl<S: Float> PidInput<S> {
+    /// The first problem of this input and `dt`, if any.
+    pub fn check(&self, dt: S) -> Option<InputError> {
+        if !self.setpoint.is_finite() {
+            Some(InputError::NonFiniteSetpoint)
+        } else if !self.setpoint_velocity.is_finite() {
+            Some(InputError::NonFiniteVelocity)
+        } else if !self.setpoint_acceleration.is_finite() {
+            Some(InputError::NonFiniteAcceleration)
+        } else if !self.measured.is_finite() {
+            Some(InputError::NonFiniteMeasurement)
+        } else if !valid_dt(dt) {
+            Some(InputError::InvalidTimeStep)
+        } else {
+            None
+        }
+    }
+}
+
+/// The terms that made up a sample's output (before saturation), duty.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct PidTerms<S> {
+    /// Proportional term.
+    pub p: S,
+    /// Integral term (the value used in this sample).
+    pub i: S,
+    /// Derivative term.
+    pub d: S,
+    /// Feed-forward (velocity + acceleration + friction).
+    pub ff: S,
+}
+
+/// One sample's output.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PidOutput<S> {
+    /// Duty, within `[-output_limit, output_limit]`, always finite; 0 on an input error.
+    pub duty: S,
+    /// The unsaturated sum was beyond the output limit.
+    pub saturated: bool,
+    /// The input was rejected (then `duty` is 0).
+    pub error: Option<InputError>,
+    /// The terms, for logging and tuning.
+    pub terms: PidTerms<S>,
+}
+
+impl<S: Float> PidOutput<S> {
+    fn rejected(error: InputError) -> Self {
+        PidOutput {
+            duty: S::zero(),
+            saturated: false,
+            error: Some(error),
+            terms: PidTerms {
+                p: S::zero(),
+                i: S::zero(),
+                d: S::zero(),
+                ff: S::zero(),
+            },
+        }
+    }
+}
+
+/// PID controller state of one joint.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Pid<S> {
+    gains: PidGains<S>,
+    /// Integral term, duty.
+    integral: S,
+    /// Measured position of the previous sample, u.
+    prev_measured: S,
+    /// Low-pass filtered measured velocity, u/s.
+    velocity: S,
+    /// `prev_measured` holds a measurement.
+    primed: bool,
+}
+
+impl<S: Float> Pid<S> {
+    /// A controller with `gains` (use [`PidGains::validate`] first; invalid gains never
+    /// produce an invalid duty, but their behaviour is unspecified). The first update
+    /// primes the derivative with its measurement (no kick).
+    pub fn new(gains: PidGains<S>) -> Self {
+        Pid {
+            gains,
+            integral: S::zero(),
+            prev_measured: S::zero(),
+            velocity: S::zero(),
+            primed: false,
+        }
+    }
+
+    /// The gains.
+    pub fn gains(&self) -> &PidGains<S> {
+        &self.gains
+    }
+
+    /// Replaces the gains, keeping the state (bumpless: the integral is stored as duty).
+    pub fn set_gains(&mut self, gains: PidGains<S>) {
+        self.gains = gains;
+        let limit = sane_limit(gains.integral_limit, S::max_value());
+        self.integral = clamp_sym(self.integral, limit);
+    }
+
+    /// Bumpless reset: integral 0, filtered velocity 0, and `measured` taken as the
+    /// previous measurement so the next update has no derivative kick. A non-finite
+    /// `measured` makes the next update prime itself instead.
+    pub fn reset(&mut self, measured: S) {
+        self.reset_with_integral(measured, S::zero());
+    }
+
+    /// Like [`reset`](Self::reset) but preloads the integral with `integral` (duty,
+    /// bounded by the integral limit), e.g. the duty that was holding the joint, for a
+    /// bumpless transfer from another controller.
+    pub fn reset_with_integral(&mut self, measured: S, integral: S) {
+        let limit = sane_limit(self.gains.integral_limit, S::max_value());
+        self.integral = clamp_sym(integral, limit);
+        self.velocity = S::zero();
+        self.prev_measured = measured;
+        self.primed = measured.is_finite();
+    }
+
+    /// The integral term, duty.
+    pub fn integral(&self) -> S {
+        self.integral
+    }
+
+    /// The low-pass filtered measured velocity, u/s.
+    pub fn filtered_velocity(&self) -> S {
+        self.velocity
+    }
+
+    /// One sample: computes the duty from `input` with sample time `dt` (s).
+    pub fn update(&mut self, input: &PidInput<S>, dt: S) -> PidOutput<S> {
+        if let Some(error) = input.check(dt) {
+            return PidOutput::rejected(error);
+        }
+        let g = self.gains;
+        let big = lit::<S>(TERM_BOUND);
+        let max = S::max_value();
+        let limit = sane_limit(g.output_limit, S::one());
+        let y = input.measured;
+        let r_dot = input.setpoint_velocity;
+        if !self.primed {
+            // First sample: no previous measurement, so no velocity yet (no kick).
+            self.prev_measured = y;
+            self.velocity = S::zero();
+            self.primed = true;
+        }
+
+        // Position error, kept finite for finite inputs of opposite huge values.
+        let e = clamp_sym(input.setpoint - y, max);
+        // Deadband: shrink |e| by the width (continuous, so no bump at the edge).
+        let deadband = sane_limit(g.deadband, max);
+        let e_db = sign(e) * (e.abs() - deadband).max(S::zero());
+        // Proportional term.
+        let p = clamp_sym(g.kp * e_db, big);
+
+        // Measured velocity by backward difference.
+        let v_raw = clamp_sym((y - self.prev_measured) / dt, max);
+        self.prev_measured = y;
+        // First-order low-pass, exact for a constant input over the sample:
+        // a = 1 - exp(-2 pi fc dt), in [0, 1] for every dt > 0 (stable at any rate).
+        let a = clamp(
+            S::one() - (-lit::<S>(core::f64::consts::TAU) * g.derivative_cutoff_hz * dt).exp(),
+            S::zero(),
+            S::one(),
+        );
+        self.velocity = clamp_sym(self.velocity + a * (v_raw - self.velocity), max);
+        // Derivative on the measurement: damps the measured velocity (or the velocity
+        // error against the desired velocity), never the change of the position error.
+        let v_ref = if g.derivative_uses_setpoint_velocity {
+            r_dot
+        } else {
+            S::zero()
+        };
+        let d = clamp_sym(g.kd * clamp_sym(v_ref - self.velocity, max), big);
+
+        // Feed-forward: velocity, acceleration, and Coulomb friction ramped in over
+        // `friction_band` around zero desired speed.
+        let band = if g.friction_band > S::zero() {
+            g.friction_band
+        } else {
+            S::one()
+        };
+        let ff = clamp_sym(g.kv * r_dot, big)
+            + clamp_sym(g.ka * input.setpoint_acceleration, big)
+            + clamp_sym(
+                g.friction_ff * clamp(r_dot / band, -S::one(), S::one()),
+                big,
+            );
+
+        // Output with the integral of the previous samples, then saturation.
+        let i = self.integral;
+        let u_raw = p + i + d + ff;
+        let u = clamp_sym(u_raw, limit);
+        let saturated = u_raw > limit || u_raw < -limit;
+
+        // Integral update (forward Euler) with the chosen anti-windup.
+        let step = clamp_sym(g.ki * e_db * dt, big);
+        let next = match g.anti_windup {
+            AntiWindup::None => i + step,
+            // Conditional integration: skip an update that pushes further into saturation.
+            AntiWindup::Clamp => {
+                if saturated && sign(e_db) == sign(u_raw) {
+                    i
+                } else {
+                    i + step
+                }
+            }
+            // Back-calculation: I += ki e dt + (1 - exp(-kt dt)) (u - u_raw).
+            AntiWindup::BackCalculation { tracking_gain } => {
+                let kt = sane_limit(tracking_gain, max);
+                let b = clamp(S::one() - (-kt * dt).exp(), S::zero(), S::one());
+                i + step + b * (u - u_raw)
+            }
+        };
+        let i_limit = sane_limit(g.integral_limit, max);
+        self.integral = clamp_sym(next, i_limit);
+
+        PidOutput {
+            duty: u,
+            saturated,
+            error: None,
+            terms: PidTerms { p, i, d, ff },
+        }
+    }
+}

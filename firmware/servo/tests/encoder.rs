@@ -1,0 +1,162 @@
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+//! Encoder extension, joint units and homing.
+use proptest::prelude::*;
+use servo::encoder::{LEG_COUNTS_PER_M, LINK_COUNTS_PER_RAD};
+use servo::{CountExtender, EncoderConfig, Encoders, JointEncoder, QuadratureCounter};
+
+/// The hardware counter for a true (unbounded) count: the low 16 bits.
+fn raw(true_count: i64) -> u16 {
+    true_count.rem_euclid(1 << 16) as u16
+}
+
+proptest! {
+    /// Property: any sequence of increments with |delta| < 32768 per read, starting
+    /// anywhere, reproduces the true count exactly after every read.
+    #[test]
+    fn extension_reproduces_the_true_count_for_any_increments(
+        start in any::<i32>(),
+        deltas in prop::collection::vec(-32767i64..=32767, 1..2000),
+    ) {
+        let mut truth = i64::from(start);
+        let mut ext = CountExtender::starting_at(raw(truth), truth);
+        for d in deltas {
+            truth += d;
+            prop_assert_eq!(ext.update(raw(truth)), truth);
+        }
+    }
+
+    /// Property: long one-directional runs (many wraps) in both directions keep every
+    /// count: large same-signed increments wrap the 16-bit counter every 2..3 reads.
+    #[test]
+    fn extension_survives_many_wraps_in_both_directions(
+        runs in prop::collection::vec((any::<bool>(), prop::collection::vec(20_000i64..=32_767, 10..200)), 1..10),
+    ) {
+        let mut truth = 0i64;
+        let mut ext = CountExtender::new();
+        let mut wraps = 0u32;
+        for (up, deltas) in runs {
+            for d in deltas {
+                let before = raw(truth);
+                truth += if up { d } else { -d };
+                let after = raw(truth);
+                if (up && after < before) || (!up && after > before) {
+                    wraps += 1;
+                }
+                prop_assert_eq!(ext.update(after), truth);
+            }
+        }
+        prop_assert!(wraps >= 3);
+    }
+}
+
+#[test]
+fn the_first_read_from_a_reset_counter_is_signed() {
+    // Counter at raw 0 after reset; a small negative motion reads as -5, not 65531.
+    let mut ext = CountExtender::new();
+    assert_eq!(ext.update(65531), -5);
+    assert_eq!(ext.update(3), 3);
+}
+
+#[test]
+fn a_step_of_32768_counts_is_the_documented_limit() {
+    // Exactly half a counter range is ambiguous and reads as -32768: the documented
+    // maximum speed is fewer than 32768 counts between reads.
+    let mut ext = CountExtender::new();
+    assert_eq!(ext.update(32767), 32767);
+    let mut ext = CountExtender::new();
+    assert_eq!(ext.update(32768), -32768);
+}
+
+#[test]
+fn leg_conversion_is_2000_counts_per_3_mm() {
+    let mut e = JointEncoder::<f64>::new(LEG_COUNTS_PER_M);
+    assert!((e.update(2000) - 0.003).abs() < 1e-12);
+    assert!((e.resolution() - 1.5e-6).abs() < 1e-15);
+    // Max speed at a 1 kHz read rate: 32767 counts/ms = 49.15 m/s.
+    assert!((e.max_speed(1e-3) - 49.15).abs() < 0.01);
+}
+
+#[test]
+fn link_conversion_is_2000_counts_per_10_degrees() {
+    let mut e = JointEncoder::<f64>::new(LINK_COUNTS_PER_RAD);
+    assert!((LINK_COUNTS_PER_RAD - 11_459.156).abs() < 1e-3);
+    let q = e.update(2000);
+    assert!((q.to_degrees() - 10.0).abs() < 1e-9);
+    // -1 count = -0.005 deg.
+    let mut e = JointEncoder::<f64>::new(LINK_COUNTS_PER_RAD);
+    assert!((e.update(u16::MAX).to_degrees() + 0.005).abs() < 1e-12);
+}
+
+#[test]
+fn homing_makes_the_current_count_read_the_given_position_and_keeps_the_scale() {
+    let mut e = JointEncoder::<f64>::new(LEG_COUNTS_PER_M);
+    e.update(12_345);
+    e.set_position(0.050); // homed at 50 mm
+    assert!((e.position() - 0.050).abs() < 1e-12);
+    // 2000 counts further (with a wrap on the way) = 3 mm further.
+    e.update(12_345u16.wrapping_add(30_000));
+    e.update(12_345u16.wrapping_add(60_000));
+    e.update(12_345u16.wrapping_add(62_000));
+    assert!((e.position() - (0.050 + 62_000.0 * 1.5e-6)).abs() < 1e-12);
+    // Non-finite homing values are ignored.
+    let before = e.position();
+    e.set_position(f64::NAN);
+    assert_eq!(e.position(), before);
+}
+
+#[test]
+fn f32_keeps_one_count_resolution_near_the_homing_point_far_from_count_zero() {
+    // 100 000 000 counts from power-up, homed there: f32 still resolves one count.
+    let mut e = JointEncoder::<f32>::new(LEG_COUNTS_PER_M as f32);
+    let mut truth = 0i64;
+    for _ in 0..4000 {
+        truth += 25_000;
+        e.update(raw(truth));
+    }
+    assert_eq!(e.count(), 100_000_000);
+    e.set_position(0.1);
+    e.update(raw(truth + 1));
+    assert!((e.position() - (0.1 + 1.5e-6)).abs() < 1e-8);
+}
+
+struct FakeCounters([u16; 6]);
+
+impl QuadratureCounter for FakeCounters {
+    fn counts(&mut self) -> [u16; 6] {
+        self.0
+    }
+}
+
+#[test]
+fn six_encoders_read_through_the_hal_trait_in_joint_units() {
+    let config = EncoderConfig::<f64>::default();
+    let mut enc = Encoders::new(&config).unwrap();
+    let mut hw = FakeCounters([2000, 63536, 0, 2000, 0, 65535]);
+    assert_eq!(hw.count(1), Some(63536));
+    assert_eq!(hw.count(6), None);
+    let q = enc.read(&mut hw);
+    assert!((q[0] - 0.003).abs() < 1e-12);
+    assert!((q[1] + 0.003).abs() < 1e-12);
+    assert!((q[3].to_degrees() - 10.0).abs() < 1e-9);
+    assert!((q[5].to_degrees() + 0.005).abs() < 1e-12);
+    enc.set_positions(&[0.1, 0.2, 0.3, 1.0, 2.0, 3.0]);
+    assert_eq!(enc.positions(), [0.1, 0.2, 0.3, 1.0, 2.0, 3.0]);
+    assert!(enc.set_position(2, 0.0));
+    assert!(!enc.set_position(6, 0.0));
+    // Starting at arbitrary raw values reads 0 there.
+    let enc = Encoders::starting_at(&config, &[100, 200, 300, 400, 500, 600]).unwrap();
+    assert_eq!(enc.positions(), [0.0; 6]);
+}
+
+#[test]
+fn encoder_config_rejects_a_non_positive_resolution_naming_field_and_joint() {
+    let mut config = EncoderConfig::<f64>::default();
+    config.counts_per_unit[4] = 0.0;
+    let err = config.validate().unwrap_err();
+    assert_eq!(err.field, "counts_per_unit");
+    assert_eq!(err.joint, 4);
+    assert_eq!(
+        err.to_string(),
+        "encoder.counts_per_unit of joint 4 (theta2) must be finite and > 0"
+    );
+}
