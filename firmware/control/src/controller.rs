@@ -1,0 +1,250 @@
+//! The control tick.
+
+use core::fmt;
+use kinematics_core::guards::Limits;
+use kinematics_core::supervisor::{
+    Refusal, Supervisor, SupervisorConfig, SupervisorError, TickOutput,
+};
+use kinematics_core::{
+    forward, scalar, Branch, FkConfig, FkError, JointKind, Joints, Mechanism, Pose, Real,
+};
+use num_traits::Float;
+use servo::config::{ConfigError, ServoConfig};
+use servo::encoder::{EncoderConfig, Encoders};
+use servo::hal::{MotorOutputs, QuadratureCounter};
+use servo::joint_servo::{JointServo, ServoOutput};
+use servo::NUM_JOINTS;
+
+/// The scalar of the control application: a nalgebra real that is also a `num_traits`
+/// float (in practice `f32` on the MCU, `f64` on the host).
+pub trait Scalar: Real + Float {}
+impl<S: Real + Float> Scalar for S {}
+
+/// Everything the controller needs. `Default` gives the reference robot's values.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ControllerConfig<S: Scalar> {
+    /// Control rate, Hz (default 1000; 100 .. 10 000).
+    pub rate_hz: S,
+    /// Inverse-kinematics branch the robot is assembled on (default 0, all outer).
+    pub branch: Branch,
+    /// Safety limits (default: the reference robot's).
+    pub limits: Limits<S>,
+    /// Setpoint supervisor (its `dt` is set from `rate_hz`).
+    pub supervisor: SupervisorConfig<S>,
+    /// PID gains, backlash compensation and tracking-error limits per joint.
+    pub servo: ServoConfig<S>,
+    /// Encoder resolutions.
+    pub encoders: EncoderConfig<S>,
+    /// Forward-kinematics solver settings for the measured pose.
+    pub fk: FkConfig<S>,
+}
+
+impl<S: Scalar> Default for ControllerConfig<S> {
+    fn default() -> Self {
+        ControllerConfig {
+            rate_hz: scalar::lit(1000.0),
+            branch: Branch::OUTER,
+            limits: Limits::reference(),
+            supervisor: SupervisorConfig::default(),
+            servo: ServoConfig::default(),
+            encoders: EncoderConfig::default(),
+            fk: FkConfig::default(),
+        }
+    }
+}
+
+/// Why the controller cannot start.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ControllerError<S: Scalar> {
+    /// `rate_hz` outside 100 .. 10 000 Hz.
+    Rate,
+    /// A servo or encoder setting.
+    Servo(ConfigError),
+    /// The start joints do not give a pose.
+    StartPose(FkError),
+    /// The supervisor refused its settings or the start pose.
+    Supervisor(SupervisorError<S>),
+}
+
+impl<S: Scalar> fmt::Display for ControllerError<S> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ControllerError::Rate => f.write_str("rate_hz must be within 100 .. 10000 Hz"),
+            ControllerError::Servo(e) => write!(f, "{e}"),
+            ControllerError::StartPose(e) => write!(f, "start pose: {e}"),
+            ControllerError::Supervisor(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+/// What one tick did.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TickReport<S: Scalar> {
+    /// The supervisor's setpoint (pose, joints, feed-forward, mode, warning, stop).
+    pub setpoint: TickOutput<S>,
+    /// Joint positions from the encoders.
+    pub measured_q: [S; NUM_JOINTS],
+    /// Measured pose from forward kinematics (the last good one if this tick's failed).
+    pub measured_pose: Pose<S>,
+    /// Newton iterations of this tick's forward kinematics, or its failure.
+    pub fk: Result<u32, FkError>,
+    /// Duties, saturation and the latched tracking fault.
+    pub servo: ServoOutput<S>,
+}
+
+/// Counts kept by the controller.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ControllerCounters {
+    pub ticks: u64,
+    pub fk_failures: u32,
+    pub fk_max_iterations: u32,
+}
+
+/// The control application.
+#[derive(Clone, Debug)]
+pub struct Controller<S: Scalar, M: Mechanism<S> + Clone> {
+    robot: M,
+    cfg: ControllerConfig<S>,
+    dt: S,
+    supervisor: Supervisor<S, M>,
+    servo: JointServo<S>,
+    encoders: Encoders<S>,
+    measured: Pose<S>,
+    counters: ControllerCounters,
+}
+
+fn to_array<S: Scalar>(q: &Joints<S>) -> [S; NUM_JOINTS] {
+    [q.x, q.y, q.z, q.w, q.a, q.b]
+}
+
+impl<S: Scalar, M: Mechanism<S> + Clone> Controller<S, M> {
+    /// A controller holding the robot where it is: the encoders' raw counters `raw` read
+    /// the joint positions `start_q` (the homing result).
+    pub fn new(
+        robot: M,
+        mut cfg: ControllerConfig<S>,
+        raw: [u16; NUM_JOINTS],
+        start_q: [S; NUM_JOINTS],
+    ) -> Result<Self, ControllerError<S>> {
+        let lo: S = scalar::lit(100.0);
+        let hi: S = scalar::lit(10_000.0);
+        if !(cfg.rate_hz >= lo && cfg.rate_hz <= hi) {
+            return Err(ControllerError::Rate);
+        }
+        let dt = S::one() / cfg.rate_hz;
+        cfg.supervisor.dt = dt;
+        let mut encoders = Encoders::new(&cfg.encoders).map_err(ControllerError::Servo)?;
+        encoders.update(&raw);
+        encoders.set_positions(&start_q);
+        let q0 = Joints::from_row_slice(&start_q);
+        let start = forward(&robot, &q0, cfg.branch, &Pose::central(robot.hc()), &cfg.fk)
+            .map_err(ControllerError::StartPose)?;
+        let supervisor = Supervisor::new(
+            robot.clone(),
+            cfg.branch,
+            cfg.limits,
+            cfg.supervisor,
+            &start.pose,
+        )
+        .map_err(ControllerError::Supervisor)?;
+        let mut servo = JointServo::new(&cfg.servo).map_err(ControllerError::Servo)?;
+        servo.reset(&start_q);
+        Ok(Controller {
+            robot,
+            cfg,
+            dt,
+            supervisor,
+            servo,
+            encoders,
+            measured: start.pose,
+            counters: ControllerCounters::default(),
+        })
+    }
+
+    /// The supervisor (counters, last refusal, latched stop).
+    pub fn supervisor(&self) -> &Supervisor<S, M> {
+        &self.supervisor
+    }
+    /// The controller's counters.
+    pub fn counters(&self) -> &ControllerCounters {
+        &self.counters
+    }
+    /// The control period, s.
+    pub fn dt(&self) -> S {
+        self.dt
+    }
+    /// The configuration in use.
+    pub fn config(&self) -> &ControllerConfig<S> {
+        &self.cfg
+    }
+
+    /// Hands a master target to the supervisor.
+    pub fn submit(&mut self, pose: &Pose<S>, stamp_us: u64, now_us: u64) -> Result<(), Refusal<S>> {
+        self.supervisor.submit(pose, stamp_us, now_us)
+    }
+
+    /// Clears a latched supervisor stop (the servo's tracking fault is cleared by
+    /// [`Controller::reset_servo`]).
+    pub fn clear_stop(&mut self) -> bool {
+        self.supervisor.clear().is_ok()
+    }
+
+    /// Resets the servo after a tracking fault, holding the measured joints.
+    pub fn reset_servo(&mut self) {
+        let q = self.encoders.positions();
+        self.servo.reset(&q);
+    }
+
+    /// One control tick: read the encoders, estimate the pose, advance the supervisor, run
+    /// the six PIDs and drive the outputs (all off on a tracking fault).
+    pub fn tick<H: QuadratureCounter + MotorOutputs<S>>(&mut self, hw: &mut H) -> TickReport<S> {
+        self.counters.ticks += 1;
+        let q_meas = self.encoders.read(hw);
+        // Forward kinematics, warm-started from the last measured pose.
+        let fk = match forward(
+            &self.robot,
+            &Joints::from_row_slice(&q_meas),
+            self.cfg.branch,
+            &self.measured,
+            &self.cfg.fk,
+        ) {
+            Ok(sol) => {
+                self.measured = sol.pose;
+                self.counters.fk_max_iterations =
+                    self.counters.fk_max_iterations.max(sol.iterations);
+                Ok(sol.iterations)
+            }
+            Err(e) => {
+                self.counters.fk_failures += 1;
+                Err(e)
+            }
+        };
+        let setpoint = self.supervisor.tick();
+        // Angles from the supervisor are wrapped to (-π, π]; unwrap them next to the
+        // (continuous) encoder readings.
+        let mut sp = to_array(&setpoint.q);
+        for ((s, m), k) in sp
+            .iter_mut()
+            .zip(q_meas.iter())
+            .zip(self.robot.joint_kinds().iter())
+        {
+            if *k == JointKind::Angular {
+                *s = *m + scalar::wrap_angle(*s - *m);
+            }
+        }
+        let spd = to_array(&setpoint.qdot);
+        let out = self.servo.update(&sp, &spd, &q_meas, self.dt);
+        if out.fault.is_some() {
+            hw.disable();
+        } else {
+            hw.set_duties(&out.duty);
+        }
+        TickReport {
+            setpoint,
+            measured_q: q_meas,
+            measured_pose: self.measured,
+            fk,
+            servo: out,
+        }
+    }
+}

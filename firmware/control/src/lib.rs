@@ -1,0 +1,21 @@
+//! The control application of the RSPR robot (thesis section 11.4), hardware-agnostic so
+//! that the same code runs on the STM32 board, under QEMU and on the host against the plant
+//! model. Each control tick:
+//!
+//! ```text
+//! read encoders -> joint positions -> forward kinematics (measured pose)
+//!               -> supervisor (target -> safe, rate-limited setpoint; its IK and guards)
+//!               -> per-joint PID with velocity feed-forward J·twist -> PWM duties
+//! ```
+//! The hardware sits behind the small traits of [`servo::hal`].
+#![no_std]
+#![deny(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing
+)]
+
+pub mod controller;
+
+pub use controller::{Controller, ControllerConfig, ControllerError, TickReport};
