@@ -162,6 +162,11 @@ pub fn forward<T: Real, M: Mechanism<T> + ?Sized>(
         iteration: 0,
         error,
     })?;
+    let step = |pose: &Pose<T>, sol: &Solution<T>, r: &Joints<T>, iteration, tries| {
+        newton_step(
+            m, pose, sol, r, branch, &kinds, q, cfg, scale, iteration, tries,
+        )
+    };
     let mut iteration = 0u32;
     let mut polished = 0u32;
     loop {
@@ -172,19 +177,7 @@ pub fn forward<T: Real, M: Mechanism<T> + ?Sized>(
             // f32, where the tolerance is a few µm-equivalents of joint error).
             if iteration < cfg.max_iterations && polished < MAX_POLISH {
                 polished += 1;
-                if let Ok(Step::Improved(p, s)) = newton_step(
-                    m,
-                    &pose,
-                    &sol,
-                    &r,
-                    branch,
-                    &kinds,
-                    q,
-                    cfg,
-                    scale,
-                    iteration + 1,
-                    1,
-                ) {
+                if let Ok(Step::Improved(p, s)) = step(&pose, &sol, &r, iteration + 1, 1) {
                     iteration += 1;
                     pose = p;
                     sol = s;
@@ -205,19 +198,7 @@ pub fn forward<T: Real, M: Mechanism<T> + ?Sized>(
             });
         }
         iteration += 1;
-        match newton_step(
-            m,
-            &pose,
-            &sol,
-            &r,
-            branch,
-            &kinds,
-            q,
-            cfg,
-            scale,
-            iteration,
-            MAX_HALVINGS,
-        )? {
+        match step(&pose, &sol, &r, iteration, MAX_HALVINGS)? {
             Step::Improved(p, s) | Step::NotImproved(p, s) => {
                 pose = p;
                 sol = s;

@@ -468,11 +468,25 @@ impl fmt::Display for GuardSetupError {
     }
 }
 
-/// A lower-bound reading (value must stay ≥ the levels).
-fn lower<T: Real>(guard: Guard, subject: Subject, value: T, levels: Levels<T>) -> Reading<T> {
-    let (severity, limit) = if !(value >= levels.stop) {
+/// A reading of `value` against warn and stop levels; a lower bound (the value must stay
+/// ≥ the levels) or an upper bound (≤). A NaN value is always beyond the stop level.
+fn bounded<T: Real>(
+    guard: Guard,
+    subject: Subject,
+    value: T,
+    levels: Levels<T>,
+    lower: bool,
+) -> Reading<T> {
+    let beyond = |level: T| {
+        if lower {
+            !(value >= level)
+        } else {
+            !(value <= level)
+        }
+    };
+    let (severity, limit) = if beyond(levels.stop) {
         (Some(Severity::Stop), levels.stop)
-    } else if value < levels.warn {
+    } else if beyond(levels.warn) {
         (Some(Severity::Warn), levels.warn)
     } else {
         (None, levels.stop)
@@ -482,28 +496,23 @@ fn lower<T: Real>(guard: Guard, subject: Subject, value: T, levels: Levels<T>) -
         subject,
         value,
         limit,
-        margin: value - levels.stop,
+        margin: if lower {
+            value - levels.stop
+        } else {
+            levels.stop - value
+        },
         severity,
     }
 }
 
+/// A lower-bound reading (value must stay ≥ the levels).
+fn lower<T: Real>(guard: Guard, subject: Subject, value: T, levels: Levels<T>) -> Reading<T> {
+    bounded(guard, subject, value, levels, true)
+}
+
 /// An upper-bound reading (value must stay ≤ the levels).
 fn upper<T: Real>(guard: Guard, subject: Subject, value: T, levels: Levels<T>) -> Reading<T> {
-    let (severity, limit) = if !(value <= levels.stop) {
-        (Some(Severity::Stop), levels.stop)
-    } else if value > levels.warn {
-        (Some(Severity::Warn), levels.warn)
-    } else {
-        (None, levels.stop)
-    };
-    Reading {
-        guard,
-        subject,
-        value,
-        limit,
-        margin: levels.stop - value,
-        severity,
-    }
+    bounded(guard, subject, value, levels, false)
 }
 
 fn stop_only<T: Real>(l: T) -> Levels<T> {
