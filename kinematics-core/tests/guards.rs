@@ -319,6 +319,61 @@ fn motion_guards_at_their_limits() {
             Guard::JointSpeed
         ));
     }
+    for (j, lim) in [(1usize, l.joint_accel[0]), (5, l.joint_accel[1])] {
+        for (factor, violated) in [(0.999, false), (1.001, true)] {
+            let mut qdot = Vector6::zeros();
+            qdot[j] = lim * dt * factor;
+            let v = eval(
+                MotionSample {
+                    twist: Vector6::zeros(),
+                    qdot,
+                },
+                still,
+            );
+            let hit = v
+                .violations
+                .iter()
+                .any(|r| r.guard == Guard::JointAccel && r.subject == Subject::Joint(j as u8 + 1));
+            assert_eq!(hit, violated, "joint {} accel at {factor}", j + 1);
+        }
+    }
+}
+
+/// The USR's yaw and pitch ranges are measured from their central values, per chain.
+#[test]
+fn usr_yaw_and_pitch_at_their_limits() {
+    let usr = UsrGeometry::<f64>::reference();
+    let pose = Pose {
+        t: Vector3::new(0.008, -0.004, 0.083),
+        r: Rotation3::from_scaled_axis(Vector3::new(0.1, 0.05, 0.02)),
+    };
+    let reading_usr = |l: Limits<f64>, guard: Guard| {
+        let g = Guards::new(usr, Branch::OUTER, l).unwrap();
+        let mut found = None;
+        g.evaluate_pose(&pose, &mut |r| {
+            if r.guard == guard && r.subject == Subject::Chain(Chain::Two) {
+                found = Some(*r)
+            }
+        });
+        found.unwrap()
+    };
+    for guard in [Guard::Yaw, Guard::Pitch] {
+        let value = reading_usr(Limits::reference(), guard).value;
+        assert!(value > 0.0);
+        for (factor, violated) in [(1.000001, false), (0.999999, true)] {
+            let mut l = Limits::reference();
+            if guard == Guard::Yaw {
+                l.link_angle_max = value * factor
+            } else {
+                l.pitch_max = value * factor
+            }
+            assert_eq!(
+                reading_usr(l, guard).severity.is_some(),
+                violated,
+                "{guard} at {factor}"
+            );
+        }
+    }
 }
 
 /// The verdict lists every violation, not just the first one.
