@@ -21,5 +21,13 @@ cargo clippy --workspace --all-targets -- -D warnings
 section "no_std crates build for the Cortex-M4F (thumbv7em-none-eabihf)"
 cargo build --release --target thumbv7em-none-eabihf -p kinematics-core -p master-link
 
+section "board firmware (STM32F405): format, lint, release build and sizes"
+(cd firmware/board && cargo fmt -- --check && cargo clippy --release -q -- -D warnings)
+bash firmware/board/build-and-size.sh
+
+section "on-target tests and cost per control tick on the emulated Cortex-M4 (QEMU mps2-an386)"
+(cd firmware/qemu && cargo fmt -- --check)
+bash firmware/qemu/run.sh
+
 section "tests (unit, property, integration, CLI)"
 cargo test --workspace

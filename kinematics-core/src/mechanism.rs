@@ -55,8 +55,15 @@ pub struct PlatformChain<T: Real> {
 
 /// Unit radial direction [cos ξ_i, sin ξ_i, 0] of a chain (Eq. 6.1-6.3).
 pub fn radial<T: Real>(chain: Chain) -> Vector3<T> {
-    let xi = T::two_pi() * lit::<T>(f64::from(chain.xi_thirds())) / lit(3.0);
-    Vector3::new(xi.cos(), xi.sin(), T::zero())
+    // ξ_i = 0, 120, 240 deg: constants, so that no IK call pays for sin and cos (on the
+    // Cortex-M4 libm computes them in software).
+    const HALF_SQRT_3: f64 = 0.866_025_403_784_438_6;
+    let (c, s) = match chain.xi_thirds() {
+        0 => (1.0, 0.0),
+        1 => (-0.5, HALF_SQRT_3),
+        _ => (-0.5, -HALF_SQRT_3),
+    };
+    Vector3::new(lit(c), lit(s), T::zero())
 }
 
 /// A robot of the thesis's class (Fig. 5.14): a tripod of SR dyads on top of three serial

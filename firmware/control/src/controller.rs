@@ -110,6 +110,8 @@ pub struct Controller<S: Scalar, M: Mechanism<S> + Clone> {
     servo: JointServo<S>,
     encoders: Encoders<S>,
     measured: Pose<S>,
+    /// The encoder readings the measured pose belongs to (FK is skipped while unchanged).
+    measured_from: Option<[S; NUM_JOINTS]>,
     counters: ControllerCounters,
 }
 
@@ -157,6 +159,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Controller<S, M> {
             servo,
             encoders,
             measured: start.pose,
+            measured_from: None,
             counters: ControllerCounters::default(),
         })
     }
@@ -200,23 +203,30 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Controller<S, M> {
     pub fn tick<H: QuadratureCounter + MotorOutputs<S>>(&mut self, hw: &mut H) -> TickReport<S> {
         self.counters.ticks += 1;
         let q_meas = self.encoders.read(hw);
-        // Forward kinematics, warm-started from the last measured pose.
-        let fk = match forward(
-            &self.robot,
-            &Joints::from_row_slice(&q_meas),
-            self.cfg.branch,
-            &self.measured,
-            &self.cfg.fk,
-        ) {
-            Ok(sol) => {
-                self.measured = sol.pose;
-                self.counters.fk_max_iterations =
-                    self.counters.fk_max_iterations.max(sol.iterations);
-                Ok(sol.iterations)
-            }
-            Err(e) => {
-                self.counters.fk_failures += 1;
-                Err(e)
+        // Forward kinematics, warm-started from the last measured pose; skipped while the
+        // encoders have not moved (holding), which saves most of a holding tick's work.
+        let fk = if self.measured_from == Some(q_meas) {
+            Ok(0)
+        } else {
+            match forward(
+                &self.robot,
+                &Joints::from_row_slice(&q_meas),
+                self.cfg.branch,
+                &self.measured,
+                &self.cfg.fk,
+            ) {
+                Ok(sol) => {
+                    self.measured = sol.pose;
+                    self.measured_from = Some(q_meas);
+                    self.counters.fk_max_iterations =
+                        self.counters.fk_max_iterations.max(sol.iterations);
+                    Ok(sol.iterations)
+                }
+                Err(e) => {
+                    self.counters.fk_failures += 1;
+                    self.measured_from = None;
+                    Err(e)
+                }
             }
         };
         let setpoint = self.supervisor.tick();

@@ -17,5 +17,8 @@
 )]
 
 pub mod controller;
+pub mod failsafe;
+pub mod link;
+pub mod state;
 
 pub use controller::{Controller, ControllerConfig, ControllerError, TickReport};

@@ -1,0 +1,354 @@
+//! The board: STM32F405RG (LQFP64) pin map, clock tree and peripheral setup, in one place.
+//!
+//! Joint order everywhere: `l1, l2, l3, theta1, theta2, theta3`.
+//!
+//! | function                 | pin        | peripheral            |
+//! |--------------------------|------------|-----------------------|
+//! | encoder l1 A / B         | PA8 / PA9  | TIM1 CH1 / CH2 (QEI)  |
+//! | encoder l2 A / B         | PA15 / PB3 | TIM2 CH1 / CH2 (QEI)  |
+//! | encoder l3 A / B         | PB4 / PB5  | TIM3 CH1 / CH2 (QEI)  |
+//! | encoder theta1 A / B     | PB6 / PB7  | TIM4 CH1 / CH2 (QEI)  |
+//! | encoder theta2 A / B     | PA0 / PA1  | TIM5 CH1 / CH2 (QEI)  |
+//! | encoder theta3 A / B     | PC6 / PC7  | TIM8 CH1 / CH2 (QEI)  |
+//! | PWM l1 / l2              | PA2 / PA3  | TIM9 CH1 / CH2        |
+//! | PWM l3                   | PB8        | TIM10 CH1             |
+//! | PWM theta1               | PB9        | TIM11 CH1             |
+//! | PWM theta2               | PA6        | TIM13 CH1             |
+//! | PWM theta3               | PA7        | TIM14 CH1             |
+//! | DIR l1, l2, l3           | PB12, PB13, PB14 | GPIO out        |
+//! | DIR theta1, 2, 3         | PB15, PC8, PC9   | GPIO out        |
+//! | driver enable (all)      | PB0        | GPIO out, high = on   |
+//! | emergency stop           | PC13       | GPIO in + EXTI13      |
+//! | home switch l1, l2, l3   | PC10, PC11, PC12 | GPIO in         |
+//! | home switch theta1, 2, 3 | PD2, PA4, PB1    | GPIO in         |
+//! | motor current l1..theta3 | PC0..PC5   | ADC1 IN10..IN15       |
+//! | master link TX / RX      | PB10 / PB11| USART3, DMA1 S3 / S1  |
+//! | status LED               | PA5        | GPIO out              |
+//! | SWD                      | PA13 / PA14| debug (keep free)     |
+//! | HSE 8 MHz crystal        | PH0 / PH1  | RCC                   |
+//! | time driver              | -          | TIM12 (no pins)       |
+//!
+//! The six PWM channels fit exactly on TIM9 (2 channels) + TIM10/11/13/14 (1 each):
+//! sign-magnitude drive, one PWM and one direction pin per H-bridge.
+
+use embassy_stm32::adc::{Adc, AdcChannel, AnyAdcChannel};
+use embassy_stm32::gpio::{Input, Level, Output, OutputType, Pull, Speed};
+use embassy_stm32::peripherals::{
+    ADC1, IWDG, TIM1, TIM10, TIM11, TIM13, TIM14, TIM2, TIM3, TIM4, TIM5, TIM8, TIM9,
+};
+use embassy_stm32::time::Hertz;
+use embassy_stm32::timer::low_level::CountingMode;
+use embassy_stm32::timer::qei::{self, Qei};
+use embassy_stm32::timer::simple_pwm::{PwmPin, SimplePwm};
+use embassy_stm32::usart::{self, Uart};
+use embassy_stm32::wdg::IndependentWatchdog;
+use embassy_stm32::{bind_interrupts, dma, pac, peripherals, Peripherals};
+
+bind_interrupts!(pub struct Irqs {
+    USART3 => usart::InterruptHandler<peripherals::USART3>;
+    DMA1_STREAM1 => dma::InterruptHandler<peripherals::DMA1_CH1>;
+    DMA1_STREAM3 => dma::InterruptHandler<peripherals::DMA1_CH3>;
+});
+
+/// CPU clock, Hz (DWT cycles per second).
+pub const CPU_HZ: u32 = 168_000_000;
+/// PWM frequency of the H-bridges (above hearing, within the bridges' switching limits).
+pub const PWM_HZ: u32 = 20_000;
+/// Master link baud rate (exact on APB1 = 42 MHz with 16x oversampling).
+pub const LINK_BAUD: u32 = 1_000_000;
+/// Independent watchdog timeout, µs (10 control periods).
+pub const IWDG_TIMEOUT_US: u32 = 10_000;
+
+/// Motor wired the other way round: the duty is negated (hal sign convention: positive
+/// duty drives towards +q).
+pub const INVERT_MOTOR: [bool; 6] = [false; 6];
+/// Encoder counting down for +q: the count is negated.
+pub const INVERT_ENCODER: [bool; 6] = [false; 6];
+/// Home switches are normally closed to ground with the internal pull-up: open (high)
+/// means actuated, so a broken wire reads as actuated.
+pub const SWITCH_ACTIVE_HIGH: bool = true;
+/// The e-stop chain is normally closed to ground with the internal pull-up: open
+/// (pressed or broken wire) reads high = asserted.
+pub const ESTOP_ACTIVE_HIGH: bool = true;
+/// Motor current sense: bidirectional amplifier (e.g. INA240, gain 20) on a 10 mΩ shunt,
+/// zero current at mid-supply: amps per ADC count and the zero-current count.
+pub const CURRENT_A_PER_COUNT: f32 = 3.3 / 4096.0 / (20.0 * 0.010);
+/// ADC count at zero current.
+pub const CURRENT_ZERO_COUNT: f32 = 2048.0;
+
+/// The driver-enable pin at register level (for the interrupt-safe kill): GPIOB pin 0.
+const DRV_EN_PORT: pac::gpio::Gpio = pac::GPIOB;
+const DRV_EN_PIN: usize = 0;
+
+/// The clock tree: 8 MHz HSE -> PLL 168 MHz SYSCLK, APB1 42 MHz (timers 84 MHz), APB2
+/// 84 MHz (timers 168 MHz), 48 MHz for USB.
+pub fn clock_config() -> embassy_stm32::Config {
+    use embassy_stm32::rcc::*;
+    let mut config = embassy_stm32::Config::default();
+    config.rcc.hse = Some(Hse {
+        freq: Hertz(8_000_000),
+        mode: HseMode::Oscillator,
+    });
+    config.rcc.pll_src = PllSource::HSE;
+    config.rcc.pll = Some(Pll {
+        prediv: PllPreDiv::DIV8,
+        mul: PllMul::MUL336,
+        divp: Some(PllPDiv::DIV2),
+        divq: Some(PllQDiv::DIV7),
+        divr: None,
+    });
+    config.rcc.ahb_pre = AHBPrescaler::DIV1;
+    config.rcc.apb1_pre = APBPrescaler::DIV4;
+    config.rcc.apb2_pre = APBPrescaler::DIV2;
+    config.rcc.sys = Sysclk::PLL1_P;
+    // The link's DMA interrupts below the control executor and the e-stop.
+    config.dma_interrupt_priority = embassy_stm32::interrupt::Priority::P4;
+    config
+}
+
+/// The six quadrature decoders.
+pub struct Encoders {
+    pub l1: Qei<'static, TIM1>,
+    pub l2: Qei<'static, TIM2>,
+    pub l3: Qei<'static, TIM3>,
+    pub t1: Qei<'static, TIM4>,
+    pub t2: Qei<'static, TIM5>,
+    pub t3: Qei<'static, TIM8>,
+}
+
+/// The six H-bridges: PWM timers, direction pins, the common driver enable.
+pub struct Motors {
+    pub pwm9: SimplePwm<'static, TIM9>,
+    pub pwm10: SimplePwm<'static, TIM10>,
+    pub pwm11: SimplePwm<'static, TIM11>,
+    pub pwm13: SimplePwm<'static, TIM13>,
+    pub pwm14: SimplePwm<'static, TIM14>,
+    pub dir: [Output<'static>; 6],
+    pub driver_enable: Output<'static>,
+}
+
+/// Home switches and motor currents.
+pub struct Sensors {
+    pub switches: [Input<'static>; 6],
+    pub adc: Adc<'static, ADC1>,
+    pub current: [AnyAdcChannel<'static, ADC1>; 6],
+}
+
+/// Everything the firmware uses.
+pub struct Board {
+    pub encoders: Encoders,
+    pub motors: Motors,
+    pub sensors: Sensors,
+    pub estop: Input<'static>,
+    pub led: Output<'static>,
+    pub uart: Uart<'static, embassy_stm32::mode::Async>,
+    pub iwdg: IndependentWatchdog<'static, IWDG>,
+}
+
+/// Setup failure.
+#[derive(Clone, Copy, Debug, defmt::Format)]
+pub enum BoardError {
+    /// The USART configuration was refused.
+    Uart,
+}
+
+impl Board {
+    /// Takes the peripherals and sets every pin up; the outputs start in the safe state.
+    pub fn new(p: Peripherals) -> Result<Self, BoardError> {
+        // Driver enable first, low: nothing can drive before the state machine says so.
+        let driver_enable = Output::new(p.PB0, Level::Low, Speed::Low);
+
+        let qc = qei::Config::default();
+        let encoders = Encoders {
+            l1: Qei::new(p.TIM1, p.PA8, p.PA9, qc),
+            l2: Qei::new(p.TIM2, p.PA15, p.PB3, qc),
+            l3: Qei::new(p.TIM3, p.PB4, p.PB5, qc),
+            t1: Qei::new(p.TIM4, p.PB6, p.PB7, qc),
+            t2: Qei::new(p.TIM5, p.PA0, p.PA1, qc),
+            t3: Qei::new(p.TIM8, p.PC6, p.PC7, qc),
+        };
+
+        let f = Hertz(PWM_HZ);
+        let up = CountingMode::EdgeAlignedUp;
+        let pp = OutputType::PushPull;
+        let motors = Motors {
+            pwm9: SimplePwm::new(
+                p.TIM9,
+                Some(PwmPin::new(p.PA2, pp)),
+                Some(PwmPin::new(p.PA3, pp)),
+                None,
+                None,
+                f,
+                up,
+            ),
+            pwm10: SimplePwm::new(
+                p.TIM10,
+                Some(PwmPin::new(p.PB8, pp)),
+                None,
+                None,
+                None,
+                f,
+                up,
+            ),
+            pwm11: SimplePwm::new(
+                p.TIM11,
+                Some(PwmPin::new(p.PB9, pp)),
+                None,
+                None,
+                None,
+                f,
+                up,
+            ),
+            pwm13: SimplePwm::new(
+                p.TIM13,
+                Some(PwmPin::new(p.PA6, pp)),
+                None,
+                None,
+                None,
+                f,
+                up,
+            ),
+            pwm14: SimplePwm::new(
+                p.TIM14,
+                Some(PwmPin::new(p.PA7, pp)),
+                None,
+                None,
+                None,
+                f,
+                up,
+            ),
+            dir: [
+                Output::new(p.PB12, Level::Low, Speed::Low),
+                Output::new(p.PB13, Level::Low, Speed::Low),
+                Output::new(p.PB14, Level::Low, Speed::Low),
+                Output::new(p.PB15, Level::Low, Speed::Low),
+                Output::new(p.PC8, Level::Low, Speed::Low),
+                Output::new(p.PC9, Level::Low, Speed::Low),
+            ],
+            driver_enable,
+        };
+        // PWM outputs: forced inactive until enabled, channel outputs on.
+        force_outputs_safe();
+        enable_pwm_channels();
+
+        let sw_pull = if SWITCH_ACTIVE_HIGH {
+            Pull::Up
+        } else {
+            Pull::Down
+        };
+        let sensors = Sensors {
+            switches: [
+                Input::new(p.PC10, sw_pull),
+                Input::new(p.PC11, sw_pull),
+                Input::new(p.PC12, sw_pull),
+                Input::new(p.PD2, sw_pull),
+                Input::new(p.PA4, sw_pull),
+                Input::new(p.PB1, sw_pull),
+            ],
+            adc: Adc::new(p.ADC1),
+            current: [
+                p.PC0.degrade_adc(),
+                p.PC1.degrade_adc(),
+                p.PC2.degrade_adc(),
+                p.PC3.degrade_adc(),
+                p.PC4.degrade_adc(),
+                p.PC5.degrade_adc(),
+            ],
+        };
+
+        let estop_pull = if ESTOP_ACTIVE_HIGH {
+            Pull::Up
+        } else {
+            Pull::Down
+        };
+        let estop = Input::new(p.PC13, estop_pull);
+        let led = Output::new(p.PA5, Level::Low, Speed::Low);
+
+        let mut uc = usart::Config::default();
+        uc.baudrate = LINK_BAUD;
+        let uart = Uart::new(p.USART3, p.PB11, p.PB10, p.DMA1_CH3, p.DMA1_CH1, Irqs, uc)
+            .map_err(|_| BoardError::Uart)?;
+
+        let iwdg = IndependentWatchdog::new(p.IWDG, IWDG_TIMEOUT_US);
+
+        Ok(Board {
+            encoders,
+            motors,
+            sensors,
+            estop,
+            led,
+            uart,
+            iwdg,
+        })
+    }
+}
+
+/// Routes PC13 to EXTI13 (rising edge when the e-stop is asserted, falling when active
+/// low) and unmasks it; the caller sets the NVIC priority and enables `EXTI15_10`.
+pub fn configure_estop_exti() {
+    pac::RCC.apb2enr().modify(|w| w.set_syscfgen(true));
+    // EXTICR4 holds lines 12..15; line 13 is its field 1; port C is 2.
+    pac::SYSCFG.exticr(3).modify(|w| w.set_exti(1, 2));
+    if ESTOP_ACTIVE_HIGH {
+        pac::EXTI.rtsr(0).modify(|w| w.set_line(13, true));
+    } else {
+        pac::EXTI.ftsr(0).modify(|w| w.set_line(13, true));
+    }
+    pac::EXTI.pr(0).write(|w| w.set_line(13, true));
+    pac::EXTI.imr(0).modify(|w| w.set_line(13, true));
+}
+
+/// Clears the e-stop's EXTI pending bit (in its interrupt).
+pub fn clear_estop_pending() {
+    pac::EXTI.pr(0).write(|w| w.set_line(13, true));
+}
+
+/// Whether the e-stop input is asserted at register level.
+pub fn estop_asserted_raw() -> bool {
+    let high = pac::GPIOC.idr().read().idr(13) == pac::gpio::vals::Idr::HIGH;
+    high == ESTOP_ACTIVE_HIGH
+}
+
+/// Every PWM output forced low and duty 0, the driver enable low: plain register writes,
+/// callable from any context (interrupt, halt path, before the drivers exist).
+pub fn force_outputs_safe() {
+    use pac::timer::vals::Ocm;
+    DRV_EN_PORT.bsrr().write(|w| w.set_br(DRV_EN_PIN, true));
+    pac::TIM9.ccmr_output(0).modify(|w| {
+        w.set_ocm(0, Ocm::FORCE_INACTIVE);
+        w.set_ocm(1, Ocm::FORCE_INACTIVE);
+    });
+    pac::TIM9.ccr(0).write(|w| w.set_ccr(0));
+    pac::TIM9.ccr(1).write(|w| w.set_ccr(0));
+    for t in [pac::TIM10, pac::TIM11, pac::TIM13, pac::TIM14] {
+        t.ccmr_output(0)
+            .modify(|w| w.set_ocm(0, Ocm::FORCE_INACTIVE));
+        t.ccr(0).write(|w| w.set_ccr(0));
+    }
+}
+
+/// PWM mode back on every channel (duty 0) and the driver enable high.
+pub fn restore_outputs() {
+    use pac::timer::vals::Ocm;
+    pac::TIM9.ccr(0).write(|w| w.set_ccr(0));
+    pac::TIM9.ccr(1).write(|w| w.set_ccr(0));
+    pac::TIM9.ccmr_output(0).modify(|w| {
+        w.set_ocm(0, Ocm::PWM_MODE1);
+        w.set_ocm(1, Ocm::PWM_MODE1);
+    });
+    for t in [pac::TIM10, pac::TIM11, pac::TIM13, pac::TIM14] {
+        t.ccr(0).write(|w| w.set_ccr(0));
+        t.ccmr_output(0).modify(|w| w.set_ocm(0, Ocm::PWM_MODE1));
+    }
+    DRV_EN_PORT.bsrr().write(|w| w.set_bs(DRV_EN_PIN, true));
+}
+
+fn enable_pwm_channels() {
+    pac::TIM9.ccer().modify(|w| {
+        w.set_cce(0, true);
+        w.set_cce(1, true);
+    });
+    for t in [pac::TIM10, pac::TIM11, pac::TIM13, pac::TIM14] {
+        t.ccer().modify(|w| w.set_cce(0, true));
+    }
+}

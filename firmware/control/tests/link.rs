@@ -1,0 +1,677 @@
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::needless_range_loop
+)]
+//! The protocol through the link layer: every master message in, its reply out and
+//! decoded by the master; malformed, oversized, wrong-version, bad-checksum and replayed
+//! frames counted and ignored; the connection rule; timestamps; status contents.
+
+use controller::link::{
+    fill_margins, guard_reason, pose_from_wire, refusal_reason, Command, Inbound, LinkRx, LinkTx,
+    Request, TargetClock, TargetClockConfig, FIRMWARE_VERSION,
+};
+use controller::state::{reference_config, LimitSwitches, Runtime, State};
+use kinematics_core::guards::Guard;
+use kinematics_core::supervisor::Refusal;
+use kinematics_core::{inverse, Branch, Pose, RsprGeometry};
+use master_link::{
+    cobs, encode, BoardToMaster, FrameError, MasterDecoder, MasterToBoard, NackReason, RobotState,
+    Seq, SeqCounter, StatusReport, CRC32, MAX_FRAME_LEN, PROTOCOL_VERSION,
+};
+use rspr_plant::{Plant, PlantConfig};
+use servo::hal::{CurrentSense, MotorOutputs, QuadratureCounter};
+
+// ---------------------------------------------------------------------------------------
+// Helpers
+// ---------------------------------------------------------------------------------------
+
+fn frame<M: master_link::WireMessage>(msg: &M, seq: Seq) -> Vec<u8> {
+    let mut buf = [0u8; MAX_FRAME_LEN];
+    let n = encode(msg, seq, &mut buf).unwrap();
+    buf[..n].to_vec()
+}
+
+/// The raw (un-stuffed) content of an encoded frame: version, seq, body, CRC.
+fn raw_of(frame: &[u8]) -> Vec<u8> {
+    let mut f = frame[..frame.len() - 1].to_vec();
+    let n = cobs::decode_in_place(&mut f).unwrap();
+    f.truncate(n);
+    f
+}
+
+/// Re-frames raw content (COBS + delimiter), recomputing the CRC unless told not to.
+fn reframe(mut raw: Vec<u8>, fix_crc: bool) -> Vec<u8> {
+    if fix_crc {
+        let n = raw.len() - 4;
+        let crc = CRC32.checksum(&raw[..n]);
+        raw[n..].copy_from_slice(&crc.to_le_bytes());
+    }
+    let mut out = vec![0u8; cobs::max_encoded_len(raw.len()) + 1];
+    let n = cobs::encode(&raw, &mut out).unwrap();
+    out.truncate(n);
+    out.push(0);
+    out
+}
+
+fn feed(rx: &mut LinkRx, bytes: &[u8]) -> Vec<Inbound> {
+    let mut v = Vec::new();
+    rx.feed(bytes, |i| v.push(i));
+    v
+}
+
+/// The master side: encodes with its own sequence, decodes the board's replies.
+struct Master {
+    seq: SeqCounter,
+    rx: MasterDecoder,
+}
+
+impl Master {
+    fn new() -> Self {
+        Master {
+            seq: SeqCounter::new(100),
+            rx: MasterDecoder::new(),
+        }
+    }
+    fn send(&mut self, msg: &MasterToBoard) -> (Seq, Vec<u8>) {
+        let s = self.seq.next();
+        (s, frame(msg, s))
+    }
+    fn receive(&mut self, bytes: &[u8]) -> Vec<BoardToMaster> {
+        self.rx.feed(bytes).map(|r| r.unwrap().1).collect()
+    }
+}
+
+/// The board: link + runtime, answering every frame like the firmware does.
+struct Board<H> {
+    rx: LinkRx,
+    tx: LinkTx,
+    rt: Runtime<f64, RsprGeometry<f64>>,
+    hw: H,
+    now: u64,
+}
+
+impl<H> Board<H> {
+    fn receive(&mut self, bytes: &[u8]) -> Vec<u8> {
+        let mut out = Vec::new();
+        for inbound in feed(&mut self.rx, bytes) {
+            let reply = match inbound {
+                Inbound::Reply(r) => r,
+                Inbound::Request(req) => {
+                    let result = self.rt.command(&req.command, self.now);
+                    let mut status = self.rt.status();
+                    status.link = self.rx.counters();
+                    req.reply(result, &status)
+                }
+            };
+            let mut buf = [0u8; MAX_FRAME_LEN];
+            let n = self.tx.encode(&reply, &mut buf).unwrap();
+            out.extend_from_slice(&buf[..n]);
+        }
+        out
+    }
+}
+
+/// Sends one message and returns the single reply.
+fn exchange<H>(m: &mut Master, b: &mut Board<H>, msg: &MasterToBoard) -> (Seq, BoardToMaster) {
+    let (seq, bytes) = m.send(msg);
+    let replies = m.receive(&b.receive(&bytes));
+    assert_eq!(replies.len(), 1, "{msg:?} -> {replies:?}");
+    (seq, replies[0])
+}
+
+// The plant fixture (switches on the legs, stops on the links).
+struct PlantHw {
+    plant: Plant,
+    enabled: bool,
+    stops: [f64; 3],
+    seized: [bool; 6],
+}
+impl PlantHw {
+    fn step_ms(&mut self) {
+        for _ in 0..10 {
+            self.plant.step(1e-4).unwrap();
+            let q = self.plant.joint_positions();
+            let duty = self.plant.duty();
+            for j in 3..6 {
+                if !self.seized[j] && q[j] <= self.stops[j - 3] && duty[j] < 0.0 {
+                    self.plant.inject(j, rspr_plant::Fault::LoadSeized).unwrap();
+                    self.seized[j] = true;
+                } else if self.seized[j] && duty[j] > 0.0 {
+                    self.plant.clear_faults(j).unwrap();
+                    self.seized[j] = false;
+                }
+            }
+        }
+    }
+}
+impl QuadratureCounter for PlantHw {
+    fn counts(&mut self) -> [u16; 6] {
+        self.plant.encoder_counts()
+    }
+}
+impl MotorOutputs<f64> for PlantHw {
+    fn set_duties(&mut self, duty: &[f64; 6]) {
+        let d = if self.enabled { *duty } else { [0.0; 6] };
+        let _ = self.plant.set_duty(d.map(|x| x.clamp(-1.0, 1.0)));
+    }
+    fn disable(&mut self) {
+        self.enabled = false;
+        let _ = self.plant.set_duty([0.0; 6]);
+    }
+    fn enable(&mut self) {
+        self.enabled = true;
+    }
+}
+impl LimitSwitches for PlantHw {
+    fn switches(&mut self) -> [bool; 6] {
+        let q = self.plant.joint_positions();
+        std::array::from_fn(|j| j < 3 && q[j] <= 0.150)
+    }
+}
+impl CurrentSense<f64> for PlantHw {
+    fn currents(&mut self) -> [f64; 6] {
+        self.plant.currents()
+    }
+}
+
+fn board() -> Board<PlantHw> {
+    let g = RsprGeometry::<f64>::reference();
+    let c = inverse(&g, &Pose::central(g.hc), Branch::OUTER)
+        .unwrap()
+        .q();
+    let c: [f64; 6] = std::array::from_fn(|j| c[j]);
+    let stops = [3, 4, 5].map(|j| c[j] - 60f64.to_radians());
+    let mut plant = Plant::new(&PlantConfig::default()).unwrap();
+    plant
+        .set_joint_positions([
+            0.16,
+            0.16,
+            0.16,
+            stops[0] + 0.2,
+            stops[1] + 0.2,
+            stops[2] + 0.2,
+        ])
+        .unwrap();
+    let mut hw = PlantHw {
+        plant,
+        enabled: false,
+        stops,
+        seized: [false; 6],
+    };
+    let mut cfg = reference_config(c);
+    cfg.homing.park_speed = [0.02, 0.02, 0.02, 0.5, 0.5, 0.5];
+    cfg.heartbeat.hold_after_us = 1_000_000_000;
+    cfg.heartbeat.disable_after_us = 2_000_000_000;
+    let mut rt = Runtime::new(g, cfg, 0).unwrap();
+    rt.boot_done(hw.counts(), 0).unwrap();
+    Board {
+        rx: LinkRx::new(FIRMWARE_VERSION),
+        tx: LinkTx::new(),
+        rt,
+        hw,
+        now: 0,
+    }
+}
+
+fn run(b: &mut Board<PlantHw>, ms: u64) {
+    for _ in 0..ms {
+        b.now += 1000;
+        b.rt.tick(&mut b.hw, b.now);
+        b.hw.step_ms();
+    }
+}
+
+fn home(m: &mut Master, b: &mut Board<PlantHw>) {
+    let (s, r) = exchange(m, b, &MasterToBoard::Home);
+    assert_eq!(r, BoardToMaster::Ack { seq: s });
+    let mut ms = 0;
+    while b.rt.state() == State::Homing {
+        run(b, 1);
+        ms += 1;
+        assert!(ms < 60_000);
+    }
+    assert_eq!(b.rt.state(), State::Ready);
+}
+
+fn hello(m: &mut Master, b: &mut Board<PlantHw>) {
+    let (_, r) = exchange(
+        m,
+        b,
+        &MasterToBoard::Hello {
+            protocol_version: PROTOCOL_VERSION,
+        },
+    );
+    assert_eq!(
+        r,
+        BoardToMaster::HelloReply {
+            firmware_version: FIRMWARE_VERSION,
+            protocol_version: PROTOCOL_VERSION
+        }
+    );
+}
+
+// ---------------------------------------------------------------------------------------
+// Round trips
+// ---------------------------------------------------------------------------------------
+
+#[test]
+fn every_message_round_trips_with_its_reply() {
+    let mut m = Master::new();
+    let mut b = board();
+    hello(&mut m, &mut b);
+    assert!(b.rx.connected());
+    let ack = |s| BoardToMaster::Ack { seq: s };
+    let nack = |s, reason| BoardToMaster::Nack { seq: s, reason };
+    // Disabled, not homed.
+    let (s, r) = exchange(&mut m, &mut b, &MasterToBoard::Enable);
+    assert_eq!(r, nack(s, NackReason::NotHomed));
+    let (s, r) = exchange(&mut m, &mut b, &MasterToBoard::Heartbeat);
+    assert_eq!(r, ack(s));
+    let (s, r) = exchange(&mut m, &mut b, &MasterToBoard::Clutch { engaged: false });
+    assert_eq!(r, ack(s));
+    let (s, r) = exchange(&mut m, &mut b, &MasterToBoard::Disable);
+    assert_eq!(r, ack(s));
+    let (s, r) = exchange(&mut m, &mut b, &MasterToBoard::ClearFault);
+    assert_eq!(r, ack(s), "nothing to clear is fine");
+    let target = MasterToBoard::PoseTarget {
+        timestamp_us: 1_000,
+        position_m: [0.0, 0.0, 0.161],
+        rotation_vector_rad: [0.0; 3],
+    };
+    let (s, r) = exchange(&mut m, &mut b, &target);
+    assert_eq!(r, nack(s, NackReason::NotHomed));
+    let (s, r) = exchange(
+        &mut m,
+        &mut b,
+        &MasterToBoard::Jog {
+            joint: 7,
+            velocity: 0.01,
+        },
+    );
+    assert_eq!(r, nack(s, NackReason::InvalidJoint));
+    let (s, r) = exchange(
+        &mut m,
+        &mut b,
+        &MasterToBoard::Jog {
+            joint: 1,
+            velocity: f32::NAN,
+        },
+    );
+    assert_eq!(r, nack(s, NackReason::InvalidValue));
+    let (s, r) = exchange(
+        &mut m,
+        &mut b,
+        &MasterToBoard::Jog {
+            joint: 1,
+            velocity: 0.01,
+        },
+    );
+    assert_eq!(r, nack(s, NackReason::InvalidState), "jog is not supported");
+    let (_, r) = exchange(&mut m, &mut b, &MasterToBoard::StatusRequest);
+    let BoardToMaster::Status(st) = r else {
+        panic!("{r:?}")
+    };
+    assert_eq!(st.state, RobotState::Disabled);
+    assert_eq!(st.link, b.rx.counters());
+    assert!(st.link.frames_ok >= 10);
+    // Home, enable, follow.
+    home(&mut m, &mut b);
+    let (s, r) = exchange(&mut m, &mut b, &MasterToBoard::Home);
+    assert_eq!(r, ack(s), "re-homing from Ready is allowed");
+    b.rt.command(&Command::Disable, b.now).unwrap();
+    assert_eq!(b.rt.state(), State::Disabled);
+    home(&mut m, &mut b);
+    let (s, r) = exchange(&mut m, &mut b, &MasterToBoard::Enable);
+    assert_eq!(r, ack(s));
+    let (s, r) = exchange(&mut m, &mut b, &MasterToBoard::Home);
+    assert_eq!(r, nack(s, NackReason::InvalidState));
+    b.now += 1000;
+    let stamp = 50_000_000;
+    let target = MasterToBoard::PoseTarget {
+        timestamp_us: stamp,
+        position_m: [0.003, 0.002, 0.162],
+        rotation_vector_rad: [0.0, 0.02, 0.0],
+    };
+    let (s, r) = exchange(&mut m, &mut b, &target);
+    assert_eq!(r, ack(s));
+    // The same timestamp again (new frame): stale.
+    let (s, r) = exchange(&mut m, &mut b, &target);
+    assert_eq!(r, nack(s, NackReason::StaleTarget));
+    // Non-finite: invalid value.
+    let bad = MasterToBoard::PoseTarget {
+        timestamp_us: stamp + 1000,
+        position_m: [f32::INFINITY, 0.0, 0.16],
+        rotation_vector_rad: [0.0; 3],
+    };
+    let (s, r) = exchange(&mut m, &mut b, &bad);
+    assert_eq!(r, nack(s, NackReason::InvalidValue));
+    // Too far in one jump.
+    let far = MasterToBoard::PoseTarget {
+        timestamp_us: stamp + 2000,
+        position_m: [0.0, 0.0, 0.25],
+        rotation_vector_rad: [0.0; 3],
+    };
+    let (s, r) = exchange(&mut m, &mut b, &far);
+    assert_eq!(r, nack(s, NackReason::VelocityLimit));
+    run(&mut b, 1500);
+    let (_, r) = exchange(&mut m, &mut b, &MasterToBoard::StatusRequest);
+    let BoardToMaster::Status(mut st) = r else {
+        panic!("{r:?}")
+    };
+    assert_eq!(st.state, RobotState::Enabled);
+    assert!(
+        (st.position_m[0] - 0.003).abs() < 0.2e-3,
+        "{:?}",
+        st.position_m
+    );
+    assert!(
+        (st.position_m[2] - 0.162).abs() < 0.2e-3,
+        "{:?}",
+        st.position_m
+    );
+    assert!((st.rotation_vector_rad[1] - 0.02).abs() < 2e-3);
+    assert!(st.faults.is_empty());
+    fill_margins(&mut st, b.rt.robot(), Branch::OUTER, (0.15, 0.03));
+    assert!(st.serial_singularity_margin > 0.15, "{st:?}");
+    assert!(st.parallel_singularity_margin > 0.03, "{st:?}");
+    // Clutch engaged: targets refused while the robot holds.
+    let (s, r) = exchange(&mut m, &mut b, &MasterToBoard::Clutch { engaged: true });
+    assert_eq!(r, ack(s));
+    let t2 = MasterToBoard::PoseTarget {
+        timestamp_us: stamp + 3000,
+        position_m: [0.0, 0.0, 0.162],
+        rotation_vector_rad: [0.0; 3],
+    };
+    let (s, r) = exchange(&mut m, &mut b, &t2);
+    assert_eq!(r, nack(s, NackReason::InvalidState));
+    let (s, r) = exchange(&mut m, &mut b, &MasterToBoard::Clutch { engaged: false });
+    assert_eq!(r, ack(s));
+    // E-stop, refusals while faulted, clear.
+    let (s, r) = exchange(&mut m, &mut b, &MasterToBoard::EmergencyStop);
+    assert_eq!(r, ack(s));
+    let (s, r) = exchange(&mut m, &mut b, &MasterToBoard::Enable);
+    assert_eq!(r, nack(s, NackReason::Faulted));
+    let (s, r) = exchange(&mut m, &mut b, &t2);
+    assert_eq!(r, nack(s, NackReason::Faulted));
+    let (_, r) = exchange(&mut m, &mut b, &MasterToBoard::StatusRequest);
+    let BoardToMaster::Status(st) = r else {
+        panic!()
+    };
+    assert_eq!(st.state, RobotState::Fault);
+    assert!(st.faults.contains(master_link::Faults::EMERGENCY_STOP));
+    let (s, r) = exchange(&mut m, &mut b, &MasterToBoard::ClearFault);
+    assert_eq!(r, ack(s));
+    assert_eq!(b.rt.state(), State::Ready);
+    // Every reply was accepted by the master's decoder, in sequence.
+    let c = m.rx.counters();
+    assert_eq!(c.rejected(), 0);
+    assert_eq!(c.dropped, 0);
+    assert_eq!(c.frames_ok, b.tx.sent());
+}
+
+#[test]
+fn commands_before_hello_are_refused_except_the_emergency_stop() {
+    let mut m = Master::new();
+    let mut b = board();
+    let (s, r) = exchange(&mut m, &mut b, &MasterToBoard::Home);
+    assert_eq!(
+        r,
+        BoardToMaster::Nack {
+            seq: s,
+            reason: NackReason::NotConnected
+        }
+    );
+    assert_eq!(b.rt.state(), State::Disabled);
+    assert_eq!(b.rx.refused_not_connected(), 1);
+    // A Hello with another protocol version: refused, still not connected.
+    let (s, r) = exchange(
+        &mut m,
+        &mut b,
+        &MasterToBoard::Hello {
+            protocol_version: 9,
+        },
+    );
+    assert_eq!(
+        r,
+        BoardToMaster::Nack {
+            seq: s,
+            reason: NackReason::UnsupportedVersion
+        }
+    );
+    assert!(!b.rx.connected());
+    let (s, r) = exchange(&mut m, &mut b, &MasterToBoard::EmergencyStop);
+    assert_eq!(r, BoardToMaster::Ack { seq: s });
+    assert_eq!(b.rt.state(), State::Fault);
+    hello(&mut m, &mut b);
+    let (s, r) = exchange(&mut m, &mut b, &MasterToBoard::ClearFault);
+    assert_eq!(r, BoardToMaster::Ack { seq: s });
+    assert_eq!(b.rt.state(), State::Disabled);
+    // After a disconnect the master must say Hello again.
+    b.rx.disconnect();
+    let (s, r) = exchange(&mut m, &mut b, &MasterToBoard::Heartbeat);
+    assert_eq!(
+        r,
+        BoardToMaster::Nack {
+            seq: s,
+            reason: NackReason::NotConnected
+        }
+    );
+}
+
+// ---------------------------------------------------------------------------------------
+// Bad frames
+// ---------------------------------------------------------------------------------------
+
+#[test]
+fn bad_frames_are_counted_and_dropped() {
+    let mut rx = LinkRx::new(FIRMWARE_VERSION);
+    let good = frame(
+        &MasterToBoard::Hello {
+            protocol_version: PROTOCOL_VERSION,
+        },
+        1,
+    );
+    assert_eq!(feed(&mut rx, &good).len(), 1);
+    // Malformed: garbage, invalid COBS, a truncated frame.
+    assert!(feed(&mut rx, &[0x13, 0x37, 0xff, 0x00]).is_empty());
+    assert!(feed(&mut rx, &[0x05, 0x01, 0x00]).is_empty());
+    let hb = frame(&MasterToBoard::Heartbeat, 2);
+    let raw = raw_of(&hb);
+    assert!(feed(&mut rx, &reframe(raw[..5].to_vec(), false)).is_empty());
+    let c = rx.counters();
+    assert_eq!(c.malformed, 3, "{c:?}");
+    assert!(matches!(rx.last_error(), Some(FrameError::Malformed(_))));
+    // Bad checksum.
+    let mut corrupt = raw.clone();
+    corrupt[3] ^= 0x40;
+    assert!(feed(&mut rx, &reframe(corrupt, false)).is_empty());
+    assert_eq!(rx.counters().bad_checksum, 1);
+    assert_eq!(rx.last_error(), Some(FrameError::BadChecksum));
+    // Wrong version (a valid frame of protocol 2).
+    let mut v2 = raw.clone();
+    v2[0] = 2;
+    assert!(feed(&mut rx, &reframe(v2, true)).is_empty());
+    assert_eq!(rx.counters().wrong_version, 1);
+    assert_eq!(
+        rx.last_error(),
+        Some(FrameError::WrongVersion { received: 2 })
+    );
+    // Oversized.
+    let mut big = vec![0x55u8; 300];
+    big.push(0);
+    assert!(feed(&mut rx, &big).is_empty());
+    assert_eq!(rx.counters().oversized, 1);
+    // The good heartbeat goes through; replaying it is counted and ignored.
+    let got = feed(&mut rx, &hb);
+    assert_eq!(
+        got,
+        vec![Inbound::Request(Request {
+            seq: 2,
+            command: Command::Heartbeat
+        })]
+    );
+    assert!(feed(&mut rx, &hb).is_empty());
+    let old = frame(&MasterToBoard::Enable, 1);
+    assert!(feed(&mut rx, &old).is_empty());
+    assert_eq!(rx.counters().out_of_order, 2);
+    // A gap is accepted and counted as dropped.
+    assert_eq!(feed(&mut rx, &frame(&MasterToBoard::Heartbeat, 6)).len(), 1);
+    let c = rx.counters();
+    assert_eq!(c.dropped, 3);
+    assert_eq!(c.frames_ok, 3);
+    assert_eq!(c.rejected(), 3 + 1 + 1 + 1 + 2);
+    // Garbage in between frames does not lose the next good frame.
+    let mut mixed = vec![0xde, 0xad, 0x00];
+    mixed.extend_from_slice(&frame(&MasterToBoard::StatusRequest, 7));
+    let got = feed(&mut rx, &mixed);
+    assert_eq!(got.len(), 1);
+    // resync drops a partial frame silently.
+    assert!(feed(&mut rx, &[0x22, 0x33]).is_empty());
+    rx.resync();
+    assert_eq!(feed(&mut rx, &frame(&MasterToBoard::Heartbeat, 8)).len(), 0);
+    assert_eq!(feed(&mut rx, &frame(&MasterToBoard::Heartbeat, 9)).len(), 1);
+}
+
+#[test]
+fn bad_frames_do_not_reach_the_runtime() {
+    let mut m = Master::new();
+    let mut b = board();
+    hello(&mut m, &mut b);
+    // A Home frame with a bad checksum, then replayed Home: neither homes.
+    let (_, home) = m.send(&MasterToBoard::Home);
+    let mut raw = raw_of(&home);
+    let n = raw.len();
+    raw[n - 1] ^= 1;
+    assert!(b.receive(&reframe(raw, false)).is_empty());
+    assert_eq!(b.rt.state(), State::Disabled);
+    let out = b.receive(&home);
+    assert_eq!(m.receive(&out).len(), 1);
+    assert_eq!(b.rt.state(), State::Homing);
+    b.rt.command(&Command::Disable, 0).unwrap();
+    assert!(b.receive(&home).is_empty(), "replay ignored");
+    assert_eq!(b.rt.state(), State::Disabled);
+    assert_eq!(b.rx.counters().out_of_order, 1);
+    assert_eq!(b.rx.counters().bad_checksum, 1);
+}
+
+// ---------------------------------------------------------------------------------------
+// Pieces
+// ---------------------------------------------------------------------------------------
+
+#[test]
+fn target_clock_checks_order_and_latency() {
+    let mut c = TargetClock::new(TargetClockConfig {
+        max_latency_us: 5_000,
+        window_us: 100_000,
+    });
+    // Master clock 1 s ahead of the board's.
+    let s1 = c.accept(1_001_000, 1_000).unwrap();
+    let s2 = c.accept(1_002_000, 2_000).unwrap();
+    assert!(s2 > s1);
+    assert_eq!(c.accept(1_002_000, 2_500), Err(NackReason::StaleTarget));
+    assert_eq!(c.accept(1_001_500, 2_500), Err(NackReason::StaleTarget));
+    // 4 ms late: fine; 6 ms late: stale.
+    assert!(c.accept(1_003_000, 7_000).is_ok());
+    assert_eq!(c.accept(1_004_000, 10_001), Err(NackReason::StaleTarget));
+    // Board stamps strictly increase even within one microsecond.
+    let a = c.board_stamp(10_001);
+    let b2 = c.board_stamp(10_001);
+    assert!(b2 > a);
+    // Drift: the reference follows within two windows.
+    let mut now = 20_000u64;
+    let mut master = 1_020_000u64;
+    for _ in 0..400 {
+        now += 1_000;
+        master += 990; // the master's clock runs 1 % slow
+        assert!(c.accept(master, now).is_ok(), "at {now}");
+    }
+    c.reset();
+    assert!(c.accept(5, now + 1).is_ok(), "fresh after reset");
+}
+
+#[test]
+fn refusals_and_guards_map_to_nack_reasons() {
+    assert_eq!(
+        refusal_reason::<f64>(&Refusal::NonFinite),
+        NackReason::InvalidValue
+    );
+    assert_eq!(
+        refusal_reason::<f64>(&Refusal::Stale { age_us: 5 }),
+        NackReason::StaleTarget
+    );
+    assert_eq!(
+        refusal_reason::<f64>(&Refusal::OutOfOrder),
+        NackReason::StaleTarget
+    );
+    assert_eq!(
+        refusal_reason::<f64>(&Refusal::TooFar {
+            distance: 1.0,
+            angle: 0.0
+        }),
+        NackReason::VelocityLimit
+    );
+    assert_eq!(
+        refusal_reason::<f64>(&Refusal::Latched),
+        NackReason::Faulted
+    );
+    assert_eq!(guard_reason(Guard::Stroke), NackReason::JointLimit);
+    assert_eq!(
+        guard_reason(Guard::SerialSingularity),
+        NackReason::NearSingularity
+    );
+    assert_eq!(
+        guard_reason(Guard::ParallelSingularity),
+        NackReason::NearSingularity
+    );
+    assert_eq!(guard_reason(Guard::Workspace), NackReason::OutOfWorkspace);
+    assert_eq!(guard_reason(Guard::JointSpeed), NackReason::VelocityLimit);
+    for g in Guard::ALL {
+        let _ = guard_reason(g);
+    }
+    assert!(pose_from_wire::<f32>([0.0, 0.0, 0.16], [0.0, 0.0, f32::NAN]).is_err());
+    let p = pose_from_wire::<f32>([0.01, 0.0, 0.16], [0.0, 0.1, 0.0]).unwrap();
+    let (t, r) = controller::link::pose_to_wire(&p);
+    assert_eq!(t, [0.01, 0.0, 0.16]);
+    assert!((r[1] - 0.1).abs() < 1e-6);
+}
+
+#[test]
+fn tx_sequence_and_status_encoding() {
+    let mut tx = LinkTx::new();
+    let mut dec = MasterDecoder::new();
+    let mut buf = [0u8; MAX_FRAME_LEN];
+    let status = BoardToMaster::Status(StatusReport {
+        state: RobotState::Enabled,
+        position_m: [0.001, -0.002, 0.16],
+        rotation_vector_rad: [0.01, 0.02, 0.03],
+        joints: [0.17, 0.171, 0.169, 0.1, -0.1, 0.0],
+        warnings: master_link::Warnings::NEAR_JOINT_LIMIT,
+        faults: master_link::Faults::NONE,
+        serial_singularity_margin: 0.4,
+        parallel_singularity_margin: 0.1,
+        link: master_link::LinkCounters {
+            frames_ok: u32::MAX,
+            bad_checksum: u32::MAX,
+            malformed: u32::MAX,
+            oversized: u32::MAX,
+            wrong_version: u32::MAX,
+            out_of_order: u32::MAX,
+            dropped: u32::MAX,
+        },
+    });
+    for k in 0..3u16 {
+        let n = tx.encode(&status, &mut buf).unwrap();
+        assert!(n <= MAX_FRAME_LEN);
+        let got: Vec<_> = dec.feed(&buf[..n]).collect();
+        assert_eq!(got, vec![Ok((k, status))]);
+    }
+    assert_eq!(tx.sent(), 3);
+    // A buffer too small is an error, counted, and the sequence does not advance.
+    assert!(tx.encode(&status, &mut buf[..10]).is_err());
+    assert_eq!(tx.errors(), 1);
+    let n = tx.encode(&BoardToMaster::Ack { seq: 1 }, &mut buf).unwrap();
+    let got: Vec<_> = dec.feed(&buf[..n]).collect();
+    assert_eq!(got, vec![Ok((3, BoardToMaster::Ack { seq: 1 }))]);
+}
