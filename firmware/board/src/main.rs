@@ -244,6 +244,10 @@ async fn control(parts: Owned<ControlParts>) {
         timing.record(jitter_us, cycles);
         let exec_us = TickTiming::cycles_to_us(cycles, board::CPU_HZ);
         rt.set_warning(Warnings::CYCLE_OVERRUN, exec_us > EXEC_WARN_US);
+        rt.set_tick_timing(
+            timing.worst_jitter_us,
+            TickTiming::cycles_to_us(timing.worst_cycles, board::CPU_HZ),
+        );
         let status = rt.status();
         STATUS.lock(|s| s.set(Some(status)));
         TIMING.lock(|t| t.set(timing));

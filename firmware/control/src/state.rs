@@ -990,6 +990,8 @@ pub struct Runtime<S: Scalar, M: Mechanism<S> + Clone> {
     measured_pose: Pose<S>,
     fk_failures_in_row: u32,
     warnings: Warnings,
+    /// Worst tick jitter and execution time, µs (from the board).
+    tick_timing: (u32, u32),
     estop_input: bool,
     was_holding: bool,
     outputs_on: bool,
@@ -1017,6 +1019,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             measured_pose: central,
             fk_failures_in_row: 0,
             warnings: Warnings::NOT_HOMED,
+            tick_timing: (0, 0),
             estop_input: false,
             was_holding: false,
             outputs_on: false,
@@ -1306,6 +1309,12 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         );
     }
 
+    /// Records the control tick's worst start jitter and execution time (µs), measured by
+    /// the board (DWT cycle counter), for the status report.
+    pub fn set_tick_timing(&mut self, worst_jitter_us: u32, worst_exec_us: u32) {
+        self.tick_timing = (worst_jitter_us, worst_exec_us);
+    }
+
     /// Sets or clears extra warnings (e.g. `CYCLE_OVERRUN`, `LINK_ERRORS` from the board).
     pub fn set_warning(&mut self, w: Warnings, on: bool) {
         self.warnings.set(w, on);
@@ -1329,6 +1338,8 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             serial_singularity_margin: 0.0,
             parallel_singularity_margin: 0.0,
             link: Default::default(),
+            tick_jitter_max_us: self.tick_timing.0,
+            tick_exec_max_us: self.tick_timing.1,
         }
     }
 

@@ -489,14 +489,15 @@ fn bad_frames_are_counted_and_dropped() {
     assert!(feed(&mut rx, &reframe(corrupt, false)).is_empty());
     assert_eq!(rx.counters().bad_checksum, 1);
     assert_eq!(rx.last_error(), Some(FrameError::BadChecksum));
-    // Wrong version (a valid frame of protocol 2).
+    // Wrong version (a valid frame of the next protocol version).
+    let next = master_link::PROTOCOL_VERSION + 1;
     let mut v2 = raw.clone();
-    v2[0] = 2;
+    v2[0] = next;
     assert!(feed(&mut rx, &reframe(v2, true)).is_empty());
     assert_eq!(rx.counters().wrong_version, 1);
     assert_eq!(
         rx.last_error(),
-        Some(FrameError::WrongVersion { received: 2 })
+        Some(FrameError::WrongVersion { received: next })
     );
     // Oversized.
     let mut big = vec![0x55u8; 300];
@@ -660,6 +661,8 @@ fn tx_sequence_and_status_encoding() {
             out_of_order: u32::MAX,
             dropped: u32::MAX,
         },
+        tick_jitter_max_us: 12,
+        tick_exec_max_us: 431,
     });
     for k in 0..3u16 {
         let n = tx.encode(&status, &mut buf).unwrap();

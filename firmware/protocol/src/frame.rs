@@ -6,7 +6,8 @@ use crate::cobs;
 use crate::messages::{Seq, WireMessage};
 
 /// Protocol version carried in every frame header (and in `Hello`).
-pub const PROTOCOL_VERSION: u8 = 1;
+/// Version 2 added the control tick's worst jitter and execution time to `StatusReport`.
+pub const PROTOCOL_VERSION: u8 = 2;
 
 /// Header length: version (1 byte) + sequence number (2 bytes, little endian).
 pub const HEADER_LEN: usize = 3;

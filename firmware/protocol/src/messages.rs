@@ -218,6 +218,10 @@ pub struct StatusReport {
     pub parallel_singularity_margin: f32,
     /// Counters of the master -> board direction as seen by the board.
     pub link: LinkCounters,
+    /// Worst start jitter of the control tick since boot, µs (protocol version 2).
+    pub tick_jitter_max_us: u32,
+    /// Worst execution time of the control tick since boot, µs (protocol version 2).
+    pub tick_exec_max_us: u32,
 }
 
 /// Messages from the board to the host master.

@@ -126,6 +126,8 @@ pub fn max_status() -> StatusReport {
             out_of_order: u32::MAX,
             dropped: u32::MAX,
         },
+        tick_jitter_max_us: u32::MAX,
+        tick_exec_max_us: u32::MAX,
     }
 }
 
@@ -238,19 +240,23 @@ pub fn arb_status() -> impl Strategy<Value = StatusReport> {
         any::<u32>(),
         any::<f32>(),
         any::<f32>(),
-        arb_counters(),
+        (arb_counters(), any::<u32>(), any::<u32>()),
     )
-        .prop_map(|(state, p, r, joints, w, f, sm, pm, link)| StatusReport {
-            state,
-            position_m: p,
-            rotation_vector_rad: r,
-            joints,
-            warnings: Warnings::from_bits_retain(w),
-            faults: Faults::from_bits_retain(f),
-            serial_singularity_margin: sm,
-            parallel_singularity_margin: pm,
-            link,
-        })
+        .prop_map(
+            |(state, p, r, joints, w, f, sm, pm, (link, tj, te))| StatusReport {
+                state,
+                position_m: p,
+                rotation_vector_rad: r,
+                joints,
+                warnings: Warnings::from_bits_retain(w),
+                faults: Faults::from_bits_retain(f),
+                serial_singularity_margin: sm,
+                parallel_singularity_margin: pm,
+                link,
+                tick_jitter_max_us: tj,
+                tick_exec_max_us: te,
+            },
+        )
 }
 
 pub fn arb_board() -> impl Strategy<Value = BoardToMaster> {
