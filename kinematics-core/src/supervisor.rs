@@ -196,6 +196,9 @@ pub struct Supervisor<T: Real, M: Mechanism<T>> {
     j: Option<nalgebra::Matrix6<T>>,
     goal: Pose<T>,
     pending: Option<Pending<T>>,
+    /// The newest target that arrived while another was being verified; it is verified
+    /// next (older queued ones are superseded), so a fast stream never starves the check.
+    queued: Option<Pose<T>>,
     last_stamp_us: Option<u64>,
     latched: Option<Reading<T>>,
     braking: bool,
@@ -275,6 +278,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             j,
             goal: *start,
             pending: None,
+            queued: None,
             last_stamp_us: None,
             latched: None,
             braking: false,
@@ -342,15 +346,33 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         if self.last_stamp_us.is_some_and(|last| stamp_us <= last) {
             return self.refuse(Refusal::OutOfOrder);
         }
+        self.check_distance(target)?;
+        self.last_stamp_us = Some(stamp_us);
+        if self.pending.is_some() {
+            if self.queued.is_some() {
+                self.counters.superseded += 1;
+            }
+            self.queued = Some(*target);
+            return Ok(());
+        }
+        self.start_pending(target);
+        Ok(())
+    }
+
+    /// Refuses a target too far from the current setpoint.
+    fn check_distance(&mut self, target: &Pose<T>) -> Result<(), Refusal<T>> {
         let distance = (target.t - self.pose.t).norm();
         let angle = rotation_angle(&(target.r * self.pose.r.inverse()));
         if !(distance <= self.cfg.max_segment && angle <= self.cfg.max_segment_angle) {
             return self.refuse(Refusal::TooFar { distance, angle });
         }
-        self.last_stamp_us = Some(stamp_us);
-        if self.pending.is_some() {
-            self.counters.superseded += 1;
-        }
+        Ok(())
+    }
+
+    /// Starts verifying the straight segment from the setpoint to `target`.
+    fn start_pending(&mut self, target: &Pose<T>) {
+        let distance = (target.t - self.pose.t).norm();
+        let angle = rotation_angle(&(target.r * self.pose.r.inverse()));
         let n = (distance / self.cfg.path_step)
             .max(angle / self.cfg.path_step_angle)
             .ceil()
@@ -363,7 +385,15 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             next: 1,
             end_checked: false,
         });
-        Ok(())
+    }
+
+    /// Starts the queued target, if any, once the previous check is over.
+    fn start_queued(&mut self) {
+        if let Some(q) = self.queued.take() {
+            if self.check_distance(&q).is_ok() {
+                self.start_pending(&q);
+            }
+        }
     }
 
     /// Clears a latched stop when the current setpoint is safe again (e.g. after the
@@ -376,6 +406,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         self.latched = None;
         self.goal = self.pose;
         self.pending = None;
+        self.queued = None;
         self.braking = false;
         Ok(())
     }
@@ -407,6 +438,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
                     fraction: s,
                     reading,
                 });
+                self.start_queued();
                 return;
             }
             if p.end_checked {
@@ -419,6 +451,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
                 self.goal = p.to;
                 self.braking = false;
                 self.counters.accepted += 1;
+                self.start_queued();
                 return;
             }
         }
@@ -460,6 +493,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         self.twist = Twist::zeros();
         self.qdot = Joints::zeros();
         self.pending = None;
+        self.queued = None;
         self.output(false)
     }
 
@@ -565,6 +599,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             }
             self.braking = true;
             self.pending = None;
+            self.queued = None;
             v1 = v0 - limit_step(v0, l.tip_accel);
             w1 = w0 - limit_step(w0, l.angular_accel);
             candidate = self.pose.displaced(&(v1 * dt), &(w1 * dt));
