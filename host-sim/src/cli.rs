@@ -5,6 +5,7 @@ use crate::commands::{check, fk, forces, ik, jacobian, singularity};
 use crate::geometry_file;
 use crate::limits_file::{self, SelectedLimits};
 use crate::report;
+use crate::sim;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use kinematics_core::{Robot, RsprGeometry, UsrGeometry};
 use std::path::PathBuf;
@@ -150,6 +151,13 @@ pub enum Command {
     /// occurs, the counts of grid points with stop and warn violations, and a conclusion.
     /// The limits come from --limits FILE or the reference limits.
     Check(check::CheckArgs),
+    /// The closed-loop simulation: the board's controller against the plant model.
+    ///
+    /// Runs a scenario (laparoscope, step, box-sweep, payload, backlash-off, or all) with
+    /// the controller at control.rate_hz and the plant at least 10x faster, the tool's
+    /// weight mapped to the joints, and writes summary.json, trace.csv, path.png and
+    /// errors.png (default target/sim/<scenario>/). Settings: host-sim/sim/default.toml.
+    Sim(sim::SimArgs),
 }
 
 impl Command {
@@ -164,6 +172,7 @@ impl Command {
             Command::Singularity(args) => singularity::run(args, robot),
             Command::Report(args) => report::run(args, selected),
             Command::Check(args) => check::run(args, selected, limits),
+            Command::Sim(args) => sim::run_cli(args, selected, limits),
         }
     }
 }

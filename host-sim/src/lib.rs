@@ -11,7 +11,8 @@
 //! - [`commands`]: the row-wise commands `ik`, `fk`, `jacobian`, `forces`, `singularity`,
 //!   `check` (whose `--task-box` form sweeps the task);
 //! - [`task_box`]: the thesis's task box and its grid;
-//! - [`report`]: the text report over the task box.
+//! - [`report`]: the text report over the task box;
+//! - [`sim`]: the closed-loop simulation (`host-sim sim`).
 
 pub mod batch;
 pub mod cli;
@@ -20,6 +21,7 @@ pub mod commands;
 pub mod geometry_file;
 pub mod limits_file;
 pub mod report;
+pub mod sim;
 pub mod task_box;
 pub mod units;
 

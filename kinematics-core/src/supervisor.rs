@@ -17,7 +17,7 @@
 
 use crate::branch::Branch;
 use crate::guards::{GuardSetupError, Guards, Limits, MotionSample, Reading, Severity, Verdict};
-use crate::jacobian::jacobian;
+use crate::jacobian::{jacobian, Jacobians};
 use crate::mechanism::{JointKind, Mechanism};
 use crate::pose::{rotation_angle, rotation_vector, Pose};
 use crate::scalar::{lit, wrap_angle, Real};
@@ -193,7 +193,7 @@ pub struct Supervisor<T: Real, M: Mechanism<T>> {
     qdot: Joints<T>,
     twist: Twist<T>,
     /// J at the setpoint (for the joint-speed cap); None near a serial singularity.
-    j: Option<nalgebra::Matrix6<T>>,
+    jac: Option<Jacobians<T>>,
     goal: Pose<T>,
     pending: Option<Pending<T>>,
     /// The newest target that arrived while another was being verified; it is verified
@@ -267,7 +267,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             (false, Some(s)) => s,
             _ => return Err(SupervisorError::UnsafeStart(verdict.first_stop().copied())),
         };
-        let j = jacobian(guards.robot(), &sol).ok().map(|j| j.j);
+        let jac = jacobian(guards.robot(), &sol).ok();
         Ok(Supervisor {
             guards,
             cfg,
@@ -275,7 +275,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             q: sol.q(),
             qdot: Joints::zeros(),
             twist: Twist::zeros(),
-            j,
+            jac,
             goal: *start,
             pending: None,
             queued: None,
@@ -303,6 +303,11 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
     /// The current setpoint pose.
     pub fn setpoint(&self) -> &Pose<T> {
         &self.pose
+    }
+    /// The Jacobians at the current setpoint (None at a serial singularity), e.g. to map
+    /// a known tool load to the joints.
+    pub fn jacobians(&self) -> Option<&Jacobians<T>> {
+        self.jac.as_ref()
     }
     /// The latched stop reason.
     pub fn latched(&self) -> Option<&Reading<T>> {
@@ -462,7 +467,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
     /// speed limits (with headroom) at the current setpoint's Jacobian.
     fn speed_caps(&self, l: &Limits<T>, dir_v: &Vector3<T>, dir_w: &Vector3<T>) -> (T, T) {
         let (vmax, wmax) = (l.tip_speed, l.angular_speed);
-        let Some(j) = self.j else {
+        let Some(j) = self.jac.as_ref().map(|j| j.j) else {
             return (vmax, wmax);
         };
         let probe = Twist::new(
@@ -612,9 +617,9 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             (None, None) => return self.output(warn), // unreachable: no solution is a stop
         };
         let twist = Twist::new(v1.x, v1.y, v1.z, w1.x, w1.y, w1.z);
-        let jac = jacobian(self.guards.robot(), &sol).ok().map(|j| j.j);
+        let jac = jacobian(self.guards.robot(), &sol).ok();
         let qdot = match jac {
-            Some(j) => j * twist,
+            Some(j) => j.j * twist,
             None => {
                 // Finite differences when J is singular (the serial guard stops long before).
                 let mut qd = (sol.q() - self.q) / dt;
@@ -647,7 +652,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         self.q = sol.q();
         self.qdot = qdot;
         self.twist = twist;
-        self.j = jac;
+        self.jac = jac;
         self.warning = warn;
         if warn {
             self.counters.warn_ticks += 1;

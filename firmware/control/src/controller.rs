@@ -2,6 +2,7 @@
 
 use core::fmt;
 use kinematics_core::guards::Limits;
+use kinematics_core::statics::joint_efforts;
 use kinematics_core::supervisor::{
     Refusal, Supervisor, SupervisorConfig, SupervisorError, TickOutput,
 };
@@ -9,6 +10,7 @@ use kinematics_core::{
     forward, scalar, Branch, FkConfig, FkError, JointKind, Joints, Mechanism, Pose, Real,
 };
 use num_traits::Float;
+use servo::backlash::Direction;
 use servo::config::{ConfigError, ServoConfig};
 use servo::encoder::{EncoderConfig, Encoders};
 use servo::hal::{MotorOutputs, QuadratureCounter};
@@ -37,6 +39,45 @@ pub struct ControllerConfig<S: Scalar> {
     pub encoders: EncoderConfig<S>,
     /// Forward-kinematics solver settings for the measured pose.
     pub fk: FkConfig<S>,
+    /// A known tool on the platform (default none). Its weight sets the lead screws'
+    /// backlash flank: a joint whose holding effort exceeds the threshold rests on one
+    /// flank whichever way it moves.
+    pub tool: Option<ToolLoad<S>>,
+}
+
+/// A tool fixed to the platform: a mass at a point given in the platform frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ToolLoad<S: Scalar> {
+    /// Mass, kg (thesis chapter 4: 1.2 kg).
+    pub mass_kg: S,
+    /// Centre of mass from o_p in {p}, m (thesis: a 0.1 m lever).
+    pub com_p_m: [S; 3],
+    /// Gravity, m/s² (along -z0).
+    pub gravity_m_s2: S,
+    /// Holding efforts above which the load, not the motion, chooses the flank:
+    /// [prismatic N, revolute N m] (default 3 N, 0.05 N m: above the joints' friction).
+    pub flank_threshold: [S; 2],
+}
+
+impl<S: Scalar> ToolLoad<S> {
+    /// The thesis's tool: 1.2 kg on a 0.1 m lever along x_p.
+    pub fn thesis() -> Self {
+        ToolLoad {
+            mass_kg: scalar::lit(1.2),
+            com_p_m: [scalar::lit(0.1), S::zero(), S::zero()],
+            gravity_m_s2: scalar::lit(9.81),
+            flank_threshold: [scalar::lit(3.0), scalar::lit(0.05)],
+        }
+    }
+
+    /// The wrench the platform exerts on the tool at `pose`: +m g along z0 and its moment
+    /// about o_p (Eq. 7.11-7.13 convention: what the platform exerts on its environment).
+    pub fn wrench(&self, pose: &Pose<S>) -> kinematics_core::Wrench<S> {
+        let f = nalgebra::Vector3::new(S::zero(), S::zero(), self.mass_kg * self.gravity_m_s2);
+        let c = pose.r * nalgebra::Vector3::from_row_slice(&self.com_p_m);
+        let m = c.cross(&f);
+        kinematics_core::Wrench::new(f.x, f.y, f.z, m.x, m.y, m.z)
+    }
 }
 
 impl<S: Scalar> Default for ControllerConfig<S> {
@@ -49,6 +90,7 @@ impl<S: Scalar> Default for ControllerConfig<S> {
             servo: ServoConfig::default(),
             encoders: EncoderConfig::default(),
             fk: FkConfig::default(),
+            tool: None,
         }
     }
 }
@@ -181,6 +223,14 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Controller<S, M> {
         &self.cfg
     }
 
+    /// Declares the tool now on the platform (None: none).
+    pub fn set_tool(&mut self, tool: Option<ToolLoad<S>>) {
+        self.cfg.tool = tool;
+        if tool.is_none() {
+            self.servo.set_preloads(&[Direction::Unknown; NUM_JOINTS]);
+        }
+    }
+
     /// Hands a master target to the supervisor.
     pub fn submit(&mut self, pose: &Pose<S>, stamp_us: u64, now_us: u64) -> Result<(), Refusal<S>> {
         self.supervisor.submit(pose, stamp_us, now_us)
@@ -240,6 +290,29 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Controller<S, M> {
         {
             if *k == JointKind::Angular {
                 *s = *m + scalar::wrap_angle(*s - *m);
+            }
+        }
+        // A known tool presses each lead screw against one flank: tell the backlash
+        // compensation which (τ = J⁻ᵀ s_e at the setpoint; the motor pushes along τ).
+        if let (Some(tool), Some(jac)) = (self.cfg.tool, self.supervisor.jacobians()) {
+            if let Ok(st) = joint_efforts(jac, &tool.wrench(&setpoint.pose)) {
+                let mut flanks = [Direction::Unknown; NUM_JOINTS];
+                for ((f, tau), k) in flanks
+                    .iter_mut()
+                    .zip(st.tau.iter())
+                    .zip(self.robot.joint_kinds().iter())
+                {
+                    let threshold = match k {
+                        JointKind::Linear => tool.flank_threshold[0],
+                        JointKind::Angular => tool.flank_threshold[1],
+                    };
+                    if *tau > threshold {
+                        *f = Direction::Positive;
+                    } else if *tau < -threshold {
+                        *f = Direction::Negative;
+                    }
+                }
+                self.servo.set_preloads(&flanks);
             }
         }
         let spd = to_array(&setpoint.qdot);

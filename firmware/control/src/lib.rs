@@ -21,4 +21,4 @@ pub mod failsafe;
 pub mod link;
 pub mod state;
 
-pub use controller::{Controller, ControllerConfig, ControllerError, TickReport};
+pub use controller::{Controller, ControllerConfig, ControllerError, TickReport, ToolLoad};

@@ -209,6 +209,8 @@ pub struct BacklashCompensator<S> {
     last_setpoint: S,
     offset: S,
     primed: bool,
+    /// The flank imposed by a steady external load (Unknown: none, follow the motion).
+    preload: Direction,
 }
 
 impl<S: Float> BacklashCompensator<S> {
@@ -222,7 +224,17 @@ impl<S: Float> BacklashCompensator<S> {
             last_setpoint: S::zero(),
             offset: S::zero(),
             primed: false,
+            preload: Direction::Unknown,
         }
+    }
+
+    /// Imposes the flank in contact from a steady external load: when the load the motor
+    /// must hold exceeds the friction, the motor pushes the same way whichever way it moves
+    /// (a leg carrying the tool's weight rests on one flank both up and down), so the
+    /// offset follows the load, not the motion. `Direction::Unknown` returns to the
+    /// direction of motion. The offset ramps as usual.
+    pub fn set_preload(&mut self, direction: Direction) {
+        self.preload = direction;
     }
 
     /// The parameters.
@@ -328,9 +340,15 @@ impl<S: Float> BacklashCompensator<S> {
             }
         }
 
-        // Target offset: +-b/2 by direction (0 when off or unknown).
+        // Target offset: +-b/2 by the flank in contact (the load's when one is imposed,
+        // else the motion's; 0 when off or unknown).
+        let flank = if self.preload == Direction::Unknown {
+            self.direction
+        } else {
+            self.preload
+        };
         let target = if self.active() {
-            self.direction.sign::<S>() * self.half_width()
+            flank.sign::<S>() * self.half_width()
         } else {
             S::zero()
         };

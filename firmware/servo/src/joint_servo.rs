@@ -112,6 +112,14 @@ impl<S: Float> JointServo<S> {
         Ok(())
     }
 
+    /// Imposes each joint's backlash flank from a steady external load (see
+    /// [`BacklashCompensator::set_preload`]); `Direction::Unknown` follows the motion.
+    pub fn set_preloads(&mut self, flanks: &[Direction; NUM_JOINTS]) {
+        for (ch, d) in self.channels.iter_mut().zip(flanks.iter()) {
+            ch.backlash.set_preload(*d);
+        }
+    }
+
     /// One control sample: setpoints `setpoint_q` (m, rad), desired velocities
     /// `setpoint_qdot` (m/s, rad/s, from the Jacobian), measured positions `measured_q`
     /// (from the encoders), sample time `dt` (s, finite and > 0).

@@ -252,3 +252,32 @@ fn the_backlash_off_feature_compiles_the_compensation_out() {
         assert_eq!(c.update(k as f64 * 1e-5, DT).offset, 0.0);
     }
 }
+
+/// A steady external load imposes the flank: with the preload set positive, the offset
+/// stays +b/2 while the setpoint moves down, and it follows the motion again once the
+/// preload is released.
+#[test]
+fn preload_from_a_steady_load_overrides_the_motion_direction() {
+    let mut c =
+        servo::backlash::BacklashCompensator::new(servo::backlash::BacklashParams::<f64>::leg());
+    let half = c.params().width / 2.0;
+    c.set_preload(servo::backlash::Direction::Positive);
+    let mut out = c.update(0.0, 1e-3);
+    for k in 1..200 {
+        out = c.update(-(k as f64) * 1e-5, 1e-3);
+    }
+    assert!(
+        (out.offset - half).abs() < 1e-12,
+        "offset {} with the load pushing down",
+        out.offset
+    );
+    c.set_preload(servo::backlash::Direction::Unknown);
+    for k in 200..400 {
+        out = c.update(-(k as f64) * 1e-5, 1e-3);
+    }
+    assert!(
+        (out.offset + half).abs() < 1e-12,
+        "offset {} following the downward motion",
+        out.offset
+    );
+}

@@ -1,0 +1,388 @@
+//! The closed loop: the board's control application ([`controller::Controller`]) driving
+//! the plant model ([`rspr_plant::Plant`]) through the hardware traits, the plant stepped
+//! `plant_steps_per_tick` times per control tick, and the tool's weight mapped to joint
+//! loads at the true pose.
+
+use super::config::{PayloadUpdate, SimConfig};
+use controller::{Controller, ControllerConfig, TickReport, ToolLoad};
+use kinematics_core::guards::Limits;
+use kinematics_core::statics::forces_with_inv_cond;
+use kinematics_core::{
+    forward, inverse, jacobian, Branch, FkConfig, FkSolution, Joints, Pose, RsprGeometry,
+};
+use rspr_plant::{Plant, PlantConfig, NUM_JOINTS};
+use servo::backlash::{BacklashConfig, BacklashRamp};
+use servo::hal::{MotorOutputs, QuadratureCounter};
+use std::time::Instant;
+
+/// The plant behind the board's hardware traits. The bridges stay off after
+/// [`MotorOutputs::disable`] until [`MotorOutputs::enable`].
+struct PlantIo<'a> {
+    plant: &'a mut Plant,
+    enabled: &'a mut bool,
+}
+
+impl QuadratureCounter for PlantIo<'_> {
+    fn counts(&mut self) -> [u16; NUM_JOINTS] {
+        self.plant.encoder_counts()
+    }
+}
+
+impl MotorOutputs<f64> for PlantIo<'_> {
+    fn set_duties(&mut self, duty: &[f64; NUM_JOINTS]) {
+        let d = if *self.enabled {
+            duty.map(|x| {
+                if x.is_finite() {
+                    x.clamp(-1.0, 1.0)
+                } else {
+                    0.0
+                }
+            })
+        } else {
+            [0.0; NUM_JOINTS]
+        };
+        // Finite duties in [-1, 1]: the plant accepts them.
+        let _ = self.plant.set_duty(d);
+    }
+    fn disable(&mut self) {
+        *self.enabled = false;
+        let _ = self.plant.set_duty([0.0; NUM_JOINTS]);
+    }
+    fn enable(&mut self) {
+        *self.enabled = true;
+    }
+}
+
+/// The tool: a weight on a lever fixed to the platform (the controller's own
+/// [`ToolLoad`], so the plant's load and the controller's knowledge of it are one thing).
+pub type Payload = ToolLoad<f64>;
+
+/// The tool of the `[payload]` settings.
+pub fn payload_from_config(cfg: &SimConfig) -> Payload {
+    ToolLoad {
+        mass_kg: cfg.payload.mass_kg,
+        com_p_m: [
+            cfg.payload.lever_mm[0] * 1e-3,
+            cfg.payload.lever_mm[1] * 1e-3,
+            cfg.payload.lever_mm[2] * 1e-3,
+        ],
+        gravity_m_s2: cfg.payload.gravity_m_s2,
+        ..ToolLoad::thesis()
+    }
+}
+
+/// What one control tick did, with the truth at the instant the encoders were read.
+#[derive(Clone, Copy, Debug)]
+pub struct TickSample {
+    /// Time of the tick (when the encoders are read), s.
+    pub t_s: f64,
+    /// The controller's report (setpoint, measured pose, duties, fault).
+    pub report: TickReport<f64>,
+    /// True load-side joints at `t_s`.
+    pub true_q: [f64; NUM_JOINTS],
+    /// True pose at `t_s` (forward kinematics of `true_q`).
+    pub true_pose: Pose<f64>,
+    /// Duties applied over the tick (0 while the outputs are off).
+    pub duty: [f64; NUM_JOINTS],
+    /// Largest |current| over the tick's plant steps, A.
+    pub peak_current_a: [f64; NUM_JOINTS],
+    /// Currents at the end of the tick, A.
+    pub current_a: [f64; NUM_JOINTS],
+    /// Joint loads applied at the start of the tick (+q direction), N or N m.
+    pub load: [f64; NUM_JOINTS],
+    /// The actuator efforts tau = J^-T s_e that hold the tool, N or N m.
+    pub tau: [f64; NUM_JOINTS],
+}
+
+/// The closed loop.
+pub struct Sim {
+    robot: RsprGeometry<f64>,
+    plant: Plant,
+    ctl: Controller<f64, RsprGeometry<f64>>,
+    plant_dt: f64,
+    steps_per_tick: u32,
+    control_dt: f64,
+    payload: Payload,
+    payload_on: bool,
+    per_step: bool,
+    fk_cfg: FkConfig<f64>,
+    true_pose: Pose<f64>,
+    true_fk_failures: u64,
+    enabled: bool,
+    ticks: u64,
+    load: [f64; NUM_JOINTS],
+    tau: [f64; NUM_JOINTS],
+    timing: Timing,
+}
+
+/// Where the wall-clock time of the ticks went.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Timing {
+    /// The controller's tick (encoders, FK, supervisor with its guards, servo), s.
+    pub controller_s: f64,
+    /// The plant's steps (with the payload mapping of every step when
+    /// `plant.payload_update` is "step"), s.
+    pub plant_s: f64,
+    /// The true pose (FK of the load-side joints) and the payload mapping, s.
+    pub truth_s: f64,
+}
+
+fn arr(q: &Joints<f64>) -> [f64; NUM_JOINTS] {
+    [q[0], q[1], q[2], q[3], q[4], q[5]]
+}
+
+/// The plant parameters: the file of `plant.config_file` (or the shipped one) with the
+/// legs' backlash replaced by `plant.leg_backlash_mm`.
+pub fn plant_config(cfg: &SimConfig) -> Result<PlantConfig, String> {
+    let mut pc = if cfg.plant.config_file.is_empty() {
+        PlantConfig::shipped().map_err(|e| e.to_string())?
+    } else {
+        let text = std::fs::read_to_string(&cfg.plant.config_file).map_err(|e| {
+            format!(
+                "plant.config_file: cannot read {}: {e}",
+                cfg.plant.config_file
+            )
+        })?;
+        PlantConfig::from_toml_str(&text)
+            .map_err(|e| format!("plant.config_file {}: {e}", cfg.plant.config_file))?
+    };
+    for p in pc.prismatic.iter_mut() {
+        p.backlash_mm = cfg.plant.leg_backlash_mm;
+    }
+    pc.validate()
+        .map_err(|e| format!("plant.leg_backlash_mm: {e}"))?;
+    Ok(pc)
+}
+
+/// The controller's settings: the defaults with the rate, the limits and the backlash
+/// compensation of the configuration.
+pub fn controller_config(
+    cfg: &SimConfig,
+    limits: &Limits<f64>,
+    compensation: bool,
+) -> ControllerConfig<f64> {
+    let mut cc = ControllerConfig::<f64> {
+        rate_hz: cfg.control.rate_hz,
+        limits: *limits,
+        ..ControllerConfig::default()
+    };
+    let width = cfg.control.compensated_leg_backlash_mm * 1e-3;
+    if compensation && width > 0.0 {
+        for p in cc.servo.backlash.joints.iter_mut().take(3) {
+            p.width = width;
+            if let BacklashRamp::DistanceOrTime { time, .. } = p.ramp {
+                p.ramp = BacklashRamp::DistanceOrTime {
+                    distance: width,
+                    time,
+                };
+            }
+        }
+    } else if !compensation {
+        cc.servo.backlash = BacklashConfig::off();
+    } else {
+        // Compensation on with a zero leg width: the links keep theirs.
+        for p in cc.servo.backlash.joints.iter_mut().take(3) {
+            p.enabled = false;
+        }
+    }
+    cc
+}
+
+impl Sim {
+    /// The robot homed and at rest at `start`, the controller holding it.
+    pub fn new(
+        robot: &RsprGeometry<f64>,
+        limits: &Limits<f64>,
+        cfg: &SimConfig,
+        start: &Pose<f64>,
+        compensation: bool,
+    ) -> Result<Self, String> {
+        let pc = plant_config(cfg)?;
+        let mut plant = Plant::new(&pc).map_err(|e| e.to_string())?;
+        let sol = inverse(robot, start, Branch::OUTER)
+            .map_err(|e| format!("the start pose has no inverse kinematics: {e}"))?;
+        let q0 = arr(&sol.q());
+        plant.set_joint_positions(q0).map_err(|e| e.to_string())?;
+        let cc = controller_config(cfg, limits, compensation);
+        let ctl = Controller::new(*robot, cc, plant.encoder_counts(), q0)
+            .map_err(|e| format!("controller: {e}"))?;
+        Ok(Sim {
+            robot: *robot,
+            plant,
+            ctl,
+            plant_dt: cfg.plant_dt(),
+            steps_per_tick: cfg.control.plant_steps_per_tick,
+            control_dt: cfg.control_dt(),
+            payload: payload_from_config(cfg),
+            payload_on: false,
+            per_step: cfg.plant.payload_update() == PayloadUpdate::Step,
+            // 0.1 nm and 1 nrad: far below anything reported, and one Newton step from the
+            // last tick's pose instead of two or three at the default (rounding-level)
+            // tolerances.
+            fk_cfg: FkConfig {
+                tol_linear: 1e-10,
+                tol_angular: 1e-9,
+                ..FkConfig::default()
+            },
+            true_pose: *start,
+            true_fk_failures: 0,
+            enabled: true,
+            ticks: 0,
+            load: [0.0; NUM_JOINTS],
+            tau: [0.0; NUM_JOINTS],
+            timing: Timing::default(),
+        })
+    }
+
+    /// The plant (faults, statistics).
+    pub fn plant(&self) -> &Plant {
+        &self.plant
+    }
+    /// The plant, mutable (fault injection).
+    pub fn plant_mut(&mut self) -> &mut Plant {
+        &mut self.plant
+    }
+    /// The controller.
+    pub fn controller(&self) -> &Controller<f64, RsprGeometry<f64>> {
+        &self.ctl
+    }
+    /// The control period, s.
+    pub fn control_dt(&self) -> f64 {
+        self.control_dt
+    }
+    /// Control ticks run so far.
+    pub fn ticks(&self) -> u64 {
+        self.ticks
+    }
+    /// Time of the next tick, s.
+    pub fn time_s(&self) -> f64 {
+        self.ticks as f64 * self.control_dt
+    }
+    /// Time of the next tick on the controller's microsecond clock.
+    pub fn now_us(&self) -> u64 {
+        (self.time_s() * 1e6).round() as u64
+    }
+    /// Forward-kinematics failures on the true joints (the last true pose is kept).
+    pub fn true_fk_failures(&self) -> u64 {
+        self.true_fk_failures
+    }
+    /// Wall-clock time spent so far, by part.
+    pub fn timing(&self) -> Timing {
+        self.timing
+    }
+    /// Whether the motor outputs are on.
+    pub fn outputs_enabled(&self) -> bool {
+        self.enabled
+    }
+
+    /// Attaches (or removes) the tool.
+    pub fn set_payload(&mut self, on: bool) {
+        self.payload_on = on;
+        // The controller knows the tool it carries (it sets the lead screws' flank).
+        self.ctl.set_tool(on.then_some(self.payload));
+        if !on {
+            self.load = [0.0; NUM_JOINTS];
+            self.tau = [0.0; NUM_JOINTS];
+            let _ = self.plant.set_external_load(self.load);
+        }
+    }
+
+    /// Hands a master target to the controller, stamped `stamp_us` on the controller clock.
+    pub fn submit(
+        &mut self,
+        pose: &Pose<f64>,
+        stamp_us: u64,
+    ) -> Result<(), kinematics_core::supervisor::Refusal<f64>> {
+        let now = self.now_us();
+        self.ctl.submit(pose, stamp_us, now)
+    }
+
+    fn true_fk(&mut self) -> Option<FkSolution<f64>> {
+        let q = Joints::from_row_slice(&self.plant.joint_positions());
+        match forward(
+            &self.robot,
+            &q,
+            Branch::OUTER,
+            &self.true_pose,
+            &self.fk_cfg,
+        ) {
+            Ok(sol) => {
+                self.true_pose = sol.pose;
+                Some(sol)
+            }
+            Err(_) => {
+                self.true_fk_failures += 1;
+                None
+            }
+        }
+    }
+
+    /// Sets the plant's joint loads to -tau, tau = J^-T s_e at the true pose `sol`.
+    fn apply_payload(&mut self, sol: Option<&FkSolution<f64>>) -> Result<(), String> {
+        if !self.payload_on {
+            return Ok(());
+        }
+        // Without a true pose (FK failed) the last loads stay.
+        let Some(sol) = sol else { return Ok(()) };
+        let se = self.payload.wrench(&sol.pose);
+        let jac = jacobian(&self.robot, &sol.solution).map_err(|e| format!("payload: {e:?}"))?;
+        // The LU of Jtilde^T refuses a singular configuration; the guards keep the
+        // setpoint far from one, so the SVD of `actuator_forces` is not needed here.
+        let st = forces_with_inv_cond(&jac, &se, 1.0, 0.0).map_err(|e| format!("payload: {e}"))?;
+        self.tau = arr(&st.tau);
+        self.load = self.tau.map(|t| -t);
+        self.plant
+            .set_external_load(self.load)
+            .map_err(|e| e.to_string())
+    }
+
+    /// One control tick: the truth at the tick, the payload, the controller's tick and
+    /// the plant over one control period.
+    pub fn tick(&mut self) -> Result<TickSample, String> {
+        let t_s = self.time_s();
+        let t0 = Instant::now();
+        let sol = self.true_fk();
+        let true_q = self.plant.joint_positions();
+        let true_pose = self.true_pose;
+        self.apply_payload(sol.as_ref())?;
+        let load = self.load;
+        let tau = self.tau;
+        let t1 = Instant::now();
+        let report = {
+            let mut io = PlantIo {
+                plant: &mut self.plant,
+                enabled: &mut self.enabled,
+            };
+            self.ctl.tick(&mut io)
+        };
+        let t2 = Instant::now();
+        let duty = self.plant.duty();
+        let mut peak = [0.0f64; NUM_JOINTS];
+        for k in 0..self.steps_per_tick {
+            if self.per_step && self.payload_on && k > 0 {
+                let sol = self.true_fk();
+                self.apply_payload(sol.as_ref())?;
+            }
+            self.plant.step(self.plant_dt).map_err(|e| e.to_string())?;
+            for (p, i) in peak.iter_mut().zip(self.plant.currents()) {
+                *p = p.max(i.abs());
+            }
+        }
+        let t3 = Instant::now();
+        self.timing.truth_s += (t1 - t0).as_secs_f64();
+        self.timing.controller_s += (t2 - t1).as_secs_f64();
+        self.timing.plant_s += (t3 - t2).as_secs_f64();
+        self.ticks += 1;
+        Ok(TickSample {
+            t_s,
+            report,
+            true_q,
+            true_pose,
+            duty,
+            peak_current_a: peak,
+            current_a: self.plant.currents(),
+            load,
+            tau,
+        })
+    }
+}

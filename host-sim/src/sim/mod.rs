@@ -1,0 +1,282 @@
+//! `host-sim sim`: the closed-loop simulation, the project's main job.
+//!
+//! The board's control application (`firmware/control`: encoders -> FK -> supervisor ->
+//! IK -> PID -> PWM, in f64) runs against the plant model of the six actuated joints
+//! (`host-sim/plant`) through the hardware traits of `firmware/servo`. The controller
+//! ticks at `control.rate_hz` (1 kHz default, up to 10 kHz); the plant is integrated
+//! `control.plant_steps_per_tick` (>= 10) times per tick. A master streams timestamped
+//! target poses (or single targets); the tool's weight (1.2 kg on a 0.1 m lever) is mapped
+//! to joint loads through tau = J^-T s_e at the true pose. Each run writes a JSON summary,
+//! a CSV trace and PNG plots.
+//!
+//! Modules: [`config`] (the TOML settings), [`scenario`] (what the master sends, faults),
+//! [`engine`] (the loop), [`metrics`] (errors, efforts, faults), [`run`] (one scenario),
+//! [`output`] (files).
+
+pub mod config;
+pub mod engine;
+pub mod metrics;
+pub mod output;
+pub mod run;
+pub mod scenario;
+
+use crate::cli::SelectedRobot;
+use crate::limits_file::SelectedLimits;
+use clap::Args;
+use config::SimConfig;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use kinematics_core::{Robot, RsprGeometry};
+use scenario::{Scenario, NAMES};
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+/// `host-sim sim` arguments.
+#[derive(Debug, Args)]
+pub struct SimArgs {
+    /// Scenario: laparoscope (default), step, box-sweep, payload, backlash-off, or all.
+    #[arg(long, default_value = "laparoscope", value_name = "NAME")]
+    pub scenario: String,
+    /// Settings (TOML with the keys of host-sim/sim/default.toml; only the keys to
+    /// change) [default: host-sim/sim/default.toml, embedded].
+    #[arg(long, value_name = "FILE.toml")]
+    pub config: Option<PathBuf>,
+    /// Output directory [default: output.dir of the config, else target/sim/<scenario>];
+    /// with --scenario all, one sub-directory per scenario.
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+}
+
+/// The RSPR geometry of the selection (the plant models the RSPR prototype only).
+pub fn rspr(selected: &SelectedRobot) -> Result<RsprGeometry<f64>, String> {
+    match selected.robot {
+        Robot::Rspr(g) => Ok(g),
+        Robot::Usr(_) => {
+            Err("sim: the plant models the RSPR prototype's joints; choose an RSPR robot".into())
+        }
+    }
+}
+
+/// A progress bar on stderr, shown only on a terminal and only once a run has taken
+/// longer than a second.
+struct Progress {
+    bar: ProgressBar,
+    started: Instant,
+    shown: bool,
+    tty: bool,
+}
+
+impl Progress {
+    fn new(name: &str) -> Self {
+        let bar = ProgressBar::with_draw_target(Some(0), ProgressDrawTarget::hidden());
+        if let Ok(style) =
+            ProgressStyle::with_template("{prefix} [{bar:40}] {percent:>3}% simulated, eta {eta}")
+        {
+            bar.set_style(style.progress_chars("=> "));
+        }
+        bar.set_prefix(name.to_string());
+        Progress {
+            bar,
+            started: Instant::now(),
+            shown: false,
+            tty: std::io::stderr().is_terminal(),
+        }
+    }
+
+    fn update(&mut self, done: u64, total: u64) {
+        self.bar.set_length(total);
+        self.bar.set_position(done);
+        if !self.shown && self.tty && self.started.elapsed() > Duration::from_secs(1) {
+            self.bar.set_draw_target(ProgressDrawTarget::stderr());
+            self.shown = true;
+        }
+    }
+
+    fn finish(&self) {
+        self.bar.finish_and_clear();
+    }
+}
+
+/// Runs `host-sim sim`.
+pub fn run_cli(
+    args: &SimArgs,
+    selected: &SelectedRobot,
+    limits: &SelectedLimits,
+) -> Result<(), String> {
+    let robot = rspr(selected)?;
+    let cfg = SimConfig::load(args.config.as_deref())?;
+    let names: Vec<&str> = if args.scenario == "all" {
+        NAMES.to_vec()
+    } else {
+        vec![args.scenario.as_str()]
+    };
+    let all = names.len() > 1;
+    for name in names {
+        let scenario = Scenario::from_config(name, &cfg, robot.hc)?;
+        let mut progress = Progress::new(name);
+        let outcome = run::run(&robot, &limits.limits, &cfg, &scenario, &mut |d, t| {
+            progress.update(d, t)
+        });
+        progress.finish();
+        let outcome = outcome?;
+        let dir = match (&args.out, all) {
+            (Some(o), true) => o.join(name),
+            (Some(o), false) => o.clone(),
+            (None, _) => cfg.output_dir(None, name),
+        };
+        let written = output::write_all(&outcome, &dir, cfg.output.plots)?;
+        print!("{}", report_text(&outcome.summary));
+        println!("  wrote {}", dir.display());
+        for f in &written.files {
+            if let Some(n) = f.file_name() {
+                println!("    {}", n.to_string_lossy());
+            }
+        }
+        println!();
+    }
+    Ok(())
+}
+
+/// The readable summary printed after a run.
+pub fn report_text(s: &run::Summary) -> String {
+    use std::fmt::Write;
+    let mut o = String::new();
+    let st = &s.settings;
+    let _ = writeln!(o, "sim {}: {}", s.scenario, s.description);
+    let _ = writeln!(
+        o,
+        "  control {} Hz, plant step {:.0} us, leg backlash {:.3} mm, compensation {}, tool {}",
+        st.control_rate_hz,
+        st.plant_step_us,
+        st.leg_backlash_mm,
+        if st.backlash_compensation {
+            "on"
+        } else {
+            "off"
+        },
+        match st.payload_attached_at_s {
+            Some(t) => format!(
+                "{} kg on {:?} mm from {} s",
+                st.payload_mass_kg, st.payload_lever_mm, t
+            ),
+            None => "none".into(),
+        }
+    );
+    let _ = writeln!(
+        o,
+        "  simulated {:.2} s in {:.2} s: {:.0}x real time ({:.1} us per tick: controller {:.1}, \
+         plant {:.1}, truth+payload {:.1}, other {:.1})",
+        s.simulated_s,
+        s.wall_s,
+        s.speed_up,
+        s.timing.per_tick_us,
+        s.timing.controller_us,
+        s.timing.plant_us,
+        s.timing.truth_and_payload_us,
+        s.timing.other_us
+    );
+    let e = |p: &metrics::PoseErrorSummary| {
+        format!(
+            "tip RMS {:.4} mm, max {:.4} mm; orientation RMS {:.4} deg, max {:.4} deg",
+            p.tip_rms_mm, p.tip_max_mm, p.orientation_rms_deg, p.orientation_max_deg
+        )
+    };
+    let _ = writeln!(o, "  tracking error (true vs setpoint): {}", e(&s.tracking));
+    let _ = writeln!(o, "  target error (true vs master):     {}", e(&s.target));
+    for p in &s.phases {
+        let _ = writeln!(
+            o,
+            "  {}: tracking tip RMS {:.4} / max {:.4} mm; vs target RMS {:.4} / max {:.4} mm",
+            p.name,
+            p.tracking.tip_rms_mm,
+            p.tracking.tip_max_mm,
+            p.target.tip_rms_mm,
+            p.target.tip_max_mm
+        );
+    }
+    if let Some(a) = &s.accuracy {
+        let _ = writeln!(
+            o,
+            "  accuracy target ({}): tip RMS {:.4} mm (<= {}), max {:.4} mm (<= {}): {}",
+            a.judged_on,
+            a.tip_rms_mm,
+            a.limit_tip_rms_mm,
+            a.tip_max_mm,
+            a.limit_tip_max_mm,
+            if a.met { "MET" } else { "NOT MET" }
+        );
+    }
+    for st in &s.steps {
+        let _ = writeln!(
+            o,
+            "  step at {:.2} s ({:.2} mm, {:.2} deg): rise {} s, overshoot {:.4} mm / {:.4} \
+             deg, settled within {} mm / {} deg after {} s, final error {:.4} mm",
+            st.at_s,
+            st.step_mm,
+            st.step_deg,
+            st.rise_s.map_or("-".into(), |v| format!("{v:.3}")),
+            st.overshoot_mm,
+            st.overshoot_deg,
+            st.settle_band_mm,
+            st.settle_band_deg,
+            st.settle_s.map_or("never".into(), |v| format!("{v:.3}")),
+            st.final_error_mm
+        );
+    }
+    let cur: Vec<String> = s
+        .actuators
+        .iter()
+        .map(|a| {
+            format!(
+                "{} {:.2}/{:.2}",
+                a.joint, a.peak_current_a, a.nominal_current_a
+            )
+        })
+        .collect();
+    let _ = writeln!(o, "  peak/nominal current A: {}", cur.join(", "));
+    let duty: Vec<String> = s
+        .actuators
+        .iter()
+        .map(|a| format!("{} {:.2}", a.joint, a.peak_duty))
+        .collect();
+    let _ = writeln!(o, "  peak duty: {}", duty.join(", "));
+    let sv = &s.supervisor;
+    let _ = writeln!(
+        o,
+        "  supervisor: {} targets sent, {} refused (path {}, too far {}, stale {}), warn {:.2} s, \
+         stopped {:.2} s, stops {}{}",
+        sv.targets_sent,
+        sv.refused.total,
+        sv.refused.path,
+        sv.refused.too_far,
+        sv.refused.stale,
+        sv.warn_s,
+        sv.stopped_s,
+        sv.stops,
+        sv.refused
+            .first_reason
+            .as_ref()
+            .map(|r| format!("; first refusal: {r}"))
+            .unwrap_or_default()
+    );
+    match &s.faults.servo {
+        None => {
+            let _ = writeln!(o, "  servo faults: none");
+        }
+        Some(f) => {
+            let _ = writeln!(
+                o,
+                "  servo fault at {:.3} s: {} on {} (error {})",
+                f.at_s,
+                f.kind,
+                f.joint.unwrap_or("-"),
+                match (f.error_mm, f.error_deg) {
+                    (Some(e), _) => format!("{e:.4} mm"),
+                    (_, Some(e)) => format!("{e:.4} deg"),
+                    _ => "-".into(),
+                }
+            );
+        }
+    }
+    o
+}

@@ -1,0 +1,300 @@
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+//! The closed-loop simulation (`host-sim sim`): the board's controller against the plant
+//! model. Each test states the property it checks. Runs are kept to a few simulated
+//! seconds (the test profile builds with opt-level 2).
+
+mod common;
+
+use host_sim::sim::config::SimConfig;
+use host_sim::sim::run::{run, Outcome};
+use host_sim::sim::scenario::{pose_mm_deg, FaultEvent, Jump, Scenario};
+use kinematics_core::guards::Limits;
+use kinematics_core::{Pose, RsprGeometry};
+use rspr_plant::Fault;
+
+fn robot() -> RsprGeometry<f64> {
+    RsprGeometry::reference()
+}
+
+fn config(toml: &str) -> SimConfig {
+    SimConfig::from_toml_str(toml).unwrap()
+}
+
+fn simulate(cfg: &SimConfig, scenario: &Scenario) -> Outcome {
+    run(
+        &robot(),
+        &Limits::reference(),
+        cfg,
+        scenario,
+        &mut |_, _| {},
+    )
+    .unwrap()
+}
+
+fn central() -> Pose<f64> {
+    Pose::central(robot().hc)
+}
+
+const NO_TOOL: &str = "[payload]\nenabled = false\n";
+
+/// Step responses: a 5 mm translation and a 5 deg rotation, sent as single targets (the
+/// supervisor ramps them at 25 mm/s, 250 mm/s^2). Without the tool the true pose goes at
+/// most 0.02 mm / 0.03 deg past the target along the step and settles within 0.05 mm and
+/// 0.05 deg in 0.4 s. With the tool (its weight keeps the loaded legs on one flank, so
+/// the backlash compensation is wrong in one direction) the overshoot stays below the leg
+/// backlash plus 0.02 mm (0.10 mm) and the pose settles within 0.1 mm in 0.5 s.
+#[test]
+fn step_response_settles_without_overshoot() {
+    let steps = "[scenario.step]\nsteps_mm_deg = [[5.0, 0, 0, 0, 0, 0], [5.0, 0, 0, 5.0, 0, 0]]\n\
+                 hold_s = 0.8\n";
+    for (tool, overshoot_mm, overshoot_deg, band, settle_s) in [
+        (false, 0.02, 0.03, "settle_band_mm = 0.05\n", 0.4),
+        (true, 0.10, 0.03, "settle_band_mm = 0.1\n", 0.5),
+    ] {
+        let text = format!("{steps}{band}{}", if tool { "" } else { NO_TOOL });
+        let cfg = config(&text);
+        let sc = Scenario::from_config("step", &cfg, robot().hc).unwrap();
+        let out = simulate(&cfg, &sc);
+        assert_eq!(out.summary.steps.len(), 2);
+        for st in &out.summary.steps {
+            println!("tool {tool}: {st:?}");
+            assert!(st.overshoot_mm <= overshoot_mm, "tool {tool}: {st:?}");
+            assert!(st.overshoot_deg <= overshoot_deg, "tool {tool}: {st:?}");
+            let settled = st.settle_s.expect("settles within the hold");
+            assert!(settled <= settle_s, "tool {tool}: {st:?}");
+        }
+        assert!(out.summary.faults.servo.is_none());
+    }
+}
+
+/// A target outside the workspace is refused: 20 mm above the central pose leaves the
+/// task box and its 5 mm margin (the straight path crosses the workspace guard), and one
+/// 100 mm away is farther than the 60 mm a single target may jump. The robot keeps
+/// holding: the true pose moves less than the leg backlash (0.08 mm) from where it was
+/// when the first target was sent, with and without the tool.
+#[test]
+fn target_outside_the_workspace_is_refused_and_the_robot_holds() {
+    for tool in [false, true] {
+        let cfg = config(&format!(
+            "[output]\ntrace_every_ticks = 1\n{}",
+            if tool { "" } else { NO_TOOL }
+        ));
+        let c = central();
+        let jumps = vec![
+            Jump {
+                at_s: 0.3,
+                pose: pose_mm_deg(&[0.0, 0.0, 180.0, 0.0, 0.0, 0.0]),
+            },
+            Jump {
+                at_s: 0.6,
+                pose: pose_mm_deg(&[0.0, 0.0, 260.0, 0.0, 0.0, 0.0]),
+            },
+        ];
+        let sc = Scenario::jumps(&cfg, "outside", &c, jumps, 1.2);
+        let out = simulate(&cfg, &sc);
+        let sv = &out.summary.supervisor;
+        println!("tool {tool}: {:?}", sv.refused);
+        assert_eq!(sv.accepted, 0);
+        assert_eq!(sv.refused.path, 1, "{sv:?}");
+        assert_eq!(sv.refused.too_far, 1, "{sv:?}");
+        let at = |t: f64| {
+            out.trace
+                .iter()
+                .find(|r| r.t_s >= t - 1e-9)
+                .expect("trace row")
+        };
+        let before = at(0.3).truth;
+        let moved = out
+            .trace
+            .iter()
+            .filter(|r| r.t_s >= 0.3)
+            .map(|r| {
+                let d: f64 = (0..3).map(|k| (r.truth[k] - before[k]).powi(2)).sum();
+                d.sqrt()
+            })
+            .fold(0.0, f64::max);
+        println!("tool {tool}: the true pose moved {moved:.5} mm after the first target");
+        assert!(moved < 0.08, "tool {tool}: moved {moved} mm");
+        assert!(out.summary.faults.servo.is_none());
+    }
+}
+
+/// Plant faults trip the servo's tracking-error fault: a stuck encoder on leg l1 and a
+/// disconnected motor on link theta2, injected while the robot moves 5 mm (no tool; the
+/// next test has it). The fault trips within 0.1 s of the injection; from then on every
+/// duty applied is 0. The joints coast to rest: the faulted leg less than 1 mm (the blind
+/// servo had sped it up), every other joint less than 0.1 mm or 0.1 deg; and from 0.1 s
+/// after the trip on nothing moves by more than 0.001 mm or 0.001 deg.
+#[test]
+fn plant_faults_trip_the_tracking_fault_and_nothing_moves_after() {
+    for (joint, fault) in [(0, Fault::EncoderStuck), (4, Fault::MotorDisconnected)] {
+        let out = fault_run(joint, fault, false);
+        let f = out.summary.faults.servo.clone().expect("the fault trips");
+        println!("{fault:?} on joint {joint}: {f:?}");
+        let after = f.after_injection_s.expect("after the injection");
+        assert!(
+            after <= 0.1,
+            "{fault:?}: tripped {after} s after the injection"
+        );
+        assert_eq!(f.max_duty_after_trip, 0.0);
+        for (j, m) in f.motion_after_trip.to_array().iter().enumerate() {
+            let bound = if j == joint { 1.0 } else { 0.1 };
+            assert!(*m < bound, "{fault:?}: joint {j} moved {m} after the trip");
+        }
+        for (j, m) in f.motion_from_0_1_s_after_trip.to_array().iter().enumerate() {
+            assert!(
+                *m < 1e-3,
+                "{fault:?}: joint {j} still moved {m} after 0.1 s"
+            );
+        }
+    }
+}
+
+fn fault_run(joint: usize, fault: Fault, tool: bool) -> Outcome {
+    let cfg = config(if tool { "" } else { NO_TOOL });
+    let c = central();
+    let jumps = vec![Jump {
+        at_s: 0.1,
+        pose: pose_mm_deg(&[5.0, 0.0, 163.0, 0.0, 0.0, 0.0]),
+    }];
+    let mut sc = Scenario::jumps(&cfg, "fault", &c, jumps, 1.0);
+    sc.faults.push(FaultEvent {
+        at_s: 0.2,
+        joint,
+        fault,
+    });
+    simulate(&cfg, &sc)
+}
+
+/// With the tool attached a stuck encoder still trips the fault within 0.1 s and the
+/// outputs go to 0, but then the tool's moment back-drives the unpowered rotating links
+/// (36:1 spur gears at 90 %, only the shorted windings brake them; the plant has no
+/// brake): they keep turning, by degrees. The test pins that (more than 5 deg within the
+/// 0.74 s after the trip) so that a brake or a hold-on-fault strategy shows up here.
+#[test]
+fn with_the_tool_the_unpowered_links_are_back_driven_after_a_trip() {
+    let out = fault_run(0, Fault::EncoderStuck, true);
+    let f = out.summary.faults.servo.clone().expect("the fault trips");
+    println!("with the tool: {f:?}");
+    assert!(f.after_injection_s.unwrap() <= 0.1);
+    assert_eq!(f.max_duty_after_trip, 0.0);
+    let links = f.motion_from_0_1_s_after_trip.to_array()[3..]
+        .iter()
+        .copied()
+        .fold(0.0, f64::max);
+    assert!(links > 5.0, "links moved {links} deg");
+}
+
+fn laparoscope_25(extra: &str) -> (f64, f64, f64) {
+    let cfg = config(&format!(
+        "[scenario.laparoscope]\npass_speeds_mm_s = [25.0]\npass_scales = [1.0]\n{extra}"
+    ));
+    let sc = Scenario::from_config("laparoscope", &cfg, robot().hc).unwrap();
+    let out = simulate(&cfg, &sc);
+    let a = out
+        .summary
+        .accuracy
+        .clone()
+        .expect("a 25 mm/s pass is judged");
+    println!(
+        "{extra:?}: tracking tip RMS {:.4} mm, max {:.4} mm (target error RMS {:.4}, max \
+         {:.4} mm); {:.0}x real time",
+        a.tip_rms_mm, a.tip_max_mm, a.target_tip_rms_mm, a.target_tip_max_mm, out.summary.speed_up
+    );
+    assert!(out.summary.faults.servo.is_none());
+    assert_eq!(out.summary.supervisor.refused.total, 0);
+    (a.tip_rms_mm, a.tip_max_mm, out.summary.speed_up)
+}
+
+/// The issue's target: 0.08 mm leg backlash, compensation on, the laparoscope loop at
+/// 25 mm/s (124.6 mm, tilting to 20 deg): true tip tracking error RMS <= 0.05 mm and max
+/// <= 0.2 mm. It is met without a steady load on the legs (no tool): RMS about 0.004 mm.
+/// With compensation off the same run is about 0.09 mm RMS, so the compensation is what
+/// meets it.
+#[test]
+fn laparoscope_at_25_mm_s_meets_the_accuracy_target_without_the_tool() {
+    let (rms, max, _) = laparoscope_25(NO_TOOL);
+    assert!(rms <= 0.05 && max <= 0.2, "rms {rms} max {max}");
+    let (rms_off, _, _) = laparoscope_25(&format!(
+        "{NO_TOOL}[control]\nbacklash_compensation = false\n"
+    ));
+    assert!(rms_off > 0.05, "compensation off: rms {rms_off}");
+}
+
+/// With the tool (11.77 N on a 0.1 m lever), the target is met too because the controller
+/// knows the tool: its weight mapped through τ = J⁻ᵀ s_e keeps the compensation on the
+/// flank each lead screw actually rests on (leg l1 carries about 12 N, above its friction,
+/// so it rests on one flank both up and down). Measured: RMS about 0.037 mm, max about
+/// 0.13 mm. Without compensation: about 0.086 / 0.12 mm.
+#[test]
+fn laparoscope_at_25_mm_s_meets_the_accuracy_target_with_the_tool() {
+    let (rms, max, _) = laparoscope_25("");
+    assert!(rms <= 0.05 && max <= 0.2, "rms {rms} max {max}");
+    let (rms_off, max_off, _) = laparoscope_25("[control]\nbacklash_compensation = false\n");
+    assert!(
+        rms_off > 0.05 && max_off <= 0.2,
+        "compensation off: rms {rms_off} max {max_off}"
+    );
+}
+
+/// The command writes the summary, the trace and the plots, and prints a readable
+/// report; a bad configuration key is named in the error.
+#[test]
+fn the_command_writes_its_report_files() {
+    let dir = std::env::temp_dir().join(format!("host-sim-sim-test-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let cfg_path = dir.join("short.toml");
+    std::fs::write(
+        &cfg_path,
+        "[scenario.step]\nsteps_mm_deg = [[2.0, 0, 0, 0, 0, 0]]\nhold_s = 0.4\n",
+    )
+    .unwrap();
+    let out_dir = dir.join("out");
+    let run = common::host_sim(
+        &[
+            "sim",
+            "--scenario",
+            "step",
+            "--config",
+            cfg_path.to_str().unwrap(),
+            "--out",
+            out_dir.to_str().unwrap(),
+        ],
+        "",
+    );
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+    assert!(run.stdout.contains("tracking error"), "{}", run.stdout);
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out_dir.join("summary.json")).unwrap())
+            .unwrap();
+    assert_eq!(json["scenario"], "step");
+    for key in [
+        "tracking",
+        "target",
+        "joints",
+        "actuators",
+        "supervisor",
+        "faults",
+    ] {
+        assert!(!json[key].is_null(), "summary lacks {key}");
+    }
+    assert!(json["speed_up"].as_f64().unwrap() > 1.0);
+    let trace = std::fs::read_to_string(out_dir.join("trace.csv")).unwrap();
+    let header = trace.lines().next().unwrap();
+    assert!(
+        header.starts_with("t_s,mode,warning,target_x_mm"),
+        "{header}"
+    );
+    assert!(trace.lines().count() > 10);
+    for png in ["path.png", "errors.png"] {
+        let bytes = std::fs::read(out_dir.join(png)).unwrap();
+        assert!(bytes.starts_with(b"\x89PNG"), "{png}");
+    }
+
+    std::fs::write(&cfg_path, "[control]\nrate_hz = 50000.0\n").unwrap();
+    let bad = common::host_sim(&["sim", "--config", cfg_path.to_str().unwrap()], "");
+    assert_eq!(bad.code, Some(1));
+    assert!(bad.stderr.contains("control.rate_hz"), "{}", bad.stderr);
+    let _ = std::fs::remove_dir_all(&dir);
+}
