@@ -2,55 +2,35 @@
 //! The control application in closed loop with the plant model: the same code as on the
 //! board, the plant integrated at 10x the control rate.
 
+use common::PlantHw;
 use controller::{Controller, ControllerConfig};
 use kinematics_core::{inverse, Branch, Pose, RsprGeometry};
 use nalgebra::{Rotation3, Vector3};
-use rspr_plant::{Plant, PlantConfig};
-use servo::hal::{MotorOutputs, QuadratureCounter};
 
-/// The plant behind the hardware traits.
-struct Hw<'a> {
-    plant: &'a mut Plant,
-    enabled: bool,
-}
+mod common;
 
-impl QuadratureCounter for Hw<'_> {
-    fn counts(&mut self) -> [u16; 6] {
-        self.plant.encoder_counts()
-    }
-}
-
-impl MotorOutputs<f64> for Hw<'_> {
-    fn set_duties(&mut self, duty: &[f64; 6]) {
-        let d = if self.enabled { *duty } else { [0.0; 6] };
-        let _ = self.plant.set_duty(d.map(|x| x.clamp(-1.0, 1.0)));
-    }
-    fn disable(&mut self) {
-        self.enabled = false;
-        let _ = self.plant.set_duty([0.0; 6]);
-    }
-    fn enable(&mut self) {
-        self.enabled = true;
-    }
-}
-
-fn setup() -> (Plant, Controller<f64, RsprGeometry<f64>>, [f64; 6]) {
+fn setup() -> (PlantHw, Controller<f64, RsprGeometry<f64>>, [f64; 6]) {
     let g = RsprGeometry::<f64>::reference();
     let q0 = inverse(&g, &Pose::central(g.hc), Branch::OUTER)
         .unwrap()
         .q();
     let q0 = [q0[0], q0[1], q0[2], q0[3], q0[4], q0[5]];
-    let mut plant = Plant::new(&PlantConfig::default()).unwrap();
-    plant.set_joint_positions(q0).unwrap();
-    let ctl = Controller::new(g, ControllerConfig::default(), plant.encoder_counts(), q0).unwrap();
-    (plant, ctl, q0)
+    let hw = PlantHw::new(q0);
+    let ctl = Controller::new(
+        g,
+        ControllerConfig::default(),
+        hw.plant.encoder_counts(),
+        q0,
+    )
+    .unwrap();
+    (hw, ctl, q0)
 }
 
 /// A verified target is reached and held: the true platform pose (from the plant's
 /// load-side joints) ends within 60 µm of the target (half the plant's backlash).
 #[test]
 fn follows_a_target_in_closed_loop() {
-    let (mut plant, mut ctl, _) = setup();
+    let (mut hw, mut ctl, _) = setup();
     let g = RsprGeometry::<f64>::reference();
     let target = Pose {
         t: Vector3::new(0.008, -0.005, 0.163),
@@ -59,22 +39,18 @@ fn follows_a_target_in_closed_loop() {
     ctl.submit(&target, 1_000, 1_000).unwrap();
     let mut worst_following: f64 = 0.0;
     for _ in 0..2500 {
-        let mut hw = Hw {
-            plant: &mut plant,
-            enabled: true,
-        };
+        // Drives on at every tick (a fault disables them within the tick).
+        hw.enabled = true;
         let r = ctl.tick(&mut hw);
         assert!(r.servo.fault.is_none(), "{:?}", r.servo.fault);
-        for _ in 0..10 {
-            plant.step(1e-4).unwrap();
-        }
-        let q = plant.joint_positions();
+        hw.step_ms();
+        let q = hw.plant.joint_positions();
         let err = (0..3)
             .map(|j| (q[j] - r.setpoint.q[j]).abs())
             .fold(0.0, f64::max);
         worst_following = worst_following.max(err);
     }
-    let q = plant.joint_positions();
+    let q = hw.plant.joint_positions();
     let truth = kinematics_core::forward(
         &g,
         &nalgebra::Vector6::from_row_slice(&q),
@@ -96,8 +72,8 @@ fn follows_a_target_in_closed_loop() {
 /// A stuck encoder trips the tracking-error fault and every output goes off.
 #[test]
 fn stuck_encoder_trips_the_tracking_fault() {
-    let (mut plant, mut ctl, _) = setup();
-    plant.inject(0, rspr_plant::Fault::EncoderStuck).unwrap();
+    let (mut hw, mut ctl, _) = setup();
+    hw.plant.inject(0, rspr_plant::Fault::EncoderStuck).unwrap();
     let target = Pose {
         t: Vector3::new(0.0, 0.0, 0.170),
         r: Rotation3::identity(),
@@ -105,20 +81,16 @@ fn stuck_encoder_trips_the_tracking_fault() {
     ctl.submit(&target, 1_000, 1_000).unwrap();
     let mut tripped_at = None;
     for k in 0..2000 {
-        let mut hw = Hw {
-            plant: &mut plant,
-            enabled: true,
-        };
+        // Drives on at every tick (a fault disables them within the tick).
+        hw.enabled = true;
         let r = ctl.tick(&mut hw);
         if r.servo.fault.is_some() && tripped_at.is_none() {
             tripped_at = Some(k);
         }
         if tripped_at.is_some() {
-            assert!(plant.duty().iter().all(|d| *d == 0.0));
+            assert!(hw.plant.duty().iter().all(|d| *d == 0.0));
         }
-        for _ in 0..10 {
-            plant.step(1e-4).unwrap();
-        }
+        hw.step_ms();
     }
     let k = tripped_at.expect("the stuck encoder must trip the fault");
     println!("stuck encoder tripped after {k} ms");

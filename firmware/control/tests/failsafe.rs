@@ -13,76 +13,17 @@ use controller::failsafe::{
     HeartbeatMonitor, SafeOutputs, TickTiming, WatchdogConfig, WatchdogPolicy,
 };
 use controller::link::Command;
-use controller::state::{reference_config, Event, LimitSwitches, Runtime, State};
+use controller::state::{reference_config, Event, Runtime, State};
 use kinematics_core::{inverse, Branch, Pose, RsprGeometry};
 use master_link::{Faults, NackReason, Warnings};
-use rspr_plant::{Plant, PlantConfig};
-use servo::hal::{CurrentSense, MotorOutputs, QuadratureCounter};
+use servo::hal::QuadratureCounter;
+
+mod common;
+use common::PlantHw;
 
 // ---------------------------------------------------------------------------------------
 // Fixture: the runtime on the plant model
 // ---------------------------------------------------------------------------------------
-
-/// The plant with home switches on the legs and hard stops on the links.
-#[derive(Clone)]
-struct PlantHw {
-    plant: Plant,
-    enabled: bool,
-    switch_below: [f64; 3],
-    stop_below: [f64; 3],
-    seized: [bool; 6],
-    disables: u32,
-}
-
-impl PlantHw {
-    fn step_ms(&mut self) {
-        for _ in 0..10 {
-            self.plant.step(1e-4).unwrap();
-            let q = self.plant.joint_positions();
-            let duty = self.plant.duty();
-            for j in 3..6 {
-                if !self.seized[j] && q[j] <= self.stop_below[j - 3] && duty[j] < 0.0 {
-                    self.plant.inject(j, rspr_plant::Fault::LoadSeized).unwrap();
-                    self.seized[j] = true;
-                } else if self.seized[j] && duty[j] > 0.0 {
-                    self.plant.clear_faults(j).unwrap();
-                    self.seized[j] = false;
-                }
-            }
-        }
-    }
-}
-
-impl QuadratureCounter for PlantHw {
-    fn counts(&mut self) -> [u16; 6] {
-        self.plant.encoder_counts()
-    }
-}
-impl MotorOutputs<f64> for PlantHw {
-    fn set_duties(&mut self, duty: &[f64; 6]) {
-        let d = if self.enabled { *duty } else { [0.0; 6] };
-        let _ = self.plant.set_duty(d.map(|x| x.clamp(-1.0, 1.0)));
-    }
-    fn disable(&mut self) {
-        self.enabled = false;
-        self.disables += 1;
-        let _ = self.plant.set_duty([0.0; 6]);
-    }
-    fn enable(&mut self) {
-        self.enabled = true;
-    }
-}
-impl LimitSwitches for PlantHw {
-    fn switches(&mut self) -> [bool; 6] {
-        let q = self.plant.joint_positions();
-        std::array::from_fn(|j| j < 3 && q[j] <= self.switch_below[j])
-    }
-}
-impl CurrentSense<f64> for PlantHw {
-    fn currents(&mut self) -> [f64; 6] {
-        self.plant.currents()
-    }
-}
 
 type Rt = Runtime<f64, RsprGeometry<f64>>;
 
@@ -100,25 +41,19 @@ fn snapshots() -> Vec<(State, Rt, PlantHw, u64)> {
         .q();
     let c: [f64; 6] = std::array::from_fn(|j| c[j]);
     let stops = [3, 4, 5].map(|j| c[j] - 60f64.to_radians());
-    let mut plant = Plant::new(&PlantConfig::default()).unwrap();
-    plant
-        .set_joint_positions([
+    // The plant with home switches on the legs and hard stops on the links.
+    let mut hw = PlantHw::homing(
+        [
             0.16,
             0.161,
             0.159,
             stops[0] + 0.2,
             stops[1] + 0.2,
             stops[2] + 0.2,
-        ])
-        .unwrap();
-    let mut hw = PlantHw {
-        plant,
-        enabled: false,
-        switch_below: [0.150; 3],
-        stop_below: stops,
-        seized: [false; 6],
-        disables: 0,
-    };
+        ],
+        0.150,
+        stops,
+    );
     let mut cfg = reference_config(c);
     cfg.heartbeat = HB;
     cfg.homing.park_speed = [0.02, 0.02, 0.02, 0.5, 0.5, 0.5];

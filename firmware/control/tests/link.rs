@@ -12,7 +12,7 @@ use controller::link::{
     fill_margins, guard_reason, pose_from_wire, refusal_reason, Command, Inbound, LinkRx, LinkTx,
     Request, TargetClock, TargetClockConfig, FIRMWARE_VERSION,
 };
-use controller::state::{reference_config, LimitSwitches, Runtime, State};
+use controller::state::{reference_config, Runtime, State};
 use kinematics_core::guards::Guard;
 use kinematics_core::supervisor::Refusal;
 use kinematics_core::{inverse, Branch, Pose, RsprGeometry};
@@ -20,8 +20,10 @@ use master_link::{
     cobs, encode, BoardToMaster, FrameError, MasterDecoder, MasterToBoard, NackReason, RobotState,
     Seq, SeqCounter, StatusReport, CRC32, MAX_FRAME_LEN, PROTOCOL_VERSION,
 };
-use rspr_plant::{Plant, PlantConfig};
-use servo::hal::{CurrentSense, MotorOutputs, QuadratureCounter};
+use servo::hal::QuadratureCounter;
+
+mod common;
+use common::PlantHw;
 
 // ---------------------------------------------------------------------------------------
 // Helpers
@@ -121,61 +123,6 @@ fn exchange<H>(m: &mut Master, b: &mut Board<H>, msg: &MasterToBoard) -> (Seq, B
     (seq, replies[0])
 }
 
-// The plant fixture (switches on the legs, stops on the links).
-struct PlantHw {
-    plant: Plant,
-    enabled: bool,
-    stops: [f64; 3],
-    seized: [bool; 6],
-}
-impl PlantHw {
-    fn step_ms(&mut self) {
-        for _ in 0..10 {
-            self.plant.step(1e-4).unwrap();
-            let q = self.plant.joint_positions();
-            let duty = self.plant.duty();
-            for j in 3..6 {
-                if !self.seized[j] && q[j] <= self.stops[j - 3] && duty[j] < 0.0 {
-                    self.plant.inject(j, rspr_plant::Fault::LoadSeized).unwrap();
-                    self.seized[j] = true;
-                } else if self.seized[j] && duty[j] > 0.0 {
-                    self.plant.clear_faults(j).unwrap();
-                    self.seized[j] = false;
-                }
-            }
-        }
-    }
-}
-impl QuadratureCounter for PlantHw {
-    fn counts(&mut self) -> [u16; 6] {
-        self.plant.encoder_counts()
-    }
-}
-impl MotorOutputs<f64> for PlantHw {
-    fn set_duties(&mut self, duty: &[f64; 6]) {
-        let d = if self.enabled { *duty } else { [0.0; 6] };
-        let _ = self.plant.set_duty(d.map(|x| x.clamp(-1.0, 1.0)));
-    }
-    fn disable(&mut self) {
-        self.enabled = false;
-        let _ = self.plant.set_duty([0.0; 6]);
-    }
-    fn enable(&mut self) {
-        self.enabled = true;
-    }
-}
-impl LimitSwitches for PlantHw {
-    fn switches(&mut self) -> [bool; 6] {
-        let q = self.plant.joint_positions();
-        std::array::from_fn(|j| j < 3 && q[j] <= 0.150)
-    }
-}
-impl CurrentSense<f64> for PlantHw {
-    fn currents(&mut self) -> [f64; 6] {
-        self.plant.currents()
-    }
-}
-
 fn board() -> Board<PlantHw> {
     let g = RsprGeometry::<f64>::reference();
     let c = inverse(&g, &Pose::central(g.hc), Branch::OUTER)
@@ -183,23 +130,19 @@ fn board() -> Board<PlantHw> {
         .q();
     let c: [f64; 6] = std::array::from_fn(|j| c[j]);
     let stops = [3, 4, 5].map(|j| c[j] - 60f64.to_radians());
-    let mut plant = Plant::new(&PlantConfig::default()).unwrap();
-    plant
-        .set_joint_positions([
+    // The plant fixture (switches on the legs, stops on the links).
+    let mut hw = PlantHw::homing(
+        [
             0.16,
             0.16,
             0.16,
             stops[0] + 0.2,
             stops[1] + 0.2,
             stops[2] + 0.2,
-        ])
-        .unwrap();
-    let mut hw = PlantHw {
-        plant,
-        enabled: false,
+        ],
+        0.150,
         stops,
-        seized: [false; 6],
-    };
+    );
     let mut cfg = reference_config(c);
     cfg.homing.park_speed = [0.02, 0.02, 0.02, 0.5, 0.5, 0.5];
     cfg.heartbeat.hold_after_us = 1_000_000_000;

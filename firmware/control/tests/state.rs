@@ -16,10 +16,12 @@ use controller::state::{
 use kinematics_core::{inverse, Branch, Pose, RsprGeometry};
 use master_link::{Faults, NackReason};
 use nalgebra::{Rotation3, Vector3};
-use rspr_plant::{Plant, PlantConfig};
 use servo::encoder::{EncoderConfig, LEG_COUNTS_PER_M, LINK_COUNTS_PER_RAD};
 use servo::hal::{CurrentSense, MotorOutputs, QuadratureCounter};
 use servo::ServoConfig;
+
+mod common;
+use common::PlantHw;
 
 // ---------------------------------------------------------------------------------------
 // The transition table
@@ -589,78 +591,6 @@ fn homing_config_is_validated() {
 // The plant model
 // ---------------------------------------------------------------------------------------
 
-/// The plant behind the hardware traits, with home switches (legs) and hard stops (links,
-/// by seizing the load side when driven into them).
-struct PlantHw {
-    plant: Plant,
-    enabled: bool,
-    switch_below: [Option<f64>; 6],
-    stop_below: [Option<f64>; 6],
-    seized: [bool; 6],
-}
-
-impl PlantHw {
-    fn new(q: [f64; 6]) -> Self {
-        let mut plant = Plant::new(&PlantConfig::default()).unwrap();
-        plant.set_joint_positions(q).unwrap();
-        PlantHw {
-            plant,
-            enabled: false,
-            switch_below: [None; 6],
-            stop_below: [None; 6],
-            seized: [false; 6],
-        }
-    }
-    fn step_ms(&mut self) {
-        for _ in 0..10 {
-            self.plant.step(1e-4).unwrap();
-            let q = self.plant.joint_positions();
-            let duty = self.plant.duty();
-            for j in 0..6 {
-                if let Some(s) = self.stop_below[j] {
-                    if !self.seized[j] && q[j] <= s && duty[j] < 0.0 {
-                        self.plant.inject(j, rspr_plant::Fault::LoadSeized).unwrap();
-                        self.seized[j] = true;
-                    } else if self.seized[j] && duty[j] > 0.0 {
-                        self.plant.clear_faults(j).unwrap();
-                        self.seized[j] = false;
-                    }
-                }
-            }
-        }
-    }
-}
-
-impl QuadratureCounter for PlantHw {
-    fn counts(&mut self) -> [u16; 6] {
-        self.plant.encoder_counts()
-    }
-}
-impl MotorOutputs<f64> for PlantHw {
-    fn set_duties(&mut self, duty: &[f64; 6]) {
-        let d = if self.enabled { *duty } else { [0.0; 6] };
-        let _ = self.plant.set_duty(d.map(|x| x.clamp(-1.0, 1.0)));
-    }
-    fn disable(&mut self) {
-        self.enabled = false;
-        let _ = self.plant.set_duty([0.0; 6]);
-    }
-    fn enable(&mut self) {
-        self.enabled = true;
-    }
-}
-impl LimitSwitches for PlantHw {
-    fn switches(&mut self) -> [bool; 6] {
-        let q = self.plant.joint_positions();
-        std::array::from_fn(|j| self.switch_below[j].is_some_and(|s| q[j] <= s))
-    }
-}
-impl CurrentSense<f64> for PlantHw {
-    fn currents(&mut self) -> [f64; 6] {
-        self.plant.currents()
-    }
-}
-
 fn central_q() -> [f64; 6] {
     let g = RsprGeometry::<f64>::reference();
     let q = inverse(&g, &Pose::central(g.hc), Branch::OUTER)
@@ -678,18 +608,18 @@ fn plant_near_home() -> (PlantHw, [f64; 6]) {
         c[4] - 60f64.to_radians(),
         c[5] - 60f64.to_radians(),
     ];
-    let mut hw = PlantHw::new([
-        0.160,
-        0.161,
-        0.159,
-        stops[0] + 0.2,
-        stops[1] + 0.25,
-        stops[2] + 0.15,
-    ]);
-    for j in 0..3 {
-        hw.switch_below[j] = Some(0.150);
-        hw.stop_below[j + 3] = Some(stops[j]);
-    }
+    let hw = PlantHw::homing(
+        [
+            0.160,
+            0.161,
+            0.159,
+            stops[0] + 0.2,
+            stops[1] + 0.25,
+            stops[2] + 0.15,
+        ],
+        0.150,
+        stops,
+    );
     (hw, c)
 }
 
