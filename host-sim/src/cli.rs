@@ -1,7 +1,8 @@
 //! The command line: the robot selection shared by every subcommand and the subcommands.
 //! New subcommands are new variants of [`Command`] with their own `Args` struct.
 
-use crate::commands::{check, fk, forces, ik, jacobian, singularity};
+use crate::commands::{check, fk, ik, jacobian, singularity};
+use crate::design::{forces_path, ranges, synth, workspace};
 use crate::geometry_file;
 use crate::limits_file::{self, SelectedLimits};
 use crate::report;
@@ -123,7 +124,13 @@ pub enum Command {
     /// In: x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg,branch,fx_n,fy_n,fz_n,tx_nm,ty_nm,tz_nm.
     /// Out: the input, then tau1..tau6 in q order (RSPR: N on l1..l3, N m on theta1..3;
     /// USR: N m), error.
-    Forces(forces::ForcesArgs),
+    ///
+    /// --path diagonal: the forces along a straight path at a fixed orientation (default
+    /// the thesis's diagonal [-20,-20,-10] -> [20,20,10] mm about [0, 0, hc], 20 deg about
+    /// [1,1,1], wrench 7,7,7,0.7,0.7,0.7); writes forces_path.csv (s, x_mm..rz_deg, RSPR
+    /// f1_n..f3_n,t1_nm..t3_nm or USR t_alpha1_nm..t_beta3_nm, error) and forces_path.png
+    /// to --out (default target/design/forces/).
+    Forces(forces_path::ForcesCommandArgs),
     /// Serial and parallel singularity measures and the nearest singularity.
     ///
     /// In: x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg,branch. Out: the input, then RSPR
@@ -158,6 +165,31 @@ pub enum Command {
     /// weight mapped to the joints, and writes summary.json, trace.csv, path.png and
     /// errors.png (default target/sim/<scenario>/). Settings: host-sim/sim/default.toml.
     Sim(sim::SimArgs),
+    /// The columns of thesis Tables 8.2/8.3 over the task box: joint min, max and span,
+    /// spherical-joint tilt, USR gamma_i and delta_i, actuator force and torque ranges.
+    ///
+    /// The task: the 40 x 40 x 20 mm box at [0, 0, hc], platform parallel and rotated
+    /// +20 deg about [1,1,0], wrench 7,7,7,0.7,0.7,0.7. A table per quantity (parallel,
+    /// rotated and both); --csv for quantity,orientation,min,max,span,poses.
+    Ranges(ranges::RangesArgs),
+    /// Constant-height sections of the reachable workspace at the task orientations.
+    ///
+    /// Thesis section 8.4: for each height z and direction phi, the largest radius rho_max
+    /// with a guard-admissible solution (no stop-level violation, the workspace guard
+    /// excluded). Writes workspace.csv (orientation, rx_deg..rz_deg, z_mm, phi_deg,
+    /// rho_max_mm) and sections_parallel.png / sections_rotated.png to --out (default
+    /// target/design/workspace/), and states whether the task box footprint lies inside
+    /// each section.
+    Workspace(workspace::WorkspaceArgs),
+    /// Dimensional synthesis scan (thesis section 8.2) for the selected robot's kind.
+    ///
+    /// Evaluates every robot of a grid of dimensions (RSPR --e-mm --rb-mm --rp-mm --hc-mm;
+    /// USR --e-mm --rp-mm --l1-mm --l2-mm --hc-mm, each FROM,TO,STEP) over the task and
+    /// keeps those meeting the requirements (task solved without singularity, forces and
+    /// torques within bounds, tilt, optional stroke; USR alpha, gamma, delta ranges).
+    /// Writes synth.csv (dimensions, admissible, rejected, each quantity's min and max) in
+    /// scan order to --out (default target/design/synth/); progress bar on a terminal.
+    Synth(synth::SynthArgs),
 }
 
 impl Command {
@@ -168,11 +200,14 @@ impl Command {
             Command::Ik(args) => ik::run(args, robot),
             Command::Fk(args) => fk::run(args, robot),
             Command::Jacobian(args) => jacobian::run(args, robot),
-            Command::Forces(args) => forces::run(args, robot),
+            Command::Forces(args) => forces_path::run(args, robot),
             Command::Singularity(args) => singularity::run(args, robot),
             Command::Report(args) => report::run(args, selected),
             Command::Check(args) => check::run(args, selected, limits),
             Command::Sim(args) => sim::run_cli(args, selected, limits),
+            Command::Ranges(args) => ranges::run(args, robot, &selected.source),
+            Command::Workspace(args) => workspace::run(args, robot, limits),
+            Command::Synth(args) => synth::run(args, robot.kind()),
         }
     }
 }

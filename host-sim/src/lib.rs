@@ -12,12 +12,14 @@
 //!   `check` (whose `--task-box` form sweeps the task);
 //! - [`task_box`]: the thesis's task box and its grid;
 //! - [`report`]: the text report over the task box;
-//! - [`sim`]: the closed-loop simulation (`host-sim sim`).
+//! - [`sim`]: the closed-loop simulation (`host-sim sim`);
+//! - [`design`]: the design tools `forces --path`, `ranges` and `workspace` (thesis ch. 8).
 
 pub mod batch;
 pub mod cli;
 pub mod columns;
 pub mod commands;
+pub mod design;
 pub mod geometry_file;
 pub mod limits_file;
 pub mod report;

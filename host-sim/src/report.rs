@@ -5,7 +5,7 @@
 
 use crate::cli::SelectedRobot;
 use crate::columns::{joint_columns, joints_to_edge, pose_from_edge, POSE};
-use crate::task_box::{numbers, pose_label, TaskBox};
+use crate::task_box::{numbers, pose_label, TaskBox, TaskBoxArgs};
 use crate::units::{fixed, m_to_mm, rad_to_deg};
 use clap::Args;
 use kinematics_core::{
@@ -20,22 +20,9 @@ pub struct ReportArgs {
     /// Grid points along x, y and z of the task box.
     #[arg(long, value_name = "NX,NY,NZ", default_value = "5,5,3")]
     pub grid: String,
-    /// Edge lengths of the task box centred at [0, 0, hc], mm.
-    #[arg(
-        long = "box",
-        value_name = "DX_MM,DY_MM,DZ_MM",
-        default_value = "40,40,20"
-    )]
-    pub box_mm: String,
-    /// Tilt of the second task orientation: the platform rotated by this angle about
-    /// [1,1,0]/sqrt(2) (rotation vector), deg.
-    #[arg(
-        long,
-        value_name = "DEG",
-        default_value = "20",
-        allow_hyphen_values = true
-    )]
-    pub tilt_deg: String,
+    /// The task box and its second orientation.
+    #[command(flatten)]
+    pub task: TaskBoxArgs,
     /// Wrench for the actuator forces, fx_n,fy_n,fz_n,tx_nm,ty_nm,tz_nm (thesis default).
     #[arg(
         long,
@@ -74,7 +61,7 @@ impl Default for Task {
 impl Task {
     /// The task described by the flags.
     pub fn from_args(args: &ReportArgs) -> Result<Task, String> {
-        let task_box = TaskBox::from_flags(&args.grid, &args.box_mm, &args.tilt_deg)?;
+        let task_box = TaskBox::from_flags(&args.grid, &args.task.box_mm, &args.task.tilt_deg)?;
         if !(args.min_inv_cond.is_finite() && args.min_inv_cond >= 0.0) {
             return Err(format!(
                 "--min-inv-cond: {} is not a number >= 0",

@@ -5,6 +5,27 @@
 
 use crate::columns::parse_number;
 
+/// The task-box flags shared by `report`, `ranges` and `workspace`.
+#[derive(Debug, clap::Args)]
+pub struct TaskBoxArgs {
+    /// Edge lengths of the task box centred at [0, 0, hc], mm.
+    #[arg(
+        long = "box",
+        value_name = "DX_MM,DY_MM,DZ_MM",
+        default_value = "40,40,20"
+    )]
+    pub box_mm: String,
+    /// Tilt of the second task orientation: the platform rotated by this angle about
+    /// [1,1,0]/sqrt(2) (rotation vector), deg.
+    #[arg(
+        long,
+        value_name = "DEG",
+        default_value = "20",
+        allow_hyphen_values = true
+    )]
+    pub tilt_deg: String,
+}
+
 /// The thesis's box edge lengths, mm.
 pub const THESIS_BOX_MM: [f64; 3] = [40.0, 40.0, 20.0];
 /// The thesis's rotation of the second orientation about [1,1,0]/sqrt(2), deg.

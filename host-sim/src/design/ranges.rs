@@ -1,0 +1,307 @@
+//! `host-sim ranges`: the columns of thesis Tables 8.2/8.3 for one geometry over the task
+//! (the 40 x 40 x 20 mm box at [0, 0, hc], platform parallel and rotated +20 deg about
+//! [1,1,0], the thesis wrench): each joint's min, max and span, the spherical-joint tilt,
+//! for the USR the angles gamma_i and delta_i (CONVENTIONS.md, "Joints"), and the actuator
+//! force and torque ranges.
+
+use super::forces_path::tau_columns;
+use crate::columns::{joint_columns, pose_from_edge, POSE};
+use crate::task_box::{numbers, TaskBox, TaskBoxArgs};
+use crate::units::{fixed, m_to_mm, rad_to_deg, wrap_deg};
+use clap::Args;
+use kinematics_core::{
+    actuator_forces, inverse, jacobian, tilt_angles, Branch, JointKind, Mechanism, Robot,
+    RobotKind, SocketAxes, Solution, Wrench,
+};
+use std::path::PathBuf;
+
+/// `host-sim ranges`.
+#[derive(Debug, Args)]
+pub struct RangesArgs {
+    /// Grid points along x, y and z of the task box.
+    #[arg(long, value_name = "NX,NY,NZ", default_value = "9,9,5")]
+    pub grid: String,
+    /// The task box and its second orientation.
+    #[command(flatten)]
+    pub task: TaskBoxArgs,
+    /// Wrench for the actuator forces, fx_n,fy_n,fz_n,tx_nm,ty_nm,tz_nm.
+    #[arg(
+        long,
+        value_name = "FX,FY,FZ,TX,TY,TZ",
+        default_value = "7,7,7,0.7,0.7,0.7",
+        allow_hyphen_values = true
+    )]
+    pub wrench: String,
+    /// Inverse-kinematics branch 0..=7.
+    #[arg(long, value_name = "0..7", default_value = "0")]
+    pub branch: String,
+    /// Write CSV (quantity,orientation,min,max,span,poses) to stdout instead of the table.
+    #[arg(long)]
+    pub csv: bool,
+    /// Also write ranges.csv into this directory.
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+}
+
+/// The range of one quantity over a set of poses.
+#[derive(Clone, Debug, PartialEq)]
+pub struct QuantityRange {
+    /// Unit-suffixed name, e.g. `l1_mm`, `gamma2_deg`, `f3_n`.
+    pub quantity: String,
+    /// `parallel`, `rotated` or `task` (both orientations).
+    pub orientation: &'static str,
+    pub min: f64,
+    pub max: f64,
+    /// Poses that contributed.
+    pub poses: usize,
+}
+
+impl QuantityRange {
+    /// max - min.
+    pub fn span(&self) -> f64 {
+        self.max - self.min
+    }
+}
+
+/// The result of `ranges`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Ranges {
+    pub rows: Vec<QuantityRange>,
+    /// Task poses evaluated.
+    pub poses: usize,
+    /// Poses without inverse-kinematics solution or forces, with the reason.
+    pub failures: Vec<String>,
+}
+
+impl Ranges {
+    /// The row of a quantity at an orientation key.
+    pub fn get(&self, quantity: &str, orientation: &str) -> Option<&QuantityRange> {
+        self.rows
+            .iter()
+            .find(|r| r.quantity == quantity && r.orientation == orientation)
+    }
+}
+
+/// The names of the quantities of a robot, in table order.
+pub fn quantity_names(kind: RobotKind) -> Vec<String> {
+    let mut q: Vec<String> = joint_columns(kind).iter().map(|s| s.to_string()).collect();
+    if kind == RobotKind::Usr {
+        q.extend((1..=3).map(|i| format!("gamma{i}_deg")));
+        q.extend((1..=3).map(|i| format!("delta{i}_deg")));
+    }
+    q.extend((1..=3).map(|i| format!("tilt{i}_deg")));
+    q.extend(tau_columns(kind).iter().map(|s| s.to_string()));
+    q
+}
+
+/// An angle (deg) continued around a reference (deg), so ranges do not break at +-180.
+fn near(angle_deg: f64, reference_deg: f64) -> f64 {
+    reference_deg + wrap_deg(angle_deg - reference_deg)
+}
+
+/// The geometric quantities of a solution, in [`quantity_names`] order (without forces).
+fn geometric(
+    robot: &Robot<f64>,
+    sol: &Solution<f64>,
+    axes: &SocketAxes<f64>,
+    reference: Option<&[f64]>,
+) -> Vec<f64> {
+    let kinds = robot.joint_kinds();
+    let mut v: Vec<f64> = sol
+        .q()
+        .iter()
+        .zip(kinds.iter())
+        .map(|(x, k)| match k {
+            JointKind::Linear => m_to_mm(*x),
+            JointKind::Angular => wrap_deg(rad_to_deg(*x)),
+        })
+        .collect();
+    if robot.kind() == RobotKind::Usr {
+        v.extend(sol.chains.0.iter().map(|c| wrap_deg(rad_to_deg(c.gamma))));
+        v.extend(sol.chains.0.iter().map(|c| {
+            let a = c.e - c.b;
+            let b = c.p - c.b;
+            rad_to_deg(a.cross(&b).norm().atan2(a.dot(&b)))
+        }));
+    }
+    v.extend(tilt_angles(sol, axes).0.iter().map(|t| rad_to_deg(*t)));
+    if let Some(r) = reference {
+        // Angles continue around their central values; lengths and tilts are unchanged.
+        let angular: Vec<bool> = kinds
+            .iter()
+            .map(|k| *k == JointKind::Angular)
+            .chain(std::iter::repeat_n(
+                true,
+                if robot.kind() == RobotKind::Usr { 3 } else { 0 },
+            ))
+            .collect();
+        for ((x, r), a) in v.iter_mut().zip(r).zip(angular) {
+            if a {
+                *x = near(*x, *r);
+            }
+        }
+    }
+    v
+}
+
+/// Evaluates the ranges over the task on one branch.
+pub fn evaluate(
+    robot: &Robot<f64>,
+    task: &TaskBox,
+    wrench: [f64; 6],
+    branch: Branch,
+    min_inv_cond: f64,
+) -> Result<Ranges, String> {
+    let hc_mm = m_to_mm(robot.hc());
+    let axes = SocketAxes::new(robot).map_err(|e| format!("socket axes: {e}"))?;
+    let central = inverse(
+        robot,
+        &pose_from_edge(&POSE, [0.0, 0.0, hc_mm, 0.0, 0.0, 0.0])?,
+        branch,
+    )
+    .map_err(|e| format!("central pose: {e}"))?;
+    let reference = geometric(robot, &central, &axes, None);
+    let names = quantity_names(robot.kind());
+    let keys = ["parallel", "rotated", "task"];
+    // acc[orientation][quantity] = (min, max, count)
+    let mut acc = vec![vec![(f64::INFINITY, f64::NEG_INFINITY, 0usize); names.len()]; 3];
+    let mut failures = Vec::new();
+    let poses = task.poses(hc_mm);
+    for tp in &poses {
+        let pose = pose_from_edge(&POSE, tp.pose)?;
+        let sol = match inverse(robot, &pose, branch) {
+            Ok(s) => s,
+            Err(e) => {
+                failures.push(format!("{:?}: ik: {e}", tp.pose));
+                continue;
+            }
+        };
+        let mut values = geometric(robot, &sol, &axes, Some(&reference));
+        let tau = jacobian(robot, &sol)
+            .map_err(|e| format!("jacobian: {e}"))
+            .and_then(|j| {
+                actuator_forces(&j, robot.rp(), &Wrench::from(wrench), min_inv_cond)
+                    .map_err(|e| format!("forces: {e}"))
+            });
+        match tau {
+            Ok(st) => values.extend(st.tau.iter()),
+            Err(e) => {
+                failures.push(format!("{:?}: {e}", tp.pose));
+                values.extend([f64::NAN; 6]);
+            }
+        }
+        for o in [tp.orientation.min(1), 2] {
+            if let Some(slot) = acc.get_mut(o) {
+                for (a, v) in slot.iter_mut().zip(&values) {
+                    if v.is_finite() {
+                        *a = (a.0.min(*v), a.1.max(*v), a.2 + 1);
+                    }
+                }
+            }
+        }
+    }
+    let mut rows = Vec::new();
+    for (name_index, name) in names.iter().enumerate() {
+        for (o, key) in keys.iter().enumerate() {
+            let (min, max, count) = acc[o][name_index];
+            rows.push(QuantityRange {
+                quantity: name.clone(),
+                orientation: key,
+                min,
+                max,
+                poses: count,
+            });
+        }
+    }
+    Ok(Ranges {
+        rows,
+        poses: poses.len(),
+        failures,
+    })
+}
+
+/// The CSV text: quantity,orientation,min,max,span,poses.
+pub fn to_csv(r: &Ranges) -> String {
+    let mut s = String::from("quantity,orientation,min,max,span,poses\n");
+    for q in &r.rows {
+        s.push_str(&format!(
+            "{},{},{},{},{},{}\n",
+            q.quantity,
+            q.orientation,
+            fixed(q.min, 6),
+            fixed(q.max, 6),
+            fixed(q.span(), 6),
+            q.poses
+        ));
+    }
+    s
+}
+
+/// The human-readable table.
+pub fn to_table(r: &Ranges, title: &str) -> String {
+    let mut s = format!("{title}\n");
+    s.push_str(&format!(
+        "{:<14} | {:>27} | {:>27} | {:>27}\n",
+        "quantity",
+        "parallel min / max / span",
+        "rotated min / max / span",
+        "task min / max / span"
+    ));
+    let names: Vec<&String> = r
+        .rows
+        .iter()
+        .filter(|q| q.orientation == "task")
+        .map(|q| &q.quantity)
+        .collect();
+    for name in names {
+        s.push_str(&format!("{name:<14}"));
+        for key in ["parallel", "rotated", "task"] {
+            match r.get(name, key) {
+                Some(q) if q.poses > 0 => s.push_str(&format!(
+                    " | {:>8.2} {:>8.2} {:>8.2}",
+                    q.min,
+                    q.max,
+                    q.span()
+                )),
+                _ => s.push_str(&format!(" | {:>26}", "-")),
+            }
+        }
+        s.push('\n');
+    }
+    s.push_str(&format!(
+        "{} task poses, {} failed\n",
+        r.poses,
+        r.failures.len()
+    ));
+    for f in r.failures.iter().take(10) {
+        s.push_str(&format!("  failed: {f}\n"));
+    }
+    s
+}
+
+/// Runs `ranges`.
+pub fn run(args: &RangesArgs, robot: &Robot<f64>, source: &str) -> Result<(), String> {
+    let task = TaskBox::from_flags(&args.grid, &args.task.box_mm, &args.task.tilt_deg)?;
+    let wrench: [f64; 6] = numbers("--wrench", &args.wrench)?;
+    let branch = crate::columns::parse_branch(&args.branch)?;
+    let r = evaluate(robot, &task, wrench, branch, 1e-6)?;
+    let csv = to_csv(&r);
+    if let Some(dir) = &args.out {
+        let dir = super::out_dir(Some(dir), "ranges")?;
+        let p = dir.join("ranges.csv");
+        std::fs::write(&p, &csv).map_err(|e| format!("cannot write {}: {e}", p.display()))?;
+    }
+    if args.csv {
+        print!("{csv}");
+    } else {
+        let title = format!(
+            "ranges over the task: {source}, branch {}, task {}, {:+} deg about [1,1,0], wrench {}",
+            args.branch,
+            task.describe(m_to_mm(robot.hc())),
+            task.tilt_deg,
+            args.wrench
+        );
+        print!("{}", to_table(&r, &title));
+    }
+    Ok(())
+}

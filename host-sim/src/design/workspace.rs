@@ -1,0 +1,443 @@
+//! `host-sim workspace`: constant-height sections of the reachable workspace at a fixed
+//! orientation (thesis section 8.4, cylindrical scan). For each height z and direction phi,
+//! the largest radius rho such that the pose [rho cos phi, rho sin phi, z] has a valid,
+//! guard-admissible solution: a coarse march outwards from the axis, then bisection.
+//! Admissible = no stop-level violation from `Guards::evaluate_pose`, the workspace guard
+//! excluded (that guard is the task box itself). The scan assumes each section is
+//! star-shaped about the axis (it reports the first boundary crossing).
+
+use super::{out_dir, perr, register_font, write_csv};
+use crate::columns::{parse_branch, pose_from_edge, POSE};
+use crate::limits_file::SelectedLimits;
+use crate::task_box::{numbers, TaskBox, TaskBoxArgs};
+use crate::units::{fixed, m_to_mm};
+use clap::Args;
+use kinematics_core::guards::{Guard, Guards, Limits, Reading, Severity};
+use kinematics_core::{Branch, Mechanism, Robot};
+use plotters::prelude::*;
+use std::path::{Path, PathBuf};
+
+/// `host-sim workspace`.
+#[derive(Debug, Args)]
+pub struct WorkspaceArgs {
+    /// Heights of the sections relative to hc: from, to, step, mm.
+    #[arg(
+        long,
+        value_name = "FROM_MM,TO_MM,STEP_MM",
+        default_value = "-30,30,10",
+        allow_hyphen_values = true
+    )]
+    pub z_mm: String,
+    /// Angular step of the scan directions phi, deg (divides 360 best; 45 deg multiples
+    /// then hit the footprint's corners).
+    #[arg(long, value_name = "DEG", default_value_t = 5.0)]
+    pub phi_step_deg: f64,
+    /// Step of the coarse march outwards, mm.
+    #[arg(long, value_name = "MM", default_value_t = 1.0)]
+    pub step_mm: f64,
+    /// Bisection tolerance on rho, mm.
+    #[arg(long, value_name = "MM", default_value_t = 0.01)]
+    pub tol_mm: f64,
+    /// Largest radius scanned, mm.
+    #[arg(long, value_name = "MM", default_value_t = 150.0)]
+    pub max_radius_mm: f64,
+    /// The task box and its second orientation.
+    #[command(flatten)]
+    pub task: TaskBoxArgs,
+    /// Inverse-kinematics branch 0..=7.
+    #[arg(long, value_name = "0..7", default_value = "0")]
+    pub branch: String,
+    /// Output directory [default: target/design/workspace].
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+}
+
+/// The scan settings (edge units).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scan {
+    /// Section heights, absolute, mm.
+    pub z_mm: Vec<f64>,
+    pub phi_step_deg: f64,
+    pub step_mm: f64,
+    pub tol_mm: f64,
+    pub max_radius_mm: f64,
+    /// Half-extents of the footprint in x and y, mm.
+    pub footprint_half_mm: [f64; 2],
+}
+
+/// One constant-height section at one orientation.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Section {
+    /// `parallel` or `rotated`.
+    pub orientation: &'static str,
+    pub rotation_deg: [f64; 3],
+    pub z_mm: f64,
+    pub phi_deg: Vec<f64>,
+    /// Largest admissible radius per direction, mm (0 when the axis point itself is not
+    /// admissible; max_radius_mm when no boundary was found).
+    pub rho_max_mm: Vec<f64>,
+    /// Every scanned direction reaches at least the footprint's boundary.
+    pub footprint_rays_inside: bool,
+    /// The first point of the footprint's perimeter (1 mm spacing) that is not admissible,
+    /// with its first stop-level violation; None when the whole perimeter is.
+    pub footprint_violation: Option<String>,
+}
+
+impl Section {
+    /// The footprint lies inside the section (rays and perimeter).
+    pub fn footprint_inside(&self) -> bool {
+        self.footprint_rays_inside && self.footprint_violation.is_none()
+    }
+}
+
+/// A guard reading in edge units: `guard:subject:value:limit unit`.
+pub fn describe_reading(r: &Reading<f64>) -> String {
+    let (factor, unit) = r.guard.edge_unit();
+    format!(
+        "{}:{}:{:.3}:{:.3} {}",
+        r.guard,
+        r.subject,
+        r.value * factor,
+        r.limit * factor,
+        unit
+    )
+    .trim_end()
+    .to_string()
+}
+
+/// The admissibility test of the scan.
+pub struct Admissible {
+    guards: Guards<f64, Robot<f64>>,
+}
+
+impl Admissible {
+    /// Prepares the guards for a robot, branch and limits.
+    pub fn new(robot: &Robot<f64>, branch: Branch, limits: &Limits<f64>) -> Result<Self, String> {
+        Ok(Admissible {
+            guards: Guards::new(*robot, branch, *limits).map_err(|e| format!("guards: {e}"))?,
+        })
+    }
+
+    /// The first stop-level violation at a pose (mm, deg), the workspace guard excluded;
+    /// None when the pose is admissible.
+    pub fn violation(&self, pose_edge: [f64; 6]) -> Option<Reading<f64>> {
+        let Ok(pose) = pose_from_edge(&POSE, pose_edge) else {
+            return None;
+        };
+        let mut first = None;
+        self.guards.evaluate_pose(&pose, &mut |r| {
+            if first.is_none() && r.severity == Some(Severity::Stop) && r.guard != Guard::Workspace
+            {
+                first = Some(*r);
+            }
+        });
+        first
+    }
+
+    /// True when the pose is admissible.
+    pub fn ok(&self, pose_edge: [f64; 6]) -> bool {
+        pose_from_edge(&POSE, pose_edge).is_ok() && self.violation(pose_edge).is_none()
+    }
+}
+
+/// The largest admissible radius in direction phi at height z, mm.
+pub fn rho_max(adm: &Admissible, scan: &Scan, z_mm: f64, phi_deg: f64, rot: [f64; 3]) -> f64 {
+    let (s, c) = phi_deg.to_radians().sin_cos();
+    let at = |rho: f64| adm.ok([rho * c, rho * s, z_mm, rot[0], rot[1], rot[2]]);
+    if !at(0.0) {
+        return 0.0;
+    }
+    let mut good = 0.0;
+    let mut bad = None;
+    while good < scan.max_radius_mm {
+        let next = (good + scan.step_mm).min(scan.max_radius_mm);
+        if at(next) {
+            good = next;
+        } else {
+            bad = Some(next);
+            break;
+        }
+    }
+    let Some(mut bad) = bad else {
+        return scan.max_radius_mm;
+    };
+    while bad - good > scan.tol_mm {
+        let mid = 0.5 * (good + bad);
+        if at(mid) {
+            good = mid;
+        } else {
+            bad = mid;
+        }
+    }
+    good
+}
+
+/// The radius of the footprint rectangle's boundary in direction phi, mm.
+pub fn footprint_radius(half: [f64; 2], phi_deg: f64) -> f64 {
+    let (s, c) = phi_deg.to_radians().sin_cos();
+    let rx = if c.abs() > 1e-12 {
+        half[0] / c.abs()
+    } else {
+        f64::INFINITY
+    };
+    let ry = if s.abs() > 1e-12 {
+        half[1] / s.abs()
+    } else {
+        f64::INFINITY
+    };
+    rx.min(ry)
+}
+
+/// Points of the footprint's perimeter, about 1 mm apart, corners included, mm.
+fn perimeter(half: [f64; 2]) -> Vec<[f64; 2]> {
+    let [hx, hy] = half;
+    let n = |len: f64| (len.ceil() as usize).max(1);
+    let mut pts = Vec::new();
+    let (nx, ny) = (n(2.0 * hx), n(2.0 * hy));
+    for i in 0..=nx {
+        let x = -hx + 2.0 * hx * i as f64 / nx as f64;
+        pts.push([x, -hy]);
+        pts.push([x, hy]);
+    }
+    for j in 1..ny {
+        let y = -hy + 2.0 * hy * j as f64 / ny as f64;
+        pts.push([-hx, y]);
+        pts.push([hx, y]);
+    }
+    pts
+}
+
+/// Scans one section.
+pub fn section(
+    adm: &Admissible,
+    scan: &Scan,
+    orientation: &'static str,
+    rot: [f64; 3],
+    z_mm: f64,
+) -> Section {
+    let n = ((360.0 / scan.phi_step_deg).round() as usize).max(1);
+    let phi_deg: Vec<f64> = (0..n).map(|k| k as f64 * 360.0 / n as f64).collect();
+    let rho: Vec<f64> = phi_deg
+        .iter()
+        .map(|&p| rho_max(adm, scan, z_mm, p, rot))
+        .collect();
+    let footprint_rays_inside = phi_deg
+        .iter()
+        .zip(&rho)
+        .all(|(&p, &r)| r + scan.tol_mm >= footprint_radius(scan.footprint_half_mm, p));
+    let footprint_violation = perimeter(scan.footprint_half_mm)
+        .into_iter()
+        .find_map(|[x, y]| {
+            let pose = [x, y, z_mm, rot[0], rot[1], rot[2]];
+            adm.violation(pose)
+                .map(|r| format!("({x:.1}, {y:.1}, {z_mm:.1}) mm: {}", describe_reading(&r)))
+        });
+    Section {
+        orientation,
+        rotation_deg: rot,
+        z_mm,
+        phi_deg,
+        rho_max_mm: rho,
+        footprint_rays_inside,
+        footprint_violation,
+    }
+}
+
+/// Scans every section at both task orientations.
+pub fn scan_all(adm: &Admissible, scan: &Scan, task: &TaskBox) -> Vec<Section> {
+    let mut out = Vec::new();
+    for o in task.orientations() {
+        for &z in &scan.z_mm {
+            out.push(section(adm, scan, o.key, o.rotation_deg, z));
+        }
+    }
+    out
+}
+
+/// Plots the sections of one orientation in the x-y plane with the footprint.
+pub fn plot(sections: &[&Section], half: [f64; 2], title: &str, path: &Path) -> Result<(), String> {
+    register_font();
+    let r = sections
+        .iter()
+        .flat_map(|s| s.rho_max_mm.iter().copied())
+        .fold(half[0].max(half[1]), f64::max)
+        * 1.1;
+    let root = BitMapBackend::new(path, (900, 900)).into_drawing_area();
+    root.fill(&WHITE).map_err(perr)?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 18))
+        .margin(15)
+        .x_label_area_size(40)
+        .y_label_area_size(50)
+        .build_cartesian_2d(-r..r, -r..r)
+        .map_err(perr)?;
+    chart
+        .configure_mesh()
+        .x_desc("x [mm]")
+        .y_desc("y [mm]")
+        .draw()
+        .map_err(perr)?;
+    let n = sections.len().max(2) as f64;
+    for (k, s) in sections.iter().enumerate() {
+        let color = HSLColor(0.75 * k as f64 / (n - 1.0), 0.8, 0.45);
+        let mut pts: Vec<(f64, f64)> = s
+            .phi_deg
+            .iter()
+            .zip(&s.rho_max_mm)
+            .map(|(p, r)| {
+                let (sn, c) = p.to_radians().sin_cos();
+                (r * c, r * sn)
+            })
+            .collect();
+        if let Some(first) = pts.first().copied() {
+            pts.push(first);
+        }
+        chart
+            .draw_series(LineSeries::new(pts, color.stroke_width(2)))
+            .map_err(perr)?
+            .label(format!(
+                "z = {:.1} mm{}",
+                s.z_mm,
+                if s.footprint_inside() {
+                    ""
+                } else {
+                    " (footprint NOT inside)"
+                }
+            ))
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color));
+    }
+    let [hx, hy] = half;
+    chart
+        .draw_series(LineSeries::new(
+            vec![(-hx, -hy), (hx, -hy), (hx, hy), (-hx, hy), (-hx, -hy)],
+            BLACK.stroke_width(2),
+        ))
+        .map_err(perr)?
+        .label("task box footprint")
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK));
+    chart
+        .configure_series_labels()
+        .border_style(BLACK)
+        .background_style(WHITE.mix(0.8))
+        .draw()
+        .map_err(perr)?;
+    root.present().map_err(perr)
+}
+
+/// The scan from the flags.
+pub fn scan_from_args(args: &WorkspaceArgs, hc_mm: f64) -> Result<(Scan, TaskBox), String> {
+    let [from, to, step]: [f64; 3] = numbers("--z-mm", &args.z_mm)?;
+    if !(step > 0.0 && to >= from && (to - from) / step <= 1000.0) {
+        return Err("--z-mm: need FROM <= TO and 0 < STEP, at most 1000 sections".into());
+    }
+    let count = ((to - from) / step + 1e-9).floor() as usize + 1;
+    let z_mm = (0..count).map(|k| hc_mm + from + step * k as f64).collect();
+    for (flag, v) in [
+        ("--phi-step-deg", args.phi_step_deg),
+        ("--step-mm", args.step_mm),
+        ("--tol-mm", args.tol_mm),
+        ("--max-radius-mm", args.max_radius_mm),
+    ] {
+        if !(v.is_finite() && v > 0.0) {
+            return Err(format!("{flag}: {v} is not a number > 0"));
+        }
+    }
+    let task = TaskBox::from_flags("1,1,1", &args.task.box_mm, &args.task.tilt_deg)?;
+    Ok((
+        Scan {
+            z_mm,
+            phi_step_deg: args.phi_step_deg,
+            step_mm: args.step_mm,
+            tol_mm: args.tol_mm,
+            max_radius_mm: args.max_radius_mm,
+            footprint_half_mm: [task.box_mm[0] / 2.0, task.box_mm[1] / 2.0],
+        },
+        task,
+    ))
+}
+
+/// Runs `workspace`.
+pub fn run(
+    args: &WorkspaceArgs,
+    robot: &Robot<f64>,
+    limits: &SelectedLimits,
+) -> Result<(), String> {
+    let hc_mm = m_to_mm(robot.hc());
+    let (scan, task) = scan_from_args(args, hc_mm)?;
+    let branch = parse_branch(&args.branch)?;
+    let adm = Admissible::new(robot, branch, &limits.limits)?;
+    let sections = scan_all(&adm, &scan, &task);
+    let dir = out_dir(args.out.as_deref(), "workspace")?;
+    let header: Vec<String> = [
+        "orientation",
+        "rx_deg",
+        "ry_deg",
+        "rz_deg",
+        "z_mm",
+        "phi_deg",
+        "rho_max_mm",
+    ]
+    .map(String::from)
+    .to_vec();
+    let mut rows = Vec::new();
+    for s in &sections {
+        for (p, r) in s.phi_deg.iter().zip(&s.rho_max_mm) {
+            let mut row = vec![s.orientation.to_string()];
+            row.extend(s.rotation_deg.iter().map(|&x| fixed(x, 6)));
+            row.extend([fixed(s.z_mm, 3), fixed(*p, 3), fixed(*r, 3)]);
+            rows.push(row);
+        }
+    }
+    let csv_path = dir.join("workspace.csv");
+    write_csv(&csv_path, &header, &rows)?;
+    println!(
+        "workspace sections ({:?}, limits: {}), admissible = no stop-level guard violation, workspace guard excluded",
+        robot.kind(),
+        limits.source
+    );
+    let mut files = vec![csv_path];
+    for o in task.orientations() {
+        let mine: Vec<&Section> = sections.iter().filter(|s| s.orientation == o.key).collect();
+        println!("orientation {}:", o.label);
+        for s in &mine {
+            let lo = s.rho_max_mm.iter().copied().fold(f64::INFINITY, f64::min);
+            let hi = s.rho_max_mm.iter().copied().fold(0.0, f64::max);
+            let verdict = if s.footprint_inside() {
+                "footprint inside".to_string()
+            } else {
+                format!(
+                    "footprint NOT inside{}{}",
+                    if s.footprint_rays_inside {
+                        ""
+                    } else {
+                        " (some ray short of it)"
+                    },
+                    s.footprint_violation
+                        .as_ref()
+                        .map(|v| format!("; first failing perimeter point {v}"))
+                        .unwrap_or_default()
+                )
+            };
+            println!(
+                "  z {:7.1} mm: rho_max {:7.2} .. {:7.2} mm; {verdict}",
+                s.z_mm, lo, hi
+            );
+        }
+        let png = dir.join(format!("sections_{}.png", o.key));
+        plot(
+            &mine,
+            scan.footprint_half_mm,
+            &format!(
+                "{:?} workspace sections, platform {}",
+                robot.kind(),
+                o.label
+            ),
+            &png,
+        )?;
+        files.push(png);
+    }
+    for f in files {
+        println!("  wrote {}", f.display());
+    }
+    Ok(())
+}
