@@ -9,7 +9,7 @@
 use crate::branch::Branch;
 use crate::chain::{Chain, PerChain};
 use crate::ik::{inverse, IkError, Solution};
-use crate::jacobian::{jacobian, JacobianError};
+use crate::jacobian::{jacobian, JacobianError, Jacobians};
 use crate::mechanism::{JointKind, Mechanism};
 use crate::pose::{rotation_angle, Pose};
 use crate::scalar::{lit, wrap_angle, Real};
@@ -576,6 +576,17 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
         pose: &Pose<T>,
         visit: &mut impl FnMut(&Reading<T>),
     ) -> Option<Solution<T>> {
+        self.evaluate_pose_full(pose, visit).map(|(sol, _)| sol)
+    }
+
+    /// [`Guards::evaluate_pose`] that also returns the Jacobians it computed (None at a
+    /// serial singularity or when the measures fail), so that callers on the control path
+    /// need not compute them again.
+    pub fn evaluate_pose_full(
+        &self,
+        pose: &Pose<T>,
+        visit: &mut impl FnMut(&Reading<T>),
+    ) -> Option<(Solution<T>, Option<Jacobians<T>>)> {
         let stop = Some(Severity::Stop);
         self.workspace_readings(pose, visit);
         let sol = match inverse(&self.robot, pose, self.branch) {
@@ -592,8 +603,8 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
                 return None;
             }
         };
-        self.solution_readings(&sol, visit);
-        Some(sol)
+        let jac = self.solution_readings(&sol, visit);
+        Some((sol, jac))
     }
 
     /// The verdict at a pose: every violation, with its severity.
@@ -634,7 +645,11 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
         ));
     }
 
-    fn solution_readings(&self, sol: &Solution<T>, visit: &mut impl FnMut(&Reading<T>)) {
+    fn solution_readings(
+        &self,
+        sol: &Solution<T>,
+        visit: &mut impl FnMut(&Reading<T>),
+    ) -> Option<Jacobians<T>> {
         let l = &self.limits;
         let kinds = self.robot.joint_kinds();
         let (guard_a, guard_b) = match kinds[0] {
@@ -716,7 +731,7 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
                     margin: -l.parallel.stop,
                     severity: stop,
                 });
-                return;
+                return None;
             }
         };
         for (chain, r) in m.serial_relative.iter() {
@@ -736,11 +751,11 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
         // Forces for the declared payload.
         let jac = match jacobian(&self.robot, sol) {
             Ok(j) => j,
-            Err(JacobianError::SerialSingular { .. }) => return, // already a serial reading
+            Err(JacobianError::SerialSingular { .. }) => return None, // already a serial reading
         };
         let Ok(st) = forces_with_inv_cond(&jac, &l.payload, m.parallel_inv_cond, l.parallel.stop)
         else {
-            return; // already a parallel reading
+            return Some(jac); // already a parallel reading
         };
         for (j, (tau, kind)) in st.tau.iter().zip(kinds.iter()).enumerate() {
             let (guard, levels) = match kind {
@@ -754,6 +769,7 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
                 levels,
             ));
         }
+        Some(jac)
     }
 
     /// Evaluates the motion guards between two samples `dt` apart (speeds of `cur`,

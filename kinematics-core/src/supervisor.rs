@@ -61,6 +61,9 @@ impl<T: Real> Default for SupervisorConfig<T> {
     }
 }
 
+/// A pose's inverse-kinematics solution and, when defined, its Jacobians.
+type Evaluated<T> = (crate::ik::Solution<T>, Option<Jacobians<T>>);
+
 /// The supervisor's state, by name.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Mode {
@@ -417,17 +420,16 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
     }
 
     /// First stop-level reading at a pose, if any; also reports warn-level ones.
-    fn first_stop_at(
-        &self,
-        pose: &Pose<T>,
-    ) -> (Option<Reading<T>>, bool, Option<crate::ik::Solution<T>>) {
+    fn first_stop_at(&self, pose: &Pose<T>) -> (Option<Reading<T>>, bool, Option<Evaluated<T>>) {
         let mut stop = None;
         let mut warn = false;
-        let sol = self.guards.evaluate_pose(pose, &mut |r| match r.severity {
-            Some(Severity::Stop) if stop.is_none() => stop = Some(*r),
-            Some(Severity::Warn) => warn = true,
-            _ => {}
-        });
+        let sol = self
+            .guards
+            .evaluate_pose_full(pose, &mut |r| match r.severity {
+                Some(Severity::Stop) if stop.is_none() => stop = Some(*r),
+                Some(Severity::Warn) => warn = true,
+                _ => {}
+            });
         (stop, warn, sol)
     }
 
@@ -570,16 +572,16 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         let mut w1 = w0 + limit_step(w_des - w0, l.angular_accel);
         // Arrival: within one tick's worth of braking of the (verified) goal, at a speed that
         // one tick of deceleration cancels, snap onto it and stop.
-        let (dt2, adt) = (dt * dt, dt);
+        let dt2 = dt * dt;
         if !self.braking
             && self.pending.is_none()
             && d <= l.tip_accel * dt2
             && a <= l.angular_accel * dt2
-            && v0.norm() <= l.tip_accel * adt
-            && w0.norm() <= l.angular_accel * adt
+            && v0.norm() <= l.tip_accel * dt
+            && w0.norm() <= l.angular_accel * dt
         {
             if d + a > T::zero() {
-                if let (None, warn, Some(sol)) = self.first_stop_at(&self.goal) {
+                if let (None, warn, Some((sol, _))) = self.first_stop_at(&self.goal) {
                     self.pose = self.goal;
                     self.q = sol.q();
                     self.warning = warn;
@@ -611,14 +613,14 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             self.goal = stop_point(&v1, &w1, &candidate);
         }
         let (stop, warn, sol) = self.first_stop_at(&candidate);
-        let sol = match (stop, sol) {
-            (None, Some(sol)) => sol,
+        // The guards computed the candidate's Jacobians already: reuse them.
+        let (sol, jac) = match (stop, sol) {
+            (None, Some(s)) => s,
             (Some(r), _) => return self.hold(r),
             (None, None) => return self.output(warn), // unreachable: no solution is a stop
         };
         let twist = Twist::new(v1.x, v1.y, v1.z, w1.x, w1.y, w1.z);
-        let jac = jacobian(self.guards.robot(), &sol).ok();
-        let qdot = match jac {
+        let qdot = match &jac {
             Some(j) => j.j * twist,
             None => {
                 // Finite differences when J is singular (the serial guard stops long before).
@@ -632,7 +634,6 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             }
         };
         // Motion guards on the output itself.
-        let mut motion_stop = None;
         let prev = MotionSample {
             twist: self.twist,
             qdot: self.qdot,
@@ -642,10 +643,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         self.guards.evaluate_motion(&prev, &cur, dt, &mut |r| {
             verdict.record(r);
         });
-        if let Some(r) = verdict.first_stop() {
-            motion_stop = Some(*r);
-        }
-        if let Some(r) = motion_stop {
+        if let Some(r) = verdict.first_stop().copied() {
             return self.hold(r);
         }
         self.pose = candidate;
