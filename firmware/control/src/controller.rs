@@ -119,6 +119,15 @@ impl<S: Scalar> fmt::Display for ControllerError<S> {
     }
 }
 
+/// Why a jog cannot be turned into a target.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum JogError {
+    /// The jog distance is NaN or infinite.
+    NonFinite,
+    /// The jogged joints have no pose on the branch (out of reach).
+    NoSolution,
+}
+
 /// What one tick did.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TickReport<S: Scalar> {
@@ -229,6 +238,31 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Controller<S, M> {
         if tool.is_none() {
             self.servo.set_preloads(&[Direction::Unknown; NUM_JOINTS]);
         }
+    }
+
+    /// The joints of the current setpoint (q order).
+    pub fn setpoint_joints(&self) -> Result<Joints<S>, JogError> {
+        kinematics_core::inverse(&self.robot, self.supervisor.setpoint(), self.cfg.branch)
+            .map(|sol| sol.q())
+            .map_err(|_| JogError::NoSolution)
+    }
+
+    /// The pose whose joints are `q` on the branch (FK warm-started at the setpoint): a
+    /// joint-space jog expressed as a Cartesian target, so that it passes the same
+    /// supervisor and guards as any target.
+    pub fn joints_target(&self, q: &Joints<S>) -> Result<Pose<S>, JogError> {
+        if !q.iter().all(|x| x.is_finite()) {
+            return Err(JogError::NonFinite);
+        }
+        forward(
+            &self.robot,
+            q,
+            self.cfg.branch,
+            self.supervisor.setpoint(),
+            &self.cfg.fk,
+        )
+        .map(|fk| fk.pose)
+        .map_err(|_| JogError::NoSolution)
     }
 
     /// Hands a master target to the supervisor.

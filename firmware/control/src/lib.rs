@@ -21,4 +21,6 @@ pub mod failsafe;
 pub mod link;
 pub mod state;
 
-pub use controller::{Controller, ControllerConfig, ControllerError, TickReport, ToolLoad};
+pub use controller::{
+    Controller, ControllerConfig, ControllerError, JogError, TickReport, ToolLoad,
+};

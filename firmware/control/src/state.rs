@@ -984,6 +984,8 @@ pub struct Runtime<S: Scalar, M: Mechanism<S> + Clone> {
     raw: [u16; NUM_JOINTS],
     homing: Homing<S>,
     controller: Option<Controller<S, M>>,
+    /// The jog stream in progress: (joint, time of the last Jog, the joints it aims at).
+    jog: Option<(usize, u64, Joints<S>)>,
     heartbeat: HeartbeatMonitor,
     targets: TargetClock,
     measured_q: [S; NUM_JOINTS],
@@ -1013,6 +1015,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             raw: [0; NUM_JOINTS],
             homing,
             controller: None,
+            jog: None,
             heartbeat: HeartbeatMonitor::new(cfg.heartbeat, now_us),
             targets: TargetClock::new(cfg.targets),
             measured_q: [S::zero(); NUM_JOINTS],
@@ -1094,6 +1097,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         }
         if t.to != State::Enabled {
             self.controller = None;
+            self.jog = None;
         }
         Ok(t)
     }
@@ -1138,16 +1142,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
                 return Ok(());
             }
             Command::StatusRequest => return Ok(()),
-            Command::Jog { joint, velocity } => {
-                return Err(if usize::from(joint) >= NUM_JOINTS {
-                    NackReason::InvalidJoint
-                } else if !velocity.is_finite() {
-                    NackReason::InvalidValue
-                } else {
-                    // The controller follows Cartesian targets only.
-                    NackReason::InvalidState
-                });
-            }
+            Command::Jog { joint, velocity } => return self.jog(joint, velocity, now_us),
             Command::Target {
                 stamp_us,
                 position_m,
@@ -1159,6 +1154,45 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         if cleared {
             self.warnings.remove(Warnings::HEARTBEAT_LATE);
         }
+        Ok(())
+    }
+
+    /// Jog: while following (Enabled, not clutched), move joint `joint` at `velocity`
+    /// (m/s or rad/s). The joint's target advances by velocity × the time since the last
+    /// Jog of the same stream, and never leads the setpoint by more than velocity ×
+    /// JOG_HORIZON_S: the master's repeated Jog is a dead-man, and when Jogs stop the robot
+    /// stops within that horizon. The target passes the supervisor like any other (speed
+    /// limits, path check, guards).
+    fn jog(&mut self, joint: u8, velocity: f32, now_us: u64) -> Result<(), NackReason> {
+        let j = usize::from(joint);
+        if j >= NUM_JOINTS {
+            return Err(NackReason::InvalidJoint);
+        }
+        if !velocity.is_finite() {
+            return Err(NackReason::InvalidValue);
+        }
+        self.sm.target_gate().map_err(NackReason::from)?;
+        let ctl = self.controller.as_mut().ok_or(NackReason::InvalidState)?;
+        let setpoint = ctl.setpoint_joints().map_err(jog_reason)?;
+        let horizon_us = (JOG_HORIZON_S * 1e6) as u64;
+        // The other joints stay where the stream started, the jogged one advances.
+        let (mut target, elapsed_us) = match self.jog {
+            Some((jj, last, q)) if jj == j && now_us.saturating_sub(last) <= horizon_us => {
+                (q, now_us.saturating_sub(last))
+            }
+            _ => (setpoint, horizon_us),
+        };
+        let here = setpoint.get(j).copied().ok_or(NackReason::InvalidJoint)?;
+        let lit = kinematics_core::scalar::lit::<S>;
+        let lead = lit(f64::from(velocity).abs() * JOG_HORIZON_S);
+        let slot = target.get_mut(j).ok_or(NackReason::InvalidJoint)?;
+        let advanced = *slot + lit(f64::from(velocity)) * lit(elapsed_us as f64 * 1e-6);
+        *slot = num_traits::Float::min(num_traits::Float::max(advanced, here - lead), here + lead);
+        let pose = ctl.joints_target(&target).map_err(jog_reason)?;
+        let stamp = self.targets.board_stamp(now_us);
+        ctl.submit(&pose, stamp, now_us)
+            .map_err(|r| link::refusal_reason(&r))?;
+        self.jog = Some((j, now_us, target));
         Ok(())
     }
 
@@ -1174,7 +1208,10 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         let ctl = self.controller.as_mut().ok_or(NackReason::InvalidState)?;
         let board_stamp = self.targets.accept(stamp_us, now_us)?;
         ctl.submit(&pose, board_stamp, now_us)
-            .map_err(|r| link::refusal_reason(&r))
+            .map_err(|r| link::refusal_reason(&r))?;
+        // A Cartesian target ends any jog stream.
+        self.jog = None;
+        Ok(())
     }
 
     /// One control tick: fail-safe timers, then homing or the controller, and the
@@ -1352,6 +1389,16 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         self.measured_q
     }
 }
+
+fn jog_reason(e: crate::JogError) -> NackReason {
+    match e {
+        crate::JogError::NonFinite => NackReason::InvalidValue,
+        crate::JogError::NoSolution => NackReason::OutOfWorkspace,
+    }
+}
+
+/// How far ahead of the setpoint a Jog aims at most, s: the dead-man time of a jog stream.
+pub const JOG_HORIZON_S: f64 = 0.1;
 
 /// A default configuration for the reference robot: homing placeholders parking at the
 /// central configuration `central_q`.

@@ -251,7 +251,8 @@ fn every_message_round_trips_with_its_reply() {
             velocity: 0.01,
         },
     );
-    assert_eq!(r, nack(s, NackReason::InvalidState), "jog is not supported");
+    // A valid jog in Disabled (not homed) is refused by the state machine.
+    assert_eq!(r, nack(s, NackReason::NotHomed));
     let (_, r) = exchange(&mut m, &mut b, &MasterToBoard::StatusRequest);
     let BoardToMaster::Status(st) = r else {
         panic!("{r:?}")
