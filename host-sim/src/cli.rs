@@ -2,7 +2,7 @@
 //! New subcommands are new variants of [`Command`] with their own `Args` struct.
 
 use crate::commands::{check, fk, ik, jacobian, singularity};
-use crate::design::{forces_path, ranges, synth, workspace};
+use crate::design::{compare, forces_path, ranges, synth, workspace};
 use crate::geometry_file;
 use crate::limits_file::{self, SelectedLimits};
 use crate::report;
@@ -190,6 +190,15 @@ pub enum Command {
     /// Writes synth.csv (dimensions, admissible, rejected, each quantity's min and max) in
     /// scan order to --out (default target/design/synth/); progress bar on a terminal.
     Synth(synth::SynthArgs),
+    /// The RSPR with zero eccentricity against the RRPS robot (thesis Appendix A, Fig. 4.4).
+    ///
+    /// Both robots with the selected RSPR's rb, rp, hc and e = 0, along the thesis's
+    /// diagonal [-20,-20,-10] -> [20,20,10] mm about [0, 0, hc], 20 deg about [1,1,1],
+    /// wrench 7,7,7,0.7,0.7,0.7: prints the peak leg forces and rotary torques side by side
+    /// and the ratio of the peak rotary torques; writes compare.csv (s, x_mm..rz_deg,
+    /// rspr_f1_n..rspr_t3_nm, rrps_f1_n..rrps_t3_nm, error) and compare.png to --out
+    /// (default target/design/compare/).
+    Compare(compare::CompareArgs),
 }
 
 impl Command {
@@ -208,6 +217,7 @@ impl Command {
             Command::Ranges(args) => ranges::run(args, robot, &selected.source),
             Command::Workspace(args) => workspace::run(args, robot, limits),
             Command::Synth(args) => synth::run(args, robot.kind()),
+            Command::Compare(args) => compare::run(args, robot),
         }
     }
 }

@@ -35,7 +35,7 @@ impl fmt::Display for JacobianError {
 }
 
 /// One Plücker line [ŝ; (x - o_p) × ŝ] with the moment taken about o_p (Eq. 7.13).
-fn plucker<T: Real>(s: &Vector3<T>, through_minus_op: &Vector3<T>) -> RowVector6<T> {
+pub(crate) fn plucker<T: Real>(s: &Vector3<T>, through_minus_op: &Vector3<T>) -> RowVector6<T> {
     let mo = through_minus_op.cross(s);
     RowVector6::new(s.x, s.y, s.z, mo.x, mo.y, mo.z)
 }
@@ -83,18 +83,27 @@ pub fn jacobian<T: Real, M: Mechanism<T> + ?Sized>(
     m: &M,
     sol: &Solution<T>,
 ) -> Result<Jacobians<T>, JacobianError> {
-    let lines = chain_lines(sol);
     let serial = sol.chains.map(|_, c| m.serial_block(c));
+    let relative = sol.chains.map(|_, c| m.serial_measure(c).1);
+    compose(chain_lines(sol), serial, relative)
+}
+
+/// J = Js⁻¹ Jtilde (Eq. 7.18) from each chain's two Plücker lines, its serial block and its
+/// dimensionless serial measure (below [`serial_singular_tolerance`]: singular).
+pub(crate) fn compose<T: Real>(
+    lines: PerChain<(RowVector6<T>, RowVector6<T>)>,
+    serial: PerChain<SerialBlock<T>>,
+    relative: PerChain<T>,
+) -> Result<Jacobians<T>, JacobianError> {
     let tol = serial_singular_tolerance::<T>();
-    // J = Js⁻¹ Jtilde (Eq. 7.18), chain by chain: [J_qa_i; J_qb_i] = B_i⁻¹ [Jt_i; Jt_{3+i}].
+    // Chain by chain: [J_qa_i; J_qb_i] = B_i⁻¹ [Jt_i; Jt_{3+i}].
     let rows = PerChain::try_from_fn(|chain| {
         let blk = &serial[chain];
-        let (_, relative) = m.serial_measure(&sol.chains[chain]);
         let det = blk.det();
-        if !(relative > tol) || !det.is_finite() {
+        if !(relative[chain] > tol) || !det.is_finite() {
             return Err(JacobianError::SerialSingular {
                 chain,
-                relative_det: crate::geometry::to_f64(relative),
+                relative_det: crate::geometry::to_f64(relative[chain]),
             });
         }
         let (r1, r2) = lines[chain];

@@ -36,6 +36,7 @@ pub mod ik;
 pub mod jacobian;
 pub mod mechanism;
 pub mod pose;
+pub mod rrps;
 pub mod rspr;
 pub mod scalar;
 pub mod singularity;

@@ -1,11 +1,12 @@
 //! Design tools over the thesis's task (chapter 8): actuator forces along a path
 //! (`forces --path`), the joint and force ranges over the task box (`ranges`) and the
-//! reachable workspace's constant-height sections (`workspace`) and the dimensional
-//! synthesis scan (`synth`).
+//! reachable workspace's constant-height sections (`workspace`), the dimensional
+//! synthesis scan (`synth`) and the RSPR/RRPS comparison (`compare`).
 //!
 //! Every file goes to `--out DIR`, by default `target/design/<command>/` (relative to the
 //! working directory); mm, deg, N and N m at the edge, unit-suffixed column names.
 
+pub mod compare;
 pub mod forces_path;
 pub mod ranges;
 pub mod synth;
