@@ -13,8 +13,8 @@ use controller::failsafe::{
     HeartbeatMonitor, SafeOutputs, TickTiming, WatchdogConfig, WatchdogPolicy,
 };
 use controller::link::Command;
-use controller::state::{reference_config, Event, Runtime, State};
-use kinematics_core::{inverse, Branch, Pose, RsprGeometry};
+use controller::state::{Event, Runtime, State};
+use kinematics_core::{Pose, RsprGeometry};
 use master_link::{Faults, NackReason, Warnings};
 use servo::hal::QuadratureCounter;
 
@@ -36,27 +36,9 @@ const HB: HeartbeatConfig = HeartbeatConfig {
 /// A runtime and plant in each state: Boot, Disabled, Homing, Ready, Enabled, Fault.
 fn snapshots() -> Vec<(State, Rt, PlantHw, u64)> {
     let g = RsprGeometry::<f64>::reference();
-    let c = inverse(&g, &Pose::central(g.hc), Branch::OUTER)
-        .unwrap()
-        .q();
-    let c: [f64; 6] = std::array::from_fn(|j| c[j]);
-    let stops = [3, 4, 5].map(|j| c[j] - 60f64.to_radians());
     // The plant with home switches on the legs and hard stops on the links.
-    let mut hw = PlantHw::homing(
-        [
-            0.16,
-            0.161,
-            0.159,
-            stops[0] + 0.2,
-            stops[1] + 0.2,
-            stops[2] + 0.2,
-        ],
-        0.150,
-        stops,
-    );
-    let mut cfg = reference_config(c);
+    let (mut hw, _, mut cfg) = common::homing_fixture([0.16, 0.161, 0.159], [0.2; 3]);
     cfg.heartbeat = HB;
-    cfg.homing.park_speed = [0.02, 0.02, 0.02, 0.5, 0.5, 0.5];
     let mut rt = Rt::new(g, cfg, 0).unwrap();
     let mut out = vec![(State::Boot, rt.clone(), hw.clone(), 0)];
     let mut t = 0;

@@ -12,10 +12,10 @@ use controller::link::{
     fill_margins, guard_reason, pose_from_wire, refusal_reason, Command, Inbound, LinkRx, LinkTx,
     Request, TargetClock, TargetClockConfig, FIRMWARE_VERSION,
 };
-use controller::state::{reference_config, Runtime, State};
+use controller::state::{Runtime, State};
 use kinematics_core::guards::Guard;
 use kinematics_core::supervisor::Refusal;
-use kinematics_core::{inverse, Branch, Pose, RsprGeometry};
+use kinematics_core::{Branch, RsprGeometry};
 use master_link::{
     cobs, encode, BoardToMaster, FrameError, MasterDecoder, MasterToBoard, NackReason, RobotState,
     Seq, SeqCounter, StatusReport, CRC32, MAX_FRAME_LEN, PROTOCOL_VERSION,
@@ -125,26 +125,8 @@ fn exchange<H>(m: &mut Master, b: &mut Board<H>, msg: &MasterToBoard) -> (Seq, B
 
 fn board() -> Board<PlantHw> {
     let g = RsprGeometry::<f64>::reference();
-    let c = inverse(&g, &Pose::central(g.hc), Branch::OUTER)
-        .unwrap()
-        .q();
-    let c: [f64; 6] = std::array::from_fn(|j| c[j]);
-    let stops = [3, 4, 5].map(|j| c[j] - 60f64.to_radians());
     // The plant fixture (switches on the legs, stops on the links).
-    let mut hw = PlantHw::homing(
-        [
-            0.16,
-            0.16,
-            0.16,
-            stops[0] + 0.2,
-            stops[1] + 0.2,
-            stops[2] + 0.2,
-        ],
-        0.150,
-        stops,
-    );
-    let mut cfg = reference_config(c);
-    cfg.homing.park_speed = [0.02, 0.02, 0.02, 0.5, 0.5, 0.5];
+    let (mut hw, _, mut cfg) = common::homing_fixture([0.16; 3], [0.2; 3]);
     cfg.heartbeat.hold_after_us = 1_000_000_000;
     cfg.heartbeat.disable_after_us = 2_000_000_000;
     let mut rt = Runtime::new(g, cfg, 0).unwrap();

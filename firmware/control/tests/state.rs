@@ -9,11 +9,10 @@
 
 use controller::link::Command;
 use controller::state::{
-    next_state, reference_config, Event, HomeMethod, Homing, HomingConfig, HomingError,
-    HomingPhase, HomingStatus, JointHoming, LimitSwitches, Refusal, Runtime, State, StateMachine,
-    ALL_STATES,
+    next_state, Event, HomeMethod, Homing, HomingConfig, HomingError, HomingPhase, HomingStatus,
+    JointHoming, LimitSwitches, Refusal, Runtime, State, StateMachine, ALL_STATES,
 };
-use kinematics_core::{inverse, Branch, Pose, RsprGeometry};
+use kinematics_core::{Pose, RsprGeometry};
 use master_link::{Faults, NackReason};
 use nalgebra::{Rotation3, Vector3};
 use servo::encoder::{EncoderConfig, LEG_COUNTS_PER_M, LINK_COUNTS_PER_RAD};
@@ -591,35 +590,11 @@ fn homing_config_is_validated() {
 // The plant model
 // ---------------------------------------------------------------------------------------
 
-fn central_q() -> [f64; 6] {
-    let g = RsprGeometry::<f64>::reference();
-    let q = inverse(&g, &Pose::central(g.hc), Branch::OUTER)
-        .unwrap()
-        .q();
-    std::array::from_fn(|j| q[j])
-}
-
 /// The plant placed near its switches and stops (legs 10 mm above the switch, links
-/// 0.2 rad above the stop), switches at 150 mm and stops 60 deg below the central angles.
+/// 0.15 .. 0.25 rad above the stop), switches at 150 mm and stops 60 deg below the central
+/// angles.
 fn plant_near_home() -> (PlantHw, [f64; 6]) {
-    let c = central_q();
-    let stops = [
-        c[3] - 60f64.to_radians(),
-        c[4] - 60f64.to_radians(),
-        c[5] - 60f64.to_radians(),
-    ];
-    let hw = PlantHw::homing(
-        [
-            0.160,
-            0.161,
-            0.159,
-            stops[0] + 0.2,
-            stops[1] + 0.25,
-            stops[2] + 0.15,
-        ],
-        0.150,
-        stops,
-    );
+    let (hw, c, _) = common::homing_fixture([0.160, 0.161, 0.159], [0.2, 0.25, 0.15]);
     (hw, c)
 }
 
@@ -673,9 +648,7 @@ fn homes_the_plant_and_parks_at_the_central_configuration() {
 // ---------------------------------------------------------------------------------------
 
 fn runtime_and_plant() -> (Runtime<f64, RsprGeometry<f64>>, PlantHw) {
-    let (hw, c) = plant_near_home();
-    let mut cfg = reference_config(c);
-    cfg.homing.park_speed = [0.02, 0.02, 0.02, 0.5, 0.5, 0.5];
+    let (hw, _, cfg) = common::homing_fixture([0.160, 0.161, 0.159], [0.2, 0.25, 0.15]);
     let rt = Runtime::new(RsprGeometry::reference(), cfg, 0).unwrap();
     (rt, hw)
 }

@@ -101,3 +101,40 @@ impl CurrentSense<f64> for PlantHw {
         self.plant.currents()
     }
 }
+
+/// The reference robot's central joints (branch 0).
+pub fn central_q() -> [f64; 6] {
+    use kinematics_core::{inverse, Branch, Pose, RsprGeometry};
+    let g = RsprGeometry::<f64>::reference();
+    let q = inverse(&g, &Pose::central(g.hc), Branch::OUTER)
+        .unwrap()
+        .q();
+    std::array::from_fn(|j| q[j])
+}
+
+/// The homing fixture: the plant with home switches at 150 mm on the legs and hard stops
+/// 60 deg below the central angles on the links, started at leg lengths `legs` and the
+/// links `above_stops` rad above their stops; and the reference runtime configuration
+/// (quick park). Returns the plant, the central joints and the configuration.
+pub fn homing_fixture(
+    legs: [f64; 3],
+    above_stops: [f64; 3],
+) -> (PlantHw, [f64; 6], controller::state::RuntimeConfig<f64>) {
+    let c = central_q();
+    let stops = [3, 4, 5].map(|j| c[j] - 60f64.to_radians());
+    let hw = PlantHw::homing(
+        [
+            legs[0],
+            legs[1],
+            legs[2],
+            stops[0] + above_stops[0],
+            stops[1] + above_stops[1],
+            stops[2] + above_stops[2],
+        ],
+        0.150,
+        stops,
+    );
+    let mut cfg = controller::state::reference_config(c);
+    cfg.homing.park_speed = [0.02, 0.02, 0.02, 0.5, 0.5, 0.5];
+    (hw, c, cfg)
+}
