@@ -86,23 +86,9 @@ impl Table {
     }
 }
 
-pub const POSE: [&str; 6] = ["x_mm", "y_mm", "z_mm", "rx_deg", "ry_deg", "rz_deg"];
-pub const RSPR_JOINTS: [&str; 6] = [
-    "l1_mm",
-    "l2_mm",
-    "l3_mm",
-    "theta1_deg",
-    "theta2_deg",
-    "theta3_deg",
-];
-pub const USR_JOINTS: [&str; 6] = [
-    "alpha1_deg",
-    "alpha2_deg",
-    "alpha3_deg",
-    "beta1_deg",
-    "beta2_deg",
-    "beta3_deg",
-];
+// The column names are the library's own (one source of truth).
+#[allow(unused_imports)] // not every test binary uses every name
+pub use host_sim::columns::{POSE, RSPR_JOINTS, USR_JOINTS};
 
 /// A pose table: header then `x,y,z,rx,ry,rz,branch` rows.
 pub fn pose_csv(rows: &[([f64; 6], u32)]) -> String {
