@@ -127,7 +127,10 @@ fn residual<T: Real>(
         };
         let a = ri.abs();
         ok &= a <= tol;
-        worst = worst.max(a);
+        // (A NaN residual already makes `ok` false.)
+        if a > worst {
+            worst = a;
+        }
     }
     (r, ok, worst)
 }
@@ -252,8 +255,8 @@ fn newton_step<T: Real, M: Mechanism<T> + ?Sized>(
     let mut dv = Vector3::new(dx.x, dx.y, dx.z);
     let mut dw = Vector3::new(dx.w, dx.a, dx.b);
     // Limit the step so that a poor guess cannot throw the iterate far away.
-    let shrink = (dv.norm() / cfg.max_step_linear)
-        .max(dw.norm() / cfg.max_step_angular)
+    let shrink = (crate::scalar::norm3(&dv) / cfg.max_step_linear)
+        .max(crate::scalar::norm3(&dw) / cfg.max_step_angular)
         .max(T::one());
     dv /= shrink;
     dw /= shrink;
@@ -304,5 +307,152 @@ fn weighted_norm<T: Real>(kinds: &[JointKind; 6], r: &Joints<T>, scale: T) -> T 
         };
         acc += v * v;
     }
-    acc.sqrt()
+    crate::scalar::sqrt(acc)
+}
+
+/// What one [`FkTracker::update`] did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Tracked {
+    /// The estimate already reproduced the joints within the tolerances (or within
+    /// [`TRACK_RESIDUAL_MAX`] and no step could improve it).
+    Unchanged,
+    /// Newton steps (at most [`TRACK_STEPS`], each with up to [`TRACK_HALVINGS`]
+    /// halvings) brought the residual below [`TRACK_RESIDUAL_MAX`].
+    Stepped { steps: u32 },
+    /// The step did not do that: the full solver ran from the estimate.
+    Solved { iterations: u32 },
+}
+
+/// Halvings each of the tracker's Newton steps may take.
+pub const TRACK_HALVINGS: usize = 2;
+
+/// Newton steps the tracker takes before falling back to [`forward`] (one is the rule on
+/// the MCU; at the speed limits both f32 and f64 sometimes need the second).
+pub const TRACK_STEPS: u32 = 2;
+
+/// Largest joint residual (m or rad) the tracker accepts after its steps, or the solver's
+/// angular tolerance when that is larger (f32: 7.6e-6 rad; the rounding of link angles
+/// near π alone is 2.4e-7 rad); above it (a jump of the readings, e.g. after homing) the
+/// full solver runs at once.
+pub const TRACK_RESIDUAL_MAX: f64 = 1e-6;
+
+/// Forward kinematics for a stream of joint readings, one per control tick (LinuxCNC's
+/// kinematics do the same with their previous solution as the guess): between ticks the
+/// joints move by a few encoder counts, so one Newton step from the previous estimate
+/// (Jtilde Δx = Js Δq, as in [`forward`]) converges quadratically; only when the step
+/// does not bring the residual below [`TRACK_RESIDUAL_MAX`] does the full solver run. The
+/// estimate always comes with the residual of its own inverse kinematics against the
+/// readings, so its accuracy is known, never assumed: after a step it is of the order of
+/// the tick's motion squared (about 1e-9 m at 25 mm/s in f64; the f32 rounding on the
+/// MCU), and it converges to the tolerances while the robot stands still.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FkTracker<T: Real> {
+    branch: Branch,
+    pose: Pose<T>,
+    sol: Solution<T>,
+    residual: T,
+}
+
+impl<T: Real> FkTracker<T> {
+    /// Starts tracking: the full solver from `guess`.
+    pub fn new<M: Mechanism<T> + ?Sized>(
+        m: &M,
+        q: &Joints<T>,
+        branch: Branch,
+        guess: &Pose<T>,
+        cfg: &FkConfig<T>,
+    ) -> Result<Self, FkError> {
+        let s = forward(m, q, branch, guess, cfg)?;
+        Ok(FkTracker {
+            branch,
+            pose: s.pose,
+            sol: s.solution,
+            residual: s.residual,
+        })
+    }
+
+    /// The current estimate of the pose.
+    pub fn pose(&self) -> &Pose<T> {
+        &self.pose
+    }
+
+    /// Its inverse-kinematics solution.
+    pub fn solution(&self) -> &Solution<T> {
+        &self.sol
+    }
+
+    /// The largest joint residual of the estimate against the last readings (m or rad).
+    pub fn residual(&self) -> T {
+        self.residual
+    }
+
+    /// Follows new joint readings. On error the estimate is kept (and stays valid for the
+    /// readings it was computed from).
+    pub fn update<M: Mechanism<T> + ?Sized>(
+        &mut self,
+        m: &M,
+        q: &Joints<T>,
+        cfg: &FkConfig<T>,
+    ) -> Result<Tracked, FkError> {
+        if let Some(k) = q.iter().position(|x| !x.is_finite()) {
+            return Err(FkError::NonFiniteInput { index: k as u8 });
+        }
+        let kinds = m.joint_kinds();
+        let (r, ok, worst) = residual(&kinds, q, &self.sol.q(), cfg);
+        if ok {
+            self.residual = worst;
+            return Ok(Tracked::Unchanged);
+        }
+        let accept = cfg.tol_angular.max(cfg.tol_linear);
+        let good_enough = |w: T| w <= accept || w <= lit(TRACK_RESIDUAL_MAX);
+        let (mut pose, mut sol, mut r, mut current) = (self.pose, self.sol, r, worst);
+        for steps in 1..=TRACK_STEPS {
+            let step = newton_step(
+                m,
+                &pose,
+                &sol,
+                &r,
+                self.branch,
+                &kinds,
+                q,
+                cfg,
+                m.length_scale(),
+                steps,
+                TRACK_HALVINGS,
+            );
+            let Ok(Step::Improved(p, s)) = step else {
+                // No progress: at the rounding level already, keep what there is.
+                if good_enough(current) {
+                    self.residual = current;
+                    self.pose = pose;
+                    self.sol = sol;
+                    return Ok(if steps > 1 {
+                        Tracked::Stepped { steps: steps - 1 }
+                    } else {
+                        Tracked::Unchanged
+                    });
+                }
+                break;
+            };
+            let (left, _, worst) = residual(&kinds, q, &s.q(), cfg);
+            pose = p;
+            sol = s;
+            r = left;
+            current = worst;
+            if good_enough(worst) {
+                self.residual = worst;
+                self.pose = pose;
+                self.sol = sol;
+                return Ok(Tracked::Stepped { steps });
+            }
+        }
+        let from = pose;
+        let s = forward(m, q, self.branch, &from, cfg)?;
+        self.pose = s.pose;
+        self.sol = s.solution;
+        self.residual = s.residual;
+        Ok(Tracked::Solved {
+            iterations: s.iterations,
+        })
+    }
 }

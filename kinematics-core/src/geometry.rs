@@ -208,10 +208,11 @@ impl<T: Real> Mechanism<T> for Robot<T> {
         chain: Chain,
         pc: &PlatformChain<T>,
         bit_set: bool,
-    ) -> Result<ChainSolution<T>, crate::ik::IkFailure> {
+        out: &mut ChainSolution<T>,
+    ) -> Result<(), crate::ik::IkFailure> {
         match self {
-            Robot::Rspr(g) => g.chain_ik(chain, pc, bit_set),
-            Robot::Usr(g) => g.chain_ik(chain, pc, bit_set),
+            Robot::Rspr(g) => g.chain_ik(chain, pc, bit_set, out),
+            Robot::Usr(g) => g.chain_ik(chain, pc, bit_set, out),
         }
     }
     fn serial_block(&self, s: &ChainSolution<T>) -> SerialBlock<T> {

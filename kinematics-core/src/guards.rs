@@ -8,12 +8,12 @@
 
 use crate::branch::Branch;
 use crate::chain::{Chain, PerChain};
-use crate::ik::{inverse, IkError, Solution};
-use crate::jacobian::{jacobian, JacobianError, Jacobians};
+use crate::ik::{inverse, inverse_into, IkError, Solution};
+use crate::jacobian::{jacobian_into, tripod_jacobian, Jacobians};
 use crate::mechanism::{JointKind, Mechanism};
 use crate::pose::{rotation_angle, Pose};
 use crate::scalar::{lit, wrap_angle, Real};
-use crate::singularity::measures;
+use crate::singularity::ConditionEstimator;
 use crate::statics::forces_with_inv_cond;
 use crate::tilt::{tilt_angles, SocketAxes};
 use crate::{Joints, Twist, Wrench};
@@ -528,6 +528,49 @@ pub struct MotionSample<T: Real> {
     pub qdot: Joints<T>,
 }
 
+/// Scratch space of one guard evaluation on the control path
+/// ([`Guards::evaluate_pose_into`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Evaluation<T: Real> {
+    /// The inverse-kinematics solution (valid unless [`Solved::No`]).
+    pub sol: Solution<T>,
+    /// The Jacobians (valid with [`Solved::WithJacobian`]).
+    pub jac: Jacobians<T>,
+}
+
+impl<T: Real> Evaluation<T> {
+    /// Empty scratch space.
+    pub fn new(branch: Branch) -> Self {
+        Evaluation {
+            sol: Solution::zeroed(branch),
+            jac: Jacobians::zeroed(),
+        }
+    }
+}
+
+/// How much of the guards an evaluation runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Depth {
+    /// Every pose guard.
+    Full,
+    /// Every guard that follows from the inverse kinematics and the Jacobian (reach,
+    /// workspace, joint ranges, tilt, collision, serial singularity), not the parallel
+    /// measure (an SVD) nor the payload statics (an LU): for a pose between two poses
+    /// where those were checked (the supervisor's setpoints, see its documentation).
+    Kinematic,
+}
+
+/// What a guard evaluation could compute.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Solved {
+    /// No inverse-kinematics solution (a Reach reading was given).
+    No,
+    /// A solution, but no Jacobian (a serial singularity, or the measures failed).
+    WithoutJacobian,
+    /// A solution and its Jacobians.
+    WithJacobian,
+}
+
 /// The guards prepared for one robot and branch.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Guards<T: Real, M: Mechanism<T>> {
@@ -587,24 +630,56 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
         pose: &Pose<T>,
         visit: &mut impl FnMut(&Reading<T>),
     ) -> Option<(Solution<T>, Option<Jacobians<T>>)> {
+        self.evaluate_pose_warm(pose, visit, &mut ConditionEstimator::new())
+    }
+
+    /// [`Guards::evaluate_pose_full`] with the parallel measure's SVD warm-started by
+    /// `cond` (keep one estimator per stream of nearby poses: the setpoints, the path
+    /// samples; see [`ConditionEstimator`]). The readings are the same as from a cold
+    /// start, to the SVD's convergence tolerance.
+    pub fn evaluate_pose_warm(
+        &self,
+        pose: &Pose<T>,
+        visit: &mut impl FnMut(&Reading<T>),
+        cond: &mut ConditionEstimator<T>,
+    ) -> Option<(Solution<T>, Option<Jacobians<T>>)> {
+        let mut e = Evaluation::new(self.branch);
+        match self.evaluate_pose_into(pose, visit, cond, &mut e, Depth::Full) {
+            Solved::No => None,
+            Solved::WithoutJacobian => Some((e.sol, None)),
+            Solved::WithJacobian => Some((e.sol, Some(e.jac))),
+        }
+    }
+
+    /// The control path's form of [`Guards::evaluate_pose_warm`]: the solution and the
+    /// Jacobians are written into `out` (no copies of returned values; about 600 bytes
+    /// on the Cortex-M4); the result says which of them are valid.
+    pub fn evaluate_pose_into(
+        &self,
+        pose: &Pose<T>,
+        visit: &mut impl FnMut(&Reading<T>),
+        cond: &mut ConditionEstimator<T>,
+        out: &mut Evaluation<T>,
+        depth: Depth,
+    ) -> Solved {
         let stop = Some(Severity::Stop);
         self.workspace_readings(pose, visit);
-        let sol = match inverse(&self.robot, pose, self.branch) {
-            Ok(s) => s,
-            Err(e) => {
-                visit(&Reading {
-                    guard: Guard::Reach,
-                    subject: Subject::Chain(e.chain),
-                    value: T::zero(),
-                    limit: T::zero(),
-                    margin: -T::one(),
-                    severity: stop,
-                });
-                return None;
-            }
-        };
-        let jac = self.solution_readings(&sol, visit);
-        Some((sol, jac))
+        if let Err(e) = inverse_into(&self.robot, pose, self.branch, &mut out.sol) {
+            visit(&Reading {
+                guard: Guard::Reach,
+                subject: Subject::Chain(e.chain),
+                value: T::zero(),
+                limit: T::zero(),
+                margin: -T::one(),
+                severity: stop,
+            });
+            return Solved::No;
+        }
+        if self.solution_readings(&out.sol, visit, cond, &mut out.jac, depth) {
+            Solved::WithJacobian
+        } else {
+            Solved::WithoutJacobian
+        }
     }
 
     /// The verdict at a pose: every violation, with its severity.
@@ -636,7 +711,7 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
         }
         // Platform tilt: angle between n = R z and z0.
         let n = pose.r * Vector3::z();
-        let tilt = n.xy().norm().atan2(n.z);
+        let tilt = crate::scalar::sqrt(n.x * n.x + n.y * n.y).atan2(n.z);
         visit(&upper(
             Guard::TiltCone,
             Subject::Robot,
@@ -645,11 +720,15 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
         ));
     }
 
+    /// The readings that need the solution; true when `jac` holds its Jacobians.
     fn solution_readings(
         &self,
         sol: &Solution<T>,
         visit: &mut impl FnMut(&Reading<T>),
-    ) -> Option<Jacobians<T>> {
+        cond: &mut ConditionEstimator<T>,
+        jac: &mut Jacobians<T>,
+        depth: Depth,
+    ) -> bool {
         let l = &self.limits;
         let kinds = self.robot.joint_kinds();
         let (guard_a, guard_b) = match kinds[0] {
@@ -705,7 +784,7 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
                 let c = &sol.chains[chain];
                 let radius = if c.s1.z.abs() > T::default_epsilon() {
                     let p = c.b + c.s1 * ((l.collision_plane_height - c.b.z) / c.s1.z);
-                    p.xy().norm()
+                    crate::scalar::sqrt(p.x * p.x + p.y * p.y)
                 } else {
                     // A horizontal leg never meets the plane.
                     T::max_value().unwrap_or(T::one() / T::default_epsilon())
@@ -718,10 +797,29 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
                 ));
             }
         }
-        // Singularities.
+        // Singularities (CONVENTIONS.md measures): serial per chain from the serial
+        // blocks, parallel from the SVD of the scaled Jtilde, which the Jacobian computes
+        // anyway (it is only recomputed alone at a serial singularity, where J is not).
         let stop = Some(Severity::Stop);
-        let m = match measures(&self.robot, sol) {
-            Ok(m) => m,
+        for (chain, c) in sol.chains.iter() {
+            visit(&lower(
+                Guard::SerialSingularity,
+                Subject::Chain(chain),
+                self.robot.serial_measure(c).1,
+                l.serial,
+            ));
+        }
+        let jac_ok = jacobian_into(&self.robot, sol, jac).is_ok();
+        if depth == Depth::Kinematic {
+            return jac_ok;
+        }
+        let jtilde = if jac_ok {
+            jac.jtilde
+        } else {
+            tripod_jacobian(sol)
+        };
+        let inv_cond = match cond.inv_cond(&jtilde, self.robot.rp()) {
+            Ok(x) => x,
             Err(_) => {
                 visit(&Reading {
                     guard: Guard::ParallelSingularity,
@@ -731,31 +829,21 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
                     margin: -l.parallel.stop,
                     severity: stop,
                 });
-                return None;
+                return false;
             }
         };
-        for (chain, r) in m.serial_relative.iter() {
-            visit(&lower(
-                Guard::SerialSingularity,
-                Subject::Chain(chain),
-                *r,
-                l.serial,
-            ));
-        }
         visit(&lower(
             Guard::ParallelSingularity,
             Subject::Robot,
-            m.parallel_inv_cond,
+            inv_cond,
             l.parallel,
         ));
         // Forces for the declared payload.
-        let jac = match jacobian(&self.robot, sol) {
-            Ok(j) => j,
-            Err(JacobianError::SerialSingular { .. }) => return None, // already a serial reading
-        };
-        let Ok(st) = forces_with_inv_cond(&jac, &l.payload, m.parallel_inv_cond, l.parallel.stop)
-        else {
-            return Some(jac); // already a parallel reading
+        if !jac_ok {
+            return false; // a serial singularity: already a serial reading
+        }
+        let Ok(st) = forces_with_inv_cond(jac, &l.payload, inv_cond, l.parallel.stop) else {
+            return true; // already a parallel reading
         };
         for (j, (tau, kind)) in st.tau.iter().zip(kinds.iter()).enumerate() {
             let (guard, levels) = match kind {
@@ -769,7 +857,7 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
                 levels,
             ));
         }
-        Some(jac)
+        true
     }
 
     /// Evaluates the motion guards between two samples `dt` apart (speeds of `cur`,
@@ -782,11 +870,11 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
         visit: &mut impl FnMut(&Reading<T>),
     ) {
         let l = &self.limits;
-        let v = cur.twist.fixed_rows::<3>(0).norm();
-        let w = cur.twist.fixed_rows::<3>(3).norm();
+        let v = crate::scalar::sqrt(cur.twist.fixed_rows::<3>(0).norm_squared());
+        let w = crate::scalar::sqrt(cur.twist.fixed_rows::<3>(3).norm_squared());
         let dtw = (cur.twist - prev.twist) / dt;
-        let a = dtw.fixed_rows::<3>(0).norm();
-        let alpha = dtw.fixed_rows::<3>(3).norm();
+        let a = crate::scalar::sqrt(dtw.fixed_rows::<3>(0).norm_squared());
+        let alpha = crate::scalar::sqrt(dtw.fixed_rows::<3>(3).norm_squared());
         let r = Subject::Robot;
         visit(&upper(Guard::TipSpeed, r, v, stop_only(l.tip_speed)));
         visit(&upper(

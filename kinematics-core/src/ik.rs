@@ -82,6 +82,25 @@ pub struct ChainSolution<T: Real> {
     pub gamma: T,
 }
 
+impl<T: Real> ChainSolution<T> {
+    /// All zero (a placeholder, not a solution).
+    pub fn zeroed() -> Self {
+        let z = Vector3::zeros();
+        ChainSolution {
+            e: z,
+            b: z,
+            p: z,
+            lb: z,
+            s1: z,
+            leg: T::zero(),
+            s2: z,
+            qa: T::zero(),
+            qb: T::zero(),
+            gamma: T::zero(),
+        }
+    }
+}
+
 /// A full inverse-kinematics solution.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Solution<T: Real> {
@@ -94,6 +113,15 @@ pub struct Solution<T: Real> {
 }
 
 impl<T: Real> Solution<T> {
+    /// An all-zero placeholder (identity rotation) to be filled by [`inverse_into`].
+    pub fn zeroed(branch: Branch) -> Self {
+        let z = ChainSolution::zeroed();
+        Solution {
+            pose: Pose::central(T::zero()),
+            branch,
+            chains: PerChain([z, z, z]),
+        }
+    }
     /// The joint vector in q order: `[qa_1, qa_2, qa_3, qb_1, qb_2, qb_3]`.
     pub fn q(&self) -> Joints<T> {
         let [c1, c2, c3] = &self.chains.0;
@@ -102,6 +130,7 @@ impl<T: Real> Solution<T> {
 }
 
 /// The platform-side quantities of a chain at a pose (Eq. 6.1-6.7).
+#[inline]
 pub fn platform_chain<T: Real, M: Mechanism<T> + ?Sized>(
     m: &M,
     pose: &Pose<T>,
@@ -110,13 +139,25 @@ pub fn platform_chain<T: Real, M: Mechanism<T> + ?Sized>(
     let radial = radial::<T>(chain);
     // r_i = [cos(ξ+π/2), sin(ξ+π/2), 0] = z × radial (Eq. 6.4).
     let r_axis = Vector3::new(-radial.y, radial.x, T::zero());
-    let u = pose.r * radial;
+    // R·radial and R·r_i from the columns of R (both vectors lie in the xy plane); written
+    // out because nalgebra's generic product costs ~150 instructions each on the M4.
+    let r = pose.r.matrix();
+    let col = |a: T, b: T| {
+        Vector3::new(
+            r.m11 * a + r.m12 * b,
+            r.m21 * a + r.m22 * b,
+            r.m31 * a + r.m32 * b,
+        )
+    };
+    let u = col(radial.x, radial.y);
+    let m_axis = col(r_axis.x, r_axis.y);
+    let n = Vector3::new(r.m13, r.m23, r.m33);
     PlatformChain {
         p: pose.t + u * m.rp(), // Eq. 6.7
         u,
-        m: pose.r * r_axis,
-        n: pose.r * Vector3::z(), // Eq. 6.6
-        e: radial * m.e(),        // Eq. 6.2
+        m: m_axis,
+        n,                 // Eq. 6.6
+        e: radial * m.e(), // Eq. 6.2
         radial,
     }
 }
@@ -128,29 +169,38 @@ pub fn inverse<T: Real, M: Mechanism<T> + ?Sized>(
     pose: &Pose<T>,
     branch: Branch,
 ) -> Result<Solution<T>, IkError> {
+    let mut sol = Solution::zeroed(branch);
+    inverse_into(m, pose, branch, &mut sol)?;
+    Ok(sol)
+}
+
+/// [`inverse`] writing into `out` (on the control path: a solution is ~300 bytes, and
+/// building it in place saves the copies a returned value costs on the Cortex-M4). On
+/// failure `out` holds a partial solution that must not be used.
+pub fn inverse_into<T: Real, M: Mechanism<T> + ?Sized>(
+    m: &M,
+    pose: &Pose<T>,
+    branch: Branch,
+    out: &mut Solution<T>,
+) -> Result<(), IkError> {
     if !pose.is_finite() {
         return Err(IkError {
             chain: Chain::One,
             reason: IkFailure::NonFiniteInput,
         });
     }
-    let chains = PerChain::try_from_fn(|chain| {
+    out.pose = *pose;
+    out.branch = branch;
+    for (chain, slot) in Chain::ALL.into_iter().zip(out.chains.0.iter_mut()) {
         let pc = platform_chain(m, pose, chain);
-        let s = m
-            .chain_ik(chain, &pc, branch.is_set(chain))
+        m.chain_ik(chain, &pc, branch.is_set(chain), slot)
             .map_err(|reason| IkError { chain, reason })?;
-        if s.qa.is_finite() && s.qb.is_finite() && s.leg.is_finite() {
-            Ok(s)
-        } else {
-            Err(IkError {
+        if !(slot.qa.is_finite() && slot.qb.is_finite() && slot.leg.is_finite()) {
+            return Err(IkError {
                 chain,
                 reason: IkFailure::NonFiniteInput,
-            })
+            });
         }
-    })?;
-    Ok(Solution {
-        pose: *pose,
-        branch,
-        chains,
-    })
+    }
+    Ok(())
 }

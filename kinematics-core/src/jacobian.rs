@@ -72,32 +72,76 @@ pub struct Jacobians<T: Real> {
     pub j: Matrix6<T>,
 }
 
+impl<T: Real> Jacobians<T> {
+    /// All zero (a placeholder to be filled by [`jacobian_into`]).
+    pub fn zeroed() -> Self {
+        let b = SerialBlock {
+            a11: T::zero(),
+            a12: T::zero(),
+            a21: T::zero(),
+            a22: T::zero(),
+        };
+        Jacobians {
+            jtilde: Matrix6::zeros(),
+            serial: PerChain([b, b, b]),
+            j: Matrix6::zeros(),
+        }
+    }
+}
+
 /// Smallest dimensionless serial measure (see [`Mechanism::serial_measure`]) for which J is
 /// still formed; below it the chain counts as serially singular.
 pub fn serial_singular_tolerance<T: Real>() -> T {
     (T::default_epsilon() * lit(1.0e3)).max(lit(1.0e-9))
 }
 
-/// The Jacobians at an inverse-kinematics solution.
+/// The full Jacobian J = Js⁻¹ Jtilde (q̇ = J [v; ω]) with its factors. Fails at a serial
+/// singularity of a chain (Eq. 10.6 / 10.11).
 pub fn jacobian<T: Real, M: Mechanism<T> + ?Sized>(
     m: &M,
     sol: &Solution<T>,
 ) -> Result<Jacobians<T>, JacobianError> {
-    let serial = sol.chains.map(|_, c| m.serial_block(c));
-    let relative = sol.chains.map(|_, c| m.serial_measure(c).1);
-    compose(chain_lines(sol), serial, relative)
+    let mut out = Jacobians::zeroed();
+    jacobian_into(m, sol, &mut out)?;
+    Ok(out)
 }
 
-/// J = Js⁻¹ Jtilde (Eq. 7.18) from each chain's two Plücker lines, its serial block and its
-/// dimensionless serial measure (below [`serial_singular_tolerance`]: singular).
+/// [`jacobian`] writing into `out` (the control path's form, without the copies of a
+/// returned value). On failure `out` must not be used.
+pub fn jacobian_into<T: Real, M: Mechanism<T> + ?Sized>(
+    m: &M,
+    sol: &Solution<T>,
+    out: &mut Jacobians<T>,
+) -> Result<(), JacobianError> {
+    let serial = sol.chains.map(|_, c| m.serial_block(c));
+    let relative = sol.chains.map(|_, c| m.serial_measure(c).1);
+    compose_into(&chain_lines(sol), &serial, &relative, out)
+}
+
+/// J from the Plücker lines of each chain's two actuated directions (rows i and 3+i of
+/// Jtilde, Eq. 7.14) and the serial blocks B_i (Eq. 7.21 / 7.31); shared by every
+/// mechanism of the class (RSPR, USR, RRPS).
 pub(crate) fn compose<T: Real>(
     lines: PerChain<(RowVector6<T>, RowVector6<T>)>,
     serial: PerChain<SerialBlock<T>>,
     relative: PerChain<T>,
 ) -> Result<Jacobians<T>, JacobianError> {
+    let mut out = Jacobians::zeroed();
+    compose_into(&lines, &serial, &relative, &mut out)?;
+    Ok(out)
+}
+
+fn compose_into<T: Real>(
+    lines: &PerChain<(RowVector6<T>, RowVector6<T>)>,
+    serial: &PerChain<SerialBlock<T>>,
+    relative: &PerChain<T>,
+    out: &mut Jacobians<T>,
+) -> Result<(), JacobianError> {
     let tol = serial_singular_tolerance::<T>();
-    // Chain by chain: [J_qa_i; J_qb_i] = B_i⁻¹ [Jt_i; Jt_{3+i}].
-    let rows = PerChain::try_from_fn(|chain| {
+    out.serial = *serial;
+    for (chain, (r1, r2)) in lines.iter() {
+        let i = chain.index();
+        // Chain by chain: [J_qa_i; J_qb_i] = B_i⁻¹ [Jt_i; Jt_{3+i}].
         let blk = &serial[chain];
         let det = blk.det();
         if !(relative[chain] > tol) || !det.is_finite() {
@@ -106,15 +150,28 @@ pub(crate) fn compose<T: Real>(
                 relative_det: crate::geometry::to_f64(relative[chain]),
             });
         }
-        let (r1, r2) = lines[chain];
-        Ok((
-            (r1 * blk.a22 - r2 * blk.a12) / det,
-            (r2 * blk.a11 - r1 * blk.a21) / det,
-        ))
-    })?;
-    Ok(Jacobians {
-        jtilde: stack(&lines.map(|_, l| l.0), &lines.map(|_, l| l.1)),
-        serial,
-        j: stack(&rows.map(|_, r| r.0), &rows.map(|_, r| r.1)),
-    })
+        // Element by element over the (column-major) storage: nalgebra's row views and
+        // temporaries cost ~3x the arithmetic on the Cortex-M4.
+        let inv = T::one() / det;
+        let (k11, k12, k21, k22) = (blk.a22 * inv, -blk.a12 * inv, -blk.a21 * inv, blk.a11 * inv);
+        let columns = out
+            .jtilde
+            .as_mut_slice()
+            .chunks_exact_mut(6)
+            .zip(out.j.as_mut_slice().chunks_exact_mut(6));
+        for ((ct, cj), (x1, x2)) in columns.zip(r1.iter().zip(r2.iter())) {
+            let (t_top, t_bottom) = ct.split_at_mut(3);
+            let (j_top, j_bottom) = cj.split_at_mut(3);
+            if let (Some(t1), Some(t2), Some(j1), Some(j2)) = (
+                t_top.get_mut(i),
+                t_bottom.get_mut(i),
+                j_top.get_mut(i),
+                j_bottom.get_mut(i),
+            ) {
+                (*t1, *t2) = (*x1, *x2);
+                (*j1, *j2) = (k11 * *x1 + k12 * *x2, k21 * *x1 + k22 * *x2);
+            }
+        }
+    }
+    Ok(())
 }

@@ -79,13 +79,16 @@ pub trait Mechanism<T: Real> {
     fn joint_kinds(&self) -> [JointKind; 6];
     /// A characteristic length (m) used to scale tolerances (e.g. rb or l1).
     fn length_scale(&self) -> T;
-    /// Inverse kinematics of one chain on the chosen root (`bit_set` = the branch bit).
+    /// Inverse kinematics of one chain on the chosen root (`bit_set` = the branch bit),
+    /// written into `out` (in place: on the Cortex-M4 a returned solution costs copies
+    /// worth more than the computation). On failure `out` must not be used.
     fn chain_ik(
         &self,
         chain: Chain,
         pc: &PlatformChain<T>,
         bit_set: bool,
-    ) -> Result<ChainSolution<T>, IkFailure>;
+        out: &mut ChainSolution<T>,
+    ) -> Result<(), IkFailure>;
     /// The chain's block of the serial Jacobian at a solution.
     fn serial_block(&self, s: &ChainSolution<T>) -> SerialBlock<T>;
     /// The serial-singularity measure of a chain and its dimensionless form

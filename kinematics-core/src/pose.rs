@@ -1,7 +1,8 @@
 //! Platform pose x = (t, R): t the position of o_p in {0}, R = wRp.
 
+use crate::scalar::lit;
 use crate::scalar::Real;
-use nalgebra::{Rotation3, Vector3};
+use nalgebra::{Matrix3, Rotation3, Vector3};
 
 /// A platform pose. At the edges it is written `x, y, z, rx, ry, rz` with (rx, ry, rz) the
 /// rotation vector (axis × angle), R = exp([r]×).
@@ -63,15 +64,10 @@ impl<T: Real> Pose<T> {
     /// second in the supervisor and the FK, and in f32 the rounding would otherwise let the
     /// matrix drift away from a rotation (about 2.4e-8 per tick measured on the M4).
     pub fn displaced(&self, dv: &Vector3<T>, dw: &Vector3<T>) -> Self {
-        // Through a unit quaternion (closed form, no iteration): orthonormal to rounding.
-        let r = Rotation3::from_scaled_axis(*dw) * self.r;
-        let mut q = nalgebra::UnitQuaternion::from_rotation_matrix(&r);
-        // The closed form assumes an orthonormal input; normalising the quaternion is what
-        // removes the drift.
-        q.renormalize();
+        let r = exp_so3(dw) * self.r.matrix();
         Pose {
             t: self.t + dv,
-            r: q.to_rotation_matrix(),
+            r: Rotation3::from_matrix_unchecked(orthonormalised(&r)),
         }
     }
 
@@ -89,7 +85,7 @@ impl<T: Real> Pose<T> {
 /// parts rather than acos of the trace).
 pub fn rotation_angle<T: Real>(r: &Rotation3<T>) -> T {
     let (v, c) = skew_and_cos(r);
-    (v.norm() / crate::scalar::lit(2.0)).atan2(c)
+    (crate::scalar::norm3(&v) / crate::scalar::lit(2.0)).atan2(c)
 }
 
 fn skew_and_cos<T: Real>(r: &Rotation3<T>) -> (Vector3<T>, T) {
@@ -103,7 +99,7 @@ fn skew_and_cos<T: Real>(r: &Rotation3<T>) -> (Vector3<T>, T) {
 /// small angles; near π (where the skew part vanishes) nalgebra's eigen-axis extraction.
 pub fn rotation_vector<T: Real>(r: &Rotation3<T>) -> Vector3<T> {
     let (v, c) = skew_and_cos(r);
-    let s = v.norm() / crate::scalar::lit(2.0);
+    let s = crate::scalar::norm3(&v) / crate::scalar::lit(2.0);
     let theta = s.atan2(c);
     if c > crate::scalar::lit(-0.5) {
         // θ < 120 deg: θ / sin θ is well conditioned (→ 1 as θ → 0).
@@ -112,4 +108,57 @@ pub fn rotation_vector<T: Real>(r: &Rotation3<T>) -> Vector3<T> {
     } else {
         r.scaled_axis()
     }
+}
+
+/// exp([w]×) by Rodrigues' formula, R = I + a [w]× + b [w]×² with a = sin θ / θ and
+/// b = (1 - cos θ) / θ², θ = |w|. For θ < 0.1 rad (every control tick, every braking
+/// distance) a and b come from their Taylor series to θ⁸ (truncation below 3e-18, under
+/// f64 rounding), which avoids the trigonometric calls: libm's `sinf`/`cosf` compute in
+/// double precision, in software on the Cortex-M4 (~1,200 instructions each), and
+/// nalgebra's `from_scaled_axis` costs ~2,500.
+pub fn exp_so3<T: Real>(w: &Vector3<T>) -> Matrix3<T> {
+    let t2 = w.x * w.x + w.y * w.y + w.z * w.z;
+    let (a, b) = if t2 < lit(1e-2) {
+        // Horner form of 1 - θ²/3! + θ⁴/5! - θ⁶/7! + θ⁸/9! and 1/2! - θ²/4! + θ⁴/6! - ...
+        let a = T::one()
+            - t2 / lit(6.0)
+                * (T::one()
+                    - t2 / lit(20.0) * (T::one() - t2 / lit(42.0) * (T::one() - t2 / lit(72.0))));
+        let b = lit::<T>(0.5)
+            * (T::one()
+                - t2 / lit(12.0)
+                    * (T::one()
+                        - t2 / lit(30.0)
+                            * (T::one() - t2 / lit(56.0) * (T::one() - t2 / lit(90.0)))));
+        (a, b)
+    } else {
+        let t = crate::scalar::sqrt(t2);
+        let (sin, cos) = t.sin_cos();
+        (sin / t, (T::one() - cos) / t2)
+    };
+    // [w]×² = w wᵀ - θ² I.
+    let (x, y, z) = (w.x, w.y, w.z);
+    Matrix3::new(
+        T::one() + b * (x * x - t2),
+        b * x * y - a * z,
+        b * x * z + a * y,
+        b * x * y + a * z,
+        T::one() + b * (y * y - t2),
+        b * y * z - a * x,
+        b * x * z - a * y,
+        b * y * z + a * x,
+        T::one() + b * (z * z - t2),
+    )
+}
+
+/// The nearest rotation to a matrix that is one to rounding (Gram-Schmidt on the first two
+/// columns, the third their cross product): keeps composed rotations orthonormal.
+fn orthonormalised<T: Real>(m: &Matrix3<T>) -> Matrix3<T> {
+    let c0 = Vector3::new(m.m11, m.m21, m.m31);
+    let c1 = Vector3::new(m.m12, m.m22, m.m32);
+    let x = c0 / crate::scalar::norm3(&c0);
+    let y = c1 - x * x.dot(&c1);
+    let y = y / crate::scalar::norm3(&y);
+    let z = x.cross(&y);
+    Matrix3::from_columns(&[x, y, z])
 }

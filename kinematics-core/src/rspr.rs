@@ -6,7 +6,7 @@ use crate::chain::Chain;
 use crate::geometry::RsprGeometry;
 use crate::ik::{ChainSolution, IkFailure};
 use crate::mechanism::{JointKind, Mechanism, PlatformChain, SerialBlock};
-use crate::scalar::{lit, Real};
+use crate::scalar::{lit, norm3, sqrt, Real};
 use nalgebra::Vector3;
 
 /// Signed angle about +z0 from `from` to `to` (both horizontal), in (-π, π].
@@ -39,17 +39,19 @@ impl<T: Real> Mechanism<T> for RsprGeometry<T> {
         self.rb
     }
 
+    #[inline]
     fn chain_ik(
         &self,
         _chain: Chain,
         pc: &PlatformChain<T>,
         inner: bool,
-    ) -> Result<ChainSolution<T>, IkFailure> {
+        out: &mut ChainSolution<T>,
+    ) -> Result<(), IkFailure> {
         let eps = T::default_epsilon() * lit(64.0);
         let n = pc.n;
         // The leg moves in the plane P_i through p_i with normal m = R r_i. Its trace on the
         // base plane is the line v_i (Eq. 6.13-6.17); direction z0 × m, horizontal.
-        let v_len = (pc.m.x * pc.m.x + pc.m.y * pc.m.y).sqrt();
+        let v_len = sqrt(pc.m.x * pc.m.x + pc.m.y * pc.m.y);
         if n.z.abs() <= eps || v_len <= eps {
             return Err(IkFailure::DegeneratePlane);
         }
@@ -69,16 +71,16 @@ impl<T: Real> Mechanism<T> for RsprGeometry<T> {
             return Err(IkFailure::NoRealRoot);
         }
         // Eq. 6.22: the plus root is "outer" (bit clear), the minus root "inner".
-        let root = disc.sqrt();
+        let root = sqrt(disc);
         let t = if inner { -h - root } else { -h + root };
         let b = Vector3::new(d.x + t * v.x, d.y + t * v.y, T::zero());
         let lb = b - pc.e;
         let s1_vec = pc.p - b;
-        let leg = s1_vec.norm();
+        let leg = norm3(&s1_vec);
         if !(leg > eps * self.rb) {
             return Err(IkFailure::ZeroLengthLeg);
         }
-        Ok(ChainSolution {
+        *out = ChainSolution {
             e: pc.e,
             b,
             p: pc.p,
@@ -90,7 +92,8 @@ impl<T: Real> Mechanism<T> for RsprGeometry<T> {
             // θ_i: angle of the rotating link about +z0 from the radial direction (Fig. 6.3).
             qb: yaw_from(&pc.radial, &lb),
             gamma: T::zero(),
-        })
+        };
+        Ok(())
     }
 
     fn serial_block(&self, s: &ChainSolution<T>) -> SerialBlock<T> {

@@ -2,10 +2,81 @@
 
 use nalgebra::RealField;
 
-/// A real scalar the kinematics can run on. Implemented for every nalgebra `RealField`
-/// that is `Copy` (in practice `f32` and `f64`).
-pub trait Real: RealField + Copy {}
-impl<T: RealField + Copy> Real for T {}
+/// A real scalar the kinematics can run on: `f32` or `f64` (nalgebra's `RealField`, plus
+/// the few operations the control path needs at hardware speed, [`HwMath`]).
+pub trait Real: RealField + Copy + HwMath {}
+impl<T: RealField + Copy + HwMath> Real for T {}
+
+/// Operations that must use the FPU instruction where there is one. On the Cortex-M4F,
+/// `libm::sqrtf` (what nalgebra's `f32::sqrt` calls without `std`) is a software routine
+/// of about 80 instructions; `VSQRT.F32` is one instruction with the same correctly
+/// rounded IEEE 754 result (NaN for a negative input). The control tick takes about 200
+/// square roots.
+pub trait HwMath: Sized {
+    /// The correctly rounded square root (NaN below zero).
+    fn hw_sqrt(self) -> Self;
+}
+
+impl HwMath for f64 {
+    #[inline]
+    fn hw_sqrt(self) -> f64 {
+        nalgebra::ComplexField::sqrt(self)
+    }
+}
+
+impl HwMath for f32 {
+    #[inline]
+    fn hw_sqrt(self) -> f32 {
+        #[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
+        {
+            fpu::sqrt(self)
+        }
+        #[cfg(not(all(target_arch = "arm", target_abi = "eabihf")))]
+        {
+            nalgebra::ComplexField::sqrt(self)
+        }
+    }
+}
+
+/// `VSQRT.F32` on the hard-float ARM targets (the FPv4-SP of the Cortex-M4F).
+#[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
+mod fpu {
+    // A leaf function in the AAPCS-VFP calling convention: the argument and the result
+    // are in s0. (Rust's `asm!` register class for s-registers needs a target feature
+    // that stable Rust does not expose for this target; a global function does not.)
+    core::arch::global_asm!(
+        ".section .text.kinematics_core_vsqrt_f32,\"ax\",%progbits",
+        ".global kinematics_core_vsqrt_f32",
+        ".type kinematics_core_vsqrt_f32,%function",
+        ".thumb_func",
+        "kinematics_core_vsqrt_f32:",
+        ".fpu fpv4-sp-d16",
+        "vsqrt.f32 s0, s0",
+        "bx lr",
+        ".size kinematics_core_vsqrt_f32, . - kinematics_core_vsqrt_f32",
+    );
+    extern "C" {
+        fn kinematics_core_vsqrt_f32(x: f32) -> f32;
+    }
+    #[inline]
+    pub(super) fn sqrt(x: f32) -> f32 {
+        // SAFETY: the function above reads s0 and writes s0 only (a leaf, no memory, no
+        // stack), exactly the AAPCS-VFP contract of `extern "C" fn(f32) -> f32`.
+        unsafe { kinematics_core_vsqrt_f32(x) }
+    }
+}
+
+/// Square root at hardware speed ([`HwMath::hw_sqrt`]).
+#[inline]
+pub fn sqrt<T: Real>(x: T) -> T {
+    x.hw_sqrt()
+}
+
+/// Euclidean norm of a 3-vector at hardware speed.
+#[inline]
+pub fn norm3<T: Real>(v: &nalgebra::Vector3<T>) -> T {
+    sqrt(v.x * v.x + v.y * v.y + v.z * v.z)
+}
 
 /// Converts an `f64` literal into the scalar type.
 #[inline]

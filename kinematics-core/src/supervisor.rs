@@ -1,26 +1,34 @@
 //! The setpoint supervisor: turns a stream of master targets (pose, timestamp) into joint
 //! setpoints at the control rate, so that no setpoint ever violates a stop-level guard.
 //!
-//! Per tick, with constant bounded work (at most `samples_per_tick` + 2 guard evaluations,
-//! each one inverse kinematics, singularity measures, Jacobian and statics):
+//! Per tick, with constant bounded work: the candidate setpoint's guard evaluation plus one
+//! more (a path sample or the braking point, in turn while moving; `samples_per_tick` path
+//! samples while standing still). A guard evaluation is inverse kinematics, the Jacobian,
+//! the singularity measures and the statics; each stream of evaluations (setpoints, path
+//! samples, braking points) keeps its own warm-started SVD ([`ConditionEstimator`]).
 //! 1. **Verify** the pending target: the straight segment from the setpoint at submission
 //!    to the target is sampled at `path_step` / `path_step_angle`, the end point first; a
-//!    stop-level violation anywhere refuses the target (the robot keeps its goal).
+//!    stop-level violation anywhere refuses the target (the robot keeps its goal). While
+//!    the robot moves, one sample every other tick.
 //! 2. **Move** towards the verified goal with a speed- and acceleration-limited profile in
 //!    Cartesian space: speeds capped by the tip and angular speed limits and scaled down so
 //!    that J·twist stays within the joint speed limits; the braking profile √(2 a d) makes
 //!    it stop at the goal.
-//! 3. **Check** the candidate setpoint and the point where braking from it would stop. A
-//!    stop-level violation of the candidate holds the last safe setpoint and latches the
-//!    reason until [`Supervisor::clear`]; one of the braking point turns the motion into a
-//!    controlled stop on the path verified one tick earlier.
+//! 3. **Check** the candidate setpoint every tick, and the point where braking from it
+//!    would stop (one tick further on, since it is checked every other tick while a target
+//!    is being verified). A stop-level violation of the candidate holds the last safe
+//!    setpoint and latches the reason until [`Supervisor::clear`]; one of the braking point
+//!    turns the motion into a controlled stop on the path verified earlier.
 
 use crate::branch::Branch;
-use crate::guards::{GuardSetupError, Guards, Limits, MotionSample, Reading, Severity, Verdict};
+use crate::guards::{
+    Depth, Evaluation, GuardSetupError, Guards, Limits, MotionSample, Reading, Severity, Solved,
+};
 use crate::jacobian::{jacobian, Jacobians};
 use crate::mechanism::{JointKind, Mechanism};
 use crate::pose::{rotation_angle, rotation_vector, Pose};
-use crate::scalar::{lit, wrap_angle, Real};
+use crate::scalar::{lit, norm3, sqrt, wrap_angle, Real};
+use crate::singularity::ConditionEstimator;
 use crate::{Joints, Twist};
 use core::fmt;
 use nalgebra::Vector3;
@@ -36,7 +44,9 @@ pub struct SupervisorConfig<T: Real> {
     pub path_step: T,
     /// Spacing of the path-check samples in rotation, rad (default 0.5 deg).
     pub path_step_angle: T,
-    /// Path-check samples evaluated per tick (default 4).
+    /// Path-check samples evaluated per tick while the robot stands still (default 1;
+    /// while it moves, one every other tick). Each costs a full guard evaluation (about
+    /// 12,000 instructions on the Cortex-M4).
     pub samples_per_tick: u16,
     /// Targets farther than this from the setpoint are refused outright, m (default 60 mm).
     pub max_segment: T,
@@ -53,16 +63,13 @@ impl<T: Real> Default for SupervisorConfig<T> {
             stale_after_us: 100_000,
             path_step: lit(0.5e-3),
             path_step_angle: lit(0.5f64.to_radians()),
-            samples_per_tick: 4,
+            samples_per_tick: 1,
             max_segment: lit(0.060),
             max_segment_angle: lit(45f64.to_radians()),
             joint_speed_headroom: lit(0.8),
         }
     }
 }
-
-/// A pose's inverse-kinematics solution and, when defined, its Jacobians.
-type Evaluated<T> = (crate::ik::Solution<T>, Option<Jacobians<T>>);
 
 /// The supervisor's state, by name.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -208,6 +215,27 @@ pub struct Supervisor<T: Real, M: Mechanism<T>> {
     warning: bool,
     counters: Counters,
     last_refusal: Option<Refusal<T>>,
+    /// Where guard evaluations write the solution and Jacobians they compute.
+    scratch: Evaluation<T>,
+    /// Warm starts of the parallel measure's SVD, one per stream of nearby poses.
+    cond_setpoint: ConditionEstimator<T>,
+    cond_path: ConditionEstimator<T>,
+    cond_ahead: ConditionEstimator<T>,
+    /// Alternates the second evaluation of a moving tick between the path check and the
+    /// braking point.
+    ahead_turn: bool,
+    /// The braking point was checked in full last tick.
+    ahead_checked_last: bool,
+    /// A warn level was reached at the last braking point checked.
+    ahead_warn: bool,
+}
+
+/// Which warm start a guard evaluation uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Stream {
+    Setpoint,
+    Path,
+    Ahead,
 }
 
 /// Pose at fraction `s` of the straight segment a → b (translation linear, rotation about
@@ -288,6 +316,13 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             warning: !verdict.is_ok(),
             counters: Counters::default(),
             last_refusal: None,
+            scratch: Evaluation::new(branch),
+            cond_setpoint: ConditionEstimator::new(),
+            cond_path: ConditionEstimator::new(),
+            cond_ahead: ConditionEstimator::new(),
+            ahead_turn: false,
+            ahead_checked_last: false,
+            ahead_warn: false,
         })
     }
 
@@ -369,7 +404,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
 
     /// Refuses a target too far from the current setpoint.
     fn check_distance(&mut self, target: &Pose<T>) -> Result<(), Refusal<T>> {
-        let distance = (target.t - self.pose.t).norm();
+        let distance = norm3(&(target.t - self.pose.t));
         let angle = rotation_angle(&(target.r * self.pose.r.inverse()));
         if !(distance <= self.cfg.max_segment && angle <= self.cfg.max_segment_angle) {
             return self.refuse(Refusal::TooFar { distance, angle });
@@ -379,7 +414,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
 
     /// Starts verifying the straight segment from the setpoint to `target`.
     fn start_pending(&mut self, target: &Pose<T>) {
-        let distance = (target.t - self.pose.t).norm();
+        let distance = norm3(&(target.t - self.pose.t));
         let angle = rotation_angle(&(target.r * self.pose.r.inverse()));
         let n = (distance / self.cfg.path_step)
             .max(angle / self.cfg.path_step_angle)
@@ -420,26 +455,42 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
     }
 
     /// First stop-level reading at a pose, if any; also reports warn-level ones.
-    fn first_stop_at(&self, pose: &Pose<T>) -> (Option<Reading<T>>, bool, Option<Evaluated<T>>) {
+    /// Evaluates the guards at `pose` into `self.scratch`: the first stop-level reading,
+    /// whether a warn level is reached, and what was solved.
+    fn first_stop_at(
+        &mut self,
+        pose: &Pose<T>,
+        stream: Stream,
+        depth: Depth,
+    ) -> (Option<Reading<T>>, bool, Solved) {
         let mut stop = None;
         let mut warn = false;
-        let sol = self
-            .guards
-            .evaluate_pose_full(pose, &mut |r| match r.severity {
+        let cond = match stream {
+            Stream::Setpoint => &mut self.cond_setpoint,
+            Stream::Path => &mut self.cond_path,
+            Stream::Ahead => &mut self.cond_ahead,
+        };
+        let solved = self.guards.evaluate_pose_into(
+            pose,
+            &mut |r| match r.severity {
                 Some(Severity::Stop) if stop.is_none() => stop = Some(*r),
                 Some(Severity::Warn) => warn = true,
                 _ => {}
-            });
-        (stop, warn, sol)
+            },
+            cond,
+            &mut self.scratch,
+            depth,
+        );
+        (stop, warn, solved)
     }
 
-    fn verify_pending(&mut self) {
+    fn verify_pending(&mut self, samples: u16) {
         let Some(mut p) = self.pending else { return };
-        for _ in 0..self.cfg.samples_per_tick {
+        for _ in 0..samples {
             let k = if p.end_checked { p.next } else { p.samples };
             let s = lit::<T>(f64::from(k)) / lit(f64::from(p.samples));
             let at = interpolate(&p.from, &p.to, s);
-            if let (Some(reading), _, _) = self.first_stop_at(&at) {
+            if let (Some(reading), _, _) = self.first_stop_at(&at, Stream::Path, Depth::Full) {
                 self.pending = None;
                 let _ = self.refuse(Refusal::Path {
                     fraction: s,
@@ -533,7 +584,15 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         if self.latched.is_some() {
             return self.output(false);
         }
-        self.verify_pending();
+        // While moving, the second evaluation of the tick alternates between the path
+        // check and the braking point; standing still, the path check has the tick.
+        let moving = self.twist.iter().any(|x| *x != T::zero());
+        let check_ahead = moving && (self.pending.is_none() || self.ahead_turn);
+        self.ahead_turn = !check_ahead;
+        if !check_ahead {
+            let samples = if moving { 1 } else { self.cfg.samples_per_tick };
+            self.verify_pending(samples);
+        }
         // The limiter runs a hair inside the limits so that rounding never trips the
         // motion guards that check its output.
         let l = shaved(self.guards.limits());
@@ -542,7 +601,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         // Desired twist towards the goal (world frame), with the braking profile.
         let e_t = self.goal.t - self.pose.t;
         let e_r = rotation_vector(&(self.goal.r * self.pose.r.inverse()));
-        let (d, a) = (e_t.norm(), e_r.norm());
+        let (d, a) = (norm3(&e_t), norm3(&e_r));
         let dir_v = if d > T::zero() {
             e_t / d
         } else {
@@ -554,13 +613,13 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             Vector3::zeros()
         };
         let (vcap, wcap) = self.speed_caps(&l, &dir_v, &dir_w);
-        let v_des = dir_v * vcap.min((two * l.tip_accel * d).sqrt()).min(d / dt);
-        let w_des = dir_w * wcap.min((two * l.angular_accel * a).sqrt()).min(a / dt);
+        let v_des = dir_v * vcap.min(sqrt(two * l.tip_accel * d)).min(d / dt);
+        let w_des = dir_w * wcap.min(sqrt(two * l.angular_accel * a)).min(a / dt);
         // Acceleration limit on the change of twist.
         let v0 = Vector3::new(self.twist.x, self.twist.y, self.twist.z);
         let w0 = Vector3::new(self.twist.w, self.twist.a, self.twist.b);
         let limit_step = |dv: Vector3<T>, amax: T| {
-            let n = dv.norm();
+            let n = norm3(&dv);
             let m = amax * dt;
             if n > m {
                 dv * (m / n)
@@ -577,13 +636,15 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             && self.pending.is_none()
             && d <= l.tip_accel * dt2
             && a <= l.angular_accel * dt2
-            && v0.norm() <= l.tip_accel * dt
-            && w0.norm() <= l.angular_accel * dt
+            && norm3(&v0) <= l.tip_accel * dt
+            && norm3(&w0) <= l.angular_accel * dt
         {
             if d + a > T::zero() {
-                if let (None, warn, Some((sol, _))) = self.first_stop_at(&self.goal) {
+                let goal = self.goal;
+                let (stop, warn, solved) = self.first_stop_at(&goal, Stream::Setpoint, Depth::Full);
+                if stop.is_none() && solved != Solved::No {
                     self.pose = self.goal;
-                    self.q = sol.q();
+                    self.q = self.scratch.sol.q();
                     self.warning = warn;
                 }
             }
@@ -594,12 +655,29 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         let mut candidate = self.pose.displaced(&(v1 * dt), &(w1 * dt));
         // Where braking from the candidate would stop.
         let stop_point = |v: &Vector3<T>, w: &Vector3<T>, from: &Pose<T>| {
-            let sv = v.norm() / (two * l.tip_accel);
-            let sw = w.norm() / (two * l.angular_accel);
+            let sv = norm3(v) / (two * l.tip_accel);
+            let sw = norm3(w) / (two * l.angular_accel);
             from.displaced(&(v * sv), &(w * sw))
         };
-        let ahead = stop_point(&v1, &w1, &candidate);
-        if let (Some(_), _, _) = self.first_stop_at(&ahead) {
+        // Checked every other tick at most: look one tick further, so that the stretch
+        // the unchecked tick adds is covered too.
+        let ahead = stop_point(&v1, &w1, &candidate.displaced(&(v1 * dt), &(w1 * dt)));
+        let mut ahead_stop = false;
+        if check_ahead {
+            let (stop, warn, _) = self.first_stop_at(&ahead, Stream::Ahead, Depth::Full);
+            ahead_stop = stop.is_some();
+            self.ahead_warn = warn;
+        }
+        // The candidate lies between the setpoint and a braking point checked in full this
+        // tick or the last (one tick further on than needed, see above): the kinematic
+        // guards suffice for it. Otherwise (starting from rest) it gets the full check.
+        let depth = if check_ahead || self.ahead_checked_last {
+            Depth::Kinematic
+        } else {
+            Depth::Full
+        };
+        self.ahead_checked_last = check_ahead;
+        if ahead_stop {
             // Brake on the path verified last tick: decelerate along the current twist.
             if !self.braking {
                 self.counters.brakes += 1;
@@ -612,19 +690,25 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             candidate = self.pose.displaced(&(v1 * dt), &(w1 * dt));
             self.goal = stop_point(&v1, &w1, &candidate);
         }
-        let (stop, warn, sol) = self.first_stop_at(&candidate);
-        // The guards computed the candidate's Jacobians already: reuse them.
-        let (sol, jac) = match (stop, sol) {
-            (None, Some(s)) => s,
+        let (stop, warn, solved) = self.first_stop_at(&candidate, Stream::Setpoint, depth);
+        // A warn level reached at the braking point is reported as well (the payload's
+        // torque, e.g., is only evaluated there while moving).
+        let warn = warn || (depth == Depth::Kinematic && self.ahead_warn);
+        match (stop, solved) {
             (Some(r), _) => return self.hold(r),
-            (None, None) => return self.output(warn), // unreachable: no solution is a stop
-        };
+            (None, Solved::No) => return self.output(warn), // unreachable: no solution is a stop
+            _ => {}
+        }
+        // The guards computed the candidate's Jacobians already (in the scratch): reuse them.
+        let with_jac = solved == Solved::WithJacobian;
+        let q_new = self.scratch.sol.q();
         let twist = Twist::new(v1.x, v1.y, v1.z, w1.x, w1.y, w1.z);
-        let qdot = match &jac {
-            Some(j) => j.j * twist,
-            None => {
+        let qdot = if with_jac {
+            self.scratch.jac.j * twist
+        } else {
+            {
                 // Finite differences when J is singular (the serial guard stops long before).
-                let mut qd = (sol.q() - self.q) / dt;
+                let mut qd = (q_new - self.q) / dt;
                 for (x, k) in qd.iter_mut().zip(self.guards.robot().joint_kinds().iter()) {
                     if *k == JointKind::Angular {
                         *x = wrap_angle(*x * dt) / dt;
@@ -639,23 +723,29 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             qdot: self.qdot,
         };
         let cur = MotionSample { twist, qdot };
-        let mut verdict = Verdict::default();
+        let mut motion_stop = None;
         self.guards.evaluate_motion(&prev, &cur, dt, &mut |r| {
-            verdict.record(r);
+            if r.severity == Some(Severity::Stop) && motion_stop.is_none() {
+                motion_stop = Some(*r);
+            }
         });
-        if let Some(r) = verdict.first_stop().copied() {
+        if let Some(r) = motion_stop {
             return self.hold(r);
         }
         self.pose = candidate;
-        self.q = sol.q();
+        self.q = q_new;
         self.qdot = qdot;
         self.twist = twist;
-        self.jac = jac;
+        self.jac = if with_jac {
+            Some(self.scratch.jac)
+        } else {
+            None
+        };
         self.warning = warn;
         if warn {
             self.counters.warn_ticks += 1;
         }
-        if self.braking && v1.norm() + w1.norm() == T::zero() {
+        if self.braking && norm3(&v1) + norm3(&w1) == T::zero() {
             self.braking = false;
             self.goal = self.pose;
         }

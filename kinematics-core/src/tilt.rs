@@ -16,8 +16,12 @@ use nalgebra::Vector3;
 /// (horizontal), z = x × y. Defined whenever the link is not vertical, which the inverse
 /// kinematics guarantees (the RSPR link is horizontal; a vertical USR link fails IK).
 fn in_link_frame<T: Real>(lb: &Vector3<T>, v: &Vector3<T>) -> Option<Vector3<T>> {
-    let x = lb.try_normalize(T::default_epsilon())?;
-    let y = Vector3::new(-x.y, x.x, T::zero()).try_normalize(T::default_epsilon())?;
+    let unit = |v: Vector3<T>| {
+        let n = crate::scalar::norm3(&v);
+        (n > T::default_epsilon()).then(|| v / n)
+    };
+    let x = unit(*lb)?;
+    let y = unit(Vector3::new(-x.y, x.x, T::zero()))?;
     let z = x.cross(&y);
     Some(Vector3::new(v.dot(&x), v.dot(&y), v.dot(&z)))
 }
@@ -36,8 +40,8 @@ pub fn socket_axis<T: Real, M: Mechanism<T> + ?Sized>(
 ) -> Result<Vector3<T>, IkError> {
     let central = Pose::central(m.hc());
     let pc = platform_chain(m, &central, chain);
-    let s = m
-        .chain_ik(chain, &pc, bit_set)
+    let mut s = crate::ik::ChainSolution::zeroed();
+    m.chain_ik(chain, &pc, bit_set, &mut s)
         .map_err(|reason| IkError { chain, reason })?;
     in_link_frame(&s.lb, &s.s1).ok_or(IkError {
         chain,
@@ -64,7 +68,7 @@ pub fn tilt_angles<T: Real>(sol: &Solution<T>, axes: &SocketAxes<T>) -> PerChain
         let [clear, set] = axes.0[c];
         let axis = if sol.branch.is_set(c) { set } else { clear };
         match in_link_frame(&s.lb, &s.s1) {
-            Some(v) => v.cross(&axis).norm().atan2(v.dot(&axis)),
+            Some(v) => crate::scalar::norm3(&v.cross(&axis)).atan2(v.dot(&axis)),
             None => T::pi(),
         }
     })

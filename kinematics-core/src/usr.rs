@@ -37,12 +37,14 @@ impl<T: Real> Mechanism<T> for UsrGeometry<T> {
         self.l1
     }
 
+    #[inline]
     fn chain_ik(
         &self,
         _chain: Chain,
         pc: &PlatformChain<T>,
         smaller_gamma: bool,
-    ) -> Result<ChainSolution<T>, IkFailure> {
+        out: &mut ChainSolution<T>,
+    ) -> Result<(), IkFailure> {
         let eps = T::default_epsilon() * lit(64.0);
         let two = lit::<T>(2.0);
         let d = pc.p - pc.e;
@@ -82,7 +84,7 @@ impl<T: Real> Mechanism<T> for UsrGeometry<T> {
         if !(leg > eps * self.l2) {
             return Err(IkFailure::ZeroLengthLeg);
         }
-        Ok(ChainSolution {
+        *out = ChainSolution {
             e: pc.e,
             b: bpt,
             p: pc.p,
@@ -95,7 +97,8 @@ impl<T: Real> Mechanism<T> for UsrGeometry<T> {
             // Elevation above the base plane (CONVENTIONS.md; Eq. 6.38 measures it from w_i).
             qb: lb.z.atan2(rh),
             gamma,
-        })
+        };
+        Ok(())
     }
 
     fn serial_block(&self, s: &ChainSolution<T>) -> SerialBlock<T> {

@@ -328,8 +328,9 @@ fn unsafe_paths_between_safe_poses_are_refused_at_the_check_resolution() {
     assert_eq!(refused, bulging);
 }
 
-/// Constant bounded work per tick: a tick evaluates at most samples_per_tick + 2 poses.
-/// (The instruction count per tick on the Cortex-M4 is measured by the firmware's QEMU run.)
+/// Constant bounded work per tick: a tick evaluates at most max(samples_per_tick, 1) + 1
+/// poses in full and one with the kinematic guards. (The instruction count per tick on the
+/// Cortex-M4 is measured by the firmware's QEMU run.)
 #[test]
 fn supervisor_settings_are_validated() {
     let bad = SupervisorConfig {
@@ -374,7 +375,8 @@ fn stop_holds_latches_and_clears() {
     sup.submit(&target, 1000, 1000).unwrap();
     let held = *sup.setpoint();
     let mut out = sup.tick();
-    for _ in 0..5 {
+    // 10 ticks verify the 5 mm path (one 0.5 mm sample per tick), then the first motion.
+    for _ in 0..15 {
         out = sup.tick();
     }
     assert_eq!(out.mode, Mode::Stopped);

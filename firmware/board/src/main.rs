@@ -197,9 +197,7 @@ async fn control(parts: Owned<ControlParts>) {
     };
     let q = central.q();
     let central_q = [q.x, q.y, q.z, q.w, q.a, q.b];
-    let mut cfg = reference_config::<f32>(central_q);
-    // Fewer path samples per tick keep the f32 tick within its budget on the M4.
-    cfg.controller.supervisor.samples_per_tick = 2;
+    let cfg = reference_config::<f32>(central_q);
     let t0 = Instant::now().as_micros();
     let mut rt = match Runtime::new(geometry, cfg, t0) {
         Ok(rt) => rt,

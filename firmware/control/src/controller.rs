@@ -7,7 +7,8 @@ use kinematics_core::supervisor::{
     Refusal, Supervisor, SupervisorConfig, SupervisorError, TickOutput,
 };
 use kinematics_core::{
-    forward, scalar, Branch, FkConfig, FkError, JointKind, Joints, Mechanism, Pose, Real,
+    forward, scalar, Branch, FkConfig, FkError, FkTracker, JointKind, Joints, Mechanism, Pose,
+    Real, Tracked,
 };
 use num_traits::Float;
 use servo::backlash::Direction;
@@ -160,9 +161,9 @@ pub struct Controller<S: Scalar, M: Mechanism<S> + Clone> {
     supervisor: Supervisor<S, M>,
     servo: JointServo<S>,
     encoders: Encoders<S>,
-    measured: Pose<S>,
-    /// The encoder readings the measured pose belongs to (FK is skipped while unchanged).
-    measured_from: Option<[S; NUM_JOINTS]>,
+    /// The measured pose: forward kinematics tracked from tick to tick (one Newton step
+    /// per tick; nothing while the encoders stand still).
+    fk: FkTracker<S>,
     counters: ControllerCounters,
 }
 
@@ -190,14 +191,15 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Controller<S, M> {
         encoders.update(&raw);
         encoders.set_positions(&start_q);
         let q0 = Joints::from_row_slice(&start_q);
-        let start = forward(&robot, &q0, cfg.branch, &Pose::central(robot.hc()), &cfg.fk)
+        let fk = FkTracker::new(&robot, &q0, cfg.branch, &Pose::central(robot.hc()), &cfg.fk)
             .map_err(ControllerError::StartPose)?;
+        let start_pose = *fk.pose();
         let supervisor = Supervisor::new(
             robot.clone(),
             cfg.branch,
             cfg.limits,
             cfg.supervisor,
-            &start.pose,
+            &start_pose,
         )
         .map_err(ControllerError::Supervisor)?;
         let mut servo = JointServo::new(&cfg.servo).map_err(ControllerError::Servo)?;
@@ -209,8 +211,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Controller<S, M> {
             supervisor,
             servo,
             encoders,
-            measured: start.pose,
-            measured_from: None,
+            fk,
             counters: ControllerCounters::default(),
         })
     }
@@ -287,30 +288,24 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Controller<S, M> {
     pub fn tick<H: QuadratureCounter + MotorOutputs<S>>(&mut self, hw: &mut H) -> TickReport<S> {
         self.counters.ticks += 1;
         let q_meas = self.encoders.read(hw);
-        // Forward kinematics, warm-started from the last measured pose; skipped while the
-        // encoders have not moved (holding), which saves most of a holding tick's work.
-        let fk = if self.measured_from == Some(q_meas) {
-            Ok(0)
-        } else {
-            match forward(
-                &self.robot,
-                &Joints::from_row_slice(&q_meas),
-                self.cfg.branch,
-                &self.measured,
-                &self.cfg.fk,
-            ) {
-                Ok(sol) => {
-                    self.measured = sol.pose;
-                    self.measured_from = Some(q_meas);
-                    self.counters.fk_max_iterations =
-                        self.counters.fk_max_iterations.max(sol.iterations);
-                    Ok(sol.iterations)
-                }
-                Err(e) => {
-                    self.counters.fk_failures += 1;
-                    self.measured_from = None;
-                    Err(e)
-                }
+        // Forward kinematics tracked from the last measured pose (FkTracker: nothing to do
+        // while the encoders stand still, one Newton step while they move).
+        let fk = match self
+            .fk
+            .update(&self.robot, &Joints::from_row_slice(&q_meas), &self.cfg.fk)
+        {
+            Ok(t) => {
+                let steps = match t {
+                    Tracked::Unchanged => 0,
+                    Tracked::Stepped { steps } => steps,
+                    Tracked::Solved { iterations } => iterations,
+                };
+                self.counters.fk_max_iterations = self.counters.fk_max_iterations.max(steps);
+                Ok(steps)
+            }
+            Err(e) => {
+                self.counters.fk_failures += 1;
+                Err(e)
             }
         };
         let setpoint = self.supervisor.tick();
@@ -359,7 +354,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Controller<S, M> {
         TickReport {
             setpoint,
             measured_q: q_meas,
-            measured_pose: self.measured,
+            measured_pose: *self.fk.pose(),
             fk,
             servo: out,
         }

@@ -338,6 +338,17 @@ pub struct Pid<S> {
     velocity: S,
     /// `prev_measured` holds a measurement.
     primed: bool,
+    /// The exponential coefficients for the last sample time (the control rate is
+    /// fixed, and `exp` is ~60 instructions per call on the Cortex-M4).
+    coefficients: Option<Coefficients<S>>,
+}
+
+/// `a = 1 - exp(-2π fc dt)` and `b = 1 - exp(-kt dt)` for one sample time `dt`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Coefficients<S> {
+    dt: S,
+    a: S,
+    b: S,
 }
 
 impl<S: Float> Pid<S> {
@@ -351,6 +362,7 @@ impl<S: Float> Pid<S> {
             prev_measured: S::zero(),
             velocity: S::zero(),
             primed: false,
+            coefficients: None,
         }
     }
 
@@ -362,6 +374,7 @@ impl<S: Float> Pid<S> {
     /// Replaces the gains, keeping the state (bumpless: the integral is stored as duty).
     pub fn set_gains(&mut self, gains: PidGains<S>) {
         self.gains = gains;
+        self.coefficients = None;
         let limit = sane_limit(gains.integral_limit, S::max_value());
         self.integral = clamp_sym(self.integral, limit);
     }
@@ -394,6 +407,37 @@ impl<S: Float> Pid<S> {
         self.velocity
     }
 
+    /// The filter and back-calculation coefficients for `dt`, computed once per sample time.
+    fn coefficients(&mut self, dt: S) -> Coefficients<S> {
+        match self.coefficients {
+            Some(c) if c.dt == dt => c,
+            _ => {
+                let g = &self.gains;
+                let kt = match g.anti_windup {
+                    AntiWindup::BackCalculation { tracking_gain } => {
+                        sane_limit(tracking_gain, S::max_value())
+                    }
+                    _ => S::zero(),
+                };
+                let c = Coefficients {
+                    dt,
+                    // a = 1 - exp(-2 pi fc dt), in [0, 1] for every dt > 0 (stable at any
+                    // rate).
+                    a: clamp(
+                        S::one()
+                            - (-lit::<S>(core::f64::consts::TAU) * g.derivative_cutoff_hz * dt)
+                                .exp(),
+                        S::zero(),
+                        S::one(),
+                    ),
+                    b: clamp(S::one() - (-kt * dt).exp(), S::zero(), S::one()),
+                };
+                self.coefficients = Some(c);
+                c
+            }
+        }
+    }
+
     /// One sample: computes the duty from `input` with sample time `dt` (s).
     pub fn update(&mut self, input: &PidInput<S>, dt: S) -> PidOutput<S> {
         if let Some(error) = input.check(dt) {
@@ -416,20 +460,16 @@ impl<S: Float> Pid<S> {
         let e = clamp_sym(input.setpoint - y, max);
         // Deadband: shrink |e| by the width (continuous, so no bump at the edge).
         let deadband = sane_limit(g.deadband, max);
-        let e_db = sign(e) * (e.abs() - deadband).max(S::zero());
+        let e_db = sign(e) * clamp(e.abs() - deadband, S::zero(), max);
         // Proportional term.
         let p = clamp_sym(g.kp * e_db, big);
 
         // Measured velocity by backward difference.
         let v_raw = clamp_sym((y - self.prev_measured) / dt, max);
         self.prev_measured = y;
-        // First-order low-pass, exact for a constant input over the sample:
-        // a = 1 - exp(-2 pi fc dt), in [0, 1] for every dt > 0 (stable at any rate).
-        let a = clamp(
-            S::one() - (-lit::<S>(core::f64::consts::TAU) * g.derivative_cutoff_hz * dt).exp(),
-            S::zero(),
-            S::one(),
-        );
+        // First-order low-pass, exact for a constant input over the sample.
+        let coef = self.coefficients(dt);
+        let a = coef.a;
         self.velocity = clamp_sym(self.velocity + a * (v_raw - self.velocity), max);
         // Derivative on the measurement: damps the measured velocity (or the velocity
         // error against the desired velocity), never the change of the position error.
@@ -473,11 +513,7 @@ impl<S: Float> Pid<S> {
                 }
             }
             // Back-calculation: I += ki e dt + (1 - exp(-kt dt)) (u - u_raw).
-            AntiWindup::BackCalculation { tracking_gain } => {
-                let kt = sane_limit(tracking_gain, max);
-                let b = clamp(S::one() - (-kt * dt).exp(), S::zero(), S::one());
-                i + step + b * (u - u_raw)
-            }
+            AntiWindup::BackCalculation { .. } => i + step + coef.b * (u - u_raw),
         };
         let i_limit = sane_limit(g.integral_limit, max);
         self.integral = clamp_sym(next, i_limit);

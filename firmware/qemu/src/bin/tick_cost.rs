@@ -13,7 +13,7 @@ use cortex_m_semihosting::debug;
 use kinematics_core::guards::{Guards, Limits, MotionSample};
 use kinematics_core::ik::platform_chain;
 use kinematics_core::mechanism::radial;
-use kinematics_core::singularity::parallel_inv_cond;
+use kinematics_core::singularity::{parallel_inv_cond, ConditionEstimator};
 use kinematics_core::statics::forces_with_inv_cond;
 use kinematics_core::supervisor::{interpolate, Mode, Supervisor, SupervisorConfig};
 use kinematics_core::tilt::{tilt_angles, SocketAxes};
@@ -177,6 +177,8 @@ fn parts() {
     let n = 10;
     // Histograms of the Newton steps taken (0, 1, 2, 3, >= 4).
     let (mut warm_steps, mut cold_steps) = ([0u32; 5], [0u32; 5]);
+    // Sweeps of the warm-started SVD (0, 1, 2, 3, >= 4).
+    let mut warm_sweeps = [0u32; 5];
     // One control tick of motion at the 25 mm/s limit (+ 1.5 deg/s about x).
     let step_v = Vector3::new(0.025e-3f32, 0.0, 0.0);
     let step_w = Vector3::new(0.026e-3f32, 0.0, 0.0);
@@ -243,7 +245,21 @@ fn parts() {
         let jt = jac.jtilde;
         let mut ic = None;
         measure(&mut || ic = parallel_inv_cond(&jt, 0.05).ok());
-        hprintln!("@label     parallel_inv_cond alone (6x6 f32 SVD)");
+        hprintln!("@label     parallel_inv_cond, cold start (6x6 f32 Jacobi SVD)");
+        // Warm: the estimator last ran at the pose one tick of motion earlier.
+        let before = pose.displaced(&-step_v, &-step_w);
+        if let Ok(sb) = inverse(&g, &before, Branch::OUTER) {
+            let jt_before = kinematics_core::jacobian::tripod_jacobian(&sb);
+            let mut warm = ConditionEstimator::new();
+            let _ = warm.inv_cond(&jt_before, 0.05);
+            let mut est = warm;
+            measure(&mut || {
+                est = warm;
+                ic = est.inv_cond(&jt, 0.05).ok();
+            });
+            hprintln!("@label     parallel_inv_cond, warm start one tick away");
+            warm_sweeps[est.last_sweeps().min(4) as usize] += 1;
+        }
         let mut det = 0.0f32;
         measure(&mut || det = jt.determinant());
         hprintln!("@label     det(Jtilde) alone (6x6 LU)");
@@ -280,6 +296,10 @@ fn parts() {
         "@info forward kinematics alone: Newton steps (0/1/2/3/4+) warm start {:?}, cold start {:?} (FkSolution::iterations, a kept polishing step included)",
         warm_steps,
         cold_steps
+    );
+    hprintln!(
+        "@info parallel measure: Jacobi sweeps (0/1/2/3/4+) warm start one tick away {:?}",
+        warm_sweeps
     );
 }
 
