@@ -661,7 +661,11 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         };
         // Checked every other tick at most: look one tick further, so that the stretch
         // the unchecked tick adds is covered too.
-        let ahead = stop_point(&v1, &w1, &candidate.displaced(&(v1 * dt), &(w1 * dt)));
+        let ahead = {
+            let sv = norm3(&v1) / (two * l.tip_accel) + dt;
+            let sw = norm3(&w1) / (two * l.angular_accel) + dt;
+            candidate.displaced(&(v1 * sv), &(w1 * sw))
+        };
         let mut ahead_stop = false;
         if check_ahead {
             let (stop, warn, _) = self.first_stop_at(&ahead, Stream::Ahead, Depth::Full);

@@ -18,8 +18,8 @@ use kinematics_core::statics::forces_with_inv_cond;
 use kinematics_core::supervisor::{interpolate, Mode, Supervisor, SupervisorConfig};
 use kinematics_core::tilt::{tilt_angles, SocketAxes};
 use kinematics_core::{
-    forward, inverse, jacobian, measures, Branch, Chain, FkConfig, Joints, Pose, RsprGeometry,
-    Twist,
+    forward, inverse, jacobian, measures, Branch, Chain, FkConfig, FkTracker, Joints, Pose,
+    RsprGeometry, Twist,
 };
 use nalgebra::{ComplexField, Matrix6, RealField, Rotation3, Vector3, Vector6};
 use panic_semihosting as _;
@@ -219,14 +219,28 @@ fn parts() {
             let q = quantize(&s.q());
             let mut fk = None;
             measure(&mut || fk = forward(&g, &q, Branch::OUTER, &pose, &fk_cfg).ok());
-            hprintln!("@label forward kinematics (encoders, warm start 1 tick away)");
+            hprintln!("@label FK: full solver, warm start 1 tick away");
             if let Some(fk) = fk {
                 warm_steps[fk.iterations.min(4) as usize] += 1;
+            }
+            // The controller's FK: the tracker, last updated at the pose one tick earlier.
+            if let Ok(s_prev) = inverse(&g, &pose, Branch::OUTER) {
+                let q_prev = quantize(&s_prev.q());
+                if let Ok(tracker) = FkTracker::new(&g, &q_prev, Branch::OUTER, &pose, &fk_cfg) {
+                    let mut tr = tracker;
+                    let mut out = None;
+                    measure(&mut || {
+                        tr = tracker;
+                        out = tr.update(&g, &q, &fk_cfg).ok();
+                    });
+                    hprintln!("@label FK: FkTracker::update (the controller's), 1 tick");
+                    black_box(out);
+                }
             }
             let mut fk = None;
             let central = Pose::central(0.160f32);
             measure(&mut || fk = forward(&g, &q, Branch::OUTER, &central, &fk_cfg).ok());
-            hprintln!("@label forward kinematics (cold start from the central pose)");
+            hprintln!("@label FK: full solver, cold start (central pose)");
             if let Some(fk) = fk {
                 cold_steps[fk.iterations.min(4) as usize] += 1;
             }
