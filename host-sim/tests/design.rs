@@ -344,84 +344,38 @@ fn workspace_cli_writes_csv_and_plots() {
     assert!((0..16).all(|i| t.num(i, "rho_max_mm") > 20.0 && t.num(i, "z_mm") == 160.0));
     assert!(is_png(&dir.join("sections_parallel.png")));
     assert!(is_png(&dir.join("sections_rotated.png")));
-}
-
-/// `synth` keeps the scan order whatever the number of worker threads (the grid is
-/// lexicographic, first dimension slowest), admits both reference robots under the thesis's
-/// requirements (RSPR 30 N / 1 N m / 30 deg tilt; USR 2 N m and the alpha, gamma, delta
-/// ranges), and rejects the reference RSPR, naming the quantity, when the torque bound is
-/// below its 0.66 N m.
-#[test]
-fn synth_is_deterministic_and_admits_the_reference_robots() {
-    use host_sim::design::synth::{candidate, check, grid, scan, Requirements};
-    let task = TaskBox::thesis([3, 3, 3]);
-    let dims = grid(&[
-        vec![10.0, 20.0],
-        vec![60.0, 90.0],
-        vec![50.0],
-        vec![120.0, 160.0],
-    ]);
-    assert_eq!(dims.len(), 8);
-    assert_eq!(dims[0], [10.0, 60.0, 50.0, 120.0]);
-    assert_eq!(dims[1], [10.0, 60.0, 50.0, 160.0]);
-    assert_eq!(dims[7], [20.0, 90.0, 50.0, 160.0]);
-    let req = Requirements::thesis(RobotKind::Rspr);
-    let bar = indicatif::ProgressBar::hidden();
-    let one = scan(RobotKind::Rspr, dims.clone(), &task, &req, 1, &bar);
-    let three = scan(RobotKind::Rspr, dims.clone(), &task, &req, 3, &bar);
-    assert_eq!(one, three);
-    assert_eq!(
-        one.iter().map(|c| c.dims_mm.clone()).collect::<Vec<_>>(),
-        dims
-    );
-    let reference = one.last().unwrap();
-    assert_eq!(reference.rejected, None);
-    let mut strict = req.clone();
-    strict.max_torque_nm = 0.5;
-    let why = check(RobotKind::Rspr, reference.ranges.as_ref().unwrap(), &strict).unwrap();
-    assert!(why.contains("t1_nm"), "{why}");
-    let usr = candidate(
-        RobotKind::Usr,
-        vec![30.0, 30.0, 60.0, 80.0, 80.0],
-        &task,
-        &Requirements::thesis(RobotKind::Usr),
-    );
-    assert_eq!(usr.rejected, None);
-}
-
-/// The CLI writes synth.csv with the dimensions, the verdict and each quantity's range.
-#[test]
-fn synth_cli_writes_csv() {
-    let dir = out("synth");
-    let d = dir.to_str().unwrap();
-    let stdout = ok(
-        &[
-            "synth",
-            "--e-mm",
-            "20,20,1",
-            "--rb-mm",
-            "90,90,1",
-            "--rp-mm",
-            "50,50,1",
-            "--hc-mm",
-            "160,160,1",
-            "--grid",
-            "2,2,2",
-            "--out",
-            d,
-        ],
-        "",
-    );
+    assert!(is_png(&dir.join("boundary_parallel.png")));
+    assert!(is_png(&dir.join("boundary_rotated.png")));
     assert!(
-        stdout.contains("1 robots scanned, 1 admissible"),
+        stdout.contains("(9702 points, 2.00 x 2.00 x 2.00 mm apart): NOT inside the workspace"),
         "{stdout}"
     );
-    let t = Table::parse(&std::fs::read_to_string(dir.join("synth.csv")).unwrap());
-    assert_eq!(t.rows.len(), 1);
-    assert_eq!(
-        &t.header[..6],
-        ["e_mm", "rb_mm", "rp_mm", "hc_mm", "admissible", "rejected"]
+}
+
+/// The whole task box, checked on a 2 mm grid at both orientations (2 x 21 x 21 x 11
+/// points), is not inside the reference RSPR's admissible workspace only because of the
+/// 144 mm minimum stroke: the first failing point is on the rotated lower face with leg 1
+/// short of 144 mm (the parallel orientation passes); with the minimum at 143 mm every
+/// point is admissible.
+#[test]
+fn the_task_box_verdict_names_the_stroke_and_passes_without_it() {
+    use host_sim::design::workspace::task_box_verdict;
+    let (robot, adm, _) = rspr_scan();
+    let task = TaskBox::thesis([1, 1, 1]);
+    let v = task_box_verdict(&adm, &task, 160.0, 2.0);
+    assert_eq!(v.points, 9702);
+    assert_eq!(v.spacing_mm, [2.0, 2.0, 2.0]);
+    let why = v.first_violation.clone().unwrap();
+    assert!(
+        why.contains("150.0) mm, r (14.14, 14.14, 0.00) deg: stroke:1:")
+            && why.ends_with(":144.000 mm"),
+        "{why}"
     );
-    assert_eq!(t.text(0, "admissible"), "true");
-    assert!(t.num(0, "f3_n_max") > 0.0 && t.num(0, "tilt1_deg_max") > 0.0);
+    assert_eq!(v.orientation_violations[0], None);
+    assert_eq!(v.orientation_violations[1].as_ref(), Some(&why));
+    let mut limits = Limits::reference();
+    limits.stroke[0] = 0.143;
+    let adm = Admissible::new(&robot, Branch::OUTER, &limits).unwrap();
+    let v = task_box_verdict(&adm, &task, 160.0, 2.0);
+    assert!(v.inside(), "{:?}", v.first_violation);
 }

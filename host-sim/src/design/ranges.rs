@@ -2,7 +2,13 @@
 //! (the 40 x 40 x 20 mm box at [0, 0, hc], platform parallel and rotated +20 deg about
 //! [1,1,0], the thesis wrench): each joint's min, max and span, the spherical-joint tilt,
 //! for the USR the angles gamma_i and delta_i (CONVENTIONS.md, "Joints"), and the actuator
-//! force and torque ranges.
+//! force and torque ranges; then the same over the three chains ([`Ranges::table_columns`]),
+//! the columns as the thesis prints them.
+//!
+//! Thesis Table 8.3 (USR) is reproduced to its printed precision by the `rotated` column on
+//! the thesis's 10 mm grid (`--grid 5,5,3`); the `task` column (both orientations, as
+//! CONVENTIONS.md defines the task) has the same angle ranges but wider torque ranges where
+//! the parallel orientation needs more torque (tests/design_tables.rs states the details).
 
 use super::forces_path::tau_columns;
 use crate::columns::{joint_columns, pose_from_edge, POSE};
@@ -10,7 +16,7 @@ use crate::task_box::{numbers, TaskBox, TaskBoxArgs};
 use crate::units::{fixed, m_to_mm, rad_to_deg, wrap_deg};
 use clap::Args;
 use kinematics_core::{
-    actuator_forces, inverse, jacobian, tilt_angles, Branch, JointKind, Mechanism, Robot,
+    actuator_forces, inverse, jacobian, measures, tilt_angles, Branch, JointKind, Mechanism, Robot,
     RobotKind, SocketAxes, Solution, Wrench,
 };
 use std::path::PathBuf;
@@ -71,6 +77,12 @@ pub struct Ranges {
     pub poses: usize,
     /// Poses without inverse-kinematics solution or forces, with the reason.
     pub failures: Vec<String>,
+    /// The smallest parallel-singularity measure (inverse condition number of the scaled
+    /// Jtilde) over the solved task poses; infinite when none was solved.
+    pub parallel_inv_cond_min: f64,
+    /// The smallest dimensionless serial-singularity measure over the solved task poses and
+    /// chains (RSPR |Cn2_i| / rb, USR |Cn1 Cr2 - Cr1 Cn2| / l1^2); infinite when none.
+    pub serial_relative_min: f64,
 }
 
 impl Ranges {
@@ -79,6 +91,49 @@ impl Ranges {
         self.rows
             .iter()
             .find(|r| r.quantity == quantity && r.orientation == orientation)
+    }
+
+    /// The columns of thesis Tables 8.2/8.3 at an orientation key: each quantity's range
+    /// over all three chains (min over the chains' minima, max over their maxima), in
+    /// [`quantity_names`] order, e.g. `alpha_deg` from alpha1..3, `t_beta_nm` (the
+    /// thesis's T_r) from t_beta1..3, `f_n` from f1..3. Quantities without any contributing
+    /// pose are left out.
+    pub fn table_columns(&self, orientation: &str) -> Vec<QuantityRange> {
+        let mut out: Vec<QuantityRange> = Vec::new();
+        for q in self
+            .rows
+            .iter()
+            .filter(|q| q.orientation == orientation && q.poses > 0)
+        {
+            let name = chain_group(&q.quantity);
+            match out.iter_mut().find(|c| c.quantity == name) {
+                Some(c) => {
+                    c.min = c.min.min(q.min);
+                    c.max = c.max.max(q.max);
+                    c.poses = c.poses.max(q.poses);
+                }
+                None => out.push(QuantityRange {
+                    quantity: name,
+                    ..q.clone()
+                }),
+            }
+        }
+        out
+    }
+}
+
+/// The name of a per-chain quantity without its chain number: `t_alpha2_nm` ->
+/// `t_alpha_nm`, `l1_mm` -> `l_mm`.
+pub fn chain_group(quantity: &str) -> String {
+    match quantity.rfind('_') {
+        Some(k) => {
+            let (stem, unit) = quantity.split_at(k);
+            format!(
+                "{}{unit}",
+                stem.trim_end_matches(|c: char| c.is_ascii_digit())
+            )
+        }
+        None => quantity.to_string(),
     }
 }
 
@@ -166,6 +221,7 @@ pub fn evaluate(
     // acc[orientation][quantity] = (min, max, count)
     let mut acc = vec![vec![(f64::INFINITY, f64::NEG_INFINITY, 0usize); names.len()]; 3];
     let mut failures = Vec::new();
+    let (mut parallel_inv_cond_min, mut serial_relative_min) = (f64::INFINITY, f64::INFINITY);
     let poses = task.poses(hc_mm);
     for tp in &poses {
         let pose = pose_from_edge(&POSE, tp.pose)?;
@@ -177,6 +233,15 @@ pub fn evaluate(
             }
         };
         let mut values = geometric(robot, &sol, &axes, Some(&reference));
+        match measures(robot, &sol) {
+            Ok(m) => {
+                parallel_inv_cond_min = parallel_inv_cond_min.min(m.parallel_inv_cond);
+                for (_, &r) in m.serial_relative.iter() {
+                    serial_relative_min = serial_relative_min.min(r);
+                }
+            }
+            Err(e) => failures.push(format!("{:?}: singularity measures: {e}", tp.pose)),
+        }
         let tau = jacobian(robot, &sol)
             .map_err(|e| format!("jacobian: {e}"))
             .and_then(|j| {
@@ -217,6 +282,8 @@ pub fn evaluate(
         rows,
         poses: poses.len(),
         failures,
+        parallel_inv_cond_min,
+        serial_relative_min,
     })
 }
 
@@ -268,6 +335,31 @@ pub fn to_table(r: &Ranges, title: &str) -> String {
         }
         s.push('\n');
     }
+    s.push_str("\nthe columns of thesis Tables 8.2/8.3 (each quantity over the three chains):\n");
+    let columns = r.table_columns("task");
+    for c in &columns {
+        s.push_str(&format!("{:<14}", c.quantity));
+        for key in ["parallel", "rotated", "task"] {
+            match r
+                .table_columns(key)
+                .iter()
+                .find(|x| x.quantity == c.quantity)
+            {
+                Some(q) => s.push_str(&format!(
+                    " | {:>8.2} {:>8.2} {:>8.2}",
+                    q.min,
+                    q.max,
+                    q.span()
+                )),
+                None => s.push_str(&format!(" | {:>26}", "-")),
+            }
+        }
+        s.push('\n');
+    }
+    s.push_str(&format!(
+        "smallest singularity measures over the task: parallel inv_cond {:.4}, serial {:.4}\n",
+        r.parallel_inv_cond_min, r.serial_relative_min
+    ));
     s.push_str(&format!(
         "{} task poses, {} failed\n",
         r.poses,

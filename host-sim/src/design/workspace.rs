@@ -5,11 +5,16 @@
 //! Admissible = no stop-level violation from `Guards::evaluate_pose`, the workspace guard
 //! excluded (that guard is the task box itself). The scan assumes each section is
 //! star-shaped about the axis (it reports the first boundary crossing).
+//!
+//! Besides the section plots, a 3-D view of the boundary (the sections stacked at their
+//! heights, joined along each scan direction, with the task box) per orientation, and a
+//! verdict on the whole task box: every point of a grid through the box (at most 2 mm
+//! apart, faces and corners included) checked at both orientations.
 
 use super::{out_dir, perr, register_font, write_csv};
 use crate::columns::{parse_branch, pose_from_edge, POSE};
 use crate::limits_file::SelectedLimits;
-use crate::task_box::{numbers, TaskBox, TaskBoxArgs};
+use crate::task_box::{numbers, pose_label, TaskBox, TaskBoxArgs};
 use crate::units::{fixed, m_to_mm};
 use clap::Args;
 use kinematics_core::guards::{Guard, Guards, Limits, Reading, Severity};
@@ -324,6 +329,187 @@ pub fn plot(sections: &[&Section], half: [f64; 2], title: &str, path: &Path) -> 
     root.present().map_err(perr)
 }
 
+/// The verdict on the whole task box.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BoxVerdict {
+    /// Grid points checked (both orientations).
+    pub points: usize,
+    /// Spacing of the grid along x, y, z, mm.
+    pub spacing_mm: [f64; 3],
+    /// The first point that is not admissible, with its first stop-level violation; None
+    /// when every point is.
+    pub first_violation: Option<String>,
+    /// The same per orientation, in [`TaskBox::orientations`] order.
+    pub orientation_violations: [Option<String>; 2],
+}
+
+impl BoxVerdict {
+    /// The box lies inside the admissible workspace (at every checked point).
+    pub fn inside(&self) -> bool {
+        self.first_violation.is_none()
+    }
+}
+
+/// Checks every point of a grid through the task box at both orientations, neighbours at
+/// most `max_spacing_mm` apart along each axis (corners and faces included).
+pub fn task_box_verdict(
+    adm: &Admissible,
+    task: &TaskBox,
+    hc_mm: f64,
+    max_spacing_mm: f64,
+) -> BoxVerdict {
+    let n = |len: f64| ((len / max_spacing_mm).ceil() as usize).clamp(1, 1000) + 1;
+    let grid = task.box_mm.map(n);
+    let spacing_mm = [0, 1, 2].map(|k| task.box_mm[k] / (grid[k] - 1) as f64);
+    let dense = TaskBox {
+        grid,
+        ..task.clone()
+    };
+    let poses = dense.poses(hc_mm);
+    let mut orientation_violations: [Option<String>; 2] = [None, None];
+    for tp in &poses {
+        if let Some(slot) = orientation_violations.get_mut(tp.orientation) {
+            if slot.is_none() {
+                *slot = adm
+                    .violation(tp.pose)
+                    .map(|r| format!("{}: {}", pose_label(&tp.pose), describe_reading(&r)));
+            }
+        }
+    }
+    BoxVerdict {
+        points: poses.len(),
+        spacing_mm,
+        first_violation: orientation_violations.iter().flatten().next().cloned(),
+        orientation_violations,
+    }
+}
+
+/// A 3-D view of the boundary of one orientation: each section's boundary at its height,
+/// the boundary points of each scan direction joined across the heights, and the task box
+/// (red when `box_inside` is false, i.e. some box point fails at this orientation).
+pub fn plot_3d(
+    sections: &[&Section],
+    task: &TaskBox,
+    hc_mm: f64,
+    box_inside: bool,
+    title: &str,
+    path: &Path,
+) -> Result<(), String> {
+    register_font();
+    // plotters' 3-D frame has its second axis vertical and is left-handed in this view:
+    // (x, z, -y) of {0} keeps the picture right-handed. Empty sections (not even the axis
+    // point admissible) are left out, so the meridians do not fall to the axis.
+    let sections: Vec<&Section> = sections
+        .iter()
+        .copied()
+        .filter(|s| s.rho_max_mm.iter().any(|&r| r > 0.0))
+        .collect();
+    let [bx, by, bz] = task.box_mm.map(|b| b / 2.0);
+    let r = sections
+        .iter()
+        .flat_map(|s| s.rho_max_mm.iter().copied())
+        .fold(bx.max(by), f64::max)
+        * 1.05;
+    let (zlo, zhi) = super::span(
+        sections
+            .iter()
+            .map(|s| s.z_mm)
+            .chain([hc_mm - bz, hc_mm + bz]),
+    );
+    let root = BitMapBackend::new(path, (1000, 900)).into_drawing_area();
+    root.fill(&WHITE).map_err(perr)?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 18))
+        .margin(20)
+        .build_cartesian_3d(-r..r, zlo..zhi, -r..r)
+        .map_err(perr)?;
+    chart.with_projection(|mut p| {
+        p.yaw = 0.6;
+        p.pitch = 0.35;
+        p.scale = 0.8;
+        p.into_matrix()
+    });
+    chart
+        .configure_axes()
+        .light_grid_style(BLACK.mix(0.1))
+        .max_light_lines(3)
+        .x_formatter(&|x| format!("x {x:.0}"))
+        .y_formatter(&|z| format!("z {z:.0}"))
+        .z_formatter(&|y| format!("y {:.0}", 0.0 - y))
+        .draw()
+        .map_err(perr)?;
+    let point = |phi: f64, rho: f64, z: f64| {
+        let (sn, c) = phi.to_radians().sin_cos();
+        (rho * c, z, -rho * sn)
+    };
+    let n = sections.len().max(2) as f64;
+    for (k, s) in sections.iter().enumerate() {
+        let color = HSLColor(0.75 * k as f64 / (n - 1.0), 0.8, 0.45);
+        let mut ring: Vec<(f64, f64, f64)> = s
+            .phi_deg
+            .iter()
+            .zip(&s.rho_max_mm)
+            .map(|(&p, &rho)| point(p, rho, s.z_mm))
+            .collect();
+        if let Some(first) = ring.first().copied() {
+            ring.push(first);
+        }
+        chart
+            .draw_series(LineSeries::new(ring, color.stroke_width(2)))
+            .map_err(perr)?
+            .label(format!("z = {:.1} mm", s.z_mm))
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color));
+    }
+    // Meridians: the boundary along each scan direction across the heights.
+    if let Some(first) = sections.first() {
+        for (j, &phi) in first.phi_deg.iter().enumerate() {
+            let line: Vec<(f64, f64, f64)> = sections
+                .iter()
+                .filter_map(|s| s.rho_max_mm.get(j).map(|&rho| point(phi, rho, s.z_mm)))
+                .collect();
+            chart
+                .draw_series(LineSeries::new(line, BLACK.mix(0.25)))
+                .map_err(perr)?;
+        }
+    }
+    let corner = |i: usize| {
+        let sx = if i & 1 == 0 { -bx } else { bx };
+        let sy = if i & 2 == 0 { -by } else { by };
+        let sz = if i & 4 == 0 { -bz } else { bz };
+        (sx, hc_mm + sz, -sy)
+    };
+    let box_color = if box_inside { BLACK } else { RED };
+    let mut edges = Vec::new();
+    for i in 0..8usize {
+        for bit in [1usize, 2, 4] {
+            if i & bit == 0 {
+                edges.push(vec![corner(i), corner(i | bit)]);
+            }
+        }
+    }
+    for (k, e) in edges.into_iter().enumerate() {
+        let series = chart
+            .draw_series(LineSeries::new(e, box_color.stroke_width(3)))
+            .map_err(perr)?;
+        if k == 0 {
+            series
+                .label(if box_inside {
+                    "task box (inside)"
+                } else {
+                    "task box (NOT inside)"
+                })
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], box_color));
+        }
+    }
+    chart
+        .configure_series_labels()
+        .border_style(BLACK)
+        .background_style(WHITE.mix(0.8))
+        .draw()
+        .map_err(perr)?;
+    root.present().map_err(perr)
+}
+
 /// The scan from the flags.
 pub fn scan_from_args(args: &WorkspaceArgs, hc_mm: f64) -> Result<(Scan, TaskBox), String> {
     let [from, to, step]: [f64; 3] = numbers("--z-mm", &args.z_mm)?;
@@ -429,6 +615,50 @@ pub fn run(
             scan.footprint_half_mm,
             &format!(
                 "{:?} workspace sections, platform {}",
+                robot.kind(),
+                o.label
+            ),
+            &png,
+        )?;
+        files.push(png);
+    }
+    let verdict = task_box_verdict(&adm, &task, hc_mm, 2.0);
+    let [bx, by, bz] = task.box_mm;
+    let [sx, sy, sz] = verdict.spacing_mm;
+    println!(
+        "task box {bx} x {by} x {bz} mm at [0, 0, {hc_mm:.1}] mm, platform parallel and {:+} deg about [1,1,0] ({} points, {sx:.2} x {sy:.2} x {sz:.2} mm apart): {}",
+        task.tilt_deg,
+        verdict.points,
+        if verdict.inside() {
+            "inside the workspace"
+        } else {
+            "NOT inside the workspace"
+        }
+    );
+    for (o, violation) in task
+        .orientations()
+        .iter()
+        .zip(&verdict.orientation_violations)
+    {
+        match violation {
+            None => println!("  platform {}: every point admissible", o.label),
+            Some(v) => println!("  platform {}: first failing point {v}", o.label),
+        }
+    }
+    for (o, violation) in task
+        .orientations()
+        .iter()
+        .zip(&verdict.orientation_violations)
+    {
+        let mine: Vec<&Section> = sections.iter().filter(|s| s.orientation == o.key).collect();
+        let png = dir.join(format!("boundary_{}.png", o.key));
+        plot_3d(
+            &mine,
+            &task,
+            hc_mm,
+            violation.is_none(),
+            &format!(
+                "{:?} workspace boundary, platform {}",
                 robot.kind(),
                 o.label
             ),
