@@ -220,6 +220,7 @@ pub struct Supervisor<T: Real, M: Mechanism<T>> {
     /// Warm starts of the parallel measure's SVD, one per stream of nearby poses.
     cond_setpoint: ConditionEstimator<T>,
     cond_path: ConditionEstimator<T>,
+    cond_path_end: ConditionEstimator<T>,
     cond_ahead: ConditionEstimator<T>,
     /// Alternates the second evaluation of a moving tick between the path check and the
     /// braking point.
@@ -234,7 +235,10 @@ pub struct Supervisor<T: Real, M: Mechanism<T>> {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Stream {
     Setpoint,
+    /// Path samples 1, 2, ... of the pending segment (0.5 mm apart).
     Path,
+    /// The end of each pending segment, checked first (far from the other samples).
+    PathEnd,
     Ahead,
 }
 
@@ -319,6 +323,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             scratch: Evaluation::new(branch),
             cond_setpoint: ConditionEstimator::new(),
             cond_path: ConditionEstimator::new(),
+            cond_path_end: ConditionEstimator::new(),
             cond_ahead: ConditionEstimator::new(),
             ahead_turn: false,
             ahead_checked_last: false,
@@ -468,6 +473,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         let cond = match stream {
             Stream::Setpoint => &mut self.cond_setpoint,
             Stream::Path => &mut self.cond_path,
+            Stream::PathEnd => &mut self.cond_path_end,
             Stream::Ahead => &mut self.cond_ahead,
         };
         let solved = self.guards.evaluate_pose_into(
@@ -490,7 +496,12 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             let k = if p.end_checked { p.next } else { p.samples };
             let s = lit::<T>(f64::from(k)) / lit(f64::from(p.samples));
             let at = interpolate(&p.from, &p.to, s);
-            if let (Some(reading), _, _) = self.first_stop_at(&at, Stream::Path, Depth::Full) {
+            let stream = if p.end_checked {
+                Stream::Path
+            } else {
+                Stream::PathEnd
+            };
+            if let (Some(reading), _, _) = self.first_stop_at(&at, stream, Depth::Full) {
                 self.pending = None;
                 let _ = self.refuse(Refusal::Path {
                     fraction: s,
@@ -648,6 +659,13 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
                     self.warning = warn;
                 }
             }
+            self.twist = Twist::zeros();
+            self.qdot = Joints::zeros();
+            return self.output(self.warning);
+        }
+        // At rest on the goal (e.g. while a new target is being verified): the setpoint
+        // stays, and it was checked when it became the setpoint.
+        if !self.braking && d + a == T::zero() && !moving {
             self.twist = Twist::zeros();
             self.qdot = Joints::zeros();
             return self.output(self.warning);
