@@ -29,5 +29,9 @@ section "on-target tests and cost per control tick on the emulated Cortex-M4 (QE
 (cd firmware/qemu && cargo fmt -- --check)
 bash firmware/qemu/run.sh
 
+section "the firmware in the emulator, in closed loop with the host master (host-sim teleop)"
+(cd firmware/qemu-board && cargo fmt -- --check && cargo clippy --release -q -- -D warnings)
+bash firmware/qemu-board/run.sh
+
 section "tests (unit, property, integration, CLI)"
 cargo test --workspace

@@ -177,18 +177,26 @@ pub enum Command {
     /// Thesis section 8.4: for each height z and direction phi, the largest radius rho_max
     /// with a guard-admissible solution (no stop-level violation, the workspace guard
     /// excluded). Writes workspace.csv (orientation, rx_deg..rz_deg, z_mm, phi_deg,
-    /// rho_max_mm) and sections_parallel.png / sections_rotated.png to --out (default
-    /// target/design/workspace/), and states whether the task box footprint lies inside
-    /// each section.
+    /// rho_max_mm), sections_parallel.png / sections_rotated.png and the 3-D views of the
+    /// boundary boundary_parallel.png / boundary_rotated.png to --out (default
+    /// target/design/workspace/), states whether the task box footprint lies inside each
+    /// section, and whether the whole task box (a 2 mm grid at both orientations) lies
+    /// inside the workspace.
     Workspace(workspace::WorkspaceArgs),
     /// Dimensional synthesis scan (thesis section 8.2) for the selected robot's kind.
     ///
-    /// Evaluates every robot of a grid of dimensions (RSPR --e-mm --rb-mm --rp-mm --hc-mm;
-    /// USR --e-mm --rp-mm --l1-mm --l2-mm --hc-mm, each FROM,TO,STEP) over the task and
-    /// keeps those meeting the requirements (task solved without singularity, forces and
-    /// torques within bounds, tilt, optional stroke; USR alpha, gamma, delta ranges).
-    /// Writes synth.csv (dimensions, admissible, rejected, each quantity's min and max) in
-    /// scan order to --out (default target/design/synth/); progress bar on a terminal.
+    /// The task, the scan ranges and the bounds come from a TOML task file (--task FILE;
+    /// default host-sim/tasks/thesis.toml, embedded; absent keys keep its values); the
+    /// scan ranges may be overridden (RSPR --e-mm --rb-mm --rp-mm --hc-mm; USR --e-mm
+    /// --rp-mm --l1-mm --l2-mm --hc-mm, each FROM,TO,STEP). Every robot of the grid is
+    /// evaluated over the task on every core (--jobs N) and kept when it meets the
+    /// requirements (task solved, no singularity measure below its level, forces, torques,
+    /// tilt, RSPR actuator length and stroke; USR alpha, gamma, delta ranges). Writes
+    /// synth.csv (every robot in scan order: dimensions, size, verdict, first unmet bound,
+    /// each quantity's min and max), admissible.csv and admissible.md (the admissible
+    /// robots ranked by size with the columns of Tables 8.2/8.3) to --out (default
+    /// target/design/synth/), and says whether the reference robot is admissible or which
+    /// bound it misses; progress bar on a terminal.
     Synth(synth::SynthArgs),
     /// The RSPR with zero eccentricity against the RRPS robot (thesis Appendix A, Fig. 4.4).
     ///
@@ -199,6 +207,14 @@ pub enum Command {
     /// rspr_f1_n..rspr_t3_nm, rrps_f1_n..rrps_t3_nm, error) and compare.png to --out
     /// (default target/design/compare/).
     Compare(compare::CompareArgs),
+    /// The host master of the board: hello, home, enable, stream a path with heartbeats,
+    /// record the status telemetry and print a summary (tracking, refusals, link counters).
+    ///
+    /// --connect: a Unix socket (QEMU `-serial unix:PATH,server=on,wait=off`, see
+    /// firmware/qemu-board) or a serial device. --scenario ci adds the checks of the CI run
+    /// (refused target, garbage on the link, heartbeat loss) and exits non-zero when one
+    /// fails. Writes status.csv to --out (default target/teleop/<scenario>/).
+    Teleop(crate::teleop::TeleopArgs),
 }
 
 impl Command {
@@ -218,6 +234,7 @@ impl Command {
             Command::Workspace(args) => workspace::run(args, robot, limits),
             Command::Synth(args) => synth::run(args, robot.kind()),
             Command::Compare(args) => compare::run(args, robot),
+            Command::Teleop(args) => crate::teleop::run(args),
         }
     }
 }

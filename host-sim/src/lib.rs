@@ -25,6 +25,7 @@ pub mod limits_file;
 pub mod report;
 pub mod sim;
 pub mod task_box;
+pub mod teleop;
 pub mod units;
 
 /// Runs a parsed command line.

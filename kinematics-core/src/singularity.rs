@@ -154,7 +154,8 @@ impl<T: Real> ConditionEstimator<T> {
         self.sweeps = 0;
         while self.sweeps < MAX_SWEEPS {
             self.sweeps += 1;
-            let mut rotated = false;
+            // The largest squared off-diagonal ratio or rotation sine of the sweep.
+            let mut largest = T::zero();
             // Squared column norms, fresh each sweep and updated exactly by each rotation.
             let mut norms = [T::zero(); 6];
             for (n, col) in norms.iter_mut().zip(w.iter()) {
@@ -162,10 +163,19 @@ impl<T: Real> ConditionEstimator<T> {
             }
             for i in 0..5 {
                 for j in (i + 1)..6 {
-                    rotated |= rotate_pair(&mut w, &mut self.v, &mut norms, (i, j), tol, floor);
+                    let r = rotate_pair(&mut w, &mut self.v, &mut norms, (i, j), tol, floor);
+                    if r > largest {
+                        largest = r;
+                    }
                 }
             }
-            if !rotated {
+            // Converged when nothing needed a rotation, or when every rotation of the
+            // sweep was small (off-diagonal ratio and sine below √tol): the off-diagonal
+            // terms those rotations leave or re-create are then below ~tol, so a further
+            // sweep would rotate nothing (the classical quadratic convergence of cyclic
+            // Jacobi; a cluster of singular values makes the sines large and keeps
+            // sweeping).
+            if largest < tol {
                 converged = true;
                 break;
             }
@@ -274,7 +284,8 @@ fn rotate<T: Real>(a: &mut [T; 6], b: &mut [T; 6], c: T, s: T) {
     (*a5, *b5) = (c * p5 - s * q5, s * p5 + c * q5);
 }
 
-/// One Jacobi rotation of columns i < j of W (and of V); true when it rotated. Columns
+/// One Jacobi rotation of columns i < j of W (and of V). Returns 0 when none was needed,
+/// else the larger of the squared off-diagonal ratio γ²/(αβ) and the squared sine. Columns
 /// whose squared norm is at most `floor` count as zero.
 #[inline]
 fn rotate_pair<T: Real>(
@@ -284,16 +295,17 @@ fn rotate_pair<T: Real>(
     (i, j): (usize, usize),
     tol: T,
     floor: T,
-) -> bool {
+) -> T {
     let Some((wi, wj)) = pair_mut(w, i, j) else {
-        return false;
+        return T::zero();
     };
     let Some((ni, nj)) = pair_mut_1(norms, i, j) else {
-        return false;
+        return T::zero();
     };
     let (alpha, beta, gamma) = (*ni, *nj, dot(wi, wj));
-    if !(gamma * gamma > tol * tol * alpha * beta) || alpha <= floor || beta <= floor {
-        return false;
+    let (g2, ab) = (gamma * gamma, alpha * beta);
+    if !(g2 > tol * tol * ab) || alpha <= floor || beta <= floor {
+        return T::zero();
     }
     // The rotation that zeroes γ: tan(2θ) = 2γ / (β - α), the smaller root of
     // t² + 2ζt - 1 = 0 (|θ| ≤ 45 deg).
@@ -317,7 +329,13 @@ fn rotate_pair<T: Real>(
     // |w_i'|² = α - tγ, |w_j'|² = β + tγ (the rotation's exact effect on the norms).
     *ni = alpha - t * gamma;
     *nj = beta + t * gamma;
-    true
+    let ratio2 = g2 / ab;
+    let s2 = s * s;
+    if ratio2 > s2 {
+        ratio2
+    } else {
+        s2
+    }
 }
 
 /// Elements i < j of an array, both mutable.

@@ -1377,6 +1377,10 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             link: Default::default(),
             tick_jitter_max_us: self.tick_timing.0,
             tick_exec_max_us: self.tick_timing.1,
+            targets_refused: self
+                .controller
+                .as_ref()
+                .map_or(0, |c| c.supervisor().counters().refused()),
         }
     }
 

@@ -589,6 +589,7 @@ fn tx_sequence_and_status_encoding() {
         },
         tick_jitter_max_us: 12,
         tick_exec_max_us: 431,
+        targets_refused: u32::MAX,
     });
     for k in 0..3u16 {
         let n = tx.encode(&status, &mut buf).unwrap();

@@ -7,7 +7,7 @@ use crate::messages::{Seq, WireMessage};
 
 /// Protocol version carried in every frame header (and in `Hello`).
 /// Version 2 added the control tick's worst jitter and execution time to `StatusReport`.
-pub const PROTOCOL_VERSION: u8 = 2;
+pub const PROTOCOL_VERSION: u8 = 3;
 
 /// Header length: version (1 byte) + sequence number (2 bytes, little endian).
 pub const HEADER_LEN: usize = 3;

@@ -222,6 +222,10 @@ pub struct StatusReport {
     pub tick_jitter_max_us: u32,
     /// Worst execution time of the control tick since boot, µs (protocol version 2).
     pub tick_exec_max_us: u32,
+    /// Pose targets the supervisor refused since the controller started (homing): at
+    /// submission (also answered by a `Nack`) or later, when the straight path to an
+    /// acknowledged target crosses a stop-level guard (protocol version 3).
+    pub targets_refused: u32,
 }
 
 /// Messages from the board to the host master.

@@ -13,10 +13,22 @@
 
 use std::f64::consts::TAU;
 
+/// `x.floor() as i64` (saturating, NaN to 0) without a call to libm's `floor`, which the
+/// baseline x86-64 target makes for `f64::floor` (this runs in every plant step): the
+/// truncation, one less for a negative non-integer.
+#[inline]
+fn floor_to_i64(x: f64) -> i64 {
+    let t = x as i64;
+    // Saturating: below i64::MIN the truncation already saturated.
+    t.saturating_sub(i64::from((t as f64) > x))
+}
+
 /// Encoder state of one joint.
 #[derive(Debug, Clone, PartialEq)]
 pub struct QuadratureEncoder {
     counts_per_rev: u32,
+    /// `counts_per_rev / 2 pi`.
+    counts_per_rad: f64,
     reference_angle: f64,
     last_ideal: i64,
     counter: u16,
@@ -34,6 +46,7 @@ impl QuadratureEncoder {
     pub fn new(counts_per_rev: u32) -> Self {
         let mut e = QuadratureEncoder {
             counts_per_rev,
+            counts_per_rad: f64::from(counts_per_rev) / TAU,
             reference_angle: 0.0,
             last_ideal: 0,
             counter: 0,
@@ -65,7 +78,7 @@ impl QuadratureEncoder {
 
     /// The ideal (unwrapped, fault-free) count at shaft angle `angle`.
     pub fn ideal_count(&self, angle: f64) -> i64 {
-        ((angle - self.reference_angle) * f64::from(self.counts_per_rev) / TAU).floor() as i64
+        floor_to_i64((angle - self.reference_angle) * self.counts_per_rad)
     }
 
     /// Follows the shaft to `angle`.
@@ -120,6 +133,29 @@ mod tests {
         assert_eq!(e.counter(), 1);
         e.update(-0.51 * c);
         assert_eq!(e.counter(), u16::MAX);
+    }
+
+    #[test]
+    fn the_fast_floor_is_floor() {
+        for x in [
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0,
+            -1.0,
+            -1.0 - f64::EPSILON,
+            1e15 + 0.5,
+            -1e15 - 0.5,
+            4.0e18,
+            1e300,
+            -1e300,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+        ] {
+            assert_eq!(floor_to_i64(x), x.floor() as i64, "{x}");
+        }
     }
 
     #[test]

@@ -85,6 +85,30 @@ pub fn implicit_velocity_step(
     VelocityStep { v, stuck: false }
 }
 
+/// The same backward-Euler step as [`implicit_velocity_step`], for a body stepped many
+/// times with one `dt`: from the momentum `p = m v_start + dt f` (`v_start = 0` if the body
+/// was stuck), with `dt_coulomb = dt fc`, `dt_hold = dt * (static_limit if stuck, else fc)`
+/// and the denominator precomputed, `inv_den = 1 / (m + dt c)`:
+/// `v1 = (p - sgn(p) dt fc) / (m + dt c)` unless `|p| <= dt_hold` (stuck).
+#[inline]
+pub fn velocity_step_from_momentum(
+    p: f64,
+    dt_coulomb: f64,
+    dt_hold: f64,
+    inv_den: f64,
+) -> VelocityStep {
+    if p.abs() <= dt_hold {
+        return VelocityStep {
+            v: 0.0,
+            stuck: true,
+        };
+    }
+    VelocityStep {
+        v: (p - dt_coulomb.copysign(p)) * inv_den,
+        stuck: false,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -120,6 +144,24 @@ mod tests {
         }
         assert!(matches!(stopped_at, Some(9..=10)), "{stopped_at:?}");
         assert_eq!(st.v, 0.0);
+    }
+
+    #[test]
+    fn the_momentum_form_is_the_same_step() {
+        for &(m, v0, f, c, fc, fs, stuck, dt) in &[
+            (1.0, 0.0, 1.1, 0.0, 1.0, 1.2, true, 1e-3),
+            (1.0, 0.0, 1.3, 0.0, 1.0, 1.2, true, 1e-3),
+            (63.0, -0.02, 40.0, 3.5, 10.7, 12.8, false, 1e-4),
+            (3.5e-3, 0.3, -0.02, 1e-3, 0.01, 0.012, false, 1e-4),
+            (1e-6, 10.0, 0.0, 1e3, 0.0, 1.0, false, 1.0),
+        ] {
+            let a = implicit_velocity_step(m, v0, f, c, fc, fs, stuck, dt);
+            let p = m * if stuck { 0.0 } else { v0 } + dt * f;
+            let hold = if stuck { fs } else { fc };
+            let b = velocity_step_from_momentum(p, dt * fc, dt * hold, 1.0 / (m + dt * c));
+            assert_eq!(a.stuck, b.stuck);
+            assert!((a.v - b.v).abs() <= 1e-14 * a.v.abs(), "{a:?} vs {b:?}");
+        }
     }
 
     #[test]

@@ -31,7 +31,10 @@
 //! state stays bounded but is only ~20 % accurate). Accuracy is first order in `dt`: on a
 //! demanding duty/load/reversal scenario, against a 1 us reference, the velocity error is
 //! 0.03 % of the no-load speed at 10 us, 0.3 % at 100 us, 1.4 % at 500 us and 6 % at
-//! 1 ms. Use 10..100 us (10..100 kHz). One step of all six joints costs about 1 us.
+//! 1 ms. Use 10..100 us (10..100 kHz). The parts of a step that depend only on the
+//! parameters and `dt` (the electrical exponentials, the implicit steps' denominators) are
+//! computed once per `dt`, so a fixed `dt` is cheapest: one step of all six joints costs
+//! about 0.3 us (`cargo bench -p host-sim --bench sim`, `sim/plant_1ms`: 10 steps).
 //!
 //! ## Parameters (shipped `plant.toml`, see its comments for the sources)
 //! The resolutions fix the gearing: 2000 counts per motor revolution (500 lines, x4) and

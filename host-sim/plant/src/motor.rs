@@ -51,7 +51,7 @@ pub struct MeanTorque {
 }
 
 /// `(1 - exp(-x)) / x`, accurate also for tiny `x`.
-fn phi(x: f64) -> f64 {
+pub(crate) fn phi(x: f64) -> f64 {
     if x < 1e-8 {
         1.0 - 0.5 * x
     } else {

@@ -289,13 +289,12 @@ impl Plant {
             joint.step(dt);
             let i = joint.current().abs();
             let s = &mut self.stats;
-            s.peak_abs_current_a[j] = s.peak_abs_current_a[j].max(i);
-            if joint.duty().saturated {
-                s.saturated_steps[j] += 1;
+            // (The current is finite: the step is stable for every dt.)
+            if i > s.peak_abs_current_a[j] {
+                s.peak_abs_current_a[j] = i;
             }
-            if i > joint.model().motor.nominal_current {
-                s.over_nominal_current_steps[j] += 1;
-            }
+            s.saturated_steps[j] += u64::from(joint.duty().saturated);
+            s.over_nominal_current_steps[j] += u64::from(i > joint.model().motor.nominal_current);
         }
         self.time += dt;
         self.stats.steps += 1;

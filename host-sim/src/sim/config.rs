@@ -34,13 +34,19 @@ pub struct ControlSection {
     pub compensated_leg_backlash_mm: f64,
 }
 
-/// Where the payload wrench is mapped to the joints (`plant.payload_update`).
+/// Where the payload wrench is mapped to the joints, tau = J^-T s_e at the true pose
+/// (`plant.payload_update`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PayloadUpdate {
     /// Once per control tick.
     Tick,
     /// Every plant step.
     Step,
+    /// At a control tick where the true pose has moved more than `plant.payload_refresh_mm`
+    /// (o_p) or `plant.payload_refresh_deg` since the last mapping (and when the tool is
+    /// attached). The loads between two mappings are off by at most the change of tau over
+    /// that motion, which the thresholds bound (see `host-sim/sim/default.toml`).
+    Moved,
 }
 
 /// `[plant]`.
@@ -49,18 +55,21 @@ pub enum PayloadUpdate {
 pub struct PlantSection {
     pub config_file: String,
     pub leg_backlash_mm: f64,
-    /// "tick" or "step" (see [`PlantSection::payload_update`]).
+    /// "moved", "tick" or "step" (see [`PlantSection::payload_update`]).
     pub payload_update: String,
+    /// The motion of o_p, mm, and the rotation, deg, after which "moved" maps again.
+    pub payload_refresh_mm: f64,
+    pub payload_refresh_deg: f64,
 }
 
 impl PlantSection {
-    /// `payload_update` (validated by [`SimConfig::validate`]; anything but "step" is
-    /// "tick").
+    /// `payload_update` (validated by [`SimConfig::validate`]; anything but "step" and
+    /// "moved" is "tick").
     pub fn payload_update(&self) -> PayloadUpdate {
-        if self.payload_update == "step" {
-            PayloadUpdate::Step
-        } else {
-            PayloadUpdate::Tick
+        match self.payload_update.as_str() {
+            "step" => PayloadUpdate::Step,
+            "moved" => PayloadUpdate::Moved,
+            _ => PayloadUpdate::Tick,
         }
     }
 }
@@ -298,12 +307,27 @@ impl SimConfig {
             0.0,
             1.0,
         )?;
-        if !matches!(self.plant.payload_update.as_str(), "tick" | "step") {
+        if !matches!(
+            self.plant.payload_update.as_str(),
+            "moved" | "tick" | "step"
+        ) {
             return Err(format!(
-                "`plant.payload_update` must be \"tick\" or \"step\", got {:?}",
+                "`plant.payload_update` must be \"moved\", \"tick\" or \"step\", got {:?}",
                 self.plant.payload_update
             ));
         }
+        range(
+            "plant.payload_refresh_mm",
+            self.plant.payload_refresh_mm,
+            0.0,
+            10.0,
+        )?;
+        range(
+            "plant.payload_refresh_deg",
+            self.plant.payload_refresh_deg,
+            0.0,
+            10.0,
+        )?;
         let p = &self.payload;
         range("payload.mass_kg", p.mass_kg, 0.0, 20.0)?;
         range("payload.gravity_m_s2", p.gravity_m_s2, 0.0, 20.0)?;
@@ -464,6 +488,7 @@ mod tests {
         let c = SimConfig::builtin().unwrap();
         assert_eq!(c.control.rate_hz, 1000.0);
         assert_eq!(c.plant.leg_backlash_mm, 0.08);
+        assert_eq!(c.plant.payload_update(), PayloadUpdate::Moved);
         assert_eq!(c.scenario.laparoscope.pass_speeds_mm_s, vec![2.5, 25.0]);
     }
 
@@ -488,6 +513,8 @@ mod tests {
         assert!(e.contains("payload.lever_mm"), "{e}");
         let e = SimConfig::from_toml_str("[plant]\npayload_update = \"x\"\n").unwrap_err();
         assert!(e.contains("plant.payload_update"), "{e}");
+        let e = SimConfig::from_toml_str("[plant]\npayload_refresh_mm = -1.0\n").unwrap_err();
+        assert!(e.contains("plant.payload_refresh_mm"), "{e}");
         let e = SimConfig::from_toml_str("[control]\nplant_steps_per_tick = 5\n").unwrap_err();
         assert!(e.contains("control.plant_steps_per_tick"), "{e}");
     }

@@ -165,7 +165,7 @@ pub fn report_text(s: &run::Summary) -> String {
     let _ = writeln!(
         o,
         "  simulated {:.2} s in {:.2} s: {:.0}x real time ({:.1} us per tick: controller {:.1}, \
-         plant {:.1}, truth+payload {:.1}, other {:.1})",
+         plant {:.1}, truth+payload {:.1} (payload {:.1}), other {:.1})",
         s.simulated_s,
         s.wall_s,
         s.speed_up,
@@ -173,6 +173,7 @@ pub fn report_text(s: &run::Summary) -> String {
         s.timing.controller_us,
         s.timing.plant_us,
         s.timing.truth_and_payload_us,
+        s.timing.payload_us,
         s.timing.other_us
     );
     let e = |p: &metrics::PoseErrorSummary| {

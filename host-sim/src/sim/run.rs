@@ -85,6 +85,8 @@ pub struct TimingSummary {
     pub plant_us: f64,
     /// The true pose (FK of the load-side joints) and the payload mapping.
     pub truth_and_payload_us: f64,
+    /// Of `truth_and_payload_us`, the payload mapping alone.
+    pub payload_us: f64,
     /// The master stream, metrics and trace.
     pub other_us: f64,
 }
@@ -312,6 +314,10 @@ pub fn run(
             payload_update: match cfg.plant.payload_update() {
                 PayloadUpdate::Tick => "tick".into(),
                 PayloadUpdate::Step => "step".into(),
+                PayloadUpdate::Moved => format!(
+                    "moved (by {} mm or {} deg)",
+                    cfg.plant.payload_refresh_mm, cfg.plant.payload_refresh_deg
+                ),
             },
             stream_rate_hz: cfg.master.stream_rate_hz,
             latency_ms: cfg.master.latency_ms,
@@ -337,6 +343,7 @@ pub fn run(
                 controller_us: t.controller_s / n,
                 plant_us: t.plant_s / n,
                 truth_and_payload_us: t.truth_s / n,
+                payload_us: t.payload_s / n,
                 other_us: (wall_s - t.controller_s - t.plant_s - t.truth_s) / n,
             }
         },

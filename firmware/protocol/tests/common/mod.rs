@@ -128,6 +128,7 @@ pub fn max_status() -> StatusReport {
         },
         tick_jitter_max_us: u32::MAX,
         tick_exec_max_us: u32::MAX,
+        targets_refused: u32::MAX,
     }
 }
 
@@ -240,10 +241,10 @@ pub fn arb_status() -> impl Strategy<Value = StatusReport> {
         any::<u32>(),
         any::<f32>(),
         any::<f32>(),
-        (arb_counters(), any::<u32>(), any::<u32>()),
+        (arb_counters(), any::<u32>(), any::<u32>(), any::<u32>()),
     )
         .prop_map(
-            |(state, p, r, joints, w, f, sm, pm, (link, tj, te))| StatusReport {
+            |(state, p, r, joints, w, f, sm, pm, (link, tj, te, tr))| StatusReport {
                 state,
                 position_m: p,
                 rotation_vector_rad: r,
@@ -255,6 +256,7 @@ pub fn arb_status() -> impl Strategy<Value = StatusReport> {
                 link,
                 tick_jitter_max_us: tj,
                 tick_exec_max_us: te,
+                targets_refused: tr,
             },
         )
 }
