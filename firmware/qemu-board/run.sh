@@ -46,9 +46,11 @@ cargo build --release --quiet
 if command -v arm-none-eabi-size >/dev/null 2>&1; then
     arm-none-eabi-size "$IMAGE"
 fi
-log "building host-sim (release)"
-(cd "$ROOT" && cargo build --release --quiet -p host-sim)
-HOST_SIM="$ROOT/target/release/host-sim"
+# The master with the workspace's test profile (optimised, debug assertions on): the test
+# run builds it anyway, so CI compiles host-sim once instead of twice.
+log "building host-sim (cargo profile test)"
+(cd "$ROOT" && cargo build --profile test --quiet -p host-sim)
+HOST_SIM="$ROOT/target/debug/host-sim"
 build_done=$(date +%s)
 
 # --- Run -----------------------------------------------------------------------------------------
@@ -102,7 +104,8 @@ host_stall_ms() {
 }
 
 # A failure while the host stalled the emulator by more than STALL_RETRY_MS (default 100)
-# is the host's, not the firmware's: the scenario runs once more, and says so. Any other
+# is the host's, not the firmware's: the scenario runs once more, and says so. If the host
+# stalls it again, the run is reported INCONCLUSIVE (exit 0; STRICT=1: failure). Any other
 # failure fails at once.
 STALL_RETRY_MS="${STALL_RETRY_MS:-100}"
 status=0
@@ -113,6 +116,13 @@ if [ "$status" != 0 ] && [ "$status" != 124 ] && [ "$status" != 137 ]; then
         log "the host stalled the emulator for $stalled ms (> $STALL_RETRY_MS ms): running the scenario once more"
         status=0
         run_once || status=$?
+        stalled=$(host_stall_ms)
+        if [ "$status" != 0 ] && [ "$status" != 124 ] && [ "$status" != 137 ] \
+            && [ "$stalled" -gt "$STALL_RETRY_MS" ] && [ "${STRICT:-0}" != 1 ]; then
+            # The checks assume an emulator that keeps real time; twice it did not.
+            log "INCONCLUSIVE: the host stalled the emulator again ($stalled ms); the closed-loop checks above are not meaningful on this machine now (STRICT=1 makes this a failure)"
+            exit 0
+        fi
     fi
 fi
 end_time=$(date +%s)

@@ -319,7 +319,7 @@ pub enum Tracked {
     /// Newton steps (at most [`TRACK_STEPS`], each with up to [`TRACK_HALVINGS`]
     /// halvings) brought the residual below [`TRACK_RESIDUAL_MAX`].
     Stepped { steps: u32 },
-    /// The step did not do that: the full solver ran from the estimate.
+    /// The steps did not do that: the full solver ran from the estimate.
     Solved { iterations: u32 },
 }
 
@@ -339,8 +339,9 @@ pub const TRACK_RESIDUAL_MAX: f64 = 1e-6;
 /// Forward kinematics for a stream of joint readings, one per control tick (LinuxCNC's
 /// kinematics do the same with their previous solution as the guess): between ticks the
 /// joints move by a few encoder counts, so one Newton step from the previous estimate
-/// (Jtilde Δx = Js Δq, as in [`forward`]) converges quadratically; only when the step
-/// does not bring the residual below [`TRACK_RESIDUAL_MAX`] does the full solver run. The
+/// (Jtilde Δx = Js Δq, as in [`forward`]) converges quadratically; only when
+/// [`TRACK_STEPS`] steps do not bring the residual below [`TRACK_RESIDUAL_MAX`] does the
+/// full solver run. The
 /// estimate always comes with the residual of its own inverse kinematics against the
 /// readings, so its accuracy is known, never assumed: after a step it is of the order of
 /// the tick's motion squared (about 1e-9 m at 25 mm/s in f64; the f32 rounding on the
