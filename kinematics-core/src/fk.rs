@@ -180,7 +180,7 @@ pub fn forward<T: Real, M: Mechanism<T> + ?Sized>(
             // f32, where the tolerance is a few µm-equivalents of joint error).
             if iteration < cfg.max_iterations && polished < MAX_POLISH {
                 polished += 1;
-                if let Ok(Step::Improved(p, s)) = step(&pose, &sol, &r, iteration + 1, 1) {
+                if let Ok(Step::Improved(p, s, _, _)) = step(&pose, &sol, &r, iteration + 1, 1) {
                     iteration += 1;
                     pose = p;
                     sol = s;
@@ -202,7 +202,7 @@ pub fn forward<T: Real, M: Mechanism<T> + ?Sized>(
         }
         iteration += 1;
         match step(&pose, &sol, &r, iteration, MAX_HALVINGS)? {
-            Step::Improved(p, s) | Step::NotImproved(p, s) => {
+            Step::Improved(p, s, _, _) | Step::NotImproved(p, s) => {
                 pose = p;
                 sol = s;
             }
@@ -212,8 +212,8 @@ pub fn forward<T: Real, M: Mechanism<T> + ?Sized>(
 
 /// The outcome of one damped Newton step.
 enum Step<T: Real> {
-    /// The residual went down.
-    Improved(Pose<T>, Solution<T>),
+    /// The residual went down; with the new residual and its largest component.
+    Improved(Pose<T>, Solution<T>, Joints<T>, T),
     /// No halving lowered the residual; the full step is taken anyway (rounding floor).
     NotImproved(Pose<T>, Solution<T>),
 }
@@ -271,9 +271,9 @@ fn newton_step<T: Real, M: Mechanism<T> + ?Sized>(
         let trial = pose.displaced(&dv, &dw);
         match inverse(m, &trial, branch) {
             Ok(s) => {
-                let (rt, _, _) = residual(kinds, q, &s.q(), cfg);
+                let (rt, _, worst) = residual(kinds, q, &s.q(), cfg);
                 if merit(&rt) < current {
-                    return Ok(Step::Improved(trial, s));
+                    return Ok(Step::Improved(trial, s, rt, worst));
                 }
                 if fallback.is_none() {
                     fallback = Some((trial, s));
@@ -421,7 +421,7 @@ impl<T: Real> FkTracker<T> {
                 steps,
                 TRACK_HALVINGS,
             );
-            let Ok(Step::Improved(p, s)) = step else {
+            let Ok(Step::Improved(p, s, left, worst)) = step else {
                 // No progress: at the rounding level already, keep what there is.
                 if good_enough(current) {
                     self.residual = current;
@@ -435,7 +435,7 @@ impl<T: Real> FkTracker<T> {
                 }
                 break;
             };
-            let (left, _, worst) = residual(&kinds, q, &s.q(), cfg);
+            // (The step computed the new residual already.)
             pose = p;
             sol = s;
             r = left;
