@@ -415,7 +415,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         if self.last_stamp_us.is_some_and(|last| stamp_us <= last) {
             return self.refuse(Refusal::OutOfOrder);
         }
-        self.check_distance(target)?;
+        let (distance, angle) = self.check_distance(target)?;
         self.last_stamp_us = Some(stamp_us);
         if self.pending.is_some() {
             if self.queued.is_some() {
@@ -424,24 +424,23 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             self.queued = Some(*target);
             return Ok(());
         }
-        self.start_pending(target);
+        self.start_pending(target, distance, angle);
         Ok(())
     }
 
-    /// Refuses a target too far from the current setpoint.
-    fn check_distance(&mut self, target: &Pose<T>) -> Result<(), Refusal<T>> {
+    /// Refuses a target too far from the current setpoint; else its distance and angle.
+    fn check_distance(&mut self, target: &Pose<T>) -> Result<(T, T), Refusal<T>> {
         let distance = norm3(&(target.t - self.pose.t));
         let angle = rotation_angle(&(target.r * self.pose.r.inverse()));
         if !(distance <= self.cfg.max_segment && angle <= self.cfg.max_segment_angle) {
-            return self.refuse(Refusal::TooFar { distance, angle });
+            self.refuse(Refusal::TooFar { distance, angle })?;
         }
-        Ok(())
+        Ok((distance, angle))
     }
 
-    /// Starts verifying the straight segment from the setpoint to `target`.
-    fn start_pending(&mut self, target: &Pose<T>) {
-        let distance = norm3(&(target.t - self.pose.t));
-        let angle = rotation_angle(&(target.r * self.pose.r.inverse()));
+    /// Starts verifying the straight segment from the setpoint to `target` (`distance` and
+    /// `angle` from [`Supervisor::check_distance`]).
+    fn start_pending(&mut self, target: &Pose<T>, distance: T, angle: T) {
         let n = (distance / self.cfg.path_step)
             .max(angle / self.cfg.path_step_angle)
             .ceil()
@@ -459,8 +458,8 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
     /// Starts the queued target, if any, once the previous check is over.
     fn start_queued(&mut self) {
         if let Some(q) = self.queued.take() {
-            if self.check_distance(&q).is_ok() {
-                self.start_pending(&q);
+            if let Ok((distance, angle)) = self.check_distance(&q) {
+                self.start_pending(&q, distance, angle);
             }
         }
     }
