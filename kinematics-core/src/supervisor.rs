@@ -13,11 +13,12 @@
 //! 2. **Move** towards the verified goal with a speed- and acceleration-limited profile in
 //!    Cartesian space: speeds capped by the tip and angular speed limits and scaled down so
 //!    that J·twist stays within the joint speed limits; the braking profile √(2 a d) makes
-//!    it stop at the goal.
-//! 3. **Check**, every other tick, the point where braking from the candidate setpoint
-//!    would stop, one tick further on (so that the unchecked tick's stretch is covered):
-//!    every guard. A stop-level violation there turns the motion into a controlled stop on
-//!    the path verified earlier. The candidate itself lies between the setpoint and a
+//!    it stop at the goal. The Cartesian accelerations are scaled down where the Jacobian
+//!    would turn them into more than the joints' acceleration limits.
+//! 3. **Check**, every other tick, the point where braking would stop if it began two
+//!    ticks later at the highest speed the unchecked tick can reach: every guard. A
+//!    stop-level violation there turns the motion into a controlled stop (full
+//!    deceleration along the current twist on every tick) on the stretch checked earlier. The candidate itself lies between the setpoint and a
 //!    braking point checked this tick or the last; it gets the kinematic guards (reach,
 //!    workspace, joint ranges, tilt, collision, serial singularity) every tick, at the
 //!    resolution the path check works at for the rest (0.05 mm between braking points at
@@ -59,6 +60,9 @@ pub struct SupervisorConfig<T: Real> {
     pub max_segment_angle: T,
     /// Fraction of each joint speed limit the motion may use (default 0.8).
     pub joint_speed_headroom: T,
+    /// Fraction of each joint acceleration limit the motion may use (default 0.8): the
+    /// Cartesian accelerations are scaled down where J would turn them into more.
+    pub joint_accel_headroom: T,
 }
 
 impl<T: Real> Default for SupervisorConfig<T> {
@@ -72,6 +76,7 @@ impl<T: Real> Default for SupervisorConfig<T> {
             max_segment: lit(0.060),
             max_segment_angle: lit(45f64.to_radians()),
             joint_speed_headroom: lit(0.8),
+            joint_accel_headroom: lit(0.8),
         }
     }
 }
@@ -315,6 +320,11 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         if !(pos(cfg.joint_speed_headroom) && cfg.joint_speed_headroom <= T::one()) {
             return Err(SupervisorError::Config(
                 "joint_speed_headroom must be in (0, 1]",
+            ));
+        }
+        if !(pos(cfg.joint_accel_headroom) && cfg.joint_accel_headroom <= T::one()) {
+            return Err(SupervisorError::Config(
+                "joint_accel_headroom must be in (0, 1]",
             ));
         }
         let guards = Guards::new(robot, branch, limits).map_err(SupervisorError::Setup)?;
@@ -576,6 +586,37 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         (vmax * scale, wmax * scale)
     }
 
+    /// The Cartesian acceleration limits scaled so that no joint exceeds its acceleration
+    /// limit (with headroom) whatever the direction of the change of twist, at the current
+    /// setpoint's Jacobian: |J_j·Δ| ≤ |J_j,v|·|Δv| + |J_j,ω|·|Δω| (Cauchy-Schwarz, per row).
+    fn joint_safe_accels(&self, l: &Limits<T>) -> (T, T) {
+        let (at, aw) = (l.tip_accel, l.angular_accel);
+        let Some(j) = self.jac.as_ref().map(|j| j.j) else {
+            return (at, aw);
+        };
+        let mut scale = T::one();
+        for (row, kind) in j.row_iter().zip(self.guards.robot().joint_kinds().iter()) {
+            let lim = match kind {
+                JointKind::Linear => l.joint_accel[0],
+                JointKind::Angular => l.joint_accel[1],
+            } * self.cfg.joint_accel_headroom;
+            let (mut sv, mut sw) = (T::zero(), T::zero());
+            for (k, x) in row.iter().enumerate() {
+                if k < 3 {
+                    sv += *x * *x;
+                } else {
+                    sw += *x * *x;
+                }
+            }
+            let (row_v, row_w) = (sqrt(sv), sqrt(sw));
+            let worst = row_v * at + row_w * aw;
+            if worst * scale > lim {
+                scale = lim / worst;
+            }
+        }
+        (at * scale, aw * scale)
+    }
+
     fn hold(&mut self, reason: Reading<T>) -> TickOutput<T> {
         self.latched = Some(reason);
         self.counters.stops += 1;
@@ -627,7 +668,10 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         }
         // The limiter runs a hair inside the limits so that rounding never trips the
         // motion guards that check its output.
-        let l = shaved(self.guards.limits());
+        let mut l = shaved(self.guards.limits());
+        // Every acceleration of this tick (profile, braking, look-ahead) within what the
+        // joints can follow here.
+        (l.tip_accel, l.angular_accel) = self.joint_safe_accels(&l);
         let dt = self.cfg.dt;
         let two = lit::<T>(2.0);
         // Desired twist towards the goal (world frame), with the braking profile.
@@ -698,13 +742,21 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             let sw = norm3(w) / (two * l.angular_accel);
             from.displaced(&(v * sv), &(w * sw))
         };
-        // Checked every other tick at most: look one tick further, so that the stretch
-        // the unchecked tick adds is covered too.
-        let ahead = {
-            let sv = norm3(&v1) / (two * l.tip_accel) + dt;
-            let sw = norm3(&w1) / (two * l.angular_accel) + dt;
-            candidate.displaced(&(v1 * sv), &(w1 * sw))
+        // Checked every other tick at most, so the point checked must cover what the next
+        // two ticks can do: the unchecked tick may still accelerate to v' = |v| + a·dt, and
+        // a violation found on the tick after it starts braking from there. Braking then
+        // stops within v'²/2a + 2·v'·dt of the candidate (one tick at v', one more while
+        // the brake takes hold); along the current direction of motion.
+        let reach = |v: &Vector3<T>, amax: T| {
+            let n = norm3(v);
+            if n > T::zero() {
+                let vp = n + amax * dt;
+                v * ((vp * vp / (two * amax) + two * vp * dt) / n)
+            } else {
+                Vector3::zeros()
+            }
         };
+        let ahead = candidate.displaced(&reach(&v1, l.tip_accel), &reach(&w1, l.angular_accel));
         let mut ahead_stop = false;
         if check_ahead {
             let (stop, warn, _) = self.first_stop_at(&ahead, Stream::Ahead, Depth::Full);
@@ -720,8 +772,10 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             Depth::Full
         };
         self.ahead_checked_last = check_ahead;
-        if ahead_stop {
-            // Brake on the path verified last tick: decelerate along the current twist.
+        if ahead_stop || self.braking {
+            // Brake on the path verified before: decelerate along the current twist, at
+            // the full deceleration on every tick until the robot stands (the braking
+            // profile towards a goal would lose half of it on the ticks between checks).
             if !self.braking {
                 self.counters.brakes += 1;
             }

@@ -6,6 +6,7 @@ mod common;
 
 use common::*;
 use kinematics_core::guards::*;
+use kinematics_core::mechanism::PlatformChain;
 use kinematics_core::supervisor::*;
 use kinematics_core::*;
 use nalgebra::{Rotation3, Vector3};
@@ -154,7 +155,7 @@ fn run(events: &[(Event, u16)]) -> Result<Counters, TestCaseError> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(64))]
+    #![proptest_config(ProptestConfig::with_cases(128))]
 
     /// For random target streams (including NaN, jumps of metres, poses outside the
     /// workspace, paths through singular configurations, replays and stale stamps), the
@@ -360,36 +361,106 @@ fn supervisor_settings_are_validated() {
     ));
 }
 
-/// A stop-level violation holds the last safe setpoint, latches the reason and refuses new
-/// targets until cleared; clearing resumes from where it held.
+/// The reference RSPR with a fault switch: while `broken` is set, chain 2 finds no
+/// solution anywhere (what a corrupted computation or geometry would look like to the
+/// supervisor). The supervisor predicts every other stop it could meet and brakes before
+/// it (see `output_is_always_safe_and_limited`), so a fault the path check could not see
+/// is the way to reach its last resort, the latched stop.
+#[derive(Clone)]
+struct Faulty {
+    robot: RsprGeometry<f64>,
+    broken: std::rc::Rc<std::cell::Cell<bool>>,
+}
+
+impl Mechanism<f64> for Faulty {
+    fn rp(&self) -> f64 {
+        self.robot.rp()
+    }
+    fn e(&self) -> f64 {
+        self.robot.e()
+    }
+    fn hc(&self) -> f64 {
+        self.robot.hc()
+    }
+    fn joint_kinds(&self) -> [JointKind; 6] {
+        self.robot.joint_kinds()
+    }
+    fn length_scale(&self) -> f64 {
+        self.robot.length_scale()
+    }
+    fn chain_ik(
+        &self,
+        chain: Chain,
+        pc: &PlatformChain<f64>,
+        bit_set: bool,
+        out: &mut ChainSolution<f64>,
+    ) -> Result<(), IkFailure> {
+        if self.broken.get() && chain == Chain::Two {
+            return Err(IkFailure::NoRealRoot);
+        }
+        self.robot.chain_ik(chain, pc, bit_set, out)
+    }
+    fn serial_block(&self, s: &ChainSolution<f64>) -> SerialBlock<f64> {
+        self.robot.serial_block(s)
+    }
+    fn serial_measure(&self, s: &ChainSolution<f64>) -> (f64, f64) {
+        self.robot.serial_measure(s)
+    }
+}
+
+/// A stop-level violation of the candidate setpoint holds the last safe setpoint at once,
+/// latches the reason and refuses new targets until cleared; clearing resumes from where it
+/// held.
 #[test]
 fn stop_holds_latches_and_clears() {
-    let mut limits = Limits::reference();
-    // A joint acceleration limit so low that the first motion breaks it.
-    limits.joint_accel = [1e-6, 1e-6];
-    let mut sup = supervisor(limits);
+    let broken = std::rc::Rc::new(std::cell::Cell::new(false));
+    let robot = Faulty {
+        robot: RsprGeometry::reference(),
+        broken: broken.clone(),
+    };
+    let mut sup = Supervisor::new(
+        robot,
+        Branch::OUTER,
+        Limits::reference(),
+        SupervisorConfig::default(),
+        &Pose::central(0.160),
+    )
+    .unwrap();
     let target = Pose {
         t: Vector3::new(0.005, 0.0, 0.160),
         r: Rotation3::identity(),
     };
     sup.submit(&target, 1000, 1000).unwrap();
-    let held = *sup.setpoint();
+    // 10 ticks verify the 5 mm path (one 0.5 mm sample per tick), then the motion starts.
     let mut out = sup.tick();
-    // 10 ticks verify the 5 mm path (one 0.5 mm sample per tick), then the first motion.
-    for _ in 0..15 {
+    for _ in 0..30 {
         out = sup.tick();
     }
+    assert_eq!(out.mode, Mode::Moving);
+    let held = *sup.setpoint();
+    broken.set(true);
+    out = sup.tick();
     assert_eq!(out.mode, Mode::Stopped);
-    assert_eq!(out.stop.unwrap().guard, Guard::JointAccel);
+    let stop = out.stop.unwrap();
+    assert_eq!(
+        (stop.guard, stop.subject),
+        (Guard::Reach, Subject::Chain(Chain::Two))
+    );
     assert_eq!(out.pose, held, "holds the last safe setpoint");
+    assert_eq!(out.twist, Twist::zeros());
     assert_eq!(sup.submit(&target, 2000, 2000), Err(Refusal::Latched));
     for _ in 0..10 {
-        assert_eq!(sup.tick().mode, Mode::Stopped);
+        let o = sup.tick();
+        assert_eq!((o.mode, o.pose), (Mode::Stopped, held));
     }
     assert_eq!(sup.counters().stops, 1);
+    // Not cleared while the setpoint is still unsafe (here: unsolvable).
+    assert!(sup.clear().is_err());
+    broken.set(false);
     assert!(sup.clear().is_ok());
     assert_eq!(sup.tick().mode, Mode::Holding);
     assert!(sup.latched().is_none());
+    assert_eq!(*sup.setpoint(), held, "resumes from where it held");
 }
 
 /// A fast stream of targets never starves the path check: streamed at 1 kHz along a line
