@@ -26,6 +26,7 @@ fn simulate(cfg: &SimConfig, scenario: &Scenario) -> Outcome {
         &Limits::reference(),
         cfg,
         scenario,
+        1,
         &mut |_, _| {},
     )
     .unwrap()
@@ -423,4 +424,74 @@ fn the_true_pose_is_the_forward_kinematics_of_the_true_joints() {
         worst_m <= 1e-9 && worst_rad <= 1e-8,
         "{worst_m:e} m, {worst_rad:e} rad"
     );
+}
+
+/// The master side (target stream and supervisor) on a thread of its own, running ahead
+/// of the drive side, gives exactly the results of the single-threaded loop: the same
+/// summary (apart from the wall-clock figures) and the same trace, for a streamed path
+/// with the tool attached on the way and for single targets with a plant fault.
+#[test]
+fn two_threads_give_the_results_of_one() {
+    let cfg = config(
+        "[scenario.laparoscope]\npass_speeds_mm_s = [25.0]\npass_scales = [0.5]\n\
+         [output]\ntrace_every_ticks = 7\n",
+    );
+    let mut lap = Scenario::from_config("laparoscope", &cfg, robot().hc).unwrap();
+    lap.payload_attach_s = Some(0.3);
+    let c = central();
+    let jumps = vec![
+        Jump {
+            at_s: 0.1,
+            pose: pose_mm_deg(&[5.0, 0.0, 163.0, 0.0, 0.0, 0.0]),
+        },
+        Jump {
+            at_s: 0.4,
+            pose: pose_mm_deg(&[80.0, 0.0, 160.0, 0.0, 0.0, 0.0]),
+        },
+    ];
+    let mut faulty = Scenario::jumps(&cfg, "fault", &c, jumps, 1.2);
+    faulty.faults.push(FaultEvent {
+        at_s: 0.8,
+        joint: 4,
+        fault: Fault::MotorDisconnected,
+    });
+    for sc in [&lap, &faulty] {
+        let runs: Vec<Outcome> = [1, 2]
+            .iter()
+            .map(|&threads| {
+                run(
+                    &robot(),
+                    &Limits::reference(),
+                    &cfg,
+                    sc,
+                    threads,
+                    &mut |_, _| {},
+                )
+                .unwrap()
+            })
+            .collect();
+        let [one, two] = [&runs[0], &runs[1]];
+        assert_eq!(
+            (one.summary.timing.threads, two.summary.timing.threads),
+            (1, 2)
+        );
+        let strip = |o: &Outcome| {
+            let mut s = o.summary.clone();
+            s.wall_s = 0.0;
+            s.speed_up = 0.0;
+            s.timing = two.summary.timing.clone();
+            s
+        };
+        assert_eq!(strip(one), strip(two), "{}", sc.name);
+        assert_eq!(one.trace, two.trace, "{}", sc.name);
+        assert!(one.trace.len() > 100);
+        println!(
+            "{}: {} ticks, identical; {} targets sent, {} refused, servo fault {:?}",
+            sc.name,
+            one.summary.control_ticks,
+            one.summary.supervisor.targets_sent,
+            one.summary.supervisor.refused.total,
+            one.summary.faults.servo.as_ref().map(|f| f.joint)
+        );
+    }
 }

@@ -152,19 +152,201 @@ pub struct ControllerCounters {
     pub fk_max_iterations: u32,
 }
 
-/// The control application.
+/// The planning half of a tick: the supervisor's setpoint and the lead-screw flanks of the
+/// known tool. It depends only on the master's targets, never on the encoders, so a host
+/// may run it ahead of the servo half on another core (see [`Controller::into_parts`]).
 #[derive(Clone, Debug)]
-pub struct Controller<S: Scalar, M: Mechanism<S> + Clone> {
-    robot: M,
-    cfg: ControllerConfig<S>,
-    dt: S,
+pub struct Planner<S: Scalar, M: Mechanism<S> + Clone> {
     supervisor: Supervisor<S, M>,
+    tool: Option<ToolLoad<S>>,
+    kinds: [JointKind; NUM_JOINTS],
+    flanks: [Direction; NUM_JOINTS],
+}
+
+/// What the planner hands to the servo half for one tick.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Plan<S: Scalar> {
+    /// The supervisor's setpoint.
+    pub setpoint: TickOutput<S>,
+    /// The flank each lead screw rests on under the tool's weight (all unknown without a
+    /// tool).
+    pub flanks: [Direction; NUM_JOINTS],
+}
+
+impl<S: Scalar, M: Mechanism<S> + Clone> Planner<S, M> {
+    /// The supervisor (counters, last refusal, latched stop).
+    pub fn supervisor(&self) -> &Supervisor<S, M> {
+        &self.supervisor
+    }
+
+    /// Declares the tool now on the platform (None: none).
+    pub fn set_tool(&mut self, tool: Option<ToolLoad<S>>) {
+        self.tool = tool;
+        if tool.is_none() {
+            self.flanks = [Direction::Unknown; NUM_JOINTS];
+        }
+    }
+
+    /// Hands a master target to the supervisor.
+    pub fn submit(&mut self, pose: &Pose<S>, stamp_us: u64, now_us: u64) -> Result<(), Refusal<S>> {
+        self.supervisor.submit(pose, stamp_us, now_us)
+    }
+
+    /// Clears a latched supervisor stop.
+    pub fn clear_stop(&mut self) -> bool {
+        self.supervisor.clear().is_ok()
+    }
+
+    /// The setpoint of this tick and the tool's flanks at it.
+    pub fn tick(&mut self) -> Plan<S> {
+        let setpoint = self.supervisor.tick();
+        // A known tool presses each lead screw against one flank: tell the backlash
+        // compensation which (τ = J⁻ᵀ s_e at the setpoint; the motor pushes along τ).
+        // Where τ cannot be computed the flanks stay as they were.
+        if let (Some(tool), Some(jac)) = (self.tool, self.supervisor.jacobians()) {
+            if let Ok(st) = joint_efforts(jac, &tool.wrench(&setpoint.pose)) {
+                for ((f, tau), k) in self
+                    .flanks
+                    .iter_mut()
+                    .zip(st.tau.iter())
+                    .zip(self.kinds.iter())
+                {
+                    let threshold = match k {
+                        JointKind::Linear => tool.flank_threshold[0],
+                        JointKind::Angular => tool.flank_threshold[1],
+                    };
+                    *f = if *tau > threshold {
+                        Direction::Positive
+                    } else if *tau < -threshold {
+                        Direction::Negative
+                    } else {
+                        Direction::Unknown
+                    };
+                }
+            }
+        }
+        Plan {
+            setpoint,
+            flanks: self.flanks,
+        }
+    }
+}
+
+/// What the servo half read at the start of a tick.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sensed<S: Scalar> {
+    /// Joint positions from the encoders.
+    pub q: [S; NUM_JOINTS],
+    /// Newton iterations of the forward kinematics, or its failure.
+    pub fk: Result<u32, FkError>,
+}
+
+/// The servo half of a tick: encoders, measured pose, six joint servos, outputs.
+#[derive(Clone, Debug)]
+pub struct Drive<S: Scalar, M: Mechanism<S> + Clone> {
+    robot: M,
+    fk_cfg: FkConfig<S>,
+    dt: S,
     servo: JointServo<S>,
     encoders: Encoders<S>,
     /// The measured pose: forward kinematics tracked from tick to tick (one Newton step
     /// per tick; nothing while the encoders stand still).
     fk: FkTracker<S>,
     counters: ControllerCounters,
+}
+
+impl<S: Scalar, M: Mechanism<S> + Clone> Drive<S, M> {
+    /// The controller's counters.
+    pub fn counters(&self) -> &ControllerCounters {
+        &self.counters
+    }
+
+    /// The measured pose (the last good forward kinematics).
+    pub fn measured_pose(&self) -> &Pose<S> {
+        self.fk.pose()
+    }
+
+    /// Resets the servo after a tracking fault, holding the measured joints.
+    pub fn reset_servo(&mut self) {
+        let q = self.encoders.positions();
+        self.servo.reset(&q);
+    }
+
+    /// Reads the encoders and tracks the measured pose: the start of a tick, so that the
+    /// sampling instant does not move with the planner's work.
+    pub fn sense<H: QuadratureCounter>(&mut self, hw: &mut H) -> Sensed<S> {
+        self.counters.ticks += 1;
+        let q = self.encoders.read(hw);
+        // Forward kinematics tracked from the last measured pose (FkTracker: nothing to do
+        // while the encoders stand still, one Newton step while they move).
+        let fk = match self
+            .fk
+            .update(&self.robot, &Joints::from_row_slice(&q), &self.fk_cfg)
+        {
+            Ok(t) => {
+                let steps = match t {
+                    Tracked::Unchanged => 0,
+                    Tracked::Stepped { steps } => steps,
+                    Tracked::Solved { iterations } => iterations,
+                };
+                self.counters.fk_max_iterations = self.counters.fk_max_iterations.max(steps);
+                Ok(steps)
+            }
+            Err(e) => {
+                self.counters.fk_failures += 1;
+                Err(e)
+            }
+        };
+        Sensed { q, fk }
+    }
+
+    /// Runs the six joint servos towards the plan and drives the outputs (all off on a
+    /// tracking fault).
+    pub fn act<H: MotorOutputs<S>>(
+        &mut self,
+        hw: &mut H,
+        sensed: &Sensed<S>,
+        plan: &Plan<S>,
+    ) -> TickReport<S> {
+        let q_meas = sensed.q;
+        // Angles from the supervisor are wrapped to (-π, π]; unwrap them next to the
+        // (continuous) encoder readings.
+        let mut sp = to_array(&plan.setpoint.q);
+        for ((s, m), k) in sp
+            .iter_mut()
+            .zip(q_meas.iter())
+            .zip(self.robot.joint_kinds().iter())
+        {
+            if *k == JointKind::Angular {
+                *s = *m + scalar::wrap_angle(*s - *m);
+            }
+        }
+        self.servo.set_preloads(&plan.flanks);
+        let spd = to_array(&plan.setpoint.qdot);
+        let out = self.servo.update(&sp, &spd, &q_meas, self.dt);
+        if out.fault.is_some() {
+            hw.disable();
+        } else {
+            hw.set_duties(&out.duty);
+        }
+        TickReport {
+            setpoint: plan.setpoint,
+            measured_q: q_meas,
+            measured_pose: *self.fk.pose(),
+            fk: sensed.fk,
+            servo: out,
+        }
+    }
+}
+
+/// The control application: each tick, the [`Drive`] senses, the [`Planner`] plans and the
+/// [`Drive`] acts.
+#[derive(Clone, Debug)]
+pub struct Controller<S: Scalar, M: Mechanism<S> + Clone> {
+    robot: M,
+    cfg: ControllerConfig<S>,
+    planner: Planner<S, M>,
+    drive: Drive<S, M>,
 }
 
 fn to_array<S: Scalar>(q: &Joints<S>) -> [S; NUM_JOINTS] {
@@ -205,28 +387,48 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Controller<S, M> {
         let mut servo = JointServo::new(&cfg.servo).map_err(ControllerError::Servo)?;
         servo.reset(&start_q);
         Ok(Controller {
+            planner: Planner {
+                supervisor,
+                tool: cfg.tool,
+                kinds: robot.joint_kinds(),
+                flanks: [Direction::Unknown; NUM_JOINTS],
+            },
+            drive: Drive {
+                robot: robot.clone(),
+                fk_cfg: cfg.fk,
+                dt,
+                servo,
+                encoders,
+                fk,
+                counters: ControllerCounters::default(),
+            },
             robot,
             cfg,
-            dt,
-            supervisor,
-            servo,
-            encoders,
-            fk,
-            counters: ControllerCounters::default(),
         })
+    }
+
+    /// The two halves, e.g. to run the planner ahead of the servo on another core of a
+    /// host: ticking them as [`Controller::tick`] does gives the same results.
+    pub fn into_parts(self) -> (Planner<S, M>, Drive<S, M>) {
+        (self.planner, self.drive)
+    }
+
+    /// The planner.
+    pub fn planner(&self) -> &Planner<S, M> {
+        &self.planner
     }
 
     /// The supervisor (counters, last refusal, latched stop).
     pub fn supervisor(&self) -> &Supervisor<S, M> {
-        &self.supervisor
+        &self.planner.supervisor
     }
     /// The controller's counters.
     pub fn counters(&self) -> &ControllerCounters {
-        &self.counters
+        &self.drive.counters
     }
     /// The control period, s.
     pub fn dt(&self) -> S {
-        self.dt
+        self.drive.dt
     }
     /// The configuration in use.
     pub fn config(&self) -> &ControllerConfig<S> {
@@ -236,14 +438,12 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Controller<S, M> {
     /// Declares the tool now on the platform (None: none).
     pub fn set_tool(&mut self, tool: Option<ToolLoad<S>>) {
         self.cfg.tool = tool;
-        if tool.is_none() {
-            self.servo.set_preloads(&[Direction::Unknown; NUM_JOINTS]);
-        }
+        self.planner.set_tool(tool);
     }
 
     /// The joints of the current setpoint (q order).
     pub fn setpoint_joints(&self) -> Result<Joints<S>, JogError> {
-        kinematics_core::inverse(&self.robot, self.supervisor.setpoint(), self.cfg.branch)
+        kinematics_core::inverse(&self.robot, self.supervisor().setpoint(), self.cfg.branch)
             .map(|sol| sol.q())
             .map_err(|_| JogError::NoSolution)
     }
@@ -259,7 +459,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Controller<S, M> {
             &self.robot,
             q,
             self.cfg.branch,
-            self.supervisor.setpoint(),
+            self.supervisor().setpoint(),
             &self.cfg.fk,
         )
         .map(|fk| fk.pose)
@@ -268,95 +468,25 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Controller<S, M> {
 
     /// Hands a master target to the supervisor.
     pub fn submit(&mut self, pose: &Pose<S>, stamp_us: u64, now_us: u64) -> Result<(), Refusal<S>> {
-        self.supervisor.submit(pose, stamp_us, now_us)
+        self.planner.submit(pose, stamp_us, now_us)
     }
 
     /// Clears a latched supervisor stop (the servo's tracking fault is cleared by
     /// [`Controller::reset_servo`]).
     pub fn clear_stop(&mut self) -> bool {
-        self.supervisor.clear().is_ok()
+        self.planner.clear_stop()
     }
 
     /// Resets the servo after a tracking fault, holding the measured joints.
     pub fn reset_servo(&mut self) {
-        let q = self.encoders.positions();
-        self.servo.reset(&q);
+        self.drive.reset_servo();
     }
 
-    /// One control tick: read the encoders, estimate the pose, advance the supervisor, run
-    /// the six PIDs and drive the outputs (all off on a tracking fault).
+    /// One control tick: read the encoders and estimate the pose, advance the supervisor,
+    /// run the six PIDs and drive the outputs (all off on a tracking fault).
     pub fn tick<H: QuadratureCounter + MotorOutputs<S>>(&mut self, hw: &mut H) -> TickReport<S> {
-        self.counters.ticks += 1;
-        let q_meas = self.encoders.read(hw);
-        // Forward kinematics tracked from the last measured pose (FkTracker: nothing to do
-        // while the encoders stand still, one Newton step while they move).
-        let fk = match self
-            .fk
-            .update(&self.robot, &Joints::from_row_slice(&q_meas), &self.cfg.fk)
-        {
-            Ok(t) => {
-                let steps = match t {
-                    Tracked::Unchanged => 0,
-                    Tracked::Stepped { steps } => steps,
-                    Tracked::Solved { iterations } => iterations,
-                };
-                self.counters.fk_max_iterations = self.counters.fk_max_iterations.max(steps);
-                Ok(steps)
-            }
-            Err(e) => {
-                self.counters.fk_failures += 1;
-                Err(e)
-            }
-        };
-        let setpoint = self.supervisor.tick();
-        // Angles from the supervisor are wrapped to (-π, π]; unwrap them next to the
-        // (continuous) encoder readings.
-        let mut sp = to_array(&setpoint.q);
-        for ((s, m), k) in sp
-            .iter_mut()
-            .zip(q_meas.iter())
-            .zip(self.robot.joint_kinds().iter())
-        {
-            if *k == JointKind::Angular {
-                *s = *m + scalar::wrap_angle(*s - *m);
-            }
-        }
-        // A known tool presses each lead screw against one flank: tell the backlash
-        // compensation which (τ = J⁻ᵀ s_e at the setpoint; the motor pushes along τ).
-        if let (Some(tool), Some(jac)) = (self.cfg.tool, self.supervisor.jacobians()) {
-            if let Ok(st) = joint_efforts(jac, &tool.wrench(&setpoint.pose)) {
-                let mut flanks = [Direction::Unknown; NUM_JOINTS];
-                for ((f, tau), k) in flanks
-                    .iter_mut()
-                    .zip(st.tau.iter())
-                    .zip(self.robot.joint_kinds().iter())
-                {
-                    let threshold = match k {
-                        JointKind::Linear => tool.flank_threshold[0],
-                        JointKind::Angular => tool.flank_threshold[1],
-                    };
-                    if *tau > threshold {
-                        *f = Direction::Positive;
-                    } else if *tau < -threshold {
-                        *f = Direction::Negative;
-                    }
-                }
-                self.servo.set_preloads(&flanks);
-            }
-        }
-        let spd = to_array(&setpoint.qdot);
-        let out = self.servo.update(&sp, &spd, &q_meas, self.dt);
-        if out.fault.is_some() {
-            hw.disable();
-        } else {
-            hw.set_duties(&out.duty);
-        }
-        TickReport {
-            setpoint,
-            measured_q: q_meas,
-            measured_pose: *self.fk.pose(),
-            fk,
-            servo: out,
-        }
+        let sensed = self.drive.sense(hw);
+        let plan = self.planner.tick();
+        self.drive.act(hw, &sensed, &plan)
     }
 }

@@ -22,5 +22,6 @@ pub mod link;
 pub mod state;
 
 pub use controller::{
-    Controller, ControllerConfig, ControllerError, JogError, TickReport, ToolLoad,
+    Controller, ControllerConfig, ControllerError, Drive, JogError, Plan, Planner, Sensed,
+    TickReport, ToolLoad,
 };

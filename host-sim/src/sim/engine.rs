@@ -4,7 +4,7 @@
 //! loads at the true pose.
 
 use super::config::{PayloadUpdate, SimConfig};
-use controller::{Controller, ControllerConfig, TickReport, ToolLoad};
+use controller::{Controller, ControllerConfig, Drive, Plan, Planner, TickReport, ToolLoad};
 use kinematics_core::guards::Limits;
 use kinematics_core::statics::forces_with_inv_cond;
 use kinematics_core::{
@@ -100,7 +100,11 @@ pub struct TickSample {
 pub struct Sim {
     robot: RsprGeometry<f64>,
     plant: Plant,
-    ctl: Controller<f64, RsprGeometry<f64>>,
+    /// The controller's planning half (supervisor), ticked by [`Sim::tick`]; a run may
+    /// tick a copy of it on another thread and hand its plans to [`Sim::tick_with`].
+    planner: Planner<f64, RsprGeometry<f64>>,
+    /// The controller's servo half (encoders, measured pose, joint servos).
+    drive: Drive<f64, RsprGeometry<f64>>,
     plant_dt: f64,
     steps_per_tick: u32,
     control_dt: f64,
@@ -132,8 +136,11 @@ pub struct Sim {
 /// Where the wall-clock time of the ticks went.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Timing {
-    /// The controller's tick (encoders, FK, supervisor with its guards, servo), s.
+    /// The controller's servo half (encoders, FK, servo), s.
     pub controller_s: f64,
+    /// The controller's planning half (supervisor with its guards) when [`Sim::tick`]
+    /// runs it, s.
+    pub planner_s: f64,
     /// The plant's steps (with the payload mapping of every step when
     /// `plant.payload_update` is "step"), s.
     pub plant_s: f64,
@@ -220,8 +227,9 @@ impl Sim {
         let q0 = arr(&sol.q());
         plant.set_joint_positions(q0).map_err(|e| e.to_string())?;
         let cc = controller_config(cfg, limits, compensation);
-        let ctl = Controller::new(*robot, cc, plant.encoder_counts(), q0)
-            .map_err(|e| format!("controller: {e}"))?;
+        let (planner, drive) = Controller::new(*robot, cc, plant.encoder_counts(), q0)
+            .map_err(|e| format!("controller: {e}"))?
+            .into_parts();
         // 0.1 nm and 1 nrad on the joints: far below anything reported. The same
         // acceptance test (inverse kinematics of the pose reproduces the joints within
         // these) holds on both paths of `true_fk`.
@@ -233,7 +241,8 @@ impl Sim {
         Ok(Sim {
             robot: *robot,
             plant,
-            ctl,
+            planner,
+            drive,
             plant_dt: cfg.plant_dt(),
             steps_per_tick: cfg.control.plant_steps_per_tick,
             control_dt: cfg.control_dt(),
@@ -268,9 +277,17 @@ impl Sim {
     pub fn plant_mut(&mut self) -> &mut Plant {
         &mut self.plant
     }
-    /// The controller.
-    pub fn controller(&self) -> &Controller<f64, RsprGeometry<f64>> {
-        &self.ctl
+    /// The controller's planning half (as [`Sim::tick`] advances it).
+    pub fn planner(&self) -> &Planner<f64, RsprGeometry<f64>> {
+        &self.planner
+    }
+    /// The controller's servo half.
+    pub fn drive(&self) -> &Drive<f64, RsprGeometry<f64>> {
+        &self.drive
+    }
+    /// The tool the controller is told about when the payload is `on`.
+    pub fn tool(&self, on: bool) -> Option<ToolLoad<f64>> {
+        on.then_some(self.payload)
     }
     /// The control period, s.
     pub fn control_dt(&self) -> f64 {
@@ -301,12 +318,17 @@ impl Sim {
         self.enabled
     }
 
+    /// Whether the tool is attached.
+    pub fn payload_on(&self) -> bool {
+        self.payload_on
+    }
+
     /// Attaches (or removes) the tool.
     pub fn set_payload(&mut self, on: bool) {
         self.payload_on = on;
         self.mapped_at = None;
         // The controller knows the tool it carries (it sets the lead screws' flank).
-        self.ctl.set_tool(on.then_some(self.payload));
+        self.planner.set_tool(self.tool(on));
         if !on {
             self.load = [0.0; NUM_JOINTS];
             self.tau = [0.0; NUM_JOINTS];
@@ -321,7 +343,7 @@ impl Sim {
         stamp_us: u64,
     ) -> Result<(), kinematics_core::supervisor::Refusal<f64>> {
         let now = self.now_us();
-        self.ctl.submit(pose, stamp_us, now)
+        self.planner.submit(pose, stamp_us, now)
     }
 
     /// The true pose: forward kinematics of the plant's load-side joints.
@@ -416,6 +438,18 @@ impl Sim {
     /// One control tick: the truth at the tick, the payload, the controller's tick and
     /// the plant over one control period.
     pub fn tick(&mut self) -> Result<TickSample, String> {
+        self.tick_planned(None)
+    }
+
+    /// [`Sim::tick`] with the plan of a planner ticked elsewhere (a copy of
+    /// [`Sim::planner`] advanced in step, e.g. on another thread); this Sim's own planner
+    /// is left alone. The controller's halves are independent within a tick (the plan
+    /// depends only on the targets), so the results are those of [`Sim::tick`].
+    pub fn tick_with(&mut self, plan: &Plan<f64>) -> Result<TickSample, String> {
+        self.tick_planned(Some(plan))
+    }
+
+    fn tick_planned(&mut self, plan: Option<&Plan<f64>>) -> Result<TickSample, String> {
         let t_s = self.time_s();
         let t0 = Instant::now();
         let sol = self.true_fk();
@@ -426,13 +460,21 @@ impl Sim {
         let load = self.load;
         let tau = self.tau;
         let t1 = Instant::now();
-        let report = {
-            let mut io = PlantIo {
-                plant: &mut self.plant,
-                enabled: &mut self.enabled,
-            };
-            self.ctl.tick(&mut io)
+        let mut io = PlantIo {
+            plant: &mut self.plant,
+            enabled: &mut self.enabled,
         };
+        // The controller's tick (`Controller::tick`): sense, plan, act.
+        let sensed = self.drive.sense(&mut io);
+        let (plan, planned_s) = match plan {
+            Some(p) => (*p, 0.0),
+            None => {
+                let tp = Instant::now();
+                let p = self.planner.tick();
+                (p, tp.elapsed().as_secs_f64())
+            }
+        };
+        let report = self.drive.act(&mut io, &sensed, &plan);
         let t2 = Instant::now();
         let duty = self.plant.duty();
         let mut peak = [0.0f64; NUM_JOINTS];
@@ -452,7 +494,8 @@ impl Sim {
         let t3 = Instant::now();
         self.timing.truth_s += (t1 - t0).as_secs_f64();
         self.timing.payload_s += (t1 - tp).as_secs_f64();
-        self.timing.controller_s += (t2 - t1).as_secs_f64();
+        self.timing.controller_s += (t2 - t1).as_secs_f64() - planned_s;
+        self.timing.planner_s += planned_s;
         self.timing.plant_s += (t3 - t2).as_secs_f64();
         self.ticks += 1;
         Ok(TickSample {

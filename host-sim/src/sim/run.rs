@@ -8,6 +8,7 @@ use super::metrics::{
     PhaseSummary, PoseErrorSummary, Refusals, StepSummary, SupervisorSummary,
 };
 use super::scenario::{Scenario, Stream};
+use controller::{Plan, Planner, ToolLoad};
 use kinematics_core::guards::Limits;
 use kinematics_core::supervisor::Mode;
 use kinematics_core::{Pose, RsprGeometry};
@@ -78,16 +79,23 @@ pub struct Summary {
 /// Where the wall-clock time of a run went (JSON), us per control tick.
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct TimingSummary {
+    /// Threads the run used: 1, or 2 with the master side (stream and planner) running
+    /// ahead of the drive side (servo half of the controller, plant, truth, metrics).
+    pub threads: usize,
     pub per_tick_us: f64,
-    /// The controller's tick: encoders, FK, supervisor (guards), servo.
+    /// The controller's servo half: encoders, FK, servo.
     pub controller_us: f64,
+    /// The controller's planning half: the supervisor with its guards (on the master
+    /// side's thread when `threads` is 2).
+    pub planner_us: f64,
     /// The plant's steps of one tick (and the per-step payload mapping in "step" mode).
     pub plant_us: f64,
     /// The true pose (FK of the load-side joints) and the payload mapping.
     pub truth_and_payload_us: f64,
     /// Of `truth_and_payload_us`, the payload mapping alone.
     pub payload_us: f64,
-    /// The master stream, metrics and trace.
+    /// The master stream, metrics and trace (with 2 threads: the drive side's wall-clock
+    /// time not in the parts above, waiting for plans included).
     pub other_us: f64,
 }
 
@@ -134,12 +142,132 @@ fn us(t: f64) -> u64 {
     (t * 1e6).round().max(0.0) as u64
 }
 
-/// Runs `scenario`; `progress(done, total)` is called every few hundred ticks.
+/// Ticks per chunk the master side hands over when it runs on its own thread.
+const PIPELINE_CHUNK: u64 = 256;
+/// Chunks it may run ahead.
+const PIPELINE_CHUNKS: usize = 4;
+
+/// What the master side produced for one tick.
+#[derive(Clone, Copy, Debug)]
+struct Planned {
+    plan: Plan<f64>,
+    /// The last target sent (for the target error).
+    last_target: Pose<f64>,
+}
+
+/// The master's side of a run: the target stream and the controller's planning half
+/// (supervisor), which depends on nothing the plant does.
+struct MasterSide<'a> {
+    scenario: &'a Scenario,
+    planner: Planner<f64, RsprGeometry<f64>>,
+    tool: Option<ToolLoad<f64>>,
+    dt: f64,
+    stream_dt: f64,
+    latency: f64,
+    next_sample: u64,
+    next_jump: usize,
+    last_target: Pose<f64>,
+    attached: bool,
+    targets_sent: u64,
+    first_refusal: Option<(f64, String)>,
+    /// Wall-clock time in the planner, s.
+    busy_s: f64,
+}
+
+impl<'a> MasterSide<'a> {
+    fn new(
+        scenario: &'a Scenario,
+        cfg: &SimConfig,
+        planner: Planner<f64, RsprGeometry<f64>>,
+        tool: Option<ToolLoad<f64>>,
+        dt: f64,
+    ) -> Self {
+        MasterSide {
+            scenario,
+            planner,
+            tool,
+            dt,
+            stream_dt: 1.0 / cfg.master.stream_rate_hz,
+            latency: cfg.master.latency_ms * 1e-3,
+            next_sample: 0,
+            next_jump: 0,
+            last_target: scenario.start,
+            attached: false,
+            targets_sent: 0,
+            first_refusal: None,
+            busy_s: 0.0,
+        }
+    }
+
+    fn send(&mut self, pose: Pose<f64>, stamp_s: f64, t: f64, now_us: u64) {
+        self.targets_sent += 1;
+        if let Err(r) = self.planner.submit(&pose, us(stamp_s), now_us) {
+            if self.first_refusal.is_none() {
+                self.first_refusal = Some((t, r.to_string()));
+            }
+        }
+    }
+
+    /// Tick `tick`: the targets due by then (stamp + latency), the tool, the plan.
+    fn step(&mut self, tick: u64) -> Planned {
+        let eps = 1e-9;
+        // As `Sim::time_s` and `Sim::now_us`.
+        let t = tick as f64 * self.dt;
+        let now_us = (t * 1e6).round() as u64;
+        if let Some(a) = self.scenario.payload_attach_s {
+            if !self.attached && t + eps >= a {
+                self.planner.set_tool(self.tool);
+                self.attached = true;
+            }
+        }
+        match &self.scenario.stream {
+            Stream::Path(traj) => loop {
+                let ts = self.next_sample as f64 * self.stream_dt;
+                if ts > traj.end_s() + eps || ts + self.latency > t + eps {
+                    break;
+                }
+                if let Some(pose) = traj.pose(ts) {
+                    self.send(pose, ts, t, now_us);
+                    self.last_target = pose;
+                }
+                self.next_sample += 1;
+            },
+            Stream::Jumps(jumps) => {
+                while let Some(j) = jumps.get(self.next_jump) {
+                    if j.at_s + self.latency > t + eps {
+                        break;
+                    }
+                    self.send(j.pose, j.at_s, t, now_us);
+                    self.last_target = j.pose;
+                    self.next_jump += 1;
+                }
+            }
+        }
+        let started = Instant::now();
+        let plan = self.planner.tick();
+        self.busy_s += started.elapsed().as_secs_f64();
+        if self.first_refusal.is_none() {
+            // Path refusals happen while the supervisor verifies, after the submission.
+            if let Some(r) = self.planner.supervisor().last_refusal() {
+                self.first_refusal = Some((t, r.to_string()));
+            }
+        }
+        Planned {
+            plan,
+            last_target: self.last_target,
+        }
+    }
+}
+
+/// Runs `scenario`; `progress(done, total)` is called every few hundred ticks. With
+/// `threads` >= 2 the master side (stream, supervisor) runs on a thread of its own, ahead
+/// of the drive side; the results are the same as with 1.
 pub fn run(
     robot: &RsprGeometry<f64>,
     limits: &Limits<f64>,
     cfg: &SimConfig,
     scenario: &Scenario,
+    threads: usize,
     progress: &mut dyn FnMut(u64, u64),
 ) -> Result<Outcome, String> {
     let compensation = scenario
@@ -163,22 +291,18 @@ pub fn run(
     let mut faults = scenario.faults.clone();
     faults.sort_by(|a, b| a.at_s.total_cmp(&b.at_s));
     let mut next_fault = 0;
-    let stream_dt = 1.0 / cfg.master.stream_rate_hz;
-    let latency = cfg.master.latency_ms * 1e-3;
-    let mut next_sample: u64 = 0;
-    let mut next_jump = 0;
-    let mut last_target = scenario.start;
-    let mut attached = false;
+    let mut master = MasterSide::new(scenario, cfg, sim.planner().clone(), sim.tool(true), dt);
     let every = u64::from(cfg.output.trace_every_ticks);
     let mut trace = Vec::with_capacity((total / every + 1) as usize);
     let eps = 1e-9;
     let started = Instant::now();
-    for tick in 0..total {
+    // The drive side of one tick: the payload, the injected faults, the closed loop with
+    // the master side's plan, the measurements.
+    let mut drive_tick = |sim: &mut Sim, tick: u64, planned: &Planned| -> Result<(), String> {
         let t = sim.time_s();
         if let Some(a) = scenario.payload_attach_s {
-            if !attached && t + eps >= a {
+            if !sim.payload_on() && t + eps >= a {
                 sim.set_payload(true);
-                attached = true;
             }
         }
         while let Some(f) = faults.get(next_fault) {
@@ -191,52 +315,14 @@ pub fn run(
             m.injected(t, f.joint, format!("{:?}", f.fault));
             next_fault += 1;
         }
-        let send = |sim: &mut Sim, pose: Pose<f64>, stamp_s: f64, m: &mut Metrics| {
-            m.targets_sent += 1;
-            if let Err(r) = sim.submit(&pose, us(stamp_s)) {
-                if m.first_refusal.is_none() {
-                    m.first_refusal = Some((t, r.to_string()));
-                }
-            }
-        };
-        match &scenario.stream {
-            Stream::Path(traj) => loop {
-                let ts = next_sample as f64 * stream_dt;
-                if ts > traj.end_s() + eps || ts + latency > t + eps {
-                    break;
-                }
-                if let Some(pose) = traj.pose(ts) {
-                    send(&mut sim, pose, ts, &mut m);
-                    last_target = pose;
-                }
-                next_sample += 1;
-            },
-            Stream::Jumps(jumps) => {
-                while let Some(j) = jumps.get(next_jump) {
-                    if j.at_s + latency > t + eps {
-                        break;
-                    }
-                    send(&mut sim, j.pose, j.at_s, &mut m);
-                    last_target = j.pose;
-                    next_jump += 1;
-                }
-            }
-        }
-        let s = sim.tick()?;
-        if m.first_refusal.is_none() {
-            // Path refusals happen while the supervisor verifies, after the submission.
-            let sup = sim.controller().supervisor();
-            if let Some(r) = sup.last_refusal() {
-                m.first_refusal = Some((t, r.to_string()));
-            }
-        }
-        let e = m.add(&s, &last_target);
-        if tick % every == 0 {
+        let s = sim.tick_with(&planned.plan)?;
+        let e = m.add(&s, &planned.last_target);
+        if tick.is_multiple_of(every) {
             trace.push(TraceRow {
                 t_s: s.t_s,
                 mode: mode_name(s.report.setpoint.mode),
                 warning: s.report.setpoint.warning,
-                target: edge_pose(&last_target),
+                target: edge_pose(&planned.last_target),
                 setpoint: edge_pose(&s.report.setpoint.pose),
                 truth: edge_pose(&s.true_pose),
                 tip_error_mm: e.tracking.0,
@@ -249,18 +335,67 @@ pub fn run(
                 load: s.load,
             });
         }
-        if tick % 500 == 0 {
+        if tick.is_multiple_of(500) {
             progress(tick, total);
+        }
+        Ok(())
+    };
+    if threads >= 2 {
+        // The master side runs ahead on its own thread (at most PIPELINE_CHUNKS chunks of
+        // PIPELINE_CHUNK ticks), the drive side follows on this one.
+        master = std::thread::scope(|scope| -> Result<MasterSide, String> {
+            let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<Planned>>(PIPELINE_CHUNKS);
+            let handle = std::thread::Builder::new()
+                .name("sim-master".into())
+                .spawn_scoped(scope, move || {
+                    let mut tick = 0;
+                    while tick < total {
+                        let n = PIPELINE_CHUNK.min(total - tick);
+                        let chunk: Vec<Planned> =
+                            (tick..tick + n).map(|k| master.step(k)).collect();
+                        tick += n;
+                        if tx.send(chunk).is_err() {
+                            break; // the drive side stopped (an error)
+                        }
+                    }
+                    master
+                })
+                .map_err(|e| format!("sim: cannot start the master thread: {e}"))?;
+            let mut tick = 0;
+            let mut failed = None;
+            'drive: for chunk in rx.iter() {
+                for planned in &chunk {
+                    if let Err(e) = drive_tick(&mut sim, tick, planned) {
+                        failed = Some(e);
+                        break 'drive;
+                    }
+                    tick += 1;
+                }
+            }
+            drop(rx);
+            let master = handle
+                .join()
+                .map_err(|_| "sim: the master thread panicked".to_string())?;
+            match failed {
+                Some(e) => Err(e),
+                None => Ok(master),
+            }
+        })?;
+    } else {
+        for tick in 0..total {
+            let planned = master.step(tick);
+            drive_tick(&mut sim, tick, &planned)?;
         }
     }
     progress(total, total);
     let wall_s = started.elapsed().as_secs_f64();
     let simulated_s = total as f64 * dt;
-    let ctl = sim.controller();
-    let c = ctl.supervisor().counters();
-    let first = m.first_refusal.clone();
+    let sup = master.planner.supervisor();
+    let c = sup.counters();
+    let first = master.first_refusal.clone();
+    let drive = sim.drive().counters();
     let supervisor = SupervisorSummary {
-        targets_sent: m.targets_sent,
+        targets_sent: master.targets_sent,
         accepted: c.accepted,
         superseded: c.superseded,
         refused: Refusals {
@@ -284,12 +419,11 @@ pub fn run(
         modes: m.modes(),
         brakes: c.brakes,
         stops: c.stops,
-        stop_reason: ctl
-            .supervisor()
+        stop_reason: sup
             .latched()
             .map(|r| format!("{} ({}) value {:e}", r.guard, r.subject, r.value)),
-        fk_failures: ctl.counters().fk_failures,
-        fk_max_iterations: ctl.counters().fk_max_iterations,
+        fk_failures: drive.fk_failures,
+        fk_max_iterations: drive.fk_max_iterations,
     };
     let payload = payload_from_config(cfg);
     let w = payload.wrench(&scenario.start);
@@ -339,12 +473,18 @@ pub fn run(
             let t = sim.timing();
             let n = (total.max(1)) as f64 / 1e6;
             TimingSummary {
+                threads,
                 per_tick_us: wall_s / n,
                 controller_us: t.controller_s / n,
+                planner_us: master.busy_s / n,
                 plant_us: t.plant_s / n,
                 truth_and_payload_us: t.truth_s / n,
                 payload_us: t.payload_s / n,
-                other_us: (wall_s - t.controller_s - t.plant_s - t.truth_s) / n,
+                other_us: if threads >= 2 {
+                    (wall_s - t.controller_s - t.plant_s - t.truth_s) / n
+                } else {
+                    (wall_s - t.controller_s - master.busy_s - t.plant_s - t.truth_s) / n
+                },
             }
         },
         tracking: m.all.tracking.summary(),
