@@ -571,6 +571,79 @@ pub enum Solved {
     WithJacobian,
 }
 
+/// The stages of a staged full evaluation, in order.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stage {
+    /// Workspace box and tilt cone, inverse kinematics, joint ranges, spherical-joint
+    /// tilts, collision, serial singularity.
+    Kinematic,
+    /// The Jacobians (Eq. 7.14, 7.18).
+    Jacobian,
+    /// The parallel singularity measure (the SVD of the scaled Jtilde).
+    Parallel,
+    /// The payload statics (Eq. 7.10): actuator forces and torques.
+    Statics,
+}
+
+/// A full guard evaluation spread over several calls of [`Guards::advance`], one
+/// [`Stage`] per call, so that a caller with a fixed budget per control tick (the
+/// supervisor) never runs a whole evaluation in one tick. Run to the end it reaches the
+/// verdict of [`Guards::evaluate_pose`]: the same first stop-level reading, and whether a
+/// warn level was reached (when nothing stops).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Staged<T: Real> {
+    pose: Pose<T>,
+    eval: Evaluation<T>,
+    jac_ok: bool,
+    inv_cond: T,
+    stop: Option<Reading<T>>,
+    warn: bool,
+    next: Option<Stage>,
+}
+
+impl<T: Real> Staged<T> {
+    /// Nothing to evaluate (finished).
+    pub fn new(branch: Branch) -> Self {
+        Staged {
+            pose: Pose::central(T::zero()),
+            eval: Evaluation::new(branch),
+            jac_ok: false,
+            inv_cond: T::zero(),
+            stop: None,
+            warn: false,
+            next: None,
+        }
+    }
+    /// Starts over at `pose`.
+    pub fn start(&mut self, pose: &Pose<T>) {
+        self.pose = *pose;
+        self.jac_ok = false;
+        self.stop = None;
+        self.warn = false;
+        self.next = Some(Stage::Kinematic);
+    }
+    /// The pose being evaluated.
+    pub fn pose(&self) -> &Pose<T> {
+        &self.pose
+    }
+    /// The stage the next call runs (None: finished).
+    pub fn next_stage(&self) -> Option<Stage> {
+        self.next
+    }
+    /// Whether the evaluation has finished.
+    pub fn is_finished(&self) -> bool {
+        self.next.is_none()
+    }
+    /// The first stop-level reading so far.
+    pub fn stop(&self) -> Option<&Reading<T>> {
+        self.stop.as_ref()
+    }
+    /// Whether a warn level was reached so far.
+    pub fn warn(&self) -> bool {
+        self.warn
+    }
+}
+
 /// The guards prepared for one robot and branch.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Guards<T: Real, M: Mechanism<T>> {
@@ -729,6 +802,26 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
         jac: &mut Jacobians<T>,
         depth: Depth,
     ) -> bool {
+        self.kinematic_readings(sol, visit);
+        let jac_ok = jacobian_into(&self.robot, sol, jac).is_ok();
+        if depth == Depth::Kinematic {
+            return jac_ok;
+        }
+        let Some(inv_cond) = self.parallel_reading(sol, jac_ok.then_some(&*jac), cond, visit)
+        else {
+            return false;
+        };
+        // Forces for the declared payload.
+        if !jac_ok {
+            return false; // a serial singularity: already a serial reading
+        }
+        self.statics_readings(jac, inv_cond, visit);
+        true
+    }
+
+    /// Joint ranges, spherical-joint tilts, the collision radius and the serial
+    /// singularity measures: what follows from the inverse kinematics alone.
+    fn kinematic_readings(&self, sol: &Solution<T>, visit: &mut impl FnMut(&Reading<T>)) {
         let l = &self.limits;
         let kinds = self.robot.joint_kinds();
         let (guard_a, guard_b) = match kinds[0] {
@@ -800,7 +893,6 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
         // Singularities (CONVENTIONS.md measures): serial per chain from the serial
         // blocks, parallel from the SVD of the scaled Jtilde, which the Jacobian computes
         // anyway (it is only recomputed alone at a serial singularity, where J is not).
-        let stop = Some(Severity::Stop);
         for (chain, c) in sol.chains.iter() {
             visit(&lower(
                 Guard::SerialSingularity,
@@ -809,28 +901,37 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
                 l.serial,
             ));
         }
-        let jac_ok = jacobian_into(&self.robot, sol, jac).is_ok();
-        if depth == Depth::Kinematic {
-            return jac_ok;
-        }
-        let jtilde = if jac_ok {
-            jac.jtilde
-        } else {
-            tripod_jacobian(sol)
-        };
-        let inv_cond = match cond.inv_cond(&jtilde, self.robot.rp()) {
-            Ok(x) => x,
-            Err(_) => {
-                visit(&Reading {
-                    guard: Guard::ParallelSingularity,
-                    subject: Subject::Robot,
-                    value: T::zero(),
-                    limit: l.parallel.stop,
-                    margin: -l.parallel.stop,
-                    severity: stop,
-                });
-                return false;
+    }
+
+    /// The parallel singularity measure from the SVD of the scaled Jtilde (that of `jac`
+    /// when there is one, else computed from `sol`): its value, or None after a stop
+    /// reading when the SVD failed.
+    fn parallel_reading(
+        &self,
+        sol: &Solution<T>,
+        jac: Option<&Jacobians<T>>,
+        cond: &mut ConditionEstimator<T>,
+        visit: &mut impl FnMut(&Reading<T>),
+    ) -> Option<T> {
+        let l = &self.limits;
+        let computed;
+        let jtilde = match jac {
+            Some(j) => &j.jtilde,
+            None => {
+                computed = tripod_jacobian(sol);
+                &computed
             }
+        };
+        let Ok(inv_cond) = cond.inv_cond(jtilde, self.robot.rp()) else {
+            visit(&Reading {
+                guard: Guard::ParallelSingularity,
+                subject: Subject::Robot,
+                value: T::zero(),
+                limit: l.parallel.stop,
+                margin: -l.parallel.stop,
+                severity: Some(Severity::Stop),
+            });
+            return None;
         };
         visit(&lower(
             Guard::ParallelSingularity,
@@ -838,12 +939,20 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
             inv_cond,
             l.parallel,
         ));
-        // Forces for the declared payload.
-        if !jac_ok {
-            return false; // a serial singularity: already a serial reading
-        }
+        Some(inv_cond)
+    }
+
+    /// The actuator forces and torques that hold the declared payload.
+    fn statics_readings(
+        &self,
+        jac: &Jacobians<T>,
+        inv_cond: T,
+        visit: &mut impl FnMut(&Reading<T>),
+    ) {
+        let l = &self.limits;
+        let kinds = self.robot.joint_kinds();
         let Ok(st) = forces_with_inv_cond(jac, &l.payload, inv_cond, l.parallel.stop) else {
-            return true; // already a parallel reading
+            return; // already a parallel reading
         };
         for (j, (tau, kind)) in st.tau.iter().zip(kinds.iter()).enumerate() {
             let (guard, levels) = match kind {
@@ -857,7 +966,71 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
                 levels,
             ));
         }
-        true
+    }
+
+    /// Runs the next stage of a staged full evaluation (see [`Staged`]): at most one of
+    /// the inverse kinematics with the kinematic guards, the Jacobians, the parallel
+    /// measure's SVD (warm-started by `cond`), the payload statics. The evaluation ends
+    /// early at the first stop-level reading.
+    pub fn advance(&self, st: &mut Staged<T>, cond: &mut ConditionEstimator<T>) {
+        let Some(stage) = st.next else { return };
+        let Staged {
+            pose,
+            eval,
+            jac_ok,
+            inv_cond,
+            stop,
+            warn,
+            next,
+        } = st;
+        let mut visit = |r: &Reading<T>| match r.severity {
+            Some(Severity::Stop) if stop.is_none() => *stop = Some(*r),
+            Some(Severity::Warn) => *warn = true,
+            _ => {}
+        };
+        *next = match stage {
+            Stage::Kinematic => {
+                self.workspace_readings(pose, &mut visit);
+                match inverse_into(&self.robot, pose, self.branch, &mut eval.sol) {
+                    Err(e) => {
+                        visit(&Reading {
+                            guard: Guard::Reach,
+                            subject: Subject::Chain(e.chain),
+                            value: T::zero(),
+                            limit: T::zero(),
+                            margin: -T::one(),
+                            severity: Some(Severity::Stop),
+                        });
+                        None
+                    }
+                    Ok(()) => {
+                        self.kinematic_readings(&eval.sol, &mut visit);
+                        Some(Stage::Jacobian)
+                    }
+                }
+            }
+            Stage::Jacobian => {
+                *jac_ok = jacobian_into(&self.robot, &eval.sol, &mut eval.jac).is_ok();
+                Some(Stage::Parallel)
+            }
+            Stage::Parallel => {
+                let jac = jac_ok.then_some(&eval.jac);
+                match self.parallel_reading(&eval.sol, jac, cond, &mut visit) {
+                    Some(x) if *jac_ok => {
+                        *inv_cond = x;
+                        Some(Stage::Statics)
+                    }
+                    _ => None,
+                }
+            }
+            Stage::Statics => {
+                self.statics_readings(&eval.jac, *inv_cond, &mut visit);
+                None
+            }
+        };
+        if stop.is_some() {
+            *next = None;
+        }
     }
 
     /// Evaluates the motion guards between two samples `dt` apart (speeds of `cur`,

@@ -1,34 +1,37 @@
 //! The setpoint supervisor: turns a stream of master targets (pose, timestamp) into joint
 //! setpoints at the control rate, so that no setpoint ever violates a stop-level guard.
 //!
-//! Per tick, with constant bounded work: at most one full guard evaluation (inverse
-//! kinematics, Jacobian, singularity measures, statics, every guard) and, while moving,
-//! the kinematic guards of the candidate setpoint. Each stream of full evaluations (path
-//! samples, path ends, braking points, arrivals) keeps its own warm-started SVD
+//! Per tick, with constant bounded work: one stage of a full guard evaluation (see
+//! [`Staged`]: the inverse kinematics with the kinematic guards, the Jacobians, the parallel
+//! measure's SVD or the payload statics) and, while moving, the kinematic guards of the
+//! candidate setpoint. A full evaluation of a pose thus takes [`CHECK_STAGES`] ticks. The
+//! checker works on one pose at a time, taking turns between the pending path and the
+//! braking point; each kind of pose keeps its own warm-started SVD
 //! ([`ConditionEstimator`]).
-//! 1. **Verify** the pending target: the straight segment from the setpoint at submission
-//!    to the target is sampled at `path_step` / `path_step_angle`, the end point first; a
-//!    stop-level violation anywhere refuses the target (the robot keeps its goal). Standing
-//!    still, `samples_per_tick` samples per tick; moving, one every other tick.
+//! 1. **Verify** the pending target: the straight segment to it from the goal the robot is
+//!    heading for (a verified target, or the setpoint standing still) is sampled at
+//!    `path_step` / `path_step_angle`, the end point first; a stop-level violation
+//!    anywhere refuses the target (the robot keeps its goal).
 //! 2. **Move** towards the verified goal with a speed- and acceleration-limited profile in
 //!    Cartesian space: speeds capped by the tip and angular speed limits and scaled down so
 //!    that J·twist stays within the joint speed limits; the braking profile √(2 a d) makes
 //!    it stop at the goal. The Cartesian accelerations are scaled down where the Jacobian
 //!    would turn them into more than the joints' acceleration limits.
-//! 3. **Check**, every other tick, the point where braking would stop if it began two
-//!    ticks later at the highest speed the unchecked tick can reach: every guard. A
-//!    stop-level violation there turns the motion into a controlled stop (full
-//!    deceleration along the current twist on every tick) on the stretch checked earlier. The candidate itself lies between the setpoint and a
-//!    braking point checked this tick or the last; it gets the kinematic guards (reach,
-//!    workspace, joint ranges, tilt, collision, serial singularity) every tick, at the
-//!    resolution the path check works at for the rest (0.05 mm between braking points at
-//!    25 mm/s against 0.5 mm between path samples). Starting from rest it gets every guard.
+//! 3. **Check**, in turn with the path samples, the braking point: where braking would stop
+//!    if it began only when the check after this one has finished, the robot accelerating
+//!    until then (see [`Supervisor::tick`] for the bound). A stop-level violation there
+//!    turns the motion into a controlled stop (full deceleration along the current twist on
+//!    every tick) within the stretch the earlier braking points covered. The candidate
+//!    setpoint itself gets the kinematic guards (reach, workspace, joint ranges, tilt,
+//!    collision, serial singularity) every tick; it lies on the stretch the braking points
+//!    (about 0.2 mm apart at 25 mm/s) and the path samples (0.5 mm apart) checked in full.
 //!    A stop-level violation of the candidate holds the last safe setpoint and latches the
 //!    reason until [`Supervisor::clear`].
 
 use crate::branch::Branch;
 use crate::guards::{
     Depth, Evaluation, GuardSetupError, Guards, Limits, MotionSample, Reading, Severity, Solved,
+    Staged,
 };
 use crate::jacobian::{jacobian, Jacobians};
 use crate::mechanism::{JointKind, Mechanism};
@@ -50,10 +53,12 @@ pub struct SupervisorConfig<T: Real> {
     pub path_step: T,
     /// Spacing of the path-check samples in rotation, rad (default 0.5 deg).
     pub path_step_angle: T,
-    /// Path-check samples evaluated per tick while the robot stands still (default 1;
-    /// while it moves, one every other tick). Each costs a full guard evaluation (about
-    /// 12,000 instructions on the Cortex-M4).
-    pub samples_per_tick: u16,
+    /// Stages of the full guard evaluations run per tick (default 1: the least work per
+    /// tick; 1 ..= [`CHECK_STAGES`]). A full evaluation is [`CHECK_STAGES`] stages; the
+    /// largest (the SVD) costs about 6,000 instructions on the Cortex-M4. At control rates
+    /// well below 1 kHz more stages per tick keep the path check up with the master's
+    /// stream (e.g. 4, one full evaluation per tick, at 250 Hz).
+    pub stages_per_tick: u16,
     /// Targets farther than this from the setpoint are refused outright, m (default 60 mm).
     pub max_segment: T,
     /// ... or rotated farther than this, rad (default 45 deg).
@@ -72,7 +77,7 @@ impl<T: Real> Default for SupervisorConfig<T> {
             stale_after_us: 100_000,
             path_step: lit(0.5e-3),
             path_step_angle: lit(0.5f64.to_radians()),
-            samples_per_tick: 1,
+            stages_per_tick: 1,
             max_segment: lit(0.060),
             max_segment_angle: lit(45f64.to_radians()),
             joint_speed_headroom: lit(0.8),
@@ -241,30 +246,33 @@ pub struct Supervisor<T: Real, M: Mechanism<T>> {
     warning: bool,
     counters: Counters,
     last_refusal: Option<Refusal<T>>,
-    /// Where guard evaluations write the solution and Jacobians they compute.
+    /// Where the candidate's evaluation writes the solution and Jacobians it computes.
     scratch: Evaluation<T>,
+    /// The full evaluation in progress, one stage per tick, and what it is for.
+    checker: Staged<T>,
+    job: Option<Job>,
+    /// The next job goes to the path check (else to the braking point) when both wait.
+    path_turn: bool,
     /// Warm starts of the parallel measure's SVD, one per stream of nearby poses.
     cond_setpoint: ConditionEstimator<T>,
     cond_path: ConditionEstimator<T>,
     cond_path_end: ConditionEstimator<T>,
     cond_ahead: ConditionEstimator<T>,
-    /// Alternates the second evaluation of a moving tick between the path check and the
-    /// braking point.
-    ahead_turn: bool,
-    /// The braking point was checked in full last tick.
-    ahead_checked_last: bool,
     /// A warn level was reached at the last braking point checked.
     ahead_warn: bool,
 }
 
-/// Which warm start a guard evaluation uses.
+/// Ticks a full guard evaluation takes (one [`crate::guards::Stage`] per tick).
+pub const CHECK_STAGES: u32 = 4;
+
+/// What the checker is evaluating.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Stream {
-    Setpoint,
-    /// Path samples 1, 2, ... of the pending segment (0.5 mm apart).
+enum Job {
+    /// A sample of the pending path.
     Path,
-    /// The end of each pending segment, checked first (far from the other samples).
+    /// The end of the pending path (checked first).
     PathEnd,
+    /// The braking point.
     Ahead,
 }
 
@@ -306,9 +314,9 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         if !(pos(cfg.max_segment) && pos(cfg.max_segment_angle)) {
             return Err(SupervisorError::Config("max segment must be positive"));
         }
-        if cfg.samples_per_tick == 0 {
+        if !(1..=CHECK_STAGES).contains(&u32::from(cfg.stages_per_tick)) {
             return Err(SupervisorError::Config(
-                "samples_per_tick must be at least 1",
+                "stages_per_tick must be within 1 ..= 4",
             ));
         }
         let n = (cfg.max_segment / cfg.path_step).max(cfg.max_segment_angle / cfg.path_step_angle);
@@ -352,14 +360,28 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             counters: Counters::default(),
             last_refusal: None,
             scratch: Evaluation::new(branch),
+            checker: Staged::new(branch),
+            job: None,
+            path_turn: true,
             cond_setpoint: ConditionEstimator::new(),
             cond_path: ConditionEstimator::new(),
             cond_path_end: ConditionEstimator::new(),
             cond_ahead: ConditionEstimator::new(),
-            ahead_turn: false,
-            ahead_checked_last: false,
             ahead_warn: false,
         })
+    }
+
+    /// Stops as soon as the limits allow, e.g. when the master falls silent: forgets the
+    /// pending and queued targets and brakes along the current twist at full deceleration
+    /// (within the stretch the braking points have checked); the goal becomes where the
+    /// robot comes to rest. Not a latched stop: new targets are taken.
+    pub fn brake(&mut self) {
+        self.drop_pending();
+        if self.twist.iter().any(|x| *x != T::zero()) {
+            self.braking = true;
+        } else {
+            self.goal = self.pose;
+        }
     }
 
     /// The guards in use.
@@ -425,7 +447,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         if self.last_stamp_us.is_some_and(|last| stamp_us <= last) {
             return self.refuse(Refusal::OutOfOrder);
         }
-        let (distance, angle) = self.check_distance(target)?;
+        self.check_distance(target)?;
         self.last_stamp_us = Some(stamp_us);
         if self.pending.is_some() {
             if self.queued.is_some() {
@@ -434,30 +456,43 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             self.queued = Some(*target);
             return Ok(());
         }
-        self.start_pending(target, distance, angle);
+        self.start_pending(target);
         Ok(())
     }
 
-    /// Refuses a target too far from the current setpoint; else its distance and angle.
-    fn check_distance(&mut self, target: &Pose<T>) -> Result<(T, T), Refusal<T>> {
+    /// Refuses a target too far from the current setpoint.
+    fn check_distance(&mut self, target: &Pose<T>) -> Result<(), Refusal<T>> {
         let distance = norm3(&(target.t - self.pose.t));
         let angle = rotation_angle(&(target.r * self.pose.r.inverse()));
         if !(distance <= self.cfg.max_segment && angle <= self.cfg.max_segment_angle) {
             self.refuse(Refusal::TooFar { distance, angle })?;
         }
-        Ok((distance, angle))
+        Ok(())
     }
 
-    /// Starts verifying the straight segment from the setpoint to `target` (`distance` and
-    /// `angle` from [`Supervisor::check_distance`]).
-    fn start_pending(&mut self, target: &Pose<T>, distance: T, angle: T) {
-        let n = (distance / self.cfg.path_step)
-            .max(angle / self.cfg.path_step_angle)
-            .ceil()
-            .max(T::one());
+    /// Starts verifying the straight segment to `target` from whichever of the goal the
+    /// robot is heading for (itself verified) and the setpoint is nearer to it, in path
+    /// samples: a fast stream of targets is then verified in short steps from the goal
+    /// however far the setpoint lags behind it, and a target back towards the setpoint
+    /// from the setpoint. The motion from the setpoint to the new goal stays within the
+    /// braking-point checks. While braking, from the setpoint.
+    fn start_pending(&mut self, target: &Pose<T>) {
+        let samples_from = |from: &Pose<T>| {
+            let distance = norm3(&(target.t - from.t));
+            let angle = rotation_angle(&(target.r * from.r.inverse()));
+            (distance / self.cfg.path_step).max(angle / self.cfg.path_step_angle)
+        };
+        let (at_goal, at_setpoint) = (samples_from(&self.goal), samples_from(&self.pose));
+        // (The setpoint is within `max_segment` of the target: checked on submission.)
+        let (from, n) = if !self.braking && at_goal < at_setpoint {
+            (self.goal, at_goal)
+        } else {
+            (self.pose, at_setpoint)
+        };
+        let n = n.ceil().max(T::one());
         let samples = crate::geometry::to_f64(n) as u16;
         self.pending = Some(Pending {
-            from: self.pose,
+            from,
             to: *target,
             samples: samples.max(1),
             next: 1,
@@ -468,8 +503,8 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
     /// Starts the queued target, if any, once the previous check is over.
     fn start_queued(&mut self) {
         if let Some(q) = self.queued.take() {
-            if let Ok((distance, angle)) = self.check_distance(&q) {
-                self.start_pending(&q, distance, angle);
+            if self.check_distance(&q).is_ok() {
+                self.start_pending(&q);
             }
         }
     }
@@ -483,29 +518,19 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         }
         self.latched = None;
         self.goal = self.pose;
-        self.pending = None;
-        self.queued = None;
+        self.drop_pending();
         self.braking = false;
         Ok(())
     }
 
-    /// First stop-level reading at a pose, if any; also reports warn-level ones.
-    /// Evaluates the guards at `pose` into `self.scratch`: the first stop-level reading,
-    /// whether a warn level is reached, and what was solved.
-    fn first_stop_at(
-        &mut self,
-        pose: &Pose<T>,
-        stream: Stream,
-        depth: Depth,
-    ) -> (Option<Reading<T>>, bool, Solved) {
+    /// Evaluates the kinematic guards at `pose` into `self.scratch` (the solution and its
+    /// Jacobians): the first stop-level reading, whether a warn level is reached, and what
+    /// was solved.
+    fn kinematic_check(&mut self, pose: &Pose<T>) -> (Option<Reading<T>>, bool, Solved) {
         let mut stop = None;
         let mut warn = false;
-        let cond = match stream {
-            Stream::Setpoint => &mut self.cond_setpoint,
-            Stream::Path => &mut self.cond_path,
-            Stream::PathEnd => &mut self.cond_path_end,
-            Stream::Ahead => &mut self.cond_ahead,
-        };
+        // (The kinematic depth has no SVD to warm-start.)
+        let cond = &mut self.cond_setpoint;
         let solved = self.guards.evaluate_pose_into(
             pose,
             &mut |r| match r.severity {
@@ -515,44 +540,98 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             },
             cond,
             &mut self.scratch,
-            depth,
+            Depth::Kinematic,
         );
         (stop, warn, solved)
     }
 
-    fn verify_pending(&mut self, samples: u16) {
-        let Some(mut p) = self.pending else { return };
-        for _ in 0..samples {
-            let k = if p.end_checked { p.next } else { p.samples };
-            let s = lit::<T>(f64::from(k)) / lit(f64::from(p.samples));
-            let at = interpolate(&p.from, &p.to, s);
-            let stream = if p.end_checked {
-                Stream::Path
+    /// Forgets the pending and the queued target (and a path check in progress).
+    fn drop_pending(&mut self) {
+        self.pending = None;
+        self.queued = None;
+        if matches!(self.job, Some(Job::Path | Job::PathEnd)) {
+            self.job = None;
+        }
+    }
+
+    /// Starts the checker's next job, if there is one: a sample of the pending path or
+    /// the braking point `ahead` (while moving and not braking), in turn when both wait.
+    fn start_job(&mut self, ahead: Option<&Pose<T>>) {
+        let path = self.pending.map(|p| {
+            let (k, job) = if p.end_checked {
+                (p.next, Job::Path)
             } else {
-                Stream::PathEnd
+                (p.samples, Job::PathEnd)
             };
-            if let (Some(reading), _, _) = self.first_stop_at(&at, stream, Depth::Full) {
-                self.pending = None;
-                let _ = self.refuse(Refusal::Path {
-                    fraction: s,
-                    reading,
-                });
-                self.start_queued();
-                return;
+            let s = lit::<T>(f64::from(k)) / lit(f64::from(p.samples));
+            (interpolate(&p.from, &p.to, s), job)
+        });
+        match (path, ahead) {
+            (Some((at, job)), None) => self.begin(&at, job),
+            (Some((at, job)), Some(_)) if self.path_turn => self.begin(&at, job),
+            (_, Some(a)) => self.begin(a, Job::Ahead),
+            (None, None) => {}
+        }
+    }
+
+    fn begin(&mut self, pose: &Pose<T>, job: Job) {
+        self.checker.start(pose);
+        self.job = Some(job);
+        self.path_turn = job == Job::Ahead;
+    }
+
+    /// Runs one stage of the checker's job; when it finishes, acts on its verdict. Returns
+    /// whether a braking point was found unsafe.
+    fn run_stage(&mut self) -> bool {
+        let Some(job) = self.job else { return false };
+        let cond = match job {
+            Job::Path => &mut self.cond_path,
+            Job::PathEnd => &mut self.cond_path_end,
+            Job::Ahead => &mut self.cond_ahead,
+        };
+        self.guards.advance(&mut self.checker, cond);
+        if !self.checker.is_finished() {
+            return false;
+        }
+        self.job = None;
+        let stop = self.checker.stop().copied();
+        match job {
+            Job::Ahead => {
+                self.ahead_warn = self.checker.warn();
+                stop.is_some()
             }
-            if p.end_checked {
-                p.next += 1;
-            } else {
-                p.end_checked = true;
+            Job::Path | Job::PathEnd => {
+                self.path_sample_checked(stop);
+                false
             }
-            if p.next >= p.samples {
-                self.pending = None;
-                self.goal = p.to;
-                self.braking = false;
-                self.counters.accepted += 1;
-                self.start_queued();
-                return;
-            }
+        }
+    }
+
+    /// The verdict on the pending path's current sample.
+    fn path_sample_checked(&mut self, stop: Option<Reading<T>>) {
+        let Some(mut p) = self.pending else { return };
+        if let Some(reading) = stop {
+            let k = if p.end_checked { p.next } else { p.samples };
+            self.pending = None;
+            let _ = self.refuse(Refusal::Path {
+                fraction: lit::<T>(f64::from(k)) / lit(f64::from(p.samples)),
+                reading,
+            });
+            self.start_queued();
+            return;
+        }
+        if p.end_checked {
+            p.next += 1;
+        } else {
+            p.end_checked = true;
+        }
+        if p.next >= p.samples {
+            self.pending = None;
+            self.goal = p.to;
+            self.braking = false;
+            self.counters.accepted += 1;
+            self.start_queued();
+            return;
         }
         self.pending = Some(p);
     }
@@ -622,8 +701,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         self.counters.stops += 1;
         self.twist = Twist::zeros();
         self.qdot = Joints::zeros();
-        self.pending = None;
-        self.queued = None;
+        self.drop_pending();
         self.output(false)
     }
 
@@ -652,20 +730,20 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
     }
 
     /// One control tick.
+    ///
+    /// The braking point checked by a job that starts on this tick must cover what can
+    /// happen until the next braking-point job has finished: a job takes L ticks (L =
+    /// [`CHECK_STAGES`] / `stages_per_tick`, rounded up) and the next one may wait for one
+    /// path sample, so it finishes at most 3·L - 1 ticks after this one; until then the
+    /// profile may accelerate, to v' = |v| + a·(3L - 1)·dt, and a violation found then
+    /// starts braking from there. The point checked is where the robot, moving on for 3L
+    /// ticks at v' along its current twist, would stop from v': v'²/2a + 3L·v'·dt ahead
+    /// (1.8 mm at 25 mm/s, 250 mm/s², L = 4).
     pub fn tick(&mut self) -> TickOutput<T> {
         if self.latched.is_some() {
             return self.output(false);
         }
-        // While moving, the braking point is checked in full every other tick and the
-        // ticks between verify a path sample, if any; standing still, the path check has
-        // every tick.
         let moving = self.twist.iter().any(|x| *x != T::zero());
-        let check_ahead = moving && self.ahead_turn;
-        self.ahead_turn = !check_ahead;
-        if !check_ahead {
-            let samples = if moving { 1 } else { self.cfg.samples_per_tick };
-            self.verify_pending(samples);
-        }
         // The limiter runs a hair inside the limits so that rounding never trips the
         // motion guards that check its output.
         let mut l = shaved(self.guards.limits());
@@ -674,6 +752,35 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         (l.tip_accel, l.angular_accel) = self.joint_safe_accels(&l);
         let dt = self.cfg.dt;
         let two = lit::<T>(2.0);
+        let v0 = Vector3::new(self.twist.x, self.twist.y, self.twist.z);
+        let w0 = Vector3::new(self.twist.w, self.twist.a, self.twist.b);
+        // The checker: `stages_per_tick` stages.
+        let stages = self.cfg.stages_per_tick;
+        let mut ahead_stop = false;
+        for _ in 0..stages {
+            if self.job.is_none() {
+                let ahead = (moving && !self.braking).then(|| {
+                    let per_job = CHECK_STAGES.div_ceil(u32::from(stages));
+                    let n = lit::<T>(f64::from(3 * per_job));
+                    let reach = |v: &Vector3<T>, amax: T| {
+                        let speed = norm3(v);
+                        if speed > T::zero() {
+                            let vp = speed + amax * (n - T::one()) * dt;
+                            v * ((vp * vp / (two * amax) + n * vp * dt) / speed)
+                        } else {
+                            Vector3::zeros()
+                        }
+                    };
+                    self.pose
+                        .displaced(&reach(&v0, l.tip_accel), &reach(&w0, l.angular_accel))
+                });
+                self.start_job(ahead.as_ref());
+            }
+            if self.job.is_none() {
+                break;
+            }
+            ahead_stop |= self.run_stage();
+        }
         // Desired twist towards the goal (world frame), with the braking profile.
         let e_t = self.goal.t - self.pose.t;
         let e_r = rotation_vector(&(self.goal.r * self.pose.r.inverse()));
@@ -692,8 +799,6 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         let v_des = dir_v * vcap.min(sqrt(two * l.tip_accel * d)).min(d / dt);
         let w_des = dir_w * wcap.min(sqrt(two * l.angular_accel * a)).min(a / dt);
         // Acceleration limit on the change of twist.
-        let v0 = Vector3::new(self.twist.x, self.twist.y, self.twist.z);
-        let w0 = Vector3::new(self.twist.w, self.twist.a, self.twist.b);
         let limit_step = |dv: Vector3<T>, amax: T| {
             let n = norm3(&dv);
             let m = amax * dt;
@@ -716,8 +821,9 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             && norm3(&w0) <= l.angular_accel * dt
         {
             if d + a > T::zero() {
+                // The goal was checked in full (the end of its path, first of all).
                 let goal = self.goal;
-                let (stop, warn, solved) = self.first_stop_at(&goal, Stream::Setpoint, Depth::Full);
+                let (stop, warn, solved) = self.kinematic_check(&goal);
                 if stop.is_none() && solved != Solved::No {
                     self.pose = self.goal;
                     self.q = self.scratch.sol.q();
@@ -742,55 +848,23 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             let sw = norm3(w) / (two * l.angular_accel);
             from.displaced(&(v * sv), &(w * sw))
         };
-        // Checked every other tick at most, so the point checked must cover what the next
-        // two ticks can do: the unchecked tick may still accelerate to v' = |v| + a·dt, and
-        // a violation found on the tick after it starts braking from there. Braking then
-        // stops within v'²/2a + 2·v'·dt of the candidate (one tick at v', one more while
-        // the brake takes hold); along the current direction of motion.
-        let reach = |v: &Vector3<T>, amax: T| {
-            let n = norm3(v);
-            if n > T::zero() {
-                let vp = n + amax * dt;
-                v * ((vp * vp / (two * amax) + two * vp * dt) / n)
-            } else {
-                Vector3::zeros()
-            }
-        };
-        let ahead = candidate.displaced(&reach(&v1, l.tip_accel), &reach(&w1, l.angular_accel));
-        let mut ahead_stop = false;
-        if check_ahead {
-            let (stop, warn, _) = self.first_stop_at(&ahead, Stream::Ahead, Depth::Full);
-            ahead_stop = stop.is_some();
-            self.ahead_warn = warn;
-        }
-        // The candidate lies between the setpoint and a braking point checked in full this
-        // tick or the last (one tick further on than needed, see above): the kinematic
-        // guards suffice for it. Otherwise (starting from rest) it gets the full check.
-        let depth = if check_ahead || self.ahead_checked_last {
-            Depth::Kinematic
-        } else {
-            Depth::Full
-        };
-        self.ahead_checked_last = check_ahead;
         if ahead_stop || self.braking {
-            // Brake on the path verified before: decelerate along the current twist, at
-            // the full deceleration on every tick until the robot stands (the braking
-            // profile towards a goal would lose half of it on the ticks between checks).
+            // Brake on the stretch checked before: decelerate along the current twist, at
+            // the full deceleration on every tick until the robot stands.
             if !self.braking {
                 self.counters.brakes += 1;
             }
             self.braking = true;
-            self.pending = None;
-            self.queued = None;
+            self.drop_pending();
             v1 = v0 - limit_step(v0, l.tip_accel);
             w1 = w0 - limit_step(w0, l.angular_accel);
             candidate = self.pose.displaced(&(v1 * dt), &(w1 * dt));
             self.goal = stop_point(&v1, &w1, &candidate);
         }
-        let (stop, warn, solved) = self.first_stop_at(&candidate, Stream::Setpoint, depth);
+        let (stop, warn, solved) = self.kinematic_check(&candidate);
         // A warn level reached at the braking point is reported as well (the payload's
         // torque, e.g., is only evaluated there while moving).
-        let warn = warn || (depth == Depth::Kinematic && self.ahead_warn);
+        let warn = warn || self.ahead_warn;
         match (stop, solved) {
             (Some(r), _) => return self.hold(r),
             (None, Solved::No) => return self.output(warn), // unreachable: no solution is a stop

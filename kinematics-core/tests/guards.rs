@@ -8,6 +8,7 @@ use common::*;
 use kinematics_core::guards::*;
 use kinematics_core::*;
 use nalgebra::{Rotation3, Vector3, Vector6};
+use proptest::prelude::*;
 
 type G = Guards<f64, RsprGeometry<f64>>;
 
@@ -452,4 +453,66 @@ fn thesis_task_box_claim_with_default_limits() {
         vec![Guard::Stroke]
     );
     assert!(worst_torque > 0.5 && worst_torque < 1.0);
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(256))]
+
+    /// A staged evaluation (one stage per call, as the supervisor runs it across control
+    /// ticks) reaches the one-shot verdict: the same first stop-level reading, the same
+    /// warn flag when nothing stops, in at most four stages; it stops at the first stage
+    /// that finds a stop. Poses in and far around the task box, tilted up to 46 deg, so
+    /// that every guard (reach, ranges, singularities, torques) stops somewhere.
+    #[test]
+    fn staged_evaluation_reaches_the_one_shot_verdict(
+        x in -0.06..0.06f64, y in -0.06..0.06f64, z in -0.04..0.04f64,
+        r in prop::array::uniform3(-0.8..0.8f64),
+        open in any::<bool>(),
+    ) {
+        // Half the cases with the workspace box and tilt cone opened and the torque
+        // rating lowered, so that the later stages (parallel measure, statics) find the
+        // stops too.
+        let mut limits = Limits::reference();
+        if open {
+            limits.box_half = Vector3::new(0.1, 0.1, 0.1);
+            limits.tilt_cone = 1.5;
+            limits.torque = Levels { warn: 0.3, stop: 0.6 };
+        }
+        let g = guards(limits);
+        let k = if open { 0.5 } else { 1.0 };
+        let pose = Pose {
+            t: Vector3::new(k * x, k * y, 0.160 + k * z),
+            r: Rotation3::from_scaled_axis(Vector3::from_row_slice(&r)),
+        };
+        let (mut stop, mut warn) = (None, false);
+        g.evaluate_pose(&pose, &mut |r| match r.severity {
+            Some(Severity::Stop) if stop.is_none() => stop = Some(*r),
+            Some(Severity::Warn) => warn = true,
+            _ => {}
+        });
+        let mut st = Staged::new(Branch::OUTER);
+        st.start(&pose);
+        let mut cond = kinematics_core::singularity::ConditionEstimator::new();
+        let mut stages = 0;
+        while !st.is_finished() {
+            let before = st.stop().copied();
+            prop_assert!(before.is_none(), "went on after a stop");
+            g.advance(&mut st, &mut cond);
+            stages += 1;
+        }
+        prop_assert!(stages <= 4);
+        if let Some(r) = stop {
+            // Which stage found it.
+            let expected = match r.guard {
+                Guard::ParallelSingularity => 3,
+                Guard::Force | Guard::Torque => 4,
+                _ => 1,
+            };
+            prop_assert_eq!(stages, expected, "{:?}", r);
+        }
+        prop_assert_eq!(st.stop().copied(), stop);
+        if stop.is_none() {
+            prop_assert_eq!(st.warn(), warn);
+        }
+    }
 }

@@ -313,7 +313,8 @@ fn unsafe_paths_between_safe_poses_are_refused_at_the_check_resolution() {
         thinnest = thinnest.min(unsafe_samples as f64 / 200.0 * 2.0 * dir.norm());
         let mut sup = Supervisor::new(g, Branch::OUTER, limits, cfg, &a).unwrap();
         sup.submit(&b, 1, 1).unwrap();
-        for _ in 0..200 {
+        // Up to 120 samples of 4 stages, one stage per tick.
+        for _ in 0..600 {
             sup.tick();
         }
         if matches!(sup.last_refusal(), Some(Refusal::Path { reading, .. }) if reading.guard == Guard::Stroke)
@@ -329,9 +330,7 @@ fn unsafe_paths_between_safe_poses_are_refused_at_the_check_resolution() {
     assert_eq!(refused, bulging);
 }
 
-/// Constant bounded work per tick: a tick evaluates at most max(samples_per_tick, 1) + 1
-/// poses in full and one with the kinematic guards. (The instruction count per tick on the
-/// Cortex-M4 is measured by the firmware's QEMU run.)
+/// Bad settings and an unsafe start pose are refused by name.
 #[test]
 fn supervisor_settings_are_validated() {
     let bad = SupervisorConfig {
@@ -361,15 +360,27 @@ fn supervisor_settings_are_validated() {
     ));
 }
 
-/// The reference RSPR with a fault switch: while `broken` is set, chain 2 finds no
-/// solution anywhere (what a corrupted computation or geometry would look like to the
-/// supervisor). The supervisor predicts every other stop it could meet and brakes before
-/// it (see `output_is_always_safe_and_limited`), so a fault the path check could not see
-/// is the way to reach its last resort, the latched stop.
+/// The reference RSPR with a fault switch and call counters. While `broken` is set, chain
+/// 2 finds no solution anywhere (what a corrupted computation or geometry would look like
+/// to the supervisor). The supervisor predicts every other stop it could meet and brakes
+/// before it (see `output_is_always_safe_and_limited`), so a fault the path check could
+/// not see is the way to reach its last resort, the latched stop. The counters count the
+/// chains' inverse kinematics and serial blocks (the Jacobians).
 #[derive(Clone)]
 struct Faulty {
     robot: RsprGeometry<f64>,
     broken: std::rc::Rc<std::cell::Cell<bool>>,
+    chain_iks: std::rc::Rc<std::cell::Cell<u32>>,
+    serial_blocks: std::rc::Rc<std::cell::Cell<u32>>,
+}
+
+fn faulty() -> Faulty {
+    Faulty {
+        robot: RsprGeometry::reference(),
+        broken: Default::default(),
+        chain_iks: Default::default(),
+        serial_blocks: Default::default(),
+    }
 }
 
 impl Mechanism<f64> for Faulty {
@@ -395,12 +406,14 @@ impl Mechanism<f64> for Faulty {
         bit_set: bool,
         out: &mut ChainSolution<f64>,
     ) -> Result<(), IkFailure> {
+        self.chain_iks.set(self.chain_iks.get() + 1);
         if self.broken.get() && chain == Chain::Two {
             return Err(IkFailure::NoRealRoot);
         }
         self.robot.chain_ik(chain, pc, bit_set, out)
     }
     fn serial_block(&self, s: &ChainSolution<f64>) -> SerialBlock<f64> {
+        self.serial_blocks.set(self.serial_blocks.get() + 1);
         self.robot.serial_block(s)
     }
     fn serial_measure(&self, s: &ChainSolution<f64>) -> (f64, f64) {
@@ -413,11 +426,8 @@ impl Mechanism<f64> for Faulty {
 /// held.
 #[test]
 fn stop_holds_latches_and_clears() {
-    let broken = std::rc::Rc::new(std::cell::Cell::new(false));
-    let robot = Faulty {
-        robot: RsprGeometry::reference(),
-        broken: broken.clone(),
-    };
+    let robot = faulty();
+    let broken = robot.broken.clone();
     let mut sup = Supervisor::new(
         robot,
         Branch::OUTER,
@@ -431,9 +441,10 @@ fn stop_holds_latches_and_clears() {
         r: Rotation3::identity(),
     };
     sup.submit(&target, 1000, 1000).unwrap();
-    // 10 ticks verify the 5 mm path (one 0.5 mm sample per tick), then the motion starts.
+    // 44 ticks verify the 5 mm path (11 samples 0.5 mm apart, each a full evaluation in
+    // 4 stages, one per tick), then the motion starts.
     let mut out = sup.tick();
-    for _ in 0..30 {
+    for _ in 0..60 {
         out = sup.tick();
     }
     assert_eq!(out.mode, Mode::Moving);
@@ -483,7 +494,7 @@ fn fast_target_stream_is_followed_not_starved() {
         sup.tick();
     }
     assert!(
-        sup.setpoint().t.x > 0.003,
+        sup.setpoint().t.x > 0.002,
         "the robot moved while the stream ran: {}",
         sup.setpoint().t.x
     );
@@ -496,4 +507,122 @@ fn fast_target_stream_is_followed_not_starved() {
         sup.setpoint().t
     );
     assert!(sup.counters().accepted >= 2 && sup.counters().superseded > 0);
+}
+
+/// Constant bounded work per tick: whatever the master sends, a tick runs at most two
+/// inverse kinematics (the candidate's and one stage of the full evaluation in progress)
+/// and at most two Jacobians; the parallel measure's SVD and the statics are stages of
+/// their own (`staged_evaluation_reaches_the_one_shot_verdict` in `guards.rs`). The
+/// instructions per tick on the Cortex-M4 are measured by the firmware's QEMU run.
+#[test]
+fn work_per_tick_is_bounded() {
+    let robot = faulty();
+    let (iks, blocks) = (robot.chain_iks.clone(), robot.serial_blocks.clone());
+    let mut sup = Supervisor::new(
+        robot,
+        Branch::OUTER,
+        Limits::reference(),
+        SupervisorConfig::default(),
+        &Pose::central(0.160),
+    )
+    .unwrap();
+    let mut now = 1_000u64;
+    let (mut worst_iks, mut worst_blocks, mut moving) = (0, 0, 0);
+    let mut seed = 7u64;
+    for k in 0..6000u64 {
+        now += 1000;
+        // A new target every 250 ms somewhere around the task box, every fifth one
+        // outside the workspace; a 1 kHz stream of small steps in between.
+        if k % 250 == 0 {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            let u = |s: u32| ((seed >> s) & 0xffff) as f64 / 65535.0 - 0.5;
+            let reach = if (k / 250) % 5 == 4 { 0.14 } else { 0.05 };
+            let target = Pose {
+                t: Vector3::new(reach * u(0), reach * u(16), 0.160 + 0.02 * u(32)),
+                r: Rotation3::from_scaled_axis(Vector3::new(0.4 * u(48), 0.4 * u(8), 0.0)),
+            };
+            let _ = sup.submit(&target, now, now);
+        } else if (k / 250) % 2 == 1 {
+            let p = sup.setpoint();
+            let next = Pose {
+                t: p.t + Vector3::new(2e-5, 0.0, 0.0),
+                r: p.r,
+            };
+            let _ = sup.submit(&next, now, now);
+        }
+        iks.set(0);
+        blocks.set(0);
+        let out = sup.tick();
+        if out.twist != Twist::zeros() {
+            moving += 1;
+        }
+        worst_iks = worst_iks.max(iks.get());
+        worst_blocks = worst_blocks.max(blocks.get());
+        prop_assert_ok(iks.get() <= 6, k, "chain IKs", iks.get());
+        prop_assert_ok(blocks.get() <= 6, k, "serial blocks", blocks.get());
+    }
+    println!(
+        "worst tick: {worst_iks} chain IKs, {worst_blocks} serial blocks; {moving} moving \
+         ticks; {:?}",
+        sup.counters()
+    );
+    assert!(moving > 1000 && sup.counters().accepted > 10 && sup.counters().refused() >= 2);
+}
+
+fn prop_assert_ok(ok: bool, tick: u64, what: &str, n: u32) {
+    assert!(ok, "tick {tick}: {n} {what} (at most 6: two evaluations)");
+}
+
+/// `brake` (the firmware's hold when the master falls silent) stops the robot at full
+/// deceleration: moving at the 25 mm/s limit it comes to rest within v²/2a (1.25 mm) plus
+/// one tick, without a latched stop, and takes new targets afterwards.
+#[test]
+fn brake_stops_within_the_braking_distance_and_takes_new_targets() {
+    let mut sup = supervisor(Limits::reference());
+    let far = Pose {
+        t: Vector3::new(0.018, 0.0, 0.160),
+        r: Rotation3::identity(),
+    };
+    sup.submit(&far, 1000, 1000).unwrap();
+    let mut out = sup.tick();
+    for _ in 0..600 {
+        out = sup.tick();
+        if out.twist.fixed_rows::<3>(0).norm() > 0.0249 {
+            break;
+        }
+    }
+    let v = out.twist.fixed_rows::<3>(0).norm();
+    assert!(v > 0.0249, "at the speed limit: {v}");
+    let at = sup.setpoint().t.x;
+    sup.brake();
+    let mut ticks = 0;
+    loop {
+        out = sup.tick();
+        ticks += 1;
+        assert_ne!(out.mode, Mode::Stopped);
+        if out.twist == Twist::zeros() {
+            break;
+        }
+        assert!(ticks < 200);
+    }
+    let travel = sup.setpoint().t.x - at;
+    let bound = v * v / (2.0 * 0.25) + v * 1e-3;
+    println!(
+        "braked from {v} m/s in {ticks} ticks over {:.3} mm (bound {:.3})",
+        travel * 1e3,
+        bound * 1e3
+    );
+    assert!(travel > 0.0 && travel <= bound, "{travel} > {bound}");
+    for _ in 0..10 {
+        assert_eq!(sup.tick().mode, Mode::Holding);
+    }
+    assert_eq!(sup.counters().brakes, 0, "a commanded stop, not a guard's");
+    let back = Pose::central(0.160);
+    sup.submit(&back, 2_000_000, 2_000_000).unwrap();
+    for _ in 0..3000 {
+        sup.tick();
+    }
+    assert!((sup.setpoint().t - back.t).norm() < 1e-9);
 }

@@ -197,6 +197,12 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Planner<S, M> {
         self.supervisor.clear().is_ok()
     }
 
+    /// Stops the robot as soon as the limits allow and holds it there
+    /// ([`Supervisor::brake`]).
+    pub fn hold(&mut self) {
+        self.supervisor.brake();
+    }
+
     /// The setpoint of this tick and the tool's flanks at it.
     pub fn tick(&mut self) -> Plan<S> {
         let setpoint = self.supervisor.tick();
@@ -475,6 +481,12 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Controller<S, M> {
     /// [`Controller::reset_servo`]).
     pub fn clear_stop(&mut self) -> bool {
         self.planner.clear_stop()
+    }
+
+    /// Stops the robot as soon as the limits allow and holds it there
+    /// ([`Supervisor::brake`]).
+    pub fn hold(&mut self) {
+        self.planner.hold();
     }
 
     /// Resets the servo after a tracking fault, holding the measured joints.

@@ -1279,13 +1279,11 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
     where
         H: QuadratureCounter + MotorOutputs<S>,
     {
-        // Stop at the current setpoint when a hold starts.
+        // Brake to a stop when a hold starts.
         let holding = self.sm.hold().is_some();
         if holding && !self.was_holding {
-            let stamp = self.targets.board_stamp(now_us);
             if let Some(ctl) = self.controller.as_mut() {
-                let here = *ctl.supervisor().setpoint();
-                let _ = ctl.submit(&here, stamp, now_us);
+                ctl.hold();
             }
         }
         self.was_holding = holding;
