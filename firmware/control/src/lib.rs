@@ -7,7 +7,11 @@
 //!               -> supervisor (target -> safe, rate-limited setpoint; its IK and guards)
 //!               -> per-joint PID with velocity feed-forward J·twist -> PWM duties
 //! ```
-//! The hardware sits behind the small traits of [`servo::hal`].
+//! The hardware sits behind the small traits of [`servo::hal`]. The tick has two halves
+//! ([`Controller::into_parts`]): the [`Planner`] (supervisor, the tool's backlash flanks),
+//! which depends only on the master's targets, and the [`Drive`] (encoders, measured pose,
+//! joint servos, outputs); the board runs them in turn, the host simulation may run the
+//! planner ahead on another core.
 #![no_std]
 #![deny(
     clippy::unwrap_used,
