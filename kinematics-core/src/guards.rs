@@ -571,6 +571,18 @@ pub enum Solved {
     WithJacobian,
 }
 
+/// The stop-level reading of a chain that cannot reach the pose.
+fn unreachable<T: Real>(chain: Chain) -> Reading<T> {
+    Reading {
+        guard: Guard::Reach,
+        subject: Subject::Chain(chain),
+        value: T::zero(),
+        limit: T::zero(),
+        margin: -T::one(),
+        severity: Some(Severity::Stop),
+    }
+}
+
 /// The stages of a staged full evaluation, in order.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Stage {
@@ -735,17 +747,9 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
         out: &mut Evaluation<T>,
         depth: Depth,
     ) -> Solved {
-        let stop = Some(Severity::Stop);
         self.workspace_readings(pose, visit);
         if let Err(e) = inverse_into(&self.robot, pose, self.branch, &mut out.sol) {
-            visit(&Reading {
-                guard: Guard::Reach,
-                subject: Subject::Chain(e.chain),
-                value: T::zero(),
-                limit: T::zero(),
-                margin: -T::one(),
-                severity: stop,
-            });
+            visit(&unreachable(e.chain));
             return Solved::No;
         }
         if self.solution_readings(&out.sol, visit, cond, &mut out.jac, depth) {
@@ -993,14 +997,7 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
                 self.workspace_readings(pose, &mut visit);
                 match inverse_into(&self.robot, pose, self.branch, &mut eval.sol) {
                     Err(e) => {
-                        visit(&Reading {
-                            guard: Guard::Reach,
-                            subject: Subject::Chain(e.chain),
-                            value: T::zero(),
-                            limit: T::zero(),
-                            margin: -T::one(),
-                            severity: Some(Severity::Stop),
-                        });
+                        visit(&unreachable(e.chain));
                         None
                     }
                     Ok(()) => {

@@ -283,6 +283,14 @@ pub fn interpolate<T: Real>(a: &Pose<T>, b: &Pose<T>, s: T) -> Pose<T> {
     a.displaced(&((b.t - a.t) * s), &(dw * s))
 }
 
+/// The limit of a joint of `kind` from a [prismatic, revolute] pair.
+fn of_kind<T: Real>(pair: &[T; 2], kind: JointKind) -> T {
+    match kind {
+        JointKind::Linear => pair[0],
+        JointKind::Angular => pair[1],
+    }
+}
+
 /// The motion limits scaled by (1 - 1000 ε).
 fn shaved<T: Real>(l: &Limits<T>) -> Limits<T> {
     let k = T::one() - T::default_epsilon() * lit(1000.0);
@@ -654,10 +662,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         let qd = j * probe;
         let mut scale = T::one();
         for (v, kind) in qd.iter().zip(self.guards.robot().joint_kinds().iter()) {
-            let lim = match kind {
-                JointKind::Linear => l.joint_speed[0],
-                JointKind::Angular => l.joint_speed[1],
-            } * self.cfg.joint_speed_headroom;
+            let lim = of_kind(&l.joint_speed, *kind) * self.cfg.joint_speed_headroom;
             if v.abs() * scale > lim {
                 scale = lim / v.abs();
             }
@@ -675,10 +680,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         };
         let mut scale = T::one();
         for (row, kind) in j.row_iter().zip(self.guards.robot().joint_kinds().iter()) {
-            let lim = match kind {
-                JointKind::Linear => l.joint_accel[0],
-                JointKind::Angular => l.joint_accel[1],
-            } * self.cfg.joint_accel_headroom;
+            let lim = of_kind(&l.joint_accel, *kind) * self.cfg.joint_accel_headroom;
             let (mut sv, mut sw) = (T::zero(), T::zero());
             for (k, x) in row.iter().enumerate() {
                 if k < 3 {

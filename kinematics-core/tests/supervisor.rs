@@ -383,6 +383,18 @@ fn faulty() -> Faulty {
     }
 }
 
+/// A supervisor with the default settings holding the central pose of `robot`.
+fn on_faulty(robot: Faulty) -> Supervisor<f64, Faulty> {
+    Supervisor::new(
+        robot,
+        Branch::OUTER,
+        Limits::reference(),
+        SupervisorConfig::default(),
+        &Pose::central(0.160),
+    )
+    .unwrap()
+}
+
 impl Mechanism<f64> for Faulty {
     fn rp(&self) -> f64 {
         self.robot.rp()
@@ -428,14 +440,7 @@ impl Mechanism<f64> for Faulty {
 fn stop_holds_latches_and_clears() {
     let robot = faulty();
     let broken = robot.broken.clone();
-    let mut sup = Supervisor::new(
-        robot,
-        Branch::OUTER,
-        Limits::reference(),
-        SupervisorConfig::default(),
-        &Pose::central(0.160),
-    )
-    .unwrap();
+    let mut sup = on_faulty(robot);
     let target = Pose {
         t: Vector3::new(0.005, 0.0, 0.160),
         r: Rotation3::identity(),
@@ -518,14 +523,7 @@ fn fast_target_stream_is_followed_not_starved() {
 fn work_per_tick_is_bounded() {
     let robot = faulty();
     let (iks, blocks) = (robot.chain_iks.clone(), robot.serial_blocks.clone());
-    let mut sup = Supervisor::new(
-        robot,
-        Branch::OUTER,
-        Limits::reference(),
-        SupervisorConfig::default(),
-        &Pose::central(0.160),
-    )
-    .unwrap();
+    let mut sup = on_faulty(robot);
     let mut now = 1_000u64;
     let (mut worst_iks, mut worst_blocks, mut moving) = (0, 0, 0);
     let mut seed = 7u64;
