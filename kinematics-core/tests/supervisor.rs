@@ -624,3 +624,49 @@ fn brake_stops_within_the_braking_distance_and_takes_new_targets() {
     }
     assert!((sup.setpoint().t - back.t).norm() < 1e-9);
 }
+
+/// A verified target next to a stop-level boundary: the braking point looks 3L ticks
+/// ahead along the motion (L = 4, the ticks of a staged evaluation), so near a boundary it
+/// crosses it before the robot arrives, and the robot brakes to rest short of the target,
+/// never past the boundary and without a latched stop. The shortfall is pinned here (at
+/// most 0.6 mm with the limit 0.1 mm beyond the goal; 0.475 mm measured): a braking point
+/// clamped at the goal reached it, but a goal changing within the look-ahead's window then
+/// carried the robot past a checked stretch (a latched stop in the property test), so it
+/// was not kept. The platform goes down 12 mm (also tilted 10 deg) to a pose where a leg is
+/// 0.1 mm above its minimum stroke.
+#[test]
+fn a_target_next_to_a_boundary_is_approached_safely() {
+    let robot = RsprGeometry::reference();
+    for tilt in [0.0, 10.0 * DEG] {
+        let target = Pose {
+            t: Vector3::new(0.004, -0.003, 0.148),
+            r: Rotation3::from_scaled_axis(Vector3::new(tilt, 0.0, 0.0)),
+        };
+        let legs = inverse(&robot, &target, Branch::OUTER).unwrap().q();
+        let shortest = legs.x.min(legs.y).min(legs.z);
+        let mut limits = Limits::reference();
+        limits.stroke[0] = shortest - 0.1e-3;
+        let mut sup = supervisor(limits);
+        sup.submit(&target, 1000, 1000).unwrap();
+        let mut out = sup.tick();
+        for _ in 0..4000 {
+            out = sup.tick();
+            assert_ne!(out.mode, Mode::Stopped);
+            let q = inverse(&robot, &out.pose, Branch::OUTER).unwrap().q();
+            assert!(q.x.min(q.y).min(q.z) >= limits.stroke[0]);
+        }
+        let (dp, dr) = pose_error(sup.setpoint(), &target);
+        println!(
+            "tilt {:.0} deg: leg {:.3} mm, limit {:.3} mm; at rest {:.3} mm, {:.4} deg from \
+             the target; {:?}",
+            tilt / DEG,
+            shortest * 1e3,
+            limits.stroke[0] * 1e3,
+            dp * 1e3,
+            dr / DEG,
+            sup.counters()
+        );
+        assert_eq!(out.twist, Twist::zeros());
+        assert!(dp < 0.6e-3, "{dp:e} m short");
+    }
+}
