@@ -10,6 +10,9 @@
 //! * `sim/default_scenario_1s`: a 1-s slice of that run (from 1 s into the 25 mm/s pass,
 //!   the fastest motion), the master streaming the path. One element is one simulated
 //!   second, so criterion's throughput in elem/s **is the real-time factor**.
+//! * `sim/default_run_2_threads`: the whole default run on two threads (the master side
+//!   ahead of the drive side, as `host-sim sim` runs it on a 2-core machine); one element
+//!   is one simulated millisecond: elem/s in thousands is the real-time factor.
 //! * `sim/plant_1ms`: the plant alone per simulated millisecond (10 steps of 100 us), the
 //!   duties and joint loads of that slice replayed tick by tick (one element is one
 //!   simulated ms: elem/s in thousands is the plant's own real-time factor).
@@ -133,6 +136,17 @@ fn bench(c: &mut Criterion) {
             BatchSize::PerIteration,
         )
     });
+
+    // The whole default run (18.5 s simulated) as `host-sim sim` runs it on this machine:
+    // the master side on its own thread. One element is one simulated millisecond, so
+    // elem/s in thousands is the real-time factor.
+    let simulated_ms = (scenario.duration_s / cfg.control_dt()).round() * cfg.control_dt() * 1e3;
+    group.sample_size(10);
+    group.throughput(Throughput::Elements(simulated_ms.round() as u64));
+    group.bench_function("default_run_2_threads", |b| {
+        b.iter(|| black_box(run(&robot, &limits, &cfg, &scenario, 2, &mut |_, _| {}).unwrap()))
+    });
+    group.throughput(Throughput::Elements(1));
 
     let plant_at_slice = sim_at_slice.plant().clone();
     let mut plant = plant_at_slice.clone();

@@ -8,8 +8,8 @@
 //! checker works on one pose at a time, taking turns between the pending path and the
 //! braking point; each kind of pose keeps its own warm-started SVD
 //! ([`ConditionEstimator`]).
-//! 1. **Verify** the pending target: the straight segment to it from the goal the robot is
-//!    heading for (a verified target, or the setpoint standing still) is sampled at
+//! 1. **Verify** the pending target: the straight segment to it from whichever of the goal
+//!    the robot is heading for (a verified target) and the setpoint is nearer is sampled at
 //!    `path_step` / `path_step_angle`, the end point first; a stop-level violation
 //!    anywhere refuses the target (the robot keeps its goal).
 //! 2. **Move** towards the verified goal with a speed- and acceleration-limited profile in
@@ -565,21 +565,23 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
     /// Starts the checker's next job, if there is one: a sample of the pending path or
     /// the braking point `ahead` (while moving and not braking), in turn when both wait.
     fn start_job(&mut self, ahead: Option<&Pose<T>>) {
-        let path = self.pending.map(|p| {
-            let (k, job) = if p.end_checked {
-                (p.next, Job::Path)
-            } else {
-                (p.samples, Job::PathEnd)
-            };
-            let s = lit::<T>(f64::from(k)) / lit(f64::from(p.samples));
-            (interpolate(&p.from, &p.to, s), job)
-        });
-        match (path, ahead) {
-            (Some((at, job)), None) => self.begin(&at, job),
-            (Some((at, job)), Some(_)) if self.path_turn => self.begin(&at, job),
+        match (self.pending, ahead) {
+            (Some(p), None) => self.begin_path(&p),
+            (Some(p), Some(_)) if self.path_turn => self.begin_path(&p),
             (_, Some(a)) => self.begin(a, Job::Ahead),
             (None, None) => {}
         }
+    }
+
+    /// Starts on the pending path's next sample (its end first).
+    fn begin_path(&mut self, p: &Pending<T>) {
+        let (k, job) = if p.end_checked {
+            (p.next, Job::Path)
+        } else {
+            (p.samples, Job::PathEnd)
+        };
+        let s = lit::<T>(f64::from(k)) / lit(f64::from(p.samples));
+        self.begin(&interpolate(&p.from, &p.to, s), job);
     }
 
     fn begin(&mut self, pose: &Pose<T>, job: Job) {
