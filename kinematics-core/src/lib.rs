@@ -11,7 +11,7 @@
 //!
 //! Like Klipper's kinematics, every robot offers the same few verbs and keeps the per-chain
 //! part a small pure function ([`Mechanism::chain_ik`] and [`Mechanism::serial_block`]);
-//! one generic implementation of the Jacobian ([`jacobian`]), the forward kinematics
+//! one generic implementation of the Jacobian ([`jacobian()`]), the forward kinematics
 //! ([`fk`]), the statics ([`statics`]), the singularity measures ([`singularity`]) and the
 //! spherical-joint tilt ([`tilt`]) serves both robots.
 #![no_std]

@@ -5,7 +5,7 @@ use crate::scalar::Real;
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
 /// A platform pose. At the edges it is written `x, y, z, rx, ry, rz` with (rx, ry, rz) the
-/// rotation vector (axis × angle), R = exp([r]×).
+/// rotation vector (axis × angle), R = exp(\[r\]×).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Pose<T: Real> {
     /// Position of the platform centre o_p in {0} (m).
@@ -58,7 +58,7 @@ impl<T: Real> Pose<T> {
         self.t.iter().all(|x| x.is_finite()) && self.r.matrix().iter().all(|x| x.is_finite())
     }
 
-    /// This pose moved by a small twist displacement `[dv; dω]`: t + dv, exp([dω]×) R.
+    /// This pose moved by a small twist displacement `[dv; dω]`: t + dv, exp(\[dω\]×) R.
     ///
     /// The product is re-orthonormalised: small rotations compose thousands of times per
     /// second in the supervisor and the FK, and in f32 the rounding would otherwise let the
@@ -110,7 +110,7 @@ pub fn rotation_vector<T: Real>(r: &Rotation3<T>) -> Vector3<T> {
     }
 }
 
-/// exp([w]×) by Rodrigues' formula, R = I + a [w]× + b [w]×² with a = sin θ / θ and
+/// exp(\[w\]×) by Rodrigues' formula, R = I + a \[w\]× + b \[w\]×² with a = sin θ / θ and
 /// b = (1 - cos θ) / θ², θ = |w|. For θ < 0.1 rad (every control tick, every braking
 /// distance) a and b come from their Taylor series to θ⁸ (truncation below 3e-18, under
 /// f64 rounding), which avoids the trigonometric calls: libm's `sinf`/`cosf` compute in

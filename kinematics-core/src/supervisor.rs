@@ -14,12 +14,15 @@
 //!    anywhere refuses the target (the robot keeps its goal).
 //! 2. **Move** towards the verified goal with a speed- and acceleration-limited profile in
 //!    Cartesian space: speeds capped by the tip and angular speed limits and scaled down so
-//!    that J·twist stays within the joint speed limits; the braking profile √(2 a d) makes
-//!    it stop at the goal. The Cartesian accelerations are scaled down where the Jacobian
+//!    that J·twist stays within the joint speed limits; the braking profile (discrete: the
+//!    largest v with v·dt + v²/2a' ≤ d, a' 5 % under the braking deceleration) makes it
+//!    stop at the goal. The Cartesian accelerations are scaled down where the Jacobian
 //!    would turn them into more than the joints' acceleration limits.
 //! 3. **Check**, in turn with the path samples, the braking point: where braking would stop
 //!    if it began only when the check after this one has finished, the robot accelerating
-//!    until then (see [`Supervisor::tick`] for the bound). A stop-level violation there
+//!    until then, but no farther than the goal (see [`Supervisor::tick`] for the bound). A
+//!    target verified while moving replaces the goal once such a check has looked past the
+//!    goal towards it. A stop-level violation there
 //!    turns the motion into a controlled stop (full deceleration along the current twist on
 //!    every tick) within the stretch the earlier braking points covered. The candidate
 //!    setpoint itself gets the kinematic guards (reach, workspace, joint ranges, tilt,
@@ -260,6 +263,12 @@ pub struct Supervisor<T: Real, M: Mechanism<T>> {
     cond_ahead: ConditionEstimator<T>,
     /// A warn level was reached at the last braking point checked.
     ahead_warn: bool,
+    /// A verified target accepted while moving: it replaces the goal once a braking-point
+    /// check that looked past the goal (up to this target) has passed, since the checks
+    /// before looked no farther than the goal.
+    next_goal: Option<Pose<T>>,
+    /// The braking-point job in progress was computed towards `next_goal`.
+    job_for_next: bool,
 }
 
 /// Ticks a full guard evaluation takes (one [`crate::guards::Stage`] per tick).
@@ -376,6 +385,8 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             cond_path_end: ConditionEstimator::new(),
             cond_ahead: ConditionEstimator::new(),
             ahead_warn: false,
+            next_goal: None,
+            job_for_next: false,
         })
     }
 
@@ -490,10 +501,11 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             let angle = rotation_angle(&(target.r * from.r.inverse()));
             (distance / self.cfg.path_step).max(angle / self.cfg.path_step_angle)
         };
-        let (at_goal, at_setpoint) = (samples_from(&self.goal), samples_from(&self.pose));
+        let goal = self.next_goal.unwrap_or(self.goal);
+        let (at_goal, at_setpoint) = (samples_from(&goal), samples_from(&self.pose));
         // (The setpoint is within `max_segment` of the target: checked on submission.)
         let (from, n) = if !self.braking && at_goal < at_setpoint {
-            (self.goal, at_goal)
+            (goal, at_goal)
         } else {
             (self.pose, at_setpoint)
         };
@@ -557,6 +569,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
     fn drop_pending(&mut self) {
         self.pending = None;
         self.queued = None;
+        self.next_goal = None;
         if matches!(self.job, Some(Job::Path | Job::PathEnd)) {
             self.job = None;
         }
@@ -608,6 +621,11 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         match job {
             Job::Ahead => {
                 self.ahead_warn = self.checker.warn();
+                if stop.is_none() && self.job_for_next {
+                    if let Some(next) = self.next_goal.take() {
+                        self.goal = next;
+                    }
+                }
                 stop.is_some()
             }
             Job::Path | Job::PathEnd => {
@@ -637,7 +655,11 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         }
         if p.next >= p.samples {
             self.pending = None;
-            self.goal = p.to;
+            if self.twist.iter().any(|x| *x != T::zero()) {
+                self.next_goal = Some(p.to);
+            } else {
+                self.goal = p.to;
+            }
             self.braking = false;
             self.counters.accepted += 1;
             self.start_queued();
@@ -742,7 +764,10 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
     /// profile may accelerate, to v' = |v| + a·(3L - 1)·dt, and a violation found then
     /// starts braking from there. The point checked is where the robot, moving on for 3L
     /// ticks at v' along its current twist, would stop from v': v'²/2a + 3L·v'·dt ahead
-    /// (1.8 mm at 25 mm/s, 250 mm/s², L = 4).
+    /// (1.8 mm at 25 mm/s, 250 mm/s², L = 4), but no farther than the goal (or the verified
+    /// target waiting to replace it): the profile stops there with deceleration in hand, so
+    /// a target next to a boundary is reached; the goal changes only after a check that
+    /// looked past it.
     pub fn tick(&mut self) -> TickOutput<T> {
         if self.latched.is_some() {
             return self.output(false);
@@ -763,27 +788,46 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         let mut ahead_stop = false;
         for _ in 0..stages {
             if self.job.is_none() {
+                // The goal the profile stops at (or the verified target waiting to replace
+                // it): the braking point need not look past it.
+                let horizon = self.next_goal.unwrap_or(self.goal);
+                let for_next = self.next_goal.is_some();
                 let ahead = (moving && !self.braking).then(|| {
                     let per_job = CHECK_STAGES.div_ceil(u32::from(stages));
                     let n = lit::<T>(f64::from(3 * per_job));
-                    let reach = |v: &Vector3<T>, amax: T| {
+                    let to_t = norm3(&(horizon.t - self.pose.t));
+                    let to_r = norm3(&rotation_vector(&(horizon.r * self.pose.r.inverse())));
+                    let reach = |v: &Vector3<T>, amax: T, to_horizon: T| {
                         let speed = norm3(v);
                         if speed > T::zero() {
                             let vp = speed + amax * (n - T::one()) * dt;
-                            v * ((vp * vp / (two * amax) + n * vp * dt) / speed)
+                            let far = (vp * vp / (two * amax) + n * vp * dt).min(to_horizon);
+                            v * (far / speed)
                         } else {
                             Vector3::zeros()
                         }
                     };
-                    self.pose
-                        .displaced(&reach(&v0, l.tip_accel), &reach(&w0, l.angular_accel))
+                    self.pose.displaced(
+                        &reach(&v0, l.tip_accel, to_t),
+                        &reach(&w0, l.angular_accel, to_r),
+                    )
                 });
                 self.start_job(ahead.as_ref());
+                if self.job == Some(Job::Ahead) {
+                    self.job_for_next = for_next;
+                }
             }
             if self.job.is_none() {
                 break;
             }
             ahead_stop |= self.run_stage();
+        }
+        // Standing still, a verified target waiting for a braking-point check takes over
+        // at once (there is no motion to look past the goal).
+        if !moving {
+            if let Some(next) = self.next_goal.take() {
+                self.goal = next;
+            }
         }
         // Desired twist towards the goal (world frame), with the braking profile.
         let e_t = self.goal.t - self.pose.t;
@@ -800,8 +844,15 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             Vector3::zeros()
         };
         let (vcap, wcap) = self.speed_caps(&l, &dir_v, &dir_w);
-        let v_des = dir_v * vcap.min(sqrt(two * l.tip_accel * d)).min(d / dt);
-        let w_des = dir_w * wcap.min(sqrt(two * l.angular_accel * a)).min(a / dt);
+        // The braking profile, discrete: the largest speed v with v·dt + v²/2a' ≤ d, so that
+        // after this tick's move the robot can still stop at the goal, with a' 5 % under
+        // the deceleration braking uses (the acceleration scale changes along the way).
+        let curve = |dist: T, amax: T| {
+            let a_ = amax * lit(0.95);
+            sqrt(a_ * a_ * dt * dt + two * a_ * dist) - a_ * dt
+        };
+        let v_des = dir_v * vcap.min(curve(d, l.tip_accel)).min(d / dt);
+        let w_des = dir_w * wcap.min(curve(a, l.angular_accel)).min(a / dt);
         // Acceleration limit on the change of twist.
         let limit_step = |dv: Vector3<T>, amax: T| {
             let n = norm3(&dv);
