@@ -67,6 +67,26 @@ fn max_displacement<'a>(rows: impl Iterator<Item = &'a StatusRow>, from: &Vector
         .fold(0.0, f64::max)
 }
 
+/// Waits (at most `timeout_s`) until the measured position has stayed within 1 µm over
+/// five statuses (0.1 s at the board's 20 ms), then 0.2 s more.
+fn settle(s: &mut Session, timeout_s: f64) -> Result<(), String> {
+    let end = s.now_s() + timeout_s;
+    loop {
+        s.wait(0.05)?;
+        let n = s.statuses.len();
+        let still = s.statuses.get(n.saturating_sub(5)..).is_some_and(|last| {
+            last.len() == 5
+                && last
+                    .iter()
+                    .all(|r| (position(&r.status) - position(&last[4].status)).norm() < 1e-6)
+        });
+        if still || s.now_s() >= end {
+            break;
+        }
+    }
+    s.wait(0.2)
+}
+
 fn mm(m: f64) -> String {
     format!("{:.4} mm", m * 1e3)
 }
@@ -286,7 +306,8 @@ pub fn stream(
 /// Ack), the robot holds; then a valid target is followed again.
 pub fn refuse(s: &mut Session, checks: &mut Checks, centre: &Pose<f64>) -> Result<(), String> {
     let phase = s.phase("out-of-workspace target");
-    s.wait(0.2)?;
+    // The robot first finishes the path (it may lag after the emulator was stalled).
+    settle(s, 3.0)?;
     let Some((before, refused_before)) = s
         .last_status()
         .map(|r| (position(&r.status), r.status.targets_refused))
