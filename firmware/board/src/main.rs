@@ -22,7 +22,7 @@ use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use controller::failsafe::{
     emergency_stop_isr, EStopLatch, SafeOutputs, TickTiming, WatchdogConfig, WatchdogPolicy,
 };
-use controller::link::{fill_margins, Inbound, LinkRx, LinkTx, Request};
+use controller::link::{complete_status, Inbound, LinkRx, LinkTx, Request};
 use controller::state::{reference_config, Event, Runtime, State};
 use cortex_m::peripheral::DWT;
 use defmt::{error, info, warn};
@@ -357,11 +357,8 @@ async fn link_tx(mut tx: UartTx<'static, Async>) {
         };
         let msg = match msg {
             BoardToMaster::Status(mut s) => {
-                fill_margins(&mut s, &geometry, Branch::OUTER, warn_levels);
-                if let Some(c) = LINK.lock(|c| c.get()) {
-                    s.link = c;
-                    s.warnings.set(Warnings::LINK_ERRORS, c.rejected() > 0);
-                }
+                let counters = LINK.lock(|c| c.get());
+                complete_status(&mut s, &geometry, Branch::OUTER, warn_levels, counters);
                 BoardToMaster::Status(s)
             }
             other => other,

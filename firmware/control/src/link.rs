@@ -426,6 +426,23 @@ pub fn guard_fault(g: Guard) -> Faults {
     }
 }
 
+/// A status about to go out: the singularity margins at its pose ([`fill_margins`]) and,
+/// when the link has counted anything, its counters with the `LINK_ERRORS` warning set
+/// while any frame was rejected. (The boards' telemetry tasks send this.)
+pub fn complete_status<S: Scalar, M: Mechanism<S>>(
+    status: &mut StatusReport,
+    robot: &M,
+    branch: Branch,
+    warn: (S, S),
+    link: Option<LinkCounters>,
+) {
+    fill_margins(status, robot, branch, warn);
+    if let Some(c) = link {
+        status.link = c;
+        status.warnings.set(Warnings::LINK_ERRORS, c.rejected() > 0);
+    }
+}
+
 /// Singularity margins at the status pose: (serial: smallest dimensionless serial
 /// measure, parallel: inverse condition number), `(0, 0)` where the pose has no
 /// inverse kinematics. Sets the near-singularity warnings against `warn` levels

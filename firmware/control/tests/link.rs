@@ -9,8 +9,8 @@
 //! frames counted and ignored; the connection rule; timestamps; status contents.
 
 use controller::link::{
-    fill_margins, guard_reason, pose_from_wire, refusal_reason, Command, Inbound, LinkRx, LinkTx,
-    Request, TargetClock, TargetClockConfig, FIRMWARE_VERSION,
+    complete_status, fill_margins, guard_reason, pose_from_wire, refusal_reason, Command, Inbound,
+    LinkRx, LinkTx, Request, TargetClock, TargetClockConfig, FIRMWARE_VERSION,
 };
 use controller::state::{Runtime, State};
 use kinematics_core::guards::Guard;
@@ -604,4 +604,38 @@ fn tx_sequence_and_status_encoding() {
     let n = tx.encode(&BoardToMaster::Ack { seq: 1 }, &mut buf).unwrap();
     let got: Vec<_> = dec.feed(&buf[..n]).collect();
     assert_eq!(got, vec![Ok((3, BoardToMaster::Ack { seq: 1 }))]);
+}
+
+/// The status the boards send: the singularity margins at its pose, and the link counters
+/// with `LINK_ERRORS` raised exactly while a frame has been rejected; without counters the
+/// link fields stay as they were.
+#[test]
+fn complete_status_adds_margins_counters_and_the_link_warning() {
+    let robot = RsprGeometry::<f32>::reference();
+    let base = StatusReport {
+        position_m: [0.0, 0.0, 0.16],
+        ..StatusReport::default()
+    };
+    let clean = master_link::LinkCounters {
+        frames_ok: 40,
+        ..Default::default()
+    };
+    let bad = master_link::LinkCounters {
+        malformed: 1,
+        ..clean
+    };
+    let mut st = base;
+    complete_status(&mut st, &robot, Branch::OUTER, (0.15, 0.03), Some(clean));
+    assert!(st.serial_singularity_margin > 0.15 && st.parallel_singularity_margin > 0.03);
+    assert_eq!(st.link, clean);
+    assert!(!st.warnings.contains(master_link::Warnings::LINK_ERRORS));
+    complete_status(&mut st, &robot, Branch::OUTER, (0.15, 0.03), Some(bad));
+    assert_eq!(st.link, bad);
+    assert!(st.warnings.contains(master_link::Warnings::LINK_ERRORS));
+    let mut untouched = base;
+    complete_status(&mut untouched, &robot, Branch::OUTER, (0.15, 0.03), None);
+    assert_eq!(untouched.link, base.link);
+    assert!(!untouched
+        .warnings
+        .contains(master_link::Warnings::LINK_ERRORS));
 }

@@ -28,7 +28,7 @@ use core::cell::Cell;
 use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
 use controller::failsafe::{emergency_stop_isr, EStopLatch, SafeOutputs, TickTiming};
-use controller::link::{fill_margins, Inbound, LinkRx, LinkTx, Request};
+use controller::link::{complete_status, Inbound, LinkRx, LinkTx, Request};
 use controller::state::{reference_config, Event, Runtime};
 use cortex_m_rt::exception;
 use cortex_m_semihosting::hprintln;
@@ -398,11 +398,8 @@ async fn link_tx() {
         };
         let msg = match msg {
             BoardToMaster::Status(mut s) => {
-                fill_margins(&mut s, &geometry, Branch::OUTER, warn_levels);
-                if let Some(c) = LINK.lock(|c| c.get()) {
-                    s.link = c;
-                    s.warnings.set(Warnings::LINK_ERRORS, c.rejected() > 0);
-                }
+                let counters = LINK.lock(|c| c.get());
+                complete_status(&mut s, &geometry, Branch::OUTER, warn_levels, counters);
                 BoardToMaster::Status(s)
             }
             other => other,
