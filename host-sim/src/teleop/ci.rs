@@ -207,12 +207,7 @@ pub fn stream(
     }
     s.wait(0.3)?;
     let sent = s.targets.get(first_target..).unwrap_or_default().to_vec();
-    let rows: Vec<StatusRow> = s
-        .statuses
-        .iter()
-        .filter(|r| r.phase == phase)
-        .copied()
-        .collect();
+    let rows = s.phase_rows(phase);
     let mut pos = Vec::new();
     let mut ang = Vec::new();
     let mut lag = Vec::new();
@@ -321,12 +316,7 @@ pub fn refuse(s: &mut Session, checks: &mut Checks, centre: &Pose<f64>) -> Resul
     let seq = s.send_target(&outside)?;
     let reply = s.reply(seq, 1.0)?;
     s.wait(1.0)?;
-    let rows: Vec<StatusRow> = s
-        .statuses
-        .iter()
-        .filter(|r| r.phase == phase)
-        .copied()
-        .collect();
+    let rows = s.phase_rows(phase);
     let moved = max_displacement(rows.iter(), &before);
     let left = rows
         .iter()
@@ -450,12 +440,7 @@ pub fn garbage(s: &mut Session, checks: &mut Checks) -> Result<(), String> {
     let Some(after) = s.last_status().map(|r| r.status) else {
         return Err("no status after the garbage".into());
     };
-    let rows: Vec<StatusRow> = s
-        .statuses
-        .iter()
-        .filter(|r| r.phase == phase)
-        .copied()
-        .collect();
+    let rows = s.phase_rows(phase);
     let moved = max_displacement(rows.iter(), &p0);
     let (a, b) = (after.link, before.link);
     let d = |x: u32, y: u32| x.wrapping_sub(y);
@@ -502,12 +487,7 @@ pub fn heartbeat_loss(s: &mut Session, checks: &mut Checks) -> Result<(), String
         .map(|r| position(&r.status))
         .unwrap_or_else(Vector3::zeros);
     s.wait(1.2)?;
-    let rows: Vec<StatusRow> = s
-        .statuses
-        .iter()
-        .filter(|r| r.phase == phase)
-        .copied()
-        .collect();
+    let rows = s.phase_rows(phase);
     let hold = rows.iter().find(|r| {
         r.status.warnings.contains(Warnings::HEARTBEAT_LATE)
             || r.status.state != RobotState::Enabled

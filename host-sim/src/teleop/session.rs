@@ -138,6 +138,15 @@ impl Session {
         self.statuses.last()
     }
 
+    /// The statuses received during phase `phase`.
+    pub fn phase_rows(&self, phase: usize) -> Vec<StatusRow> {
+        self.statuses
+            .iter()
+            .filter(|r| r.phase == phase)
+            .copied()
+            .collect()
+    }
+
     /// Sends a request and remembers it; returns its sequence number.
     pub fn send(&mut self, msg: MasterToBoard) -> Result<Seq, String> {
         let seq = self.link.send(&msg)?;
