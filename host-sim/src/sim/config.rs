@@ -449,7 +449,7 @@ impl SimConfig {
 
 /// The cargo target directory the binary was built in (`<target>/<profile>/host-sim`
 /// whose `<target>` holds cargo's `CACHEDIR.TAG`), else `./target`.
-fn default_target_dir() -> PathBuf {
+pub fn default_target_dir() -> PathBuf {
     std::env::current_exe()
         .ok()
         .and_then(|exe| {

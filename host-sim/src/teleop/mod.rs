@@ -131,20 +131,6 @@ pub fn trajectory(
     }
 }
 
-/// The cargo target directory the binary was built in, else `./target`.
-fn target_dir() -> PathBuf {
-    std::env::current_exe()
-        .ok()
-        .and_then(|exe| {
-            exe.ancestors()
-                .skip(1)
-                .take(3)
-                .find(|d| d.join("CACHEDIR.TAG").is_file())
-                .map(Path::to_path_buf)
-        })
-        .unwrap_or_else(|| PathBuf::from("target"))
-}
-
 /// Runs the master.
 pub fn run(args: &TeleopArgs) -> Result<(), String> {
     let geometry = RsprGeometry::<f64>::reference();
@@ -160,10 +146,11 @@ pub fn run(args: &TeleopArgs) -> Result<(), String> {
         TeleopScenario::Path => "path",
         TeleopScenario::Ci => "ci",
     };
-    let out = args
-        .out
-        .clone()
-        .unwrap_or_else(|| target_dir().join("teleop").join(name));
+    let out = args.out.clone().unwrap_or_else(|| {
+        crate::sim::config::default_target_dir()
+            .join("teleop")
+            .join(name)
+    });
     println!(
         "host-sim teleop: {} ({} scenario, path {:?}: {:.1} s at {} Hz)",
         args.connect.display(),
