@@ -8,6 +8,7 @@ BEGIN { npair = 0; nc = 0; nf = 0; nl = 0; no = 0; ni = 0; if (top == "") top = 
 FNR == NR {
     if ($1 == "count") counts[nc++] = $2
     else if ($1 == "call") { k = npair++; pair_n[k] = $2 + 0; $1 = ""; $2 = ""; sub(/^ +/, ""); pair_name[k] = $0 }
+    else if ($1 == "incl") { k = ninc++; inc_n[k] = $2 + 0; $1 = ""; $2 = ""; sub(/^ +/, ""); inc_name[k] = $0 }
     else if ($1 == "func") { k = nf++; fn_n[k] = $2 + 0; $1 = ""; $2 = ""; sub(/^ +/, ""); fn_name[k] = $0 }
     next
 }
@@ -21,6 +22,7 @@ FNR == NR {
     if (n > max[label]) max[label] = n
     next
 }
+/^@profiled / { profiled = $2 + 0; next }
 /^@info / { info[ni++] = substr($0, 7); next }
 END {
     if (nc == 0 || missing > 0 || nl != nc) {
@@ -54,6 +56,10 @@ END {
     }
     for (i = 0; i < ni; i++) print "note: " info[i]
     if (nf > 0 && tick_calls > 0) {
+        if (profiled > 0 && profiled != tick_calls) {
+            tick_calls = profiled
+            printf "\n(The profile covers %d ticks of the scenario: TICK_COST_PROFILE_TICKS.)\n", profiled
+        }
         total = 0
         for (i = 0; i < nf; i++) total += fn_n[i]
         printf "\nWhere the instructions of the full tick go (per function, after inlining; %d ticks):\n", tick_calls
@@ -65,6 +71,16 @@ END {
         for (i = 1; i < npair; i++) { v = idx[i]; j = i - 1
             while (j >= 0 && pair_n[idx[j]] < pair_n[v]) { idx[j + 1] = idx[j]; j-- }
             idx[j + 1] = v }
+        # Inclusive: a function with everything it called, largest first.
+        for (i = 0; i < ninc; i++) jdx[i] = i
+        for (i = 1; i < ninc; i++) { v = jdx[i]; j = i - 1
+            while (j >= 0 && inc_n[jdx[j]] < inc_n[v]) { jdx[j + 1] = jdx[j]; j-- }
+            jdx[j + 1] = v }
+        if (ninc > 0) {
+            printf "\nInclusive (a function with all it calls, per tick; shadow call stack):\n"
+            for (i = 0; i < ninc && i < 2 * top; i++)
+                printf "%12.0f %6.1f%%  %s\n", inc_n[jdx[i]] / tick_calls, 100 * inc_n[jdx[i]] / total, inc_name[jdx[i]]
+        }
         printf "\nHelper functions by caller (memcpy, soft-float, libm; per tick):\n"
         for (i = 0; i < npair && i < top; i++)
             printf "%12.0f %6.1f%%  %s\n", pair_n[idx[i]] / tick_calls, 100 * pair_n[idx[i]] / total, pair_name[idx[i]]

@@ -8,14 +8,15 @@
 
 use crate::branch::Branch;
 use crate::chain::{Chain, PerChain};
-use crate::ik::{inverse, IkError, Solution};
+use crate::ik::{inverse, inverse_into, IkError, Solution};
 use crate::jacobian::tripod_jacobian;
 use crate::mechanism::{JointKind, Mechanism};
 use crate::pose::Pose;
 use crate::scalar::{lit, wrap_angle, Real};
 use crate::Joints;
 use core::fmt;
-use nalgebra::{Vector3, Vector6};
+use nalgebra::linalg::LU;
+use nalgebra::{Matrix6, Vector3, Vector6, U6};
 
 /// Newton solver settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -235,31 +236,13 @@ fn newton_step<T: Real, M: Mechanism<T> + ?Sized>(
     iteration: u32,
     tries: usize,
 ) -> Result<Step<T>, FkError> {
-    // Jtilde Δx = Js Δq: per chain, rows (i, 3+i) of the right side are B_i [Δqa_i; Δqb_i].
-    let ra = PerChain([r.x, r.y, r.z]);
-    let rb = PerChain([r.w, r.a, r.b]);
-    let rhs = PerChain::from_fn(|c: Chain| {
-        let blk = m.serial_block(&sol.chains[c]);
-        (
-            blk.a11 * ra[c] + blk.a12 * rb[c],
-            blk.a21 * ra[c] + blk.a22 * rb[c],
-        )
-    });
-    let [(t1, b1), (t2, b2), (t3, b3)] = rhs.0;
-    let rhs = Vector6::new(t1, t2, t3, b1, b2, b3);
+    let rhs = serial_rhs(m, sol, r);
     let dx = tripod_jacobian(sol)
         .lu()
         .solve(&rhs)
         .filter(|d| d.iter().all(|x| x.is_finite()))
         .ok_or(FkError::SingularStep { iteration })?;
-    let mut dv = Vector3::new(dx.x, dx.y, dx.z);
-    let mut dw = Vector3::new(dx.w, dx.a, dx.b);
-    // Limit the step so that a poor guess cannot throw the iterate far away.
-    let shrink = (crate::scalar::norm3(&dv) / cfg.max_step_linear)
-        .max(crate::scalar::norm3(&dw) / cfg.max_step_angular)
-        .max(T::one());
-    dv /= shrink;
-    dw /= shrink;
+    let (mut dv, mut dw) = limited_step(&dx, cfg);
     // Backtracking: halve the step while it leaves the branch or does not reduce the
     // residual (joint angles weighted by the length scale).
     let merit = |r: &Joints<T>| weighted_norm(kinds, r, scale);
@@ -289,6 +272,37 @@ fn newton_step<T: Real, M: Mechanism<T> + ?Sized>(
         (None, Some(error)) => Err(FkError::LeftBranch { iteration, error }),
         (None, None) => Err(FkError::SingularStep { iteration }),
     }
+}
+
+/// The right side Js Δq of a step (Eq. 7.17-7.18): per chain, rows (i, 3+i) are
+/// B_i [Δqa_i; Δqb_i] with the serial blocks at `sol`.
+fn serial_rhs<T: Real, M: Mechanism<T> + ?Sized>(
+    m: &M,
+    sol: &Solution<T>,
+    r: &Joints<T>,
+) -> Vector6<T> {
+    let ra = PerChain([r.x, r.y, r.z]);
+    let rb = PerChain([r.w, r.a, r.b]);
+    let rhs = PerChain::from_fn(|c: Chain| {
+        let blk = m.serial_block(&sol.chains[c]);
+        (
+            blk.a11 * ra[c] + blk.a12 * rb[c],
+            blk.a21 * ra[c] + blk.a22 * rb[c],
+        )
+    });
+    let [(t1, b1), (t2, b2), (t3, b3)] = rhs.0;
+    Vector6::new(t1, t2, t3, b1, b2, b3)
+}
+
+/// The translation and rotation of a step Δx, shortened so that a poor guess cannot throw
+/// the iterate far away.
+fn limited_step<T: Real>(dx: &Vector6<T>, cfg: &FkConfig<T>) -> (Vector3<T>, Vector3<T>) {
+    let dv = Vector3::new(dx.x, dx.y, dx.z);
+    let dw = Vector3::new(dx.w, dx.a, dx.b);
+    let shrink = (crate::scalar::norm3(&dv) / cfg.max_step_linear)
+        .max(crate::scalar::norm3(&dw) / cfg.max_step_angular)
+        .max(T::one());
+    (dv / shrink, dw / shrink)
 }
 
 /// Extra Newton steps taken once within tolerance (quadratic convergence needs one).
@@ -339,20 +353,54 @@ pub const TRACK_RESIDUAL_MAX: f64 = 1e-6;
 /// Forward kinematics for a stream of joint readings, one per control tick (LinuxCNC's
 /// kinematics do the same with their previous solution as the guess): between ticks the
 /// joints move by a few encoder counts, so one Newton step from the previous estimate
-/// (Jtilde Δx = Js Δq, as in [`forward`]) converges quadratically; only when
-/// [`TRACK_STEPS`] steps do not bring the residual below [`TRACK_RESIDUAL_MAX`] does the
-/// full solver run. The
-/// estimate always comes with the residual of its own inverse kinematics against the
+/// (Jtilde Δx = Js Δq, as in [`forward`]) brings the residual to the square of the motion.
+///
+/// The step reuses the LU factors of Jtilde taken at a recent estimate (a chord method:
+/// Js comes from the estimate's own solution, only Jtilde is older). A Jtilde a fraction of
+/// a millimetre old changes the step by far less than the step itself, so the residual
+/// still drops by orders of magnitude per tick; when it no longer drops well, Jtilde is
+/// taken again at the new estimate on that tick and factorised on the next, so that no
+/// tick pays for the Jacobian, its factorisation and a step together. When the step with
+/// the old factors does not meet [`TRACK_RESIDUAL_MAX`], a second step with fresh factors
+/// follows at once, and when [`TRACK_STEPS`] steps do not, the full solver runs.
+///
+/// The estimate always comes with the residual of its own inverse kinematics against the
 /// readings, so its accuracy is known, never assumed: after a step it is of the order of
 /// the tick's motion squared (about 1e-9 m at 25 mm/s in f64; the f32 rounding on the
 /// MCU), and it converges to the tolerances while the robot stands still.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug)]
 pub struct FkTracker<T: Real> {
     branch: Branch,
     pose: Pose<T>,
-    sol: Solution<T>,
+    /// Two solution slots, the estimate's (`slot`) and a trial's: a step solves its trial
+    /// pose into the other slot and, when it is kept, the slots swap roles (no copies).
+    sols: [Solution<T>; 2],
+    slot: bool,
     residual: T,
+    /// LU factors of Jtilde at a recent estimate, the matrix of the steps.
+    lu: Option<LU<T, U6, U6>>,
+    /// Jtilde taken at the estimate, to be factorised on the next update.
+    fresh: Option<Matrix6<T>>,
+    /// Steps taken with factors older than the estimate, and refreshes of the factors.
+    counts: TrackerCounts,
 }
+
+/// What the tracker did over its life, by name.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TrackerCounts {
+    /// Steps with the factors of an older estimate (the chord steps).
+    pub chord_steps: u32,
+    /// Steps with factors taken at the estimate itself (the Newton steps).
+    pub newton_steps: u32,
+    /// Times Jtilde was taken again because the residual no longer dropped well.
+    pub refreshes: u32,
+    /// Times the full solver ran.
+    pub full_solves: u32,
+}
+
+/// A kept step leaves more than this fraction of [`TRACK_RESIDUAL_MAX`] (or of the
+/// tolerance, when larger): the factors are taken again (on the next tick's budget).
+const TRACK_REFRESH_FRACTION: f64 = 0.125;
 
 impl<T: Real> FkTracker<T> {
     /// Starts tracking: the full solver from `guess`.
@@ -367,8 +415,15 @@ impl<T: Real> FkTracker<T> {
         Ok(FkTracker {
             branch,
             pose: s.pose,
-            sol: s.solution,
+            sols: [s.solution, s.solution],
+            slot: false,
             residual: s.residual,
+            lu: None,
+            fresh: None,
+            counts: TrackerCounts {
+                full_solves: 1,
+                ..TrackerCounts::default()
+            },
         })
     }
 
@@ -379,12 +434,32 @@ impl<T: Real> FkTracker<T> {
 
     /// Its inverse-kinematics solution.
     pub fn solution(&self) -> &Solution<T> {
-        &self.sol
+        let [a, b] = &self.sols;
+        if self.slot {
+            b
+        } else {
+            a
+        }
     }
 
     /// The largest joint residual of the estimate against the last readings (m or rad).
     pub fn residual(&self) -> T {
         self.residual
+    }
+
+    /// The steps, refreshes and full solves so far.
+    pub fn counts(&self) -> &TrackerCounts {
+        &self.counts
+    }
+
+    /// The estimate's solution and the trial slot.
+    fn slots(&mut self) -> (&Solution<T>, &mut Solution<T>) {
+        let [a, b] = &mut self.sols;
+        if self.slot {
+            (b, a)
+        } else {
+            (a, b)
+        }
     }
 
     /// Follows new joint readings. On error the estimate is kept (and stays valid for the
@@ -399,61 +474,107 @@ impl<T: Real> FkTracker<T> {
             return Err(FkError::NonFiniteInput { index: k as u8 });
         }
         let kinds = m.joint_kinds();
-        let (r, ok, worst) = residual(&kinds, q, &self.sol.q(), cfg);
+        let (r, ok, worst) = residual(&kinds, q, &self.solution().q(), cfg);
         if ok {
             self.residual = worst;
             return Ok(Tracked::Unchanged);
         }
-        let accept = cfg.tol_angular.max(cfg.tol_linear);
-        let good_enough = |w: T| w <= accept || w <= lit(TRACK_RESIDUAL_MAX);
-        let (mut pose, mut sol, mut r, mut current) = (self.pose, self.sol, r, worst);
+        // The second half of a refresh: factorise the Jtilde taken on the last tick.
+        if let Some(jt) = self.fresh.take() {
+            self.lu = Some(jt.lu());
+        }
+        let accept = cfg
+            .tol_angular
+            .max(cfg.tol_linear)
+            .max(lit(TRACK_RESIDUAL_MAX));
+        let scale = m.length_scale();
+        let (mut r, mut current) = (r, worst);
         for steps in 1..=TRACK_STEPS {
-            let step = newton_step(
-                m,
-                &pose,
-                &sol,
-                &r,
-                self.branch,
-                &kinds,
-                q,
-                cfg,
-                m.length_scale(),
-                steps,
-                TRACK_HALVINGS,
-            );
-            let Ok(Step::Improved(p, s, left, worst)) = step else {
+            // The first step with the factors in hand; a second one with fresh factors.
+            let chord = steps == 1 && self.lu.is_some();
+            if chord {
+                self.counts.chord_steps += 1;
+            } else {
+                self.lu = Some(tripod_jacobian(self.solution()).lu());
+                self.counts.newton_steps += 1;
+            }
+            let Some((left, worst)) = self.step(m, q, &r, &kinds, cfg, scale) else {
                 // No progress: at the rounding level already, keep what there is.
-                if good_enough(current) {
+                if current <= accept {
                     self.residual = current;
-                    self.pose = pose;
-                    self.sol = sol;
                     return Ok(if steps > 1 {
                         Tracked::Stepped { steps: steps - 1 }
                     } else {
                         Tracked::Unchanged
                     });
                 }
-                break;
+                continue;
             };
-            // (The step computed the new residual already.)
-            pose = p;
-            sol = s;
             r = left;
             current = worst;
-            if good_enough(worst) {
+            if worst <= accept {
                 self.residual = worst;
-                self.pose = pose;
-                self.sol = sol;
+                if worst > accept * lit(TRACK_REFRESH_FRACTION) {
+                    // The residual no longer drops well: take Jtilde here (factorised on
+                    // the next tick).
+                    self.fresh = Some(tripod_jacobian(self.solution()));
+                    self.counts.refreshes += 1;
+                }
                 return Ok(Tracked::Stepped { steps });
             }
         }
-        let from = pose;
+        let from = self.pose;
         let s = forward(m, q, self.branch, &from, cfg)?;
+        self.counts.full_solves += 1;
         self.pose = s.pose;
-        self.sol = s.solution;
+        let (_, trial) = self.slots();
+        *trial = s.solution;
+        self.slot = !self.slot;
         self.residual = s.residual;
+        self.lu = None;
+        self.fresh = None;
         Ok(Tracked::Solved {
             iterations: s.iterations,
         })
+    }
+
+    /// One step with the factors in `self.lu` from the estimate (joint residual `r`):
+    /// Jtilde Δx = Js Δq with Js at the estimate, limited in length and halved (up to
+    /// [`TRACK_HALVINGS`] trials) while it leaves the branch or does not lower the
+    /// residual. A kept step becomes the estimate; returns its residual and the largest
+    /// component, or None when no trial improved.
+    fn step<M: Mechanism<T> + ?Sized>(
+        &mut self,
+        m: &M,
+        q: &Joints<T>,
+        r: &Joints<T>,
+        kinds: &[JointKind; 6],
+        cfg: &FkConfig<T>,
+        scale: T,
+    ) -> Option<(Joints<T>, T)> {
+        let rhs = serial_rhs(m, self.solution(), r);
+        let dx = self.lu.as_ref()?.solve(&rhs)?;
+        if !dx.iter().all(|x| x.is_finite()) {
+            return None;
+        }
+        let (mut dv, mut dw) = limited_step(&dx, cfg);
+        let current = weighted_norm(kinds, r, scale);
+        let half = lit::<T>(0.5);
+        let branch = self.branch;
+        for _ in 0..TRACK_HALVINGS {
+            let trial = self.pose.displaced(&dv, &dw);
+            let (_, slot) = self.slots();
+            if inverse_into(m, &trial, branch, slot).is_ok() {
+                let (rt, _, worst) = residual(kinds, q, &slot.q(), cfg);
+                if weighted_norm(kinds, &rt, scale) < current {
+                    self.pose = trial;
+                    self.slot = !self.slot;
+                    return Some((rt, worst));
+                }
+            }
+            dv *= half;
+            dw *= half;
+        }
+        None
     }
 }

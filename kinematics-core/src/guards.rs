@@ -589,13 +589,20 @@ pub enum Stage {
     /// Workspace box and tilt cone, inverse kinematics, joint ranges, spherical-joint
     /// tilts, collision, serial singularity.
     Kinematic,
-    /// The Jacobians (Eq. 7.14, 7.18).
+    /// The Jacobians (Eq. 7.14, 7.18), and the start of the parallel measure's SVD
+    /// ([`ConditionEstimator::begin`]).
     Jacobian,
-    /// The parallel singularity measure (the SVD of the scaled Jtilde).
+    /// One sweep of the parallel measure's SVD ([`ConditionEstimator::sweep`]); repeated
+    /// until it converges (one or two sweeps warm-started, four or five cold, at most
+    /// [`crate::singularity::MAX_SWEEPS`]).
     Parallel,
     /// The payload statics (Eq. 7.10): actuator forces and torques.
     Statics,
 }
+
+/// The most stages a staged evaluation takes: the kinematic stage, the Jacobian, every
+/// sweep the SVD may take, the statics.
+pub const MAX_STAGES: u32 = 3 + crate::singularity::MAX_SWEEPS as u32;
 
 /// A full guard evaluation spread over several calls of [`Guards::advance`], one
 /// [`Stage`] per call, so that a caller with a fixed budget per control tick (the
@@ -917,7 +924,6 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
         cond: &mut ConditionEstimator<T>,
         visit: &mut impl FnMut(&Reading<T>),
     ) -> Option<T> {
-        let l = &self.limits;
         let computed;
         let jtilde = match jac {
             Some(j) => &j.jtilde,
@@ -926,7 +932,17 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
                 &computed
             }
         };
-        let Ok(inv_cond) = cond.inv_cond(jtilde, self.robot.rp()) else {
+        self.parallel_verdict(cond.inv_cond(jtilde, self.robot.rp()), visit)
+    }
+
+    /// The reading of the parallel measure (a stop when the SVD failed); its value.
+    fn parallel_verdict(
+        &self,
+        result: Result<T, crate::singularity::SvdDidNotConverge>,
+        visit: &mut impl FnMut(&Reading<T>),
+    ) -> Option<T> {
+        let l = &self.limits;
+        let Ok(inv_cond) = result else {
             visit(&Reading {
                 guard: Guard::ParallelSingularity,
                 subject: Subject::Robot,
@@ -972,10 +988,11 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
         }
     }
 
-    /// Runs the next stage of a staged full evaluation (see [`Staged`]): at most one of
-    /// the inverse kinematics with the kinematic guards, the Jacobians, the parallel
-    /// measure's SVD (warm-started by `cond`), the payload statics. The evaluation ends
-    /// early at the first stop-level reading.
+    /// Runs the next stage of a staged full evaluation (see [`Staged`]): one of the
+    /// inverse kinematics with the kinematic guards, the Jacobians (and the start of the
+    /// SVD), one sweep of the parallel measure's SVD (warm-started by `cond`, which holds
+    /// the decomposition in progress between the calls), the payload statics. The
+    /// evaluation ends early at the first stop-level reading.
     pub fn advance(&self, st: &mut Staged<T>, cond: &mut ConditionEstimator<T>) {
         let Some(stage) = st.next else { return };
         let Staged {
@@ -1008,18 +1025,33 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
             }
             Stage::Jacobian => {
                 *jac_ok = jacobian_into(&self.robot, &eval.sol, &mut eval.jac).is_ok();
-                Some(Stage::Parallel)
+                // The SVD of Jtilde (computed alone at a serial singularity, where J is
+                // not).
+                let computed;
+                let jtilde = if *jac_ok {
+                    &eval.jac.jtilde
+                } else {
+                    computed = tripod_jacobian(&eval.sol);
+                    &computed
+                };
+                match cond.begin(jtilde, self.robot.rp()) {
+                    Ok(()) => Some(Stage::Parallel),
+                    Err(e) => {
+                        self.parallel_verdict(Err(e), &mut visit);
+                        None
+                    }
+                }
             }
-            Stage::Parallel => {
-                let jac = jac_ok.then_some(&eval.jac);
-                match self.parallel_reading(&eval.sol, jac, cond, &mut visit) {
+            Stage::Parallel => match cond.sweep() {
+                None => Some(Stage::Parallel),
+                Some(result) => match self.parallel_verdict(result, &mut visit) {
                     Some(x) if *jac_ok => {
                         *inv_cond = x;
                         Some(Stage::Statics)
                     }
                     _ => None,
-                }
-            }
+                },
+            },
             Stage::Statics => {
                 self.statics_readings(&eval.jac, *inv_cond, &mut visit);
                 None
@@ -1040,11 +1072,7 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
         visit: &mut impl FnMut(&Reading<T>),
     ) {
         let l = &self.limits;
-        let v = crate::scalar::sqrt(cur.twist.fixed_rows::<3>(0).norm_squared());
-        let w = crate::scalar::sqrt(cur.twist.fixed_rows::<3>(3).norm_squared());
-        let dtw = (cur.twist - prev.twist) / dt;
-        let a = crate::scalar::sqrt(dtw.fixed_rows::<3>(0).norm_squared());
-        let alpha = crate::scalar::sqrt(dtw.fixed_rows::<3>(3).norm_squared());
+        let [v, w, a, alpha] = platform_motion(prev, cur, dt);
         let r = Subject::Robot;
         visit(&upper(Guard::TipSpeed, r, v, stop_only(l.tip_speed)));
         visit(&upper(
@@ -1068,15 +1096,7 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
             .zip(kinds.iter())
             .enumerate()
         {
-            let k = match kind {
-                JointKind::Linear => 0,
-                JointKind::Angular => 1,
-            };
-            let (vmax, amax) = if k == 0 {
-                (l.joint_speed[0], l.joint_accel[0])
-            } else {
-                (l.joint_speed[1], l.joint_accel[1])
-            };
+            let (vmax, amax) = self.joint_motion_limits(*kind);
             let s = Subject::Joint(j as u8 + 1);
             visit(&upper(Guard::JointSpeed, s, qd.abs(), stop_only(vmax)));
             visit(&upper(
@@ -1087,6 +1107,51 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
             ));
         }
     }
+
+    /// Whether [`Guards::evaluate_motion`] would give no stop-level reading (the same
+    /// values against the same limits, a NaN beyond them), without building the
+    /// readings: the control path's check, which needs the readings only on a stop.
+    pub fn motion_within_limits(
+        &self,
+        prev: &MotionSample<T>,
+        cur: &MotionSample<T>,
+        dt: T,
+    ) -> bool {
+        let l = &self.limits;
+        let [v, w, a, alpha] = platform_motion(prev, cur, dt);
+        let mut ok = v <= l.tip_speed
+            && w <= l.angular_speed
+            && a <= l.tip_accel
+            && alpha <= l.angular_accel;
+        let kinds = self.robot.joint_kinds();
+        for ((qd, qd0), kind) in cur.qdot.iter().zip(prev.qdot.iter()).zip(kinds.iter()) {
+            let (vmax, amax) = self.joint_motion_limits(*kind);
+            ok &= qd.abs() <= vmax && ((*qd - *qd0) / dt).abs() <= amax;
+        }
+        ok
+    }
+
+    /// The speed and acceleration limits of a joint of `kind`.
+    fn joint_motion_limits(&self, kind: JointKind) -> (T, T) {
+        let l = &self.limits;
+        match kind {
+            JointKind::Linear => (l.joint_speed[0], l.joint_accel[0]),
+            JointKind::Angular => (l.joint_speed[1], l.joint_accel[1]),
+        }
+    }
+}
+
+/// Tip speed, angular speed, tip acceleration and angular acceleration of a motion sample
+/// (the accelerations from `prev`, `dt` earlier).
+fn platform_motion<T: Real>(prev: &MotionSample<T>, cur: &MotionSample<T>, dt: T) -> [T; 4] {
+    let (c, p) = (&cur.twist, &prev.twist);
+    let norm = |x: T, y: T, z: T| crate::scalar::sqrt(x * x + y * y + z * z);
+    [
+        norm(c.x, c.y, c.z),
+        norm(c.w, c.a, c.b),
+        norm((c.x - p.x) / dt, (c.y - p.y) / dt, (c.z - p.z) / dt),
+        norm((c.w - p.w) / dt, (c.a - p.a) / dt, (c.b - p.b) / dt),
+    ]
 }
 
 /// Rotation angle between two orientations (rad).

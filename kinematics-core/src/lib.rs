@@ -47,7 +47,7 @@ pub mod usr;
 
 pub use branch::Branch;
 pub use chain::{Chain, PerChain};
-pub use fk::{forward, FkConfig, FkError, FkSolution, FkTracker, Tracked};
+pub use fk::{forward, FkConfig, FkError, FkSolution, FkTracker, Tracked, TrackerCounts};
 pub use geometry::{GeometryError, Robot, RobotKind, RsprGeometry, UsrGeometry};
 pub use ik::{inverse, ChainSolution, IkError, IkFailure, Solution};
 pub use jacobian::{jacobian, JacobianError, Jacobians};

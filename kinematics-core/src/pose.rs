@@ -55,7 +55,8 @@ impl<T: Real> Pose<T> {
 
     /// True when every component is finite.
     pub fn is_finite(&self) -> bool {
-        self.t.iter().all(|x| x.is_finite()) && self.r.matrix().iter().all(|x| x.is_finite())
+        crate::scalar::all_finite(self.t.as_slice())
+            && crate::scalar::all_finite(self.r.matrix().as_slice())
     }
 
     /// This pose moved by a small twist displacement `[dv; dω]`: t + dv, exp(\[dω\]×) R.

@@ -89,6 +89,11 @@ pub fn lit<T: Real>(x: f64) -> T {
 pub fn wrap_angle<T: Real>(a: T) -> T {
     let two_pi = T::two_pi();
     let pi = T::pi();
+    if a > -pi && a <= pi {
+        // Already in range (residuals and rates, nearly always): no floor, which is a
+        // libm call on the Cortex-M4.
+        return a;
+    }
     let mut w = a - two_pi * ((a + pi) / two_pi).floor();
     // `w` is in [-π, π); the convention wants (-π, π].
     if w <= -pi {

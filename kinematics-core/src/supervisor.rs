@@ -4,7 +4,8 @@
 //! Per tick, with constant bounded work: one stage of a full guard evaluation (see
 //! [`Staged`]: the inverse kinematics with the kinematic guards, the Jacobians, the parallel
 //! measure's SVD or the payload statics) and, while moving, the kinematic guards of the
-//! candidate setpoint. A full evaluation of a pose thus takes [`CHECK_STAGES`] ticks. The
+//! candidate setpoint. A full evaluation of a pose thus takes a few ticks (five when the
+//! SVD starts warm, at most [`MAX_STAGES`]). The
 //! checker works on one pose at a time, taking turns between the pending path and the
 //! braking point; each kind of pose keeps its own warm-started SVD
 //! ([`ConditionEstimator`]).
@@ -57,10 +58,12 @@ pub struct SupervisorConfig<T: Real> {
     /// Spacing of the path-check samples in rotation, rad (default 0.5 deg).
     pub path_step_angle: T,
     /// Stages of the full guard evaluations run per tick (default 1: the least work per
-    /// tick; 1 ..= [`CHECK_STAGES`]). A full evaluation is [`CHECK_STAGES`] stages; the
-    /// largest (the SVD) costs about 6,000 instructions on the Cortex-M4. At control rates
-    /// well below 1 kHz more stages per tick keep the path check up with the master's
-    /// stream (e.g. 4, one full evaluation per tick, at 250 Hz).
+    /// tick; 1 ..= [`MAX_STAGES`]). A full evaluation is five stages when the SVD starts
+    /// warm, at most [`MAX_STAGES`]; the largest (the inverse kinematics with the kinematic
+    /// guards, or one sweep of the SVD) costs 2,000 to 4,000 instructions on the
+    /// Cortex-M4. At control rates well below 1 kHz more stages per tick keep the path
+    /// check up with the master's stream (e.g. 5, about one full evaluation per tick, at
+    /// 250 Hz).
     pub stages_per_tick: u16,
     /// Targets farther than this from the setpoint are refused outright, m (default 60 mm).
     pub max_segment: T,
@@ -271,8 +274,7 @@ pub struct Supervisor<T: Real, M: Mechanism<T>> {
     job_for_next: bool,
 }
 
-/// Ticks a full guard evaluation takes (one [`crate::guards::Stage`] per tick).
-pub const CHECK_STAGES: u32 = 4;
+pub use crate::guards::MAX_STAGES;
 
 /// What the checker is evaluating.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -331,9 +333,9 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         if !(pos(cfg.max_segment) && pos(cfg.max_segment_angle)) {
             return Err(SupervisorError::Config("max segment must be positive"));
         }
-        if !(1..=CHECK_STAGES).contains(&u32::from(cfg.stages_per_tick)) {
+        if !(1..=MAX_STAGES).contains(&u32::from(cfg.stages_per_tick)) {
             return Err(SupervisorError::Config(
-                "stages_per_tick must be within 1 ..= 4",
+                "stages_per_tick must be within 1 ..= 13 (MAX_STAGES)",
             ));
         }
         let n = (cfg.max_segment / cfg.path_step).max(cfg.max_segment_angle / cfg.path_step_angle);
@@ -672,18 +674,25 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
     /// speed limits (with headroom) at the current setpoint's Jacobian.
     fn speed_caps(&self, l: &Limits<T>, dir_v: &Vector3<T>, dir_w: &Vector3<T>) -> (T, T) {
         let (vmax, wmax) = (l.tip_speed, l.angular_speed);
-        let Some(j) = self.jac.as_ref().map(|j| j.j) else {
+        let Some(j) = self.jac.as_ref().map(|j| &j.j) else {
             return (vmax, wmax);
         };
-        let probe = Twist::new(
+        let probe = [
             dir_v.x * vmax,
             dir_v.y * vmax,
             dir_v.z * vmax,
             dir_w.x * wmax,
             dir_w.y * wmax,
             dir_w.z * wmax,
-        );
-        let qd = j * probe;
+        ];
+        // q̇ = J·probe over J's column-major storage (nalgebra's generic product costs
+        // several times the arithmetic on the Cortex-M4).
+        let mut qd = [T::zero(); 6];
+        for (col, p) in j.as_slice().chunks_exact(6).zip(probe.iter()) {
+            for (q, x) in qd.iter_mut().zip(col.iter()) {
+                *q += *x * *p;
+            }
+        }
         let mut scale = T::one();
         for (v, kind) in qd.iter().zip(self.guards.robot().joint_kinds().iter()) {
             let lim = of_kind(&l.joint_speed, *kind) * self.cfg.joint_speed_headroom;
@@ -699,22 +708,22 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
     /// setpoint's Jacobian: |J_j·Δ| ≤ |J_j,v|·|Δv| + |J_j,ω|·|Δω| (Cauchy-Schwarz, per row).
     fn joint_safe_accels(&self, l: &Limits<T>) -> (T, T) {
         let (at, aw) = (l.tip_accel, l.angular_accel);
-        let Some(j) = self.jac.as_ref().map(|j| j.j) else {
+        let Some(j) = self.jac.as_ref().map(|j| &j.j) else {
             return (at, aw);
         };
-        let mut scale = T::one();
-        for (row, kind) in j.row_iter().zip(self.guards.robot().joint_kinds().iter()) {
-            let lim = of_kind(&l.joint_accel, *kind) * self.cfg.joint_accel_headroom;
-            let (mut sv, mut sw) = (T::zero(), T::zero());
-            for (k, x) in row.iter().enumerate() {
-                if k < 3 {
-                    sv += *x * *x;
-                } else {
-                    sw += *x * *x;
-                }
+        // Squared norms of each row's [v] and [ω] halves, over the column-major storage.
+        let (mut sv, mut sw) = ([T::zero(); 6], [T::zero(); 6]);
+        for (k, col) in j.as_slice().chunks_exact(6).enumerate() {
+            let acc = if k < 3 { &mut sv } else { &mut sw };
+            for (a, x) in acc.iter_mut().zip(col.iter()) {
+                *a += *x * *x;
             }
-            let (row_v, row_w) = (sqrt(sv), sqrt(sw));
-            let worst = row_v * at + row_w * aw;
+        }
+        let mut scale = T::one();
+        let kinds = self.guards.robot().joint_kinds();
+        for ((kind, v2), w2) in kinds.iter().zip(sv.iter()).zip(sw.iter()) {
+            let lim = of_kind(&l.joint_accel, *kind) * self.cfg.joint_accel_headroom;
+            let worst = sqrt(*v2) * at + sqrt(*w2) * aw;
             if worst * scale > lim {
                 scale = lim / worst;
             }
@@ -758,13 +767,13 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
     /// One control tick.
     ///
     /// The braking point checked by a job that starts on this tick must cover what can
-    /// happen until the next braking-point job has finished: a job takes L ticks (L =
-    /// [`CHECK_STAGES`] / `stages_per_tick`, rounded up) and the next one may wait for one
-    /// path sample, so it finishes at most 3·L - 1 ticks after this one; until then the
+    /// happen until the next braking-point job has finished: a job takes at most L ticks
+    /// (L = [`MAX_STAGES`] / `stages_per_tick`, rounded up) and the next one may wait for
+    /// one path sample, so it finishes at most 3·L - 1 ticks after this one; until then the
     /// profile may accelerate, to v' = |v| + a·(3L - 1)·dt, and a violation found then
     /// starts braking from there. The point checked is where the robot, moving on for 3L
     /// ticks at v' along its current twist, would stop from v': v'²/2a + 3L·v'·dt ahead
-    /// (1.8 mm at 25 mm/s, 250 mm/s², L = 4), but no farther than the goal (or the verified
+    /// (3.7 mm at 25 mm/s, 250 mm/s², L = 13), but no farther than the goal (or the verified
     /// target waiting to replace it): the profile stops there with deceleration in hand, so
     /// a target next to a boundary is reached; the goal changes only after a check that
     /// looked past it.
@@ -793,7 +802,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
                 let horizon = self.next_goal.unwrap_or(self.goal);
                 let for_next = self.next_goal.is_some();
                 let ahead = (moving && !self.braking).then(|| {
-                    let per_job = CHECK_STAGES.div_ceil(u32::from(stages));
+                    let per_job = MAX_STAGES.div_ceil(u32::from(stages));
                     let n = lit::<T>(f64::from(3 * per_job));
                     let to_t = norm3(&(horizon.t - self.pose.t));
                     let to_r = norm3(&rotation_vector(&(horizon.r * self.pose.r.inverse())));
@@ -949,14 +958,17 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             qdot: self.qdot,
         };
         let cur = MotionSample { twist, qdot };
-        let mut motion_stop = None;
-        self.guards.evaluate_motion(&prev, &cur, dt, &mut |r| {
-            if r.severity == Some(Severity::Stop) && motion_stop.is_none() {
-                motion_stop = Some(*r);
+        if !self.guards.motion_within_limits(&prev, &cur, dt) {
+            // The readings, for the stop's reason.
+            let mut motion_stop = None;
+            self.guards.evaluate_motion(&prev, &cur, dt, &mut |r| {
+                if r.severity == Some(Severity::Stop) && motion_stop.is_none() {
+                    motion_stop = Some(*r);
+                }
+            });
+            if let Some(r) = motion_stop {
+                return self.hold(r);
             }
-        });
-        if let Some(r) = motion_stop {
-            return self.hold(r);
         }
         self.pose = candidate;
         self.q = q_new;

@@ -205,10 +205,10 @@ async fn control() {
     let central_q = [q.x, q.y, q.z, q.w, q.a, q.b];
     let mut cfg = reference_config::<f32>(central_q);
     cfg.controller.rate_hz = RATE_HZ as f32;
-    // One full guard evaluation per tick (4 stages; the board runs 1 stage per tick at
-    // 1 kHz): at 250 Hz with fewer the supervisor verifies a 100 Hz stream at 25 mm/s too
+    // About one full guard evaluation per tick (5 stages when the SVD starts warm; the
+    // board runs 1 stage per tick at 1 kHz): at 250 Hz with fewer the supervisor verifies a 100 Hz stream at 25 mm/s too
     // slowly, targets are superseded and the path's curves cut by millimetres.
-    cfg.controller.supervisor.stages_per_tick = 4;
+    cfg.controller.supervisor.stages_per_tick = 5;
     // The emulated joints have no backlash: compensating one would offset them by it.
     cfg.controller.servo.backlash = servo::backlash::BacklashConfig::off();
     // Under the emulator the host may stall the guest by tens of ms (QEMU runs on the

@@ -31,12 +31,16 @@ QEMU_PLUGIN_EXPORT int qemu_plugin_version = 1;
 #define MARK_STOP 2u
 #define MARK_ON 4u
 #define MARK_OFF 8u
-#define FLAG_BITS 4u
+#define MARK_ENTRY 16u
+#define FLAG_BITS 5u
+#define MAX_DEPTH 256
 
 struct sym {
     uint64_t addr, size;
     char *name;
     uint64_t count;
+    uint64_t incl; /* inclusive: its own and its callees' instructions */
+    uint32_t on_stack;
     int helper;
 };
 
@@ -50,6 +54,55 @@ static uint64_t count;
 static uint64_t unattributed;
 static uint64_t *pairs; /* pairs[helper * nsyms + caller] */
 static uint64_t prev_sym, caller;
+/* The shadow call stack of the profile (symbol index + 1, and whether the entry is the
+ * lowest occurrence of that function), for the inclusive counts: a call is an instruction
+ * at a function's first address; reaching a function lower on the stack is a return. */
+static uint64_t stack_sym[MAX_DEPTH];
+static int stack_first[MAX_DEPTH];
+static int depth;
+
+static void stack_push(uint64_t s)
+{
+    if (depth == MAX_DEPTH) {
+        return;
+    }
+    stack_sym[depth] = s;
+    stack_first[depth] = syms[s - 1].on_stack++ == 0;
+    depth++;
+}
+
+static void stack_pop(void)
+{
+    depth--;
+    syms[stack_sym[depth] - 1].on_stack--;
+}
+
+static void stack_reset(void)
+{
+    while (depth > 0) {
+        stack_pop();
+    }
+}
+
+static void track(uint64_t s, int entry)
+{
+    if (entry || depth == 0) {
+        stack_push(s);
+    } else if (stack_sym[depth - 1] != s) {
+        if (syms[s - 1].on_stack) {
+            while (stack_sym[depth - 1] != s) {
+                stack_pop();
+            }
+        } else {
+            stack_push(s);
+        }
+    }
+    for (int i = 0; i < depth; i++) {
+        if (stack_first[i]) {
+            syms[stack_sym[i] - 1].incl++;
+        }
+    }
+}
 
 static int is_helper(const char *n)
 {
@@ -154,6 +207,7 @@ static void on_insn(unsigned int vcpu, void *udata)
         }
         if (u & MARK_ON) {
             profiling = 1;
+            stack_reset();
         }
         if (u & MARK_OFF) {
             profiling = 0;
@@ -166,6 +220,7 @@ static void on_insn(unsigned int vcpu, void *udata)
             if (s) {
                 struct sym *f = &syms[s - 1];
                 f->count++;
+                track(s, (u & MARK_ENTRY) != 0);
                 if (f->helper) {
                     if (prev_sym && !syms[prev_sym - 1].helper) {
                         caller = prev_sym;
@@ -191,7 +246,9 @@ static void on_tb_trans(qemu_plugin_id_t id, struct qemu_plugin_tb *tb)
     for (size_t i = 0; i < n; i++) {
         struct qemu_plugin_insn *insn = qemu_plugin_tb_get_insn(tb, i);
         uint64_t pc = qemu_plugin_insn_vaddr(insn);
-        uintptr_t u = (uintptr_t)find_sym(pc) << FLAG_BITS;
+        uint64_t s = find_sym(pc);
+        uintptr_t u = (uintptr_t)s << FLAG_BITS;
+        if (s && syms[s - 1].addr == pc) u |= MARK_ENTRY;
         if (pc == a_start) u |= MARK_START;
         if (pc == a_stop) u |= MARK_STOP;
         if (pc == a_on) u |= MARK_ON;
@@ -226,6 +283,12 @@ static void plugin_exit(qemu_plugin_id_t id, void *p)
     for (size_t i = 0; i < nsyms && syms[i].count; i++) {
         snprintf(buf, sizeof buf, "func %" PRIu64 " %s\n", syms[i].count, syms[i].name);
         emit(buf);
+    }
+    for (size_t i = 0; i < nsyms; i++) {
+        if (syms[i].incl) {
+            snprintf(buf, sizeof buf, "incl %" PRIu64 " %s\n", syms[i].incl, syms[i].name);
+            emit(buf);
+        }
     }
     if (unattributed) {
         snprintf(buf, sizeof buf, "func %" PRIu64 " (no symbol)\n", unattributed);

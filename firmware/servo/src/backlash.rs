@@ -33,7 +33,7 @@
 use num_traits::Float;
 
 use crate::config::{is_leg, Check, ConfigError};
-use crate::num::{clamp_sym, lit, valid_dt};
+use crate::num::{clamp_sym, lit, max_of, valid_dt};
 use crate::NUM_JOINTS;
 
 /// How the offset is brought in after a reversal.
@@ -305,7 +305,7 @@ impl<S: Float> BacklashCompensator<S> {
             self.primed = true;
         }
         let h = if self.params.hysteresis.is_finite() {
-            self.params.hysteresis.max(S::zero())
+            max_of(self.params.hysteresis, S::zero())
         } else {
             S::zero()
         };
@@ -354,7 +354,7 @@ impl<S: Float> BacklashCompensator<S> {
         };
         // Largest change this sample: b per ramp distance of setpoint travel, or b per
         // ramp time (at least b/2 per ramp when b = 0 so a disabled joint still ramps out).
-        let b = (self.half_width() * lit(2.0)).max(self.offset.abs());
+        let b = max_of(self.half_width() * lit(2.0), self.offset.abs());
         let travel = (setpoint - self.last_setpoint).abs();
         let by_distance = |d: S| if d > S::zero() { b / d * travel } else { b };
         let by_time = |t: S| if t > S::zero() { b / t * dt } else { b };
@@ -362,7 +362,7 @@ impl<S: Float> BacklashCompensator<S> {
             BacklashRamp::Distance(d) => by_distance(d),
             BacklashRamp::Time(t) => by_time(t),
             BacklashRamp::DistanceOrTime { distance, time } => {
-                by_distance(distance).max(by_time(time))
+                max_of(by_distance(distance), by_time(time))
             }
         };
         let max_step = if max_step.is_finite() { max_step } else { b };

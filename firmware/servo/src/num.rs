@@ -70,5 +70,22 @@ pub(crate) fn seconds_to_us<S: Float>(dt: S) -> u64 {
 /// A count difference as a scalar (exact below 2^24 in f32, 2^53 in f64).
 #[inline]
 pub(crate) fn from_i64<S: Float>(x: i64) -> S {
+    // Counts within ±2^31 (all of them in practice) convert in hardware on the Cortex-M4:
+    // i32 -> f32 is one instruction, i64 -> f32 a soft-float call. Both round the same
+    // integer to nearest, so the result is the same.
+    if let Ok(small) = i32::try_from(x) {
+        return <S as NumCast>::from(small).unwrap_or_else(S::zero);
+    }
     <S as NumCast>::from(x).unwrap_or_else(S::zero)
+}
+
+/// The larger of `a` and `b`, the other one when one is NaN (as `Float::max`, which is an
+/// out-of-line libm call on the Cortex-M4).
+#[inline]
+pub(crate) fn max_of<S: Float>(a: S, b: S) -> S {
+    if b > a || a.is_nan() {
+        b
+    } else {
+        a
+    }
 }

@@ -65,6 +65,16 @@ fn moving(twist: &Twist<f32>) -> bool {
     twist.iter().any(|x| *x != 0.0)
 }
 
+/// The ticks of the full-tick scenario the profile covers: all by default, or `FIRST..END`
+/// from `TICK_COST_PROFILE_TICKS` at build time (e.g. `60..190`: moving to target A).
+fn profile_window() -> (u32, u32) {
+    let parse = |s: &str| s.trim().parse::<u32>().ok();
+    option_env!("TICK_COST_PROFILE_TICKS")
+        .and_then(|w| w.split_once(".."))
+        .and_then(|(a, b)| Some((parse(a)?, parse(b)?)))
+        .unwrap_or((0, u32::MAX))
+}
+
 /// The full control tick: the controller with the motor stub, through hold, verify, move,
 /// re-target while moving, and arrival. Profiled.
 fn full_tick() {
@@ -80,8 +90,17 @@ fn full_tick() {
     let mut prev_mode = Mode::Holding;
     let mut now_us = 1_000u64;
     let (mut fk_iters, mut fk_ticks) = (0u32, 0u32);
-    bench_profile_on();
+    let window = profile_window();
+    let mut ticks_run = 0u32;
     for k in 0..1200u32 {
+        ticks_run = k + 1;
+        if k == window.0 {
+            bench_profile_on();
+        }
+        if k == window.1 {
+            bench_profile_off();
+            hprintln!("@profiled {}", k - window.0);
+        }
         let mut submitted = false;
         if k == 5 {
             submitted = ctl.submit(&target_a(), now_us, now_us).is_ok();
@@ -115,7 +134,10 @@ fn full_tick() {
             break;
         }
     }
-    bench_profile_off();
+    if ticks_run < window.1 {
+        bench_profile_off();
+        hprintln!("@profiled {}", ticks_run.saturating_sub(window.0));
+    }
     hprintln!(
         "@info full tick: FK took {} Newton steps per tick on average ({} ticks); counters {:?}",
         fk_iters as f32 / fk_ticks.max(1) as f32,
@@ -223,18 +245,31 @@ fn parts() {
             if let Some(fk) = fk {
                 warm_steps[fk.iterations.min(4) as usize] += 1;
             }
-            // The controller's FK: the tracker, last updated at the pose one tick earlier.
-            if let Ok(s_prev) = inverse(&g, &pose, Branch::OUTER) {
+            // The controller's FK: the tracker, started two ticks earlier. Its first update
+            // (one tick earlier) takes a Newton step and factorises Jtilde; the next, the
+            // steady state while moving, a step with those factors (a chord step).
+            let before = pose.displaced(&(-step_v), &(-step_w));
+            let prev = inverse(&g, &pose, Branch::OUTER);
+            let earlier = inverse(&g, &before, Branch::OUTER);
+            if let (Ok(s_prev), Ok(s_before)) = (prev, earlier) {
                 let q_prev = quantize(&s_prev.q());
-                if let Ok(tracker) = FkTracker::new(&g, &q_prev, Branch::OUTER, &pose, &fk_cfg) {
+                let q_before = quantize(&s_before.q());
+                if let Ok(tracker) = FkTracker::new(&g, &q_before, Branch::OUTER, &before, &fk_cfg) {
                     let mut tr = tracker;
                     let mut out = None;
                     measure(&mut || {
                         tr = tracker;
+                        out = tr.update(&g, &q_prev, &fk_cfg).ok();
+                    });
+                    hprintln!("@label FK: FkTracker::update, first tick (Newton step, factorises Jtilde)");
+                    let primed = tr;
+                    measure(&mut || {
+                        tr = primed;
                         out = tr.update(&g, &q, &fk_cfg).ok();
                     });
-                    hprintln!("@label FK: FkTracker::update (the controller's), 1 tick");
+                    hprintln!("@label FK: FkTracker::update, next tick (a step with those factors)");
                     black_box(out);
+                    black_box(tr.counts());
                 }
             }
             let mut fk = None;
