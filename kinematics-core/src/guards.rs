@@ -775,8 +775,7 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
 
     fn workspace_readings(&self, pose: &Pose<T>, visit: &mut impl FnMut(&Reading<T>)) {
         let l = &self.limits;
-        let centre = Vector3::new(T::zero(), T::zero(), self.robot.hc());
-        let d = pose.t - centre;
+        let d = Vector3::new(pose.t.x, pose.t.y, pose.t.z - self.robot.hc());
         // The worst axis of the box (the one closest to or furthest beyond its face).
         let mut worst: Option<Reading<T>> = None;
         for (k, (di, hi)) in d.iter().zip(l.box_half.iter()).enumerate() {
@@ -794,8 +793,9 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
             visit(&w);
         }
         // Platform tilt: angle between n = R z and z0.
-        let n = pose.r * Vector3::z();
-        let tilt = crate::scalar::sqrt(n.x * n.x + n.y * n.y).atan2(n.z);
+        let r = pose.r.matrix();
+        let (nx, ny, nz) = (r.m13, r.m23, r.m33);
+        let tilt = crate::scalar::sqrt(nx * nx + ny * ny).atan2(nz);
         visit(&upper(
             Guard::TiltCone,
             Subject::Robot,
@@ -887,8 +887,9 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
             if l.collision_radius > T::zero() {
                 let c = &sol.chains[chain];
                 let radius = if c.s1.z.abs() > T::default_epsilon() {
-                    let p = c.b + c.s1 * ((l.collision_plane_height - c.b.z) / c.s1.z);
-                    crate::scalar::sqrt(p.x * p.x + p.y * p.y)
+                    let k = (l.collision_plane_height - c.b.z) / c.s1.z;
+                    let (px, py) = (c.b.x + c.s1.x * k, c.b.y + c.s1.y * k);
+                    crate::scalar::sqrt(px * px + py * py)
                 } else {
                     // A horizontal leg never meets the plane.
                     T::max_value().unwrap_or(T::one() / T::default_epsilon())

@@ -4,7 +4,7 @@ use crate::branch::Branch;
 use crate::chain::{Chain, PerChain};
 use crate::mechanism::{radial, Mechanism, PlatformChain};
 use crate::pose::Pose;
-use crate::scalar::Real;
+use crate::scalar::{axpy3, Real};
 use crate::Joints;
 use core::fmt;
 use nalgebra::Vector3;
@@ -152,12 +152,13 @@ pub fn platform_chain<T: Real, M: Mechanism<T> + ?Sized>(
     let u = col(radial.x, radial.y);
     let m_axis = col(r_axis.x, r_axis.y);
     let n = Vector3::new(r.m13, r.m23, r.m33);
+    let (rp, e) = (m.rp(), m.e());
     PlatformChain {
-        p: pose.t + u * m.rp(), // Eq. 6.7
+        p: axpy3(&pose.t, &u, rp), // Eq. 6.7
         u,
         m: m_axis,
-        n,                 // Eq. 6.6
-        e: radial * m.e(), // Eq. 6.2
+        n,                                                      // Eq. 6.6
+        e: Vector3::new(radial.x * e, radial.y * e, T::zero()), // Eq. 6.2
         radial,
     }
 }

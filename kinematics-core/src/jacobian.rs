@@ -4,7 +4,7 @@
 use crate::chain::{Chain, PerChain};
 use crate::ik::Solution;
 use crate::mechanism::{Mechanism, SerialBlock};
-use crate::scalar::{lit, Real};
+use crate::scalar::{cross3, lit, sub3, Real};
 use core::fmt;
 use nalgebra::{Matrix6, RowVector6, Vector3};
 
@@ -36,7 +36,7 @@ impl fmt::Display for JacobianError {
 
 /// One Plücker line [ŝ; (x - o_p) × ŝ] with the moment taken about o_p (Eq. 7.13).
 pub(crate) fn plucker<T: Real>(s: &Vector3<T>, through_minus_op: &Vector3<T>) -> RowVector6<T> {
-    let mo = through_minus_op.cross(s);
+    let mo = cross3(through_minus_op, s);
     RowVector6::new(s.x, s.y, s.z, mo.x, mo.y, mo.z)
 }
 
@@ -44,8 +44,12 @@ pub(crate) fn plucker<T: Real>(s: &Vector3<T>, through_minus_op: &Vector3<T>) ->
 /// in {0}, moments about o_p.
 fn chain_lines<T: Real>(sol: &Solution<T>) -> PerChain<(RowVector6<T>, RowVector6<T>)> {
     let t = sol.pose.t;
-    sol.chains
-        .map(|_, c| (plucker(&c.s1, &(c.p - t)), plucker(&c.s2, &(c.b - t))))
+    sol.chains.map(|_, c| {
+        (
+            plucker(&c.s1, &sub3(&c.p, &t)),
+            plucker(&c.s2, &sub3(&c.b, &t)),
+        )
+    })
 }
 
 fn stack<T: Real>(top: &PerChain<RowVector6<T>>, bottom: &PerChain<RowVector6<T>>) -> Matrix6<T> {

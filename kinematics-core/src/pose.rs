@@ -1,7 +1,6 @@
 //! Platform pose x = (t, R): t the position of o_p in {0}, R = wRp.
 
-use crate::scalar::lit;
-use crate::scalar::Real;
+use crate::scalar::{add3, axpy3, cross3, dot3, lit, Real};
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
 /// A platform pose. At the edges it is written `x, y, z, rx, ry, rz` with (rx, ry, rz) the
@@ -65,10 +64,21 @@ impl<T: Real> Pose<T> {
     /// second in the supervisor and the FK, and in f32 the rounding would otherwise let the
     /// matrix drift away from a rotation (about 2.4e-8 per tick measured on the M4).
     pub fn displaced(&self, dv: &Vector3<T>, dw: &Vector3<T>) -> Self {
-        let r = exp_so3(dw) * self.r.matrix();
+        let e = exp_so3(dw);
+        let r = self.r.matrix();
+        // The first two columns of exp([dω]×)·R, written out (the third follows from them).
+        let col = |x: T, y: T, z: T| {
+            Vector3::new(
+                e.m11 * x + e.m12 * y + e.m13 * z,
+                e.m21 * x + e.m22 * y + e.m23 * z,
+                e.m31 * x + e.m32 * y + e.m33 * z,
+            )
+        };
+        let c0 = col(r.m11, r.m21, r.m31);
+        let c1 = col(r.m12, r.m22, r.m32);
         Pose {
-            t: self.t + dv,
-            r: Rotation3::from_matrix_unchecked(orthonormalised(&r)),
+            t: add3(&self.t, dv),
+            r: Rotation3::from_matrix_unchecked(orthonormal_frame(&c0, &c1)),
         }
     }
 
@@ -152,14 +162,15 @@ pub fn exp_so3<T: Real>(w: &Vector3<T>) -> Matrix3<T> {
     )
 }
 
-/// The nearest rotation to a matrix that is one to rounding (Gram-Schmidt on the first two
-/// columns, the third their cross product): keeps composed rotations orthonormal.
-fn orthonormalised<T: Real>(m: &Matrix3<T>) -> Matrix3<T> {
-    let c0 = Vector3::new(m.m11, m.m21, m.m31);
-    let c1 = Vector3::new(m.m12, m.m22, m.m32);
-    let x = c0 / crate::scalar::norm3(&c0);
-    let y = c1 - x * x.dot(&c1);
-    let y = y / crate::scalar::norm3(&y);
-    let z = x.cross(&y);
-    Matrix3::from_columns(&[x, y, z])
+/// The nearest rotation to a matrix that is one to rounding, from its first two columns
+/// (Gram-Schmidt; the third column their cross product): keeps composed rotations
+/// orthonormal.
+fn orthonormal_frame<T: Real>(c0: &Vector3<T>, c1: &Vector3<T>) -> Matrix3<T> {
+    let n0 = crate::scalar::norm3(c0);
+    let x = Vector3::new(c0.x / n0, c0.y / n0, c0.z / n0);
+    let y = axpy3(c1, &x, -dot3(&x, c1));
+    let n1 = crate::scalar::norm3(&y);
+    let y = Vector3::new(y.x / n1, y.y / n1, y.z / n1);
+    let z = cross3(&x, &y);
+    Matrix3::new(x.x, y.x, z.x, x.y, y.y, z.y, x.z, y.z, z.z)
 }

@@ -6,7 +6,7 @@ use crate::chain::Chain;
 use crate::geometry::RsprGeometry;
 use crate::ik::{ChainSolution, IkFailure};
 use crate::mechanism::{JointKind, Mechanism, PlatformChain, SerialBlock};
-use crate::scalar::{lit, norm3, sqrt, Real};
+use crate::scalar::{dot3, lit, norm3, sqrt, sub3, Real};
 use nalgebra::Vector3;
 
 /// Signed angle about +z0 from `from` to `to` (both horizontal), in (-π, π].
@@ -55,17 +55,19 @@ impl<T: Real> Mechanism<T> for RsprGeometry<T> {
         if n.z.abs() <= eps || v_len <= eps {
             return Err(IkFailure::DegeneratePlane);
         }
-        let mut v = Vector3::new(-pc.m.y, pc.m.x, T::zero()) / v_len;
+        let (mut vx, mut vy) = (-pc.m.y / v_len, pc.m.x / v_len);
         // Eq. 6.18: v_i points along the base-plane projection of R pp_i.
-        if v.x * pc.u.x + v.y * pc.u.y < T::zero() {
-            v = -v;
+        if vx * pc.u.x + vy * pc.u.y < T::zero() {
+            (vx, vy) = (-vx, -vy);
         }
-        // Eq. 6.8-6.10: d_i, where the line through p_i along n pierces the base plane.
-        let d = pc.p - n * (pc.p.z / n.z);
+        // Eq. 6.8-6.10: d_i, where the line through p_i along n pierces the base plane
+        // (its z is 0).
+        let k = pc.p.z / n.z;
+        let (dx, dy) = (pc.p.x - n.x * k, pc.p.y - n.y * k);
         // Eq. 6.19-6.21 with a = |v|² = 1: t² + 2 h t + c = 0.
-        let de = Vector3::new(d.x - pc.e.x, d.y - pc.e.y, T::zero());
-        let h = de.dot(&v);
-        let c = de.norm_squared() - self.rb * self.rb;
+        let (dex, dey) = (dx - pc.e.x, dy - pc.e.y);
+        let h = dex * vx + dey * vy;
+        let c = dex * dex + dey * dey - self.rb * self.rb;
         let disc = h * h - c;
         if !(disc >= T::zero()) {
             return Err(IkFailure::NoRealRoot);
@@ -73,9 +75,9 @@ impl<T: Real> Mechanism<T> for RsprGeometry<T> {
         // Eq. 6.22: the plus root is "outer" (bit clear), the minus root "inner".
         let root = sqrt(disc);
         let t = if inner { -h - root } else { -h + root };
-        let b = Vector3::new(d.x + t * v.x, d.y + t * v.y, T::zero());
-        let lb = b - pc.e;
-        let s1_vec = pc.p - b;
+        let b = Vector3::new(dx + t * vx, dy + t * vy, T::zero());
+        let lb = sub3(&b, &pc.e);
+        let s1_vec = sub3(&pc.p, &b);
         let leg = norm3(&s1_vec);
         if !(leg > eps * self.rb) {
             return Err(IkFailure::ZeroLengthLeg);
@@ -85,7 +87,7 @@ impl<T: Real> Mechanism<T> for RsprGeometry<T> {
             b,
             p: pc.p,
             lb,
-            s1: s1_vec / leg,
+            s1: Vector3::new(s1_vec.x / leg, s1_vec.y / leg, s1_vec.z / leg),
             leg,
             s2: pc.m,
             qa: leg,
@@ -101,9 +103,9 @@ impl<T: Real> Mechanism<T> for RsprGeometry<T> {
         let tip = z_cross(&s.lb);
         SerialBlock {
             a11: T::one(),
-            a12: s.s1.dot(&tip),
+            a12: dot3(&s.s1, &tip),
             a21: T::zero(),
-            a22: s.s2.dot(&tip),
+            a22: dot3(&s.s2, &tip),
         }
     }
 

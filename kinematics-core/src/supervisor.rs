@@ -37,7 +37,7 @@ use crate::guards::{
     Depth, Evaluation, GuardSetupError, Guards, Limits, MotionSample, Reading, Severity, Solved,
     Staged,
 };
-use crate::jacobian::{jacobian, Jacobians};
+use crate::jacobian::{jacobian_into, Jacobians};
 use crate::mechanism::{JointKind, Mechanism};
 use crate::pose::{rotation_angle, rotation_vector, Pose};
 use crate::scalar::{lit, norm3, sqrt, wrap_angle, Real};
@@ -239,8 +239,12 @@ pub struct Supervisor<T: Real, M: Mechanism<T>> {
     q: Joints<T>,
     qdot: Joints<T>,
     twist: Twist<T>,
-    /// J at the setpoint (for the joint-speed cap); None near a serial singularity.
-    jac: Option<Jacobians<T>>,
+    /// The setpoint's solution and Jacobians (`evals[cur]`; J for the joint-speed caps,
+    /// valid when `jac_ok`, not at a serial singularity) and the candidate's (the other
+    /// slot): a kept candidate swaps the roles, so nothing is copied.
+    evals: [Evaluation<T>; 2],
+    cur: bool,
+    jac_ok: bool,
     goal: Pose<T>,
     pending: Option<Pending<T>>,
     /// The newest target that arrived while another was being verified; it is verified
@@ -252,8 +256,6 @@ pub struct Supervisor<T: Real, M: Mechanism<T>> {
     warning: bool,
     counters: Counters,
     last_refusal: Option<Refusal<T>>,
-    /// Where the candidate's evaluation writes the solution and Jacobians it computes.
-    scratch: Evaluation<T>,
     /// The full evaluation in progress, one stage per tick, and what it is for.
     checker: Staged<T>,
     job: Option<Job>,
@@ -292,6 +294,18 @@ enum Job {
 pub fn interpolate<T: Real>(a: &Pose<T>, b: &Pose<T>, s: T) -> Pose<T> {
     let dw = rotation_vector(&(b.r * a.r.inverse()));
     a.displaced(&((b.t - a.t) * s), &(dw * s))
+}
+
+/// J·x over J's column-major storage (nalgebra's generic product costs several times the
+/// arithmetic on the Cortex-M4).
+fn jac_times<T: Real>(j: &nalgebra::Matrix6<T>, x: &[T; 6]) -> [T; 6] {
+    let mut out = [T::zero(); 6];
+    for (col, xk) in j.as_slice().chunks_exact(6).zip(x.iter()) {
+        for (o, a) in out.iter_mut().zip(col.iter()) {
+            *o += *a * *xk;
+        }
+    }
+    out
 }
 
 /// The limit of a joint of `kind` from a [prismatic, revolute] pair.
@@ -360,7 +374,9 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             (false, Some(s)) => s,
             _ => return Err(SupervisorError::UnsafeStart(verdict.first_stop().copied())),
         };
-        let jac = jacobian(guards.robot(), &sol).ok();
+        let mut start_eval = Evaluation::new(branch);
+        start_eval.sol = sol;
+        let jac_ok = jacobian_into(guards.robot(), &sol, &mut start_eval.jac).is_ok();
         Ok(Supervisor {
             guards,
             cfg,
@@ -368,7 +384,9 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             q: sol.q(),
             qdot: Joints::zeros(),
             twist: Twist::zeros(),
-            jac,
+            evals: [start_eval, Evaluation::new(branch)],
+            cur: false,
+            jac_ok,
             goal: *start,
             pending: None,
             queued: None,
@@ -378,7 +396,6 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             warning: !verdict.is_ok(),
             counters: Counters::default(),
             last_refusal: None,
-            scratch: Evaluation::new(branch),
             checker: Staged::new(branch),
             job: None,
             path_turn: true,
@@ -424,7 +441,9 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
     /// The Jacobians at the current setpoint (None at a serial singularity), e.g. to map
     /// a known tool load to the joints.
     pub fn jacobians(&self) -> Option<&Jacobians<T>> {
-        self.jac.as_ref()
+        let [a, b] = &self.evals;
+        let current = if self.cur { b } else { a };
+        self.jac_ok.then_some(&current.jac)
     }
     /// The latched stop reason.
     pub fn latched(&self) -> Option<&Reading<T>> {
@@ -545,14 +564,16 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         Ok(())
     }
 
-    /// Evaluates the kinematic guards at `pose` into `self.scratch` (the solution and its
-    /// Jacobians): the first stop-level reading, whether a warn level is reached, and what
-    /// was solved.
+    /// Evaluates the kinematic guards at `pose` into the candidate's slot of `self.evals`
+    /// (the solution and its Jacobians; [`Self::keep_candidate`] makes it the setpoint's):
+    /// the first stop-level reading, whether a warn level is reached, and what was solved.
     fn kinematic_check(&mut self, pose: &Pose<T>) -> (Option<Reading<T>>, bool, Solved) {
         let mut stop = None;
         let mut warn = false;
         // (The kinematic depth has no SVD to warm-start.)
         let cond = &mut self.cond_setpoint;
+        let [a, b] = &mut self.evals;
+        let scratch = if self.cur { a } else { b };
         let solved = self.guards.evaluate_pose_into(
             pose,
             &mut |r| match r.severity {
@@ -561,10 +582,28 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
                 _ => {}
             },
             cond,
-            &mut self.scratch,
+            scratch,
             Depth::Kinematic,
         );
         (stop, warn, solved)
+    }
+
+    /// The candidate's slot of `self.evals` (see [`Self::kinematic_check`]).
+    fn candidate(&self) -> &Evaluation<T> {
+        let [a, b] = &self.evals;
+        if self.cur {
+            a
+        } else {
+            b
+        }
+    }
+
+    /// The candidate checked last becomes the setpoint: its pose, joints and Jacobians.
+    fn keep_candidate(&mut self, pose: &Pose<T>, solved: Solved) {
+        self.q = self.candidate().sol.q();
+        self.pose = *pose;
+        self.jac_ok = solved == Solved::WithJacobian;
+        self.cur = !self.cur;
     }
 
     /// Forgets the pending and the queued target (and a path check in progress).
@@ -674,7 +713,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
     /// speed limits (with headroom) at the current setpoint's Jacobian.
     fn speed_caps(&self, l: &Limits<T>, dir_v: &Vector3<T>, dir_w: &Vector3<T>) -> (T, T) {
         let (vmax, wmax) = (l.tip_speed, l.angular_speed);
-        let Some(j) = self.jac.as_ref().map(|j| &j.j) else {
+        let Some(j) = self.jacobians().map(|j| &j.j) else {
             return (vmax, wmax);
         };
         let probe = [
@@ -687,12 +726,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         ];
         // q̇ = J·probe over J's column-major storage (nalgebra's generic product costs
         // several times the arithmetic on the Cortex-M4).
-        let mut qd = [T::zero(); 6];
-        for (col, p) in j.as_slice().chunks_exact(6).zip(probe.iter()) {
-            for (q, x) in qd.iter_mut().zip(col.iter()) {
-                *q += *x * *p;
-            }
-        }
+        let qd = jac_times(j, &probe);
         let mut scale = T::one();
         for (v, kind) in qd.iter().zip(self.guards.robot().joint_kinds().iter()) {
             let lim = of_kind(&l.joint_speed, *kind) * self.cfg.joint_speed_headroom;
@@ -708,7 +742,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
     /// setpoint's Jacobian: |J_j·Δ| ≤ |J_j,v|·|Δv| + |J_j,ω|·|Δω| (Cauchy-Schwarz, per row).
     fn joint_safe_accels(&self, l: &Limits<T>) -> (T, T) {
         let (at, aw) = (l.tip_accel, l.angular_accel);
-        let Some(j) = self.jac.as_ref().map(|j| &j.j) else {
+        let Some(j) = self.jacobians().map(|j| &j.j) else {
             return (at, aw);
         };
         // Squared norms of each row's [v] and [ω] halves, over the column-major storage.
@@ -889,8 +923,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
                 let goal = self.goal;
                 let (stop, warn, solved) = self.kinematic_check(&goal);
                 if stop.is_none() && solved != Solved::No {
-                    self.pose = self.goal;
-                    self.q = self.scratch.sol.q();
+                    self.keep_candidate(&goal, solved);
                     self.warning = warn;
                 }
             }
@@ -936,10 +969,10 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         }
         // The guards computed the candidate's Jacobians already (in the scratch): reuse them.
         let with_jac = solved == Solved::WithJacobian;
-        let q_new = self.scratch.sol.q();
+        let q_new = self.candidate().sol.q();
         let twist = Twist::new(v1.x, v1.y, v1.z, w1.x, w1.y, w1.z);
         let qdot = if with_jac {
-            self.scratch.jac.j * twist
+            Joints::from(jac_times(&self.candidate().jac.j, &twist.into()))
         } else {
             {
                 // Finite differences when J is singular (the serial guard stops long before).
@@ -970,15 +1003,9 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
                 return self.hold(r);
             }
         }
-        self.pose = candidate;
-        self.q = q_new;
+        self.keep_candidate(&candidate, solved);
         self.qdot = qdot;
         self.twist = twist;
-        self.jac = if with_jac {
-            Some(self.scratch.jac)
-        } else {
-            None
-        };
         self.warning = warn;
         if warn {
             self.counters.warn_ticks += 1;

@@ -9,7 +9,7 @@ use crate::chain::{Chain, PerChain};
 use crate::ik::{inverse, platform_chain, IkError, Solution};
 use crate::mechanism::Mechanism;
 use crate::pose::Pose;
-use crate::scalar::Real;
+use crate::scalar::{cross3, dot3, Real};
 use nalgebra::Vector3;
 
 /// Components of `v` in the frame of the lower link `lb`: x along the link, y = z0 × x
@@ -18,12 +18,12 @@ use nalgebra::Vector3;
 fn in_link_frame<T: Real>(lb: &Vector3<T>, v: &Vector3<T>) -> Option<Vector3<T>> {
     let unit = |v: Vector3<T>| {
         let n = crate::scalar::norm3(&v);
-        (n > T::default_epsilon()).then(|| v / n)
+        (n > T::default_epsilon()).then(|| Vector3::new(v.x / n, v.y / n, v.z / n))
     };
     let x = unit(*lb)?;
     let y = unit(Vector3::new(-x.y, x.x, T::zero()))?;
-    let z = x.cross(&y);
-    Some(Vector3::new(v.dot(&x), v.dot(&y), v.dot(&z)))
+    let z = cross3(&x, &y);
+    Some(Vector3::new(dot3(v, &x), dot3(v, &y), dot3(v, &z)))
 }
 
 /// The socket axes of a robot: for each chain, the axis on the bit-clear and on the
@@ -68,7 +68,7 @@ pub fn tilt_angles<T: Real>(sol: &Solution<T>, axes: &SocketAxes<T>) -> PerChain
         let [clear, set] = axes.0[c];
         let axis = if sol.branch.is_set(c) { set } else { clear };
         match in_link_frame(&s.lb, &s.s1) {
-            Some(v) => crate::scalar::norm3(&v.cross(&axis)).atan2(v.dot(&axis)),
+            Some(v) => crate::scalar::norm3(&cross3(&v, &axis)).atan2(dot3(&v, &axis)),
             None => T::pi(),
         }
     })

@@ -74,7 +74,9 @@ pub(crate) fn from_i64<S: Float>(x: i64) -> S {
     // i32 -> f32 is one instruction, i64 -> f32 a soft-float call. Both round the same
     // integer to nearest, so the result is the same.
     if let Ok(small) = i32::try_from(x) {
-        return <S as NumCast>::from(small).unwrap_or_else(S::zero);
+        // (`black_box`: otherwise LLVM sees that both branches give the same value and
+        // keeps only the i64 conversion.)
+        return <S as NumCast>::from(core::hint::black_box(small)).unwrap_or_else(S::zero);
     }
     <S as NumCast>::from(x).unwrap_or_else(S::zero)
 }
