@@ -6,7 +6,7 @@ use crate::ik::Solution;
 use crate::mechanism::{Mechanism, SerialBlock};
 use crate::scalar::{cross3, lit, sub3, Real};
 use core::fmt;
-use nalgebra::{Matrix6, RowVector6, Vector3};
+use nalgebra::{Matrix6, Vector3};
 
 /// Why J = Js⁻¹ Jtilde does not exist.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -34,15 +34,18 @@ impl fmt::Display for JacobianError {
     }
 }
 
+/// A Plücker line [ŝ; m] as a row of Jtilde.
+pub(crate) type Line<T> = [T; 6];
+
 /// One Plücker line [ŝ; (x - o_p) × ŝ] with the moment taken about o_p (Eq. 7.13).
-pub(crate) fn plucker<T: Real>(s: &Vector3<T>, through_minus_op: &Vector3<T>) -> RowVector6<T> {
+pub(crate) fn plucker<T: Real>(s: &Vector3<T>, through_minus_op: &Vector3<T>) -> Line<T> {
     let mo = cross3(through_minus_op, s);
-    RowVector6::new(s.x, s.y, s.z, mo.x, mo.y, mo.z)
+    [s.x, s.y, s.z, mo.x, mo.y, mo.z]
 }
 
 /// The two Plücker lines of each chain (Eq. 7.14): ŝ1_i through p_i and ŝ2_i through b_i,
 /// in {0}, moments about o_p.
-fn chain_lines<T: Real>(sol: &Solution<T>) -> PerChain<(RowVector6<T>, RowVector6<T>)> {
+fn chain_lines<T: Real>(sol: &Solution<T>) -> PerChain<(Line<T>, Line<T>)> {
     let t = sol.pose.t;
     sol.chains.map(|_, c| {
         (
@@ -52,17 +55,17 @@ fn chain_lines<T: Real>(sol: &Solution<T>) -> PerChain<(RowVector6<T>, RowVector
     })
 }
 
-fn stack<T: Real>(top: &PerChain<RowVector6<T>>, bottom: &PerChain<RowVector6<T>>) -> Matrix6<T> {
-    let [a1, a2, a3] = top.0;
-    let [b1, b2, b3] = bottom.0;
-    Matrix6::from_rows(&[a1, a2, a3, b1, b2, b3])
-}
-
 /// The tripod Jacobian Jtilde (Eq. 7.14): rows 1..3 the lines ŝ1_i through p_i, rows 4..6
 /// the lines ŝ2_i through b_i.
 pub fn tripod_jacobian<T: Real>(sol: &Solution<T>) -> Matrix6<T> {
-    let lines = chain_lines(sol);
-    stack(&lines.map(|_, l| l.0), &lines.map(|_, l| l.1))
+    let [(a1, b1), (a2, b2), (a3, b3)] = chain_lines(sol).0;
+    // Column by column (the storage order), written out: no loops on the Cortex-M4.
+    macro_rules! col {
+        ($k:literal) => {
+            [a1[$k], a2[$k], a3[$k], b1[$k], b2[$k], b3[$k]]
+        };
+    }
+    Matrix6::from([col!(0), col!(1), col!(2), col!(3), col!(4), col!(5)])
 }
 
 /// All the Jacobians at one solution.
@@ -126,7 +129,7 @@ pub fn jacobian_into<T: Real, M: Mechanism<T> + ?Sized>(
 /// Jtilde, Eq. 7.14) and the serial blocks B_i (Eq. 7.21 / 7.31); shared by every
 /// mechanism of the class (RSPR, USR, RRPS).
 pub(crate) fn compose<T: Real>(
-    lines: PerChain<(RowVector6<T>, RowVector6<T>)>,
+    lines: PerChain<(Line<T>, Line<T>)>,
     serial: PerChain<SerialBlock<T>>,
     relative: PerChain<T>,
 ) -> Result<Jacobians<T>, JacobianError> {
@@ -136,16 +139,14 @@ pub(crate) fn compose<T: Real>(
 }
 
 fn compose_into<T: Real>(
-    lines: &PerChain<(RowVector6<T>, RowVector6<T>)>,
+    lines: &PerChain<(Line<T>, Line<T>)>,
     serial: &PerChain<SerialBlock<T>>,
     relative: &PerChain<T>,
     out: &mut Jacobians<T>,
 ) -> Result<(), JacobianError> {
     let tol = serial_singular_tolerance::<T>();
-    out.serial = *serial;
-    for (chain, (r1, r2)) in lines.iter() {
-        let i = chain.index();
-        // Chain by chain: [J_qa_i; J_qb_i] = B_i⁻¹ [Jt_i; Jt_{3+i}].
+    // B_i⁻¹ of each chain, refusing a serial singularity (the first chain in order).
+    let inv = PerChain::try_from_fn(|chain| {
         let blk = &serial[chain];
         let det = blk.det();
         if !(relative[chain] > tol) || !det.is_finite() {
@@ -154,28 +155,40 @@ fn compose_into<T: Real>(
                 relative_det: crate::geometry::to_f64(relative[chain]),
             });
         }
-        // Element by element over the (column-major) storage: nalgebra's row views and
-        // temporaries cost ~3x the arithmetic on the Cortex-M4.
         let inv = T::one() / det;
-        let (k11, k12, k21, k22) = (blk.a22 * inv, -blk.a12 * inv, -blk.a21 * inv, blk.a11 * inv);
-        let columns = out
-            .jtilde
-            .as_mut_slice()
-            .chunks_exact_mut(6)
-            .zip(out.j.as_mut_slice().chunks_exact_mut(6));
-        for ((ct, cj), (x1, x2)) in columns.zip(r1.iter().zip(r2.iter())) {
-            let (t_top, t_bottom) = ct.split_at_mut(3);
-            let (j_top, j_bottom) = cj.split_at_mut(3);
-            if let (Some(t1), Some(t2), Some(j1), Some(j2)) = (
-                t_top.get_mut(i),
-                t_bottom.get_mut(i),
-                j_top.get_mut(i),
-                j_bottom.get_mut(i),
-            ) {
-                (*t1, *t2) = (*x1, *x2);
-                (*j1, *j2) = (k11 * *x1 + k12 * *x2, k21 * *x1 + k22 * *x2);
-            }
-        }
+        Ok([blk.a22 * inv, -blk.a12 * inv, -blk.a21 * inv, blk.a11 * inv])
+    })?;
+    out.serial = *serial;
+    // Chain by chain: [J_qa_i; J_qb_i] = B_i⁻¹ [Jt_i; Jt_{3+i}]; column by column (the
+    // storage order), written out: nalgebra's row views and loops cost ~3x the arithmetic
+    // on the Cortex-M4.
+    let [(a1, b1), (a2, b2), (a3, b3)] = &lines.0;
+    let [k1, k2, k3] = &inv.0;
+    macro_rules! tilde {
+        ($k:literal) => {
+            [a1[$k], a2[$k], a3[$k], b1[$k], b2[$k], b3[$k]]
+        };
     }
+    macro_rules! full {
+        ($k:literal) => {
+            [
+                k1[0] * a1[$k] + k1[1] * b1[$k],
+                k2[0] * a2[$k] + k2[1] * b2[$k],
+                k3[0] * a3[$k] + k3[1] * b3[$k],
+                k1[2] * a1[$k] + k1[3] * b1[$k],
+                k2[2] * a2[$k] + k2[3] * b2[$k],
+                k3[2] * a3[$k] + k3[3] * b3[$k],
+            ]
+        };
+    }
+    out.jtilde = Matrix6::from([
+        tilde!(0),
+        tilde!(1),
+        tilde!(2),
+        tilde!(3),
+        tilde!(4),
+        tilde!(5),
+    ]);
+    out.j = Matrix6::from([full!(0), full!(1), full!(2), full!(3), full!(4), full!(5)]);
     Ok(())
 }

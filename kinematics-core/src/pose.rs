@@ -32,9 +32,14 @@ impl<T: Real> Pose<T> {
                 return Err(NonFinitePose { component: k as u8 });
             }
         }
+        // Rodrigues' formula (exp_so3), re-orthonormalised: nalgebra's from_scaled_axis
+        // calls libm's sin and cos, software double precision on the Cortex-M4.
+        let e = exp_so3(&rotvec);
+        let c0 = Vector3::new(e.m11, e.m21, e.m31);
+        let c1 = Vector3::new(e.m12, e.m22, e.m32);
         Ok(Pose {
             t,
-            r: Rotation3::from_scaled_axis(rotvec),
+            r: Rotation3::from_matrix_unchecked(orthonormal_frame(&c0, &c1)),
         })
     }
 
@@ -144,7 +149,7 @@ pub fn exp_so3<T: Real>(w: &Vector3<T>) -> Matrix3<T> {
         (a, b)
     } else {
         let t = crate::scalar::sqrt(t2);
-        let (sin, cos) = t.sin_cos();
+        let (sin, cos) = crate::scalar::sin_cos(t);
         (sin / t, (T::one() - cos) / t2)
     };
     // [w]×² = w wᵀ - θ² I.

@@ -296,16 +296,17 @@ pub fn interpolate<T: Real>(a: &Pose<T>, b: &Pose<T>, s: T) -> Pose<T> {
     a.displaced(&((b.t - a.t) * s), &(dw * s))
 }
 
-/// J·x over J's column-major storage (nalgebra's generic product costs several times the
-/// arithmetic on the Cortex-M4).
+/// J·x, written out over J's column arrays (nalgebra's generic product, and loops, cost
+/// several times the arithmetic on the Cortex-M4).
 fn jac_times<T: Real>(j: &nalgebra::Matrix6<T>, x: &[T; 6]) -> [T; 6] {
-    let mut out = [T::zero(); 6];
-    for (col, xk) in j.as_slice().chunks_exact(6).zip(x.iter()) {
-        for (o, a) in out.iter_mut().zip(col.iter()) {
-            *o += *a * *xk;
-        }
+    let [c0, c1, c2, c3, c4, c5] = &j.data.0;
+    let [x0, x1, x2, x3, x4, x5] = *x;
+    macro_rules! row {
+        ($i:literal) => {
+            c0[$i] * x0 + c1[$i] * x1 + c2[$i] * x2 + c3[$i] * x3 + c4[$i] * x4 + c5[$i] * x5
+        };
     }
-    out
+    [row!(0), row!(1), row!(2), row!(3), row!(4), row!(5)]
 }
 
 /// The limit of a joint of `kind` from a [prismatic, revolute] pair.
@@ -745,17 +746,27 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         let Some(j) = self.jacobians().map(|j| &j.j) else {
             return (at, aw);
         };
-        // Squared norms of each row's [v] and [ω] halves, over the column-major storage.
-        let (mut sv, mut sw) = ([T::zero(); 6], [T::zero(); 6]);
-        for (k, col) in j.as_slice().chunks_exact(6).enumerate() {
-            let acc = if k < 3 { &mut sv } else { &mut sw };
-            for (a, x) in acc.iter_mut().zip(col.iter()) {
-                *a += *x * *x;
-            }
+        // Squared norms of each row's [v] and [ω] halves, over the column arrays.
+        let [c0, c1, c2, c3, c4, c5] = &j.data.0;
+        macro_rules! halves {
+            ($i:literal) => {
+                (
+                    c0[$i] * c0[$i] + c1[$i] * c1[$i] + c2[$i] * c2[$i],
+                    c3[$i] * c3[$i] + c4[$i] * c4[$i] + c5[$i] * c5[$i],
+                )
+            };
         }
+        let rows = [
+            halves!(0),
+            halves!(1),
+            halves!(2),
+            halves!(3),
+            halves!(4),
+            halves!(5),
+        ];
         let mut scale = T::one();
         let kinds = self.guards.robot().joint_kinds();
-        for ((kind, v2), w2) in kinds.iter().zip(sv.iter()).zip(sw.iter()) {
+        for (kind, (v2, w2)) in kinds.iter().zip(rows.iter()) {
             let lim = of_kind(&l.joint_accel, *kind) * self.cfg.joint_accel_headroom;
             let worst = sqrt(*v2) * at + sqrt(*w2) * aw;
             if worst * scale > lim {
