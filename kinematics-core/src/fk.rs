@@ -400,7 +400,7 @@ pub struct TrackerCounts {
 
 /// A kept step leaves more than this fraction of [`TRACK_RESIDUAL_MAX`] (or of the
 /// tolerance, when larger): the factors are taken again (on the next tick's budget).
-const TRACK_REFRESH_FRACTION: f64 = 0.125;
+const TRACK_REFRESH_FRACTION: f64 = 0.25;
 
 impl<T: Real> FkTracker<T> {
     /// Starts tracking: the full solver from `guess`.

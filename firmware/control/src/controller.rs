@@ -272,6 +272,11 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Drive<S, M> {
         self.fk.pose()
     }
 
+    /// What the forward-kinematics tracker did so far (steps, refreshes, full solves).
+    pub fn fk_counts(&self) -> &kinematics_core::TrackerCounts {
+        self.fk.counts()
+    }
+
     /// Resets the servo after a tracking fault, holding the measured joints.
     pub fn reset_servo(&mut self) {
         let q = self.encoders.positions();
@@ -431,6 +436,10 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Controller<S, M> {
     /// The controller's counters.
     pub fn counters(&self) -> &ControllerCounters {
         &self.drive.counters
+    }
+    /// What the forward-kinematics tracker did so far.
+    pub fn fk_counts(&self) -> &kinematics_core::TrackerCounts {
+        self.drive.fk_counts()
     }
     /// The control period, s.
     pub fn dt(&self) -> S {

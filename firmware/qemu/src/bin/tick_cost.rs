@@ -139,10 +139,11 @@ fn full_tick() {
         hprintln!("@profiled {}", ticks_run.saturating_sub(window.0));
     }
     hprintln!(
-        "@info full tick: FK took {} Newton steps per tick on average ({} ticks); counters {:?}",
+        "@info full tick: FK took {} Newton steps per tick on average ({} ticks); counters {:?}; FK tracker {:?}",
         fk_iters as f32 / fk_ticks.max(1) as f32,
         fk_ticks,
-        ctl.counters()
+        ctl.counters(),
+        ctl.fk_counts()
     );
 }
 
