@@ -115,25 +115,28 @@ fn residual<T: Real>(
     q: &Joints<T>,
     cfg: &FkConfig<T>,
 ) -> (Joints<T>, bool, T) {
-    let mut r = target - q;
+    // Over plain arrays (nalgebra's iterators cost several times the arithmetic on the
+    // Cortex-M4).
+    let [t] = target.data.0;
+    let [q] = q.data.0;
+    let mut r = [T::zero(); 6];
     let mut ok = true;
     let mut worst = T::zero();
-    for (ri, kind) in r.iter_mut().zip(kinds.iter()) {
-        let tol = match kind {
-            JointKind::Linear => cfg.tol_linear,
-            JointKind::Angular => {
-                *ri = wrap_angle(*ri);
-                cfg.tol_angular
-            }
+    for (((ri, ti), qi), kind) in r.iter_mut().zip(t.iter()).zip(q.iter()).zip(kinds.iter()) {
+        let d = *ti - *qi;
+        let (d, tol) = match kind {
+            JointKind::Linear => (d, cfg.tol_linear),
+            JointKind::Angular => (wrap_angle(d), cfg.tol_angular),
         };
-        let a = ri.abs();
+        *ri = d;
+        let a = d.abs();
         ok &= a <= tol;
         // (A NaN residual already makes `ok` false.)
         if a > worst {
             worst = a;
         }
     }
-    (r, ok, worst)
+    (Joints::from(r), ok, worst)
 }
 
 /// Forward kinematics: the pose whose inverse kinematics on `branch` gives `q`, found by
@@ -313,6 +316,7 @@ const MAX_HALVINGS: usize = 12;
 
 /// sqrt(Σ linear² + Σ (L·angular)²): a residual norm with angles scaled to lengths.
 fn weighted_norm<T: Real>(kinds: &[JointKind; 6], r: &Joints<T>, scale: T) -> T {
+    let [r] = r.data.0;
     let mut acc = T::zero();
     for (x, kind) in r.iter().zip(kinds.iter()) {
         let v = match kind {
@@ -383,6 +387,8 @@ pub struct FkTracker<T: Real> {
     fresh: Option<Matrix6<T>>,
     /// Steps taken with factors older than the estimate, and refreshes of the factors.
     counts: TrackerCounts,
+    /// The last update factorised Jtilde (or ran the full solver): its heavy ticks.
+    factorised: bool,
 }
 
 /// What the tracker did over its life, by name.
@@ -424,6 +430,7 @@ impl<T: Real> FkTracker<T> {
                 full_solves: 1,
                 ..TrackerCounts::default()
             },
+            factorised: true,
         })
     }
 
@@ -452,6 +459,12 @@ impl<T: Real> FkTracker<T> {
         &self.counts
     }
 
+    /// Whether the last update factorised Jtilde or ran the full solver (the ticks that
+    /// cost the most; a caller with a budget per tick defers optional work off them).
+    pub fn factorised(&self) -> bool {
+        self.factorised
+    }
+
     /// The estimate's solution and the trial slot.
     fn slots(&mut self) -> (&Solution<T>, &mut Solution<T>) {
         let [a, b] = &mut self.sols;
@@ -474,6 +487,7 @@ impl<T: Real> FkTracker<T> {
             return Err(FkError::NonFiniteInput { index: k as u8 });
         }
         let kinds = m.joint_kinds();
+        self.factorised = false;
         let (r, ok, worst) = residual(&kinds, q, &self.solution().q(), cfg);
         if ok {
             self.residual = worst;
@@ -482,6 +496,7 @@ impl<T: Real> FkTracker<T> {
         // The second half of a refresh: factorise the Jtilde taken on the last tick.
         if let Some(jt) = self.fresh.take() {
             self.lu = Some(jt.lu());
+            self.factorised = true;
         }
         let accept = cfg
             .tol_angular
@@ -497,6 +512,7 @@ impl<T: Real> FkTracker<T> {
             } else {
                 self.lu = Some(tripod_jacobian(self.solution()).lu());
                 self.counts.newton_steps += 1;
+                self.factorised = true;
             }
             let Some((left, worst)) = self.step(m, q, &r, &kinds, cfg, scale) else {
                 // No progress: at the rounding level already, keep what there is.
@@ -524,6 +540,7 @@ impl<T: Real> FkTracker<T> {
             }
         }
         let from = self.pose;
+        self.factorised = true;
         let s = forward(m, q, self.branch, &from, cfg)?;
         self.counts.full_solves += 1;
         self.pose = s.pose;

@@ -1124,10 +1124,13 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
             && w <= l.angular_speed
             && a <= l.tip_accel
             && alpha <= l.angular_accel;
+        // Over plain arrays (nalgebra's iterators cost several times the arithmetic on the
+        // Cortex-M4).
+        let ([qd], [qd0]) = (cur.qdot.data.0, prev.qdot.data.0);
         let kinds = self.robot.joint_kinds();
-        for ((qd, qd0), kind) in cur.qdot.iter().zip(prev.qdot.iter()).zip(kinds.iter()) {
+        for ((v, v0), kind) in qd.iter().zip(qd0.iter()).zip(kinds.iter()) {
             let (vmax, amax) = self.joint_motion_limits(*kind);
-            ok &= qd.abs() <= vmax && ((*qd - *qd0) / dt).abs() <= amax;
+            ok &= v.abs() <= vmax && ((*v - *v0) / dt).abs() <= amax;
         }
         ok
     }

@@ -3,11 +3,13 @@
 
 use crate::chain::PerChain;
 use crate::jacobian::Jacobians;
+use crate::mechanism::SerialBlock;
 use crate::scalar::Real;
 use crate::singularity::{parallel_inv_cond, SvdDidNotConverge};
 use crate::{Joints, Wrench};
 use core::fmt;
-use nalgebra::Vector3;
+use nalgebra::linalg::LU;
+use nalgebra::{Vector3, U6};
 
 /// Why the actuator forces cannot be computed.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -96,24 +98,53 @@ pub fn forces_with_inv_cond<T: Real>(
     if !(inv_cond >= min_inv_cond) {
         return Err(singular());
     }
-    // Eq. 7.15: [f1; f2] = Jtilde⁻ᵀ s_e, by LU of Jtildeᵀ.
-    let f = jac.jtilde.transpose().lu().solve(se).ok_or_else(singular)?;
-    if !f.iter().all(|x| x.is_finite()) {
-        return Err(singular());
+    EffortMap::new(jac)
+        .forces(se, inv_cond)
+        .ok_or_else(singular)
+}
+
+/// Jtildeᵀ factorised once, with the serial blocks, for the forces of several wrenches at
+/// (nearly) one configuration: each is then one solve (Eq. 7.15) and τ = Jsᵀ f (Eq. 7.16,
+/// 7.20). The control path factorises on one tick and solves on the next, so that no
+/// tick pays for both (e.g. the flanks a tool's weight presses the lead screws against).
+#[derive(Clone, Copy, Debug)]
+pub struct EffortMap<T: Real> {
+    lu: LU<T, U6, U6>,
+    serial: PerChain<SerialBlock<T>>,
+}
+
+impl<T: Real> EffortMap<T> {
+    /// Factorises Jtildeᵀ of `jac` (no conditioning check: see [`actuator_forces`]).
+    pub fn new(jac: &Jacobians<T>) -> Self {
+        EffortMap {
+            lu: jac.jtilde.transpose().lu(),
+            serial: jac.serial,
+        }
     }
-    let f1 = PerChain([f.x, f.y, f.z]);
-    let f2 = PerChain([f.w, f.a, f.b]);
-    // Eq. 7.16/7.20: τ = Jsᵀ [f1; f2], chain by chain.
-    let per = PerChain::from_fn(|c| {
-        let blk = &jac.serial[c];
-        let (fa, fb) = (f1[c], f2[c]);
-        (blk.a11 * fa + blk.a21 * fb, blk.a12 * fa + blk.a22 * fb)
-    });
-    let [(a1, b1), (a2, b2), (a3, b3)] = per.0;
-    Ok(Statics {
-        tau: Joints::new(a1, a2, a3, b1, b2, b3),
-        f1: Vector3::new(f.x, f.y, f.z),
-        f2: Vector3::new(f.w, f.a, f.b),
-        inv_cond,
-    })
+
+    /// The forces for the wrench `se` (the moment about o_p, in {0}), recorded with the
+    /// inverse condition number `inv_cond` the caller measured; None when Jtilde is
+    /// singular, or `se` or the result is not finite.
+    pub fn forces(&self, se: &Wrench<T>, inv_cond: T) -> Option<Statics<T>> {
+        if !se.iter().all(|x| x.is_finite()) {
+            return None;
+        }
+        let f = self.lu.solve(se)?;
+        if !f.iter().all(|x| x.is_finite()) {
+            return None;
+        }
+        // Eq. 7.16/7.20: τ = Jsᵀ [f1; f2], chain by chain.
+        let [b1, b2, b3] = &self.serial.0;
+        let tau = |blk: &SerialBlock<T>, fa: T, fb: T| {
+            (blk.a11 * fa + blk.a21 * fb, blk.a12 * fa + blk.a22 * fb)
+        };
+        let ((a1, c1), (a2, c2), (a3, c3)) =
+            (tau(b1, f.x, f.w), tau(b2, f.y, f.a), tau(b3, f.z, f.b));
+        Some(Statics {
+            tau: Joints::new(a1, a2, a3, c1, c2, c3),
+            f1: Vector3::new(f.x, f.y, f.z),
+            f2: Vector3::new(f.w, f.a, f.b),
+            inv_cond,
+        })
+    }
 }

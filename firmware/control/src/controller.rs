@@ -2,7 +2,7 @@
 
 use core::fmt;
 use kinematics_core::guards::Limits;
-use kinematics_core::statics::joint_efforts;
+use kinematics_core::statics::EffortMap;
 use kinematics_core::supervisor::{
     Refusal, Supervisor, SupervisorConfig, SupervisorError, TickOutput,
 };
@@ -159,6 +159,10 @@ pub struct ControllerCounters {
 pub struct Planner<S: Scalar, M: Mechanism<S> + Clone> {
     supervisor: Supervisor<S, M>,
     tool: Option<ToolLoad<S>>,
+    /// With a tool: Jtildeᵀ factorised at the last tick's setpoint. The flanks are updated
+    /// every other tick, the factorisation on one and the solve on the next, so that no
+    /// tick pays for both (about 1,500 and 700 instructions on the Cortex-M4).
+    tool_map: Option<EffortMap<S>>,
     kinds: [JointKind; NUM_JOINTS],
     flanks: [Direction; NUM_JOINTS],
 }
@@ -182,6 +186,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Planner<S, M> {
     /// Declares the tool now on the platform (None: none).
     pub fn set_tool(&mut self, tool: Option<ToolLoad<S>>) {
         self.tool = tool;
+        self.tool_map = None;
         if tool.is_none() {
             self.flanks = [Direction::Unknown; NUM_JOINTS];
         }
@@ -205,29 +210,44 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Planner<S, M> {
 
     /// The setpoint of this tick and the tool's flanks at it.
     pub fn tick(&mut self) -> Plan<S> {
+        self.tick_with_budget(true)
+    }
+
+    /// [`Planner::tick`] on a budget per tick: the tool's flanks (optional work, the
+    /// supervisor never waits for them) are left for the next tick when `spare` is false,
+    /// e.g. on a tick where the forward kinematics factorised its Jacobian
+    /// ([`Sensed::fk_factorised`]), so that the two never add up in one tick.
+    pub fn tick_with_budget(&mut self, spare: bool) -> Plan<S> {
         let setpoint = self.supervisor.tick();
         // A known tool presses each lead screw against one flank: tell the backlash
-        // compensation which (τ = J⁻ᵀ s_e at the setpoint; the motor pushes along τ).
-        // Where τ cannot be computed the flanks stay as they were.
-        if let (Some(tool), Some(jac)) = (self.tool, self.supervisor.jacobians()) {
-            if let Ok(st) = joint_efforts(jac, &tool.wrench(&setpoint.pose)) {
-                for ((f, tau), k) in self
-                    .flanks
-                    .iter_mut()
-                    .zip(st.tau.iter())
-                    .zip(self.kinds.iter())
-                {
-                    let threshold = match k {
-                        JointKind::Linear => tool.flank_threshold[0],
-                        JointKind::Angular => tool.flank_threshold[1],
-                    };
-                    *f = if *tau > threshold {
-                        Direction::Positive
-                    } else if *tau < -threshold {
-                        Direction::Negative
-                    } else {
-                        Direction::Unknown
-                    };
+        // compensation which (τ = J⁻ᵀ s_e at the setpoint; the motor pushes along τ), every
+        // other tick: Jtildeᵀ factorised on one, τ solved on the next (the setpoint has
+        // moved by one tick, some 25 µm: nothing for a threshold on τ). Where τ cannot be
+        // computed the flanks stay as they were.
+        if let (Some(tool), true) = (self.tool, spare) {
+            match self.tool_map.take() {
+                None => self.tool_map = self.supervisor.jacobians().map(EffortMap::new),
+                Some(map) => {
+                    if let Some(st) = map.forces(&tool.wrench(&setpoint.pose), S::one()) {
+                        for ((f, tau), k) in self
+                            .flanks
+                            .iter_mut()
+                            .zip(st.tau.iter())
+                            .zip(self.kinds.iter())
+                        {
+                            let threshold = match k {
+                                JointKind::Linear => tool.flank_threshold[0],
+                                JointKind::Angular => tool.flank_threshold[1],
+                            };
+                            *f = if *tau > threshold {
+                                Direction::Positive
+                            } else if *tau < -threshold {
+                                Direction::Negative
+                            } else {
+                                Direction::Unknown
+                            };
+                        }
+                    }
                 }
             }
         }
@@ -245,6 +265,8 @@ pub struct Sensed<S: Scalar> {
     pub q: [S; NUM_JOINTS],
     /// Newton iterations of the forward kinematics, or its failure.
     pub fk: Result<u32, FkError>,
+    /// The forward kinematics factorised its Jacobian on this tick (its heavy ticks).
+    pub fk_factorised: bool,
 }
 
 /// The servo half of a tick: encoders, measured pose, six joint servos, outputs.
@@ -308,7 +330,11 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Drive<S, M> {
                 Err(e)
             }
         };
-        Sensed { q, fk }
+        Sensed {
+            q,
+            fk,
+            fk_factorised: self.fk.factorised(),
+        }
     }
 
     /// Runs the six joint servos towards the plan and drives the outputs (all off on a
@@ -401,6 +427,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Controller<S, M> {
             planner: Planner {
                 supervisor,
                 tool: cfg.tool,
+                tool_map: None,
                 kinds: robot.joint_kinds(),
                 flanks: [Direction::Unknown; NUM_JOINTS],
             },
@@ -507,7 +534,8 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Controller<S, M> {
     /// run the six PIDs and drive the outputs (all off on a tracking fault).
     pub fn tick<H: QuadratureCounter + MotorOutputs<S>>(&mut self, hw: &mut H) -> TickReport<S> {
         let sensed = self.drive.sense(hw);
-        let plan = self.planner.tick();
+        // Optional work of the planner (the tool's flanks) off the heavy FK ticks.
+        let plan = self.planner.tick_with_budget(!sensed.fk_factorised);
         self.drive.act(hw, &sensed, &plan)
     }
 }

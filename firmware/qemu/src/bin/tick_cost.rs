@@ -6,7 +6,7 @@
 #![no_std]
 #![no_main]
 
-use controller::{Controller, ControllerConfig, TickReport};
+use controller::{Controller, ControllerConfig, TickReport, ToolLoad};
 use core::hint::black_box;
 use cortex_m_rt::entry;
 use cortex_m_semihosting::debug;
@@ -107,14 +107,18 @@ fn full_tick() {
         }
         if k == 200 {
             submitted = ctl.submit(&target_b(), now_us, now_us).is_ok();
+            // From here on with the thesis's tool (1.2 kg on 0.1 m): the planner also
+            // updates the lead screws' flanks under its weight.
+            ctl.set_tool(Some(ToolLoad::thesis()));
         }
         let verifying_before = submitted || prev_mode == Mode::Verifying;
         let mut report: Option<TickReport<f32>> = None;
         measure(&mut || report = Some(ctl.tick(&mut plant)));
         let Some(r) = report else { break };
         hprintln!(
-            "@label Controller::tick: {}",
-            tick_kind(verifying_before, r.setpoint.mode, moving(&r.setpoint.twist))
+            "@label Controller::tick: {}{}",
+            tick_kind(verifying_before, r.setpoint.mode, moving(&r.setpoint.twist)),
+            if k >= 200 { ", with the tool" } else { "" }
         );
         if let Ok(it) = r.fk {
             fk_iters += it;
