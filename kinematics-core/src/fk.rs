@@ -10,13 +10,13 @@ use crate::branch::Branch;
 use crate::chain::{Chain, PerChain};
 use crate::ik::{inverse, inverse_into, IkError, Solution};
 use crate::jacobian::tripod_jacobian;
+use crate::lu::Lu6;
 use crate::mechanism::{JointKind, Mechanism};
 use crate::pose::Pose;
 use crate::scalar::{lit, wrap_angle, Real};
 use crate::Joints;
 use core::fmt;
-use nalgebra::linalg::LU;
-use nalgebra::{Matrix6, Vector3, Vector6, U6};
+use nalgebra::{Matrix6, Vector3, Vector6};
 
 /// Newton solver settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -240,9 +240,8 @@ fn newton_step<T: Real, M: Mechanism<T> + ?Sized>(
     tries: usize,
 ) -> Result<Step<T>, FkError> {
     let rhs = serial_rhs(m, sol, r);
-    let dx = tripod_jacobian(sol)
-        .lu()
-        .solve(&rhs)
+    let dx = Lu6::new(&tripod_jacobian(sol))
+        .map(|lu| lu.solve(&rhs))
         .filter(|d| d.iter().all(|x| x.is_finite()))
         .ok_or(FkError::SingularStep { iteration })?;
     let (mut dv, mut dw) = limited_step(&dx, cfg);
@@ -372,7 +371,7 @@ pub const TRACK_RESIDUAL_MAX: f64 = 1e-6;
 /// readings, so its accuracy is known, never assumed: after a step it is of the order of
 /// the tick's motion squared (about 1e-9 m at 25 mm/s in f64; the f32 rounding on the
 /// MCU), and it converges to the tolerances while the robot stands still.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FkTracker<T: Real> {
     branch: Branch,
     pose: Pose<T>,
@@ -382,7 +381,7 @@ pub struct FkTracker<T: Real> {
     slot: bool,
     residual: T,
     /// LU factors of Jtilde at a recent estimate, the matrix of the steps.
-    lu: Option<LU<T, U6, U6>>,
+    lu: Option<Lu6<T>>,
     /// Jtilde taken at the estimate, to be factorised on the next update.
     fresh: Option<Matrix6<T>>,
     /// Steps taken with factors older than the estimate, and refreshes of the factors.
@@ -406,7 +405,7 @@ pub struct TrackerCounts {
 
 /// A kept step leaves more than this fraction of [`TRACK_RESIDUAL_MAX`] (or of the
 /// tolerance, when larger): the factors are taken again (on the next tick's budget).
-const TRACK_REFRESH_FRACTION: f64 = 0.25;
+const TRACK_REFRESH_FRACTION: f64 = 0.125;
 
 impl<T: Real> FkTracker<T> {
     /// Starts tracking: the full solver from `guess`.
@@ -495,7 +494,7 @@ impl<T: Real> FkTracker<T> {
         }
         // The second half of a refresh: factorise the Jtilde taken on the last tick.
         if let Some(jt) = self.fresh.take() {
-            self.lu = Some(jt.lu());
+            self.lu = Lu6::new(&jt);
             self.factorised = true;
         }
         let accept = cfg
@@ -510,7 +509,7 @@ impl<T: Real> FkTracker<T> {
             if chord {
                 self.counts.chord_steps += 1;
             } else {
-                self.lu = Some(tripod_jacobian(self.solution()).lu());
+                self.lu = Lu6::new(&tripod_jacobian(self.solution()));
                 self.counts.newton_steps += 1;
                 self.factorised = true;
             }
@@ -570,7 +569,7 @@ impl<T: Real> FkTracker<T> {
         scale: T,
     ) -> Option<(Joints<T>, T)> {
         let rhs = serial_rhs(m, self.solution(), r);
-        let dx = self.lu.as_ref()?.solve(&rhs)?;
+        let dx = self.lu.as_ref()?.solve(&rhs);
         if !dx.iter().all(|x| x.is_finite()) {
             return None;
         }

@@ -34,6 +34,7 @@ pub mod geometry;
 pub mod guards;
 pub mod ik;
 pub mod jacobian;
+pub mod lu;
 pub mod mechanism;
 pub mod pose;
 pub mod rrps;

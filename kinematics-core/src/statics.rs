@@ -3,13 +3,13 @@
 
 use crate::chain::PerChain;
 use crate::jacobian::Jacobians;
+use crate::lu::Lu6;
 use crate::mechanism::SerialBlock;
 use crate::scalar::Real;
 use crate::singularity::{parallel_inv_cond, SvdDidNotConverge};
 use crate::{Joints, Wrench};
 use core::fmt;
-use nalgebra::linalg::LU;
-use nalgebra::{Vector3, U6};
+use nalgebra::Vector3;
 
 /// Why the actuator forces cannot be computed.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -103,21 +103,22 @@ pub fn forces_with_inv_cond<T: Real>(
         .ok_or_else(singular)
 }
 
-/// Jtildeᵀ factorised once, with the serial blocks, for the forces of several wrenches at
+/// Jtilde factorised once, with the serial blocks, for the forces of several wrenches at
 /// (nearly) one configuration: each is then one solve (Eq. 7.15) and τ = Jsᵀ f (Eq. 7.16,
 /// 7.20). The control path factorises on one tick and solves on the next, so that no
 /// tick pays for both (e.g. the flanks a tool's weight presses the lead screws against).
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct EffortMap<T: Real> {
-    lu: LU<T, U6, U6>,
+    lu: Option<Lu6<T>>,
     serial: PerChain<SerialBlock<T>>,
 }
 
 impl<T: Real> EffortMap<T> {
-    /// Factorises Jtildeᵀ of `jac` (no conditioning check: see [`actuator_forces`]).
+    /// Factorises Jtilde of `jac` (no conditioning check: see [`actuator_forces`]); the
+    /// forces are then a transposed solve.
     pub fn new(jac: &Jacobians<T>) -> Self {
         EffortMap {
-            lu: jac.jtilde.transpose().lu(),
+            lu: Lu6::new(&jac.jtilde),
             serial: jac.serial,
         }
     }
@@ -129,7 +130,7 @@ impl<T: Real> EffortMap<T> {
         if !se.iter().all(|x| x.is_finite()) {
             return None;
         }
-        let f = self.lu.solve(se)?;
+        let f = self.lu.as_ref()?.solve_transposed(se);
         if !f.iter().all(|x| x.is_finite()) {
             return None;
         }

@@ -14,10 +14,13 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(64))]
 
     /// 300 ticks at 25 mm/s and 30 deg/s (while the parallel measure stays above the
-    /// guards' warn level 0.03 and the joints within the reference speed limits): the tracker takes at most two Newton steps per
-    /// tick (never the full solver), its joint residual stays below TRACK_RESIDUAL_MAX and its
-    /// pose equals the full FK's to 1e-6 m / 1e-6 rad (f64, the square of one tick's motion;
-    /// the encoders resolve 1.5 µm and 87 µrad) and 2 µm / 2e-5 rad (f32, against the f64 full FK).
+    /// guards' warn level 0.03 and the joints within the reference speed limits): the
+    /// tracker takes at most two steps per tick (never the full solver), one with the
+    /// factors of an earlier tick (a chord step) on most ticks, its joint residual stays
+    /// below TRACK_RESIDUAL_MAX and its pose equals the full FK's to 1e-6 m / 3e-6 rad (f64:
+    /// the residual a chord step leaves at this speed, up to an eighth of
+    /// TRACK_RESIDUAL_MAX before the factors are taken again; the encoders resolve 1.5 µm
+    /// and 87 µrad) and 2 µm / 2e-5 rad (f32, against the f64 full FK).
     #[test]
     fn tracker_follows_the_full_solver(
         start in pose_near_box(0.16),
@@ -61,12 +64,13 @@ proptest! {
             let full = forward(&g, &q, Branch::OUTER, &pose, &cfg).unwrap();
             let (el, ea) = pose_error(tr.pose(), &full.pose);
             prop_assert!(tr.residual() <= fk::TRACK_RESIDUAL_MAX, "tick {k}: residual {:e}", tr.residual());
-            prop_assert!(el < 1e-6 && ea < 1e-6, "tick {k}: f64 {el:e} m {ea:e} rad");
+            prop_assert!(el < 1e-6 && ea < 3e-6, "tick {k}: f64 {el:e} m {ea:e} rad");
             let t32 = tr32.update(&g32, &q.cast::<f32>(), &cfg32);
             prop_assert!(matches!(t32, Ok(Tracked::Stepped { .. } | Tracked::Unchanged)), "tick {k}: f32 {t32:?}");
             let (el, ea) = pose_error(&tr32.pose().cast::<f64>(), &full.pose);
             prop_assert!(el < 2e-6 && ea < 2e-5, "tick {k}: f32 {el:e} m {ea:e} rad");
         }
+
     }
 }
 
