@@ -47,7 +47,7 @@ END {
     }
     print line
     if (tick_calls > 0) {
-        printf "Full tick over the scenario: mean %.0f, max %d instructions (target: <= 20000);\n", tick_sum / tick_calls, tick_max
+        printf "Full tick over the scenario: mean %.0f, max %d instructions (target: <= 20000%s);\n", tick_sum / tick_calls, tick_max, budget != "" ? (tick_max <= budget + 0 ? ", met" : ", NOT MET") : ""
         printf "at the max: %.1f%% of the CPU at %d Hz, %.1f%% at 5 kHz.\n", pct(tick_max), rate, pct(tick_max) * 5000 / rate
         if (budget != "" && tick_max > budget + 0) {
             printf "tick-cost: the worst full tick (%d) exceeds TICK_BUDGET=%d\n", tick_max, budget > "/dev/stderr"

@@ -49,6 +49,23 @@ fn target_b() -> Pose<f32> {
     }
 }
 
+/// Outside the workspace box (20 mm above it): refused by the path check.
+fn target_outside() -> Pose<f32> {
+    Pose {
+        t: Vector3::new(0.004, 0.002, 0.195),
+        r: Rotation3::identity(),
+    }
+}
+
+/// A turn of 15 deg about a tilted axis and 6 mm: path samples rotated by more than
+/// 0.1 rad (the trigonometric branch of the pose update).
+fn target_turn() -> Pose<f32> {
+    Pose {
+        t: Vector3::new(-0.002, 0.004, 0.160),
+        r: Rotation3::from_scaled_axis(Vector3::new(0.2, -0.12, 0.1)),
+    }
+}
+
 /// What a tick did, for its label.
 fn tick_kind(verifying_before: bool, mode: Mode, moving: bool) -> &'static str {
     match (mode, verifying_before, moving) {
@@ -63,6 +80,17 @@ fn tick_kind(verifying_before: bool, mode: Mode, moving: bool) -> &'static str {
 
 fn moving(twist: &Twist<f32>) -> bool {
     twist.iter().any(|x| *x != 0.0)
+}
+
+/// Where the full-tick scenario is.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Phase {
+    ToA,
+    ToB,
+    Outside { since: u32 },
+    Turn { since: u32 },
+    Braking,
+    Rest { since: u32 },
 }
 
 /// The ticks of the full-tick scenario the profile covers: all by default, or `FIRST..END`
@@ -92,7 +120,8 @@ fn full_tick() {
     let (mut fk_iters, mut fk_ticks) = (0u32, 0u32);
     let window = profile_window();
     let mut ticks_run = 0u32;
-    for k in 0..1200u32 {
+    let mut phase = Phase::ToA;
+    for k in 0..2000u32 {
         ticks_run = k + 1;
         if k == window.0 {
             bench_profile_on();
@@ -101,15 +130,43 @@ fn full_tick() {
             bench_profile_off();
             hprintln!("@profiled {}", k - window.0);
         }
+        // The master's part: targets A, then B while moving, the tool attached; at rest on
+        // B a target outside the workspace (refused), then a turn of 15 deg (verified in
+        // about 150 ticks), and 200 ticks into that motion the heartbeat stops (the controller brakes and holds).
         let mut submitted = false;
-        if k == 5 {
-            submitted = ctl.submit(&target_a(), now_us, now_us).is_ok();
-        }
-        if k == 200 {
-            submitted = ctl.submit(&target_b(), now_us, now_us).is_ok();
-            // From here on with the thesis's tool (1.2 kg on 0.1 m): the planner also
-            // updates the lead screws' flanks under its weight.
-            ctl.set_tool(Some(ToolLoad::thesis()));
+        let mut submit = |ctl: &mut Controller<f32, G32>, target: &Pose<f32>| {
+            let ok = ctl.submit(target, now_us, now_us).is_ok();
+            submitted = ok;
+            ok
+        };
+        match (phase, k) {
+            (Phase::ToA, 5) => {
+                submit(&mut ctl, &target_a());
+            }
+            (Phase::ToA, 200) => {
+                submit(&mut ctl, &target_b());
+                // From here on with the thesis's tool (1.2 kg on 0.1 m): the planner also
+                // updates the lead screws' flanks under its weight.
+                ctl.set_tool(Some(ToolLoad::thesis()));
+                phase = Phase::ToB;
+            }
+            (Phase::ToB, _) if prev_mode == Mode::Holding && k > 210 => {
+                submit(&mut ctl, &target_outside());
+                phase = Phase::Outside { since: k };
+            }
+            (Phase::Outside { since }, _) if k > since + 60 => {
+                submit(&mut ctl, &target_turn());
+                phase = Phase::Turn { since: k };
+            }
+            (Phase::Turn { since }, _) if k == since + 350 => {
+                ctl.hold();
+                phase = Phase::Braking;
+            }
+            (Phase::Braking, _) if prev_mode == Mode::Holding => {
+                phase = Phase::Rest { since: k };
+            }
+            (Phase::Rest { since }, _) if k > since + 10 => break,
+            _ => {}
         }
         let verifying_before = submitted || prev_mode == Mode::Verifying;
         let mut report: Option<TickReport<f32>> = None;
@@ -127,12 +184,6 @@ fn full_tick() {
         prev_mode = r.setpoint.mode;
         plant.step(1e-3);
         now_us += 1000;
-        if k > 210 && r.setpoint.mode == Mode::Holding && k % 10 == 0 {
-            // Arrived at the second target: a few holding ticks are enough.
-            if k > 700 {
-                break;
-            }
-        }
         if r.servo.fault.is_some() {
             hprintln!("@info servo fault {:?}", r.servo.fault);
             break;
@@ -149,6 +200,7 @@ fn full_tick() {
         ctl.counters(),
         ctl.fk_counts()
     );
+    hprintln!("@info full tick: supervisor {:?}", ctl.supervisor().counters());
 }
 
 /// The supervisor alone, through the same kind of scenario.
