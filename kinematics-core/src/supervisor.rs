@@ -2,10 +2,11 @@
 //! setpoints at the control rate, so that no setpoint ever violates a stop-level guard.
 //!
 //! Per tick, with constant bounded work: one stage of a full guard evaluation (see
-//! [`Staged`]: the inverse kinematics with the kinematic guards, the Jacobians, the parallel
-//! measure's SVD or the payload statics) and, while moving, the kinematic guards of the
-//! candidate setpoint. A full evaluation of a pose thus takes a few ticks (five when the
-//! SVD starts warm, at most [`MAX_STAGES`]). The
+//! [`Staged`]: the inverse kinematics with the kinematic guards, the Jacobians with the
+//! start of the parallel measure's SVD, one sweep of that SVD, or the payload statics) and,
+//! while moving, the kinematic guards and the Jacobian of the candidate setpoint. A full
+//! evaluation of a pose thus takes a few ticks (five when the SVD starts warm, at most
+//! [`MAX_STAGES`]). The
 //! checker works on one pose at a time, taking turns between the pending path and the
 //! braking point; each kind of pose keeps its own warm-started SVD
 //! ([`ConditionEstimator`]).

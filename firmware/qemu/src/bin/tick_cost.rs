@@ -11,15 +11,17 @@ use core::hint::black_box;
 use cortex_m_rt::entry;
 use cortex_m_semihosting::debug;
 use kinematics_core::guards::{Guards, Limits, MotionSample};
-use kinematics_core::ik::platform_chain;
+use kinematics_core::ik::{inverse_into, platform_chain, Solution};
+use kinematics_core::jacobian::{jacobian_into, Jacobians};
+use kinematics_core::lu::Lu6;
 use kinematics_core::mechanism::radial;
 use kinematics_core::singularity::{parallel_inv_cond, ConditionEstimator};
 use kinematics_core::statics::forces_with_inv_cond;
 use kinematics_core::supervisor::{interpolate, Mode, Supervisor, SupervisorConfig};
 use kinematics_core::tilt::{tilt_angles, SocketAxes};
 use kinematics_core::{
-    forward, inverse, jacobian, measures, Branch, Chain, FkConfig, FkTracker, Joints, Pose,
-    RsprGeometry, Twist,
+    forward, inverse, measures, Branch, Chain, FkConfig, FkTracker, Joints, Pose, RsprGeometry,
+    Twist,
 };
 use nalgebra::{ComplexField, Matrix6, RealField, Rotation3, Vector3, Vector6};
 use panic_semihosting as _;
@@ -119,10 +121,9 @@ fn full_tick() {
     let mut now_us = 1_000u64;
     let (mut fk_iters, mut fk_ticks) = (0u32, 0u32);
     let window = profile_window();
-    let mut ticks_run = 0u32;
+    let mut ticks_run = 0u32; // (measured)
     let mut phase = Phase::ToA;
     for k in 0..2000u32 {
-        ticks_run = k + 1;
         if k == window.0 {
             bench_profile_on();
         }
@@ -171,6 +172,7 @@ fn full_tick() {
         let verifying_before = submitted || prev_mode == Mode::Verifying;
         let mut report: Option<TickReport<f32>> = None;
         measure(&mut || report = Some(ctl.tick(&mut plant)));
+        ticks_run = k + 1;
         let Some(r) = report else { break };
         hprintln!(
             "@label Controller::tick: {}{}",
@@ -200,7 +202,10 @@ fn full_tick() {
         ctl.counters(),
         ctl.fk_counts()
     );
-    hprintln!("@info full tick: supervisor {:?}", ctl.supervisor().counters());
+    hprintln!(
+        "@info full tick: supervisor {:?}",
+        ctl.supervisor().counters()
+    );
 }
 
 /// The supervisor alone, through the same kind of scenario.
@@ -275,10 +280,14 @@ fn parts() {
     };
     for pose in path(n) {
         let pose = black_box(pose);
-        let mut sol = None;
-        measure(&mut || sol = inverse(&g, &pose, Branch::OUTER).ok());
-        hprintln!("@label inverse kinematics (3 chains)");
-        let Some(sol) = sol else { continue };
+        // In place, as the control path solves (`inverse_into`, `jacobian_into`).
+        let mut sol = Solution::zeroed(Branch::OUTER);
+        let mut ok = false;
+        measure(&mut || ok = inverse_into(&g, &pose, Branch::OUTER, &mut sol).is_ok());
+        hprintln!("@label inverse kinematics (3 chains, in place)");
+        if !ok {
+            continue;
+        }
         let mut dir = Vector3::zeros();
         let chain = black_box(Chain::Two);
         measure(&mut || dir = radial::<f32>(chain));
@@ -287,10 +296,12 @@ fn parts() {
         measure(&mut || pc = Some(platform_chain(&g, &pose, chain)));
         hprintln!("@label   platform_chain (per chain, includes radial)");
         black_box((dir, pc));
-        let mut jac = None;
-        measure(&mut || jac = jacobian(&g, &sol).ok());
-        hprintln!("@label Jacobian J = Js^-1 Jtilde");
-        let Some(jac) = jac else { continue };
+        let mut jac = Jacobians::zeroed();
+        measure(&mut || ok = jacobian_into(&g, &sol, &mut jac).is_ok());
+        hprintln!("@label Jacobian J = Js^-1 Jtilde (in place)");
+        if !ok {
+            continue;
+        }
 
         // Forward kinematics from quantized encoder joints, warm-started one tick away.
         let next = pose.displaced(&step_v, &step_w);
@@ -311,20 +322,25 @@ fn parts() {
             if let (Ok(s_prev), Ok(s_before)) = (prev, earlier) {
                 let q_prev = quantize(&s_prev.q());
                 let q_before = quantize(&s_before.q());
-                if let Ok(tracker) = FkTracker::new(&g, &q_before, Branch::OUTER, &before, &fk_cfg) {
+                if let Ok(tracker) = FkTracker::new(&g, &q_before, Branch::OUTER, &before, &fk_cfg)
+                {
                     let mut tr = tracker;
                     let mut out = None;
                     measure(&mut || {
                         tr = tracker;
                         out = tr.update(&g, &q_prev, &fk_cfg).ok();
                     });
-                    hprintln!("@label FK: FkTracker::update, first tick (Newton step, factorises Jtilde)");
+                    hprintln!(
+                        "@label FK: FkTracker::update, first tick (Newton step, factorises Jtilde)"
+                    );
                     let primed = tr;
                     measure(&mut || {
                         tr = primed;
                         out = tr.update(&g, &q, &fk_cfg).ok();
                     });
-                    hprintln!("@label FK: FkTracker::update, next tick (a step with those factors)");
+                    hprintln!(
+                        "@label FK: FkTracker::update, next tick (a step with those factors)"
+                    );
                     black_box(out);
                     black_box(tr.counts());
                 }
@@ -365,22 +381,43 @@ fn parts() {
             });
             hprintln!("@label     parallel_inv_cond, warm start one tick away");
             warm_sweeps[est.last_sweeps().min(4) as usize] += 1;
+            // As the staged checks run it: the start (W = A V), then one sweep per stage.
+            measure(&mut || {
+                est = warm;
+                black_box(est.begin(&jt, 0.05).is_ok());
+            });
+            hprintln!("@label     staged: ConditionEstimator::begin (scaling, W = A V)");
+            let begun = est;
+            measure(&mut || {
+                est = begun;
+                black_box(est.sweep());
+            });
+            hprintln!("@label     staged: ConditionEstimator::sweep (one sweep, warm)");
         }
         let mut det = 0.0f32;
         measure(&mut || det = jt.determinant());
-        hprintln!("@label     det(Jtilde) alone (6x6 LU)");
+        hprintln!("@label     det(Jtilde) alone (nalgebra's 6x6 LU)");
+        let mut lu = None;
+        measure(&mut || lu = Lu6::new(&jt));
+        hprintln!("@label   lu::Lu6::new: Jtilde factorised (written out)");
+        if let Some(f) = lu {
+            let b = black_box(Vector6::new(1.0f32, -2.0, 0.5, 0.1, -0.3, 0.2));
+            let mut x = Vector6::zeros();
+            measure(&mut || x = f.solve(&b));
+            hprintln!("@label   lu::Lu6::solve (Jtilde x = b)");
+            measure(&mut || x = f.solve_transposed(&b));
+            hprintln!("@label   lu::Lu6::solve_transposed (Jtilde^T x = b)");
+            black_box(x);
+        }
         let mut tilts = None;
         measure(&mut || tilts = Some(tilt_angles(&sol, &axes)));
         hprintln!("@label   spherical-joint tilt angles");
-        let mut jac2 = None;
-        measure(&mut || jac2 = jacobian(&g, &sol).ok());
-        hprintln!("@label   Jacobian (inside the guards)");
         let ic = ic.unwrap_or(0.05);
         let mut st = None;
         measure(&mut || {
             st = forces_with_inv_cond(&jac, &limits.payload, ic, limits.parallel.stop).ok()
         });
-        hprintln!("@label   statics for the payload (LU solve of Jtilde^T)");
+        hprintln!("@label   statics for the payload (Lu6 of Jtilde, transposed solve)");
         let prev = MotionSample {
             twist: Twist::zeros(),
             qdot: Joints::zeros(),
@@ -396,7 +433,7 @@ fn parts() {
             })
         });
         hprintln!("@label guards: evaluate_motion (speeds, accelerations)");
-        black_box((verdict_ok, m, det, tilts, jac2, st));
+        black_box((verdict_ok, m, det, tilts, st));
     }
     hprintln!(
         "@info forward kinematics alone: Newton steps (0/1/2/3/4+) warm start {:?}, cold start {:?} (FkSolution::iterations, a kept polishing step included)",
