@@ -41,7 +41,7 @@ use crate::guards::{
 use crate::jacobian::{jacobian_into, Jacobians};
 use crate::mechanism::{JointKind, Mechanism};
 use crate::pose::{rotation_angle, rotation_vector, Pose};
-use crate::scalar::{lit, norm3, sqrt, wrap_angle, Real};
+use crate::scalar::{lit, norm3, scale3, sqrt, sub3, wrap_angle, Real};
 use crate::singularity::ConditionEstimator;
 use crate::{Joints, Twist};
 use core::fmt;
@@ -203,6 +203,10 @@ pub struct TickOutput<T: Real> {
 struct Pending<T: Real> {
     from: Pose<T>,
     to: Pose<T>,
+    /// The whole segment: translation and rotation vector (see [`interpolate`]), computed
+    /// once, not for every sample.
+    dv: Vector3<T>,
+    dw: Vector3<T>,
     samples: u16,
     /// Next sample to check; sample `samples` (the end) is checked first.
     next: u16,
@@ -537,6 +541,8 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         self.pending = Some(Pending {
             from,
             to: *target,
+            dv: sub3(&target.t, &from.t),
+            dw: rotation_vector(&(target.r * from.r.inverse())),
             samples: samples.max(1),
             next: 1,
             end_checked: false,
@@ -636,8 +642,9 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         } else {
             (p.samples, Job::PathEnd)
         };
+        // `interpolate(from, to, s)`, with the segment computed once.
         let s = lit::<T>(f64::from(k)) / lit(f64::from(p.samples));
-        self.begin(&interpolate(&p.from, &p.to, s), job);
+        self.begin(&p.from.displaced(&scale3(&p.dv, s), &scale3(&p.dw, s)), job);
     }
 
     fn begin(&mut self, pose: &Pose<T>, job: Job) {

@@ -74,10 +74,14 @@ impl<S: Scalar> ToolLoad<S> {
     /// The wrench the platform exerts on the tool at `pose`: +m g along z0 and its moment
     /// about o_p (Eq. 7.11-7.13 convention: what the platform exerts on its environment).
     pub fn wrench(&self, pose: &Pose<S>) -> kinematics_core::Wrench<S> {
-        let f = nalgebra::Vector3::new(S::zero(), S::zero(), self.mass_kg * self.gravity_m_s2);
-        let c = pose.r * nalgebra::Vector3::from_row_slice(&self.com_p_m);
-        let m = c.cross(&f);
-        kinematics_core::Wrench::new(f.x, f.y, f.z, m.x, m.y, m.z)
+        // f = [0, 0, m g]; c = R com_p; moment c × f = [c_y f_z, -c_x f_z, 0] (written
+        // out: it runs every other control tick with a tool).
+        let fz = self.mass_kg * self.gravity_m_s2;
+        let r = pose.r.matrix();
+        let [x, y, z] = self.com_p_m;
+        let cx = r.m11 * x + r.m12 * y + r.m13 * z;
+        let cy = r.m21 * x + r.m22 * y + r.m23 * z;
+        kinematics_core::Wrench::new(S::zero(), S::zero(), fz, cy * fz, -(cx * fz), S::zero())
     }
 }
 
