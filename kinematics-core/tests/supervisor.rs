@@ -313,8 +313,9 @@ fn unsafe_paths_between_safe_poses_are_refused_at_the_check_resolution() {
         thinnest = thinnest.min(unsafe_samples as f64 / 200.0 * 2.0 * dir.norm());
         let mut sup = Supervisor::new(g, Branch::OUTER, limits, cfg, &a).unwrap();
         sup.submit(&b, 1, 1).unwrap();
-        // Up to 120 samples of 4 stages, one stage per tick.
-        for _ in 0..600 {
+        // Up to 120 samples of 5 stages when the SVD starts warm (a few more for the first,
+        // cold), one stage per tick.
+        for _ in 0..800 {
             sup.tick();
         }
         if matches!(sup.last_refusal(), Some(Refusal::Path { reading, .. }) if reading.guard == Guard::Stroke)
@@ -446,10 +447,11 @@ fn stop_holds_latches_and_clears() {
         r: Rotation3::identity(),
     };
     sup.submit(&target, 1000, 1000).unwrap();
-    // 44 ticks verify the 5 mm path (11 samples 0.5 mm apart, each a full evaluation in
-    // 4 stages, one per tick), then the motion starts.
+    // About 58 ticks verify the 5 mm path (11 samples 0.5 mm apart, each a full evaluation
+    // in 5 stages when the SVD starts warm, a few more for the first, one stage per tick),
+    // then the motion starts.
     let mut out = sup.tick();
-    for _ in 0..60 {
+    for _ in 0..80 {
         out = sup.tick();
     }
     assert_eq!(out.mode, Mode::Moving);
