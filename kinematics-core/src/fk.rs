@@ -184,7 +184,7 @@ pub fn forward<T: Real, M: Mechanism<T> + ?Sized>(
             // f32, where the tolerance is a few µm-equivalents of joint error).
             if iteration < cfg.max_iterations && polished < MAX_POLISH {
                 polished += 1;
-                if let Ok(Step::Improved(p, s, _, _)) = step(&pose, &sol, &r, iteration + 1, 1) {
+                if let Ok(Step::Improved(p, s)) = step(&pose, &sol, &r, iteration + 1, 1) {
                     iteration += 1;
                     pose = p;
                     sol = s;
@@ -206,7 +206,7 @@ pub fn forward<T: Real, M: Mechanism<T> + ?Sized>(
         }
         iteration += 1;
         match step(&pose, &sol, &r, iteration, MAX_HALVINGS)? {
-            Step::Improved(p, s, _, _) | Step::NotImproved(p, s) => {
+            Step::Improved(p, s) | Step::NotImproved(p, s) => {
                 pose = p;
                 sol = s;
             }
@@ -216,8 +216,8 @@ pub fn forward<T: Real, M: Mechanism<T> + ?Sized>(
 
 /// The outcome of one damped Newton step.
 enum Step<T: Real> {
-    /// The residual went down; with the new residual and its largest component.
-    Improved(Pose<T>, Solution<T>, Joints<T>, T),
+    /// The residual went down.
+    Improved(Pose<T>, Solution<T>),
     /// No halving lowered the residual; the full step is taken anyway (rounding floor).
     NotImproved(Pose<T>, Solution<T>),
 }
@@ -256,9 +256,9 @@ fn newton_step<T: Real, M: Mechanism<T> + ?Sized>(
         let trial = pose.displaced(&dv, &dw);
         match inverse(m, &trial, branch) {
             Ok(s) => {
-                let (rt, _, worst) = residual(kinds, q, &s.q(), cfg);
+                let (rt, _, _) = residual(kinds, q, &s.q(), cfg);
                 if merit(&rt) < current {
-                    return Ok(Step::Improved(trial, s, rt, worst));
+                    return Ok(Step::Improved(trial, s));
                 }
                 if fallback.is_none() {
                     fallback = Some((trial, s));
