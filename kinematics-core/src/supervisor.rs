@@ -203,8 +203,7 @@ pub struct TickOutput<T: Real> {
 struct Pending<T: Real> {
     from: Pose<T>,
     to: Pose<T>,
-    /// The whole segment: translation and rotation vector (see [`interpolate`]), computed
-    /// once, not for every sample.
+    /// The whole segment ([`segment`]), computed once, not for every sample.
     dv: Vector3<T>,
     dw: Vector3<T>,
     samples: u16,
@@ -297,8 +296,18 @@ enum Job {
 /// Pose at fraction `s` of the straight segment a → b (translation linear, rotation about
 /// the fixed world axis of b·aᵀ).
 pub fn interpolate<T: Real>(a: &Pose<T>, b: &Pose<T>, s: T) -> Pose<T> {
-    let dw = rotation_vector(&(b.r * a.r.inverse()));
-    a.displaced(&((b.t - a.t) * s), &(dw * s))
+    let (dv, dw) = segment(a, b);
+    along(a, &dv, &dw, s)
+}
+
+/// The straight segment a → b: its translation and the rotation vector of b·aᵀ.
+fn segment<T: Real>(a: &Pose<T>, b: &Pose<T>) -> (Vector3<T>, Vector3<T>) {
+    (sub3(&b.t, &a.t), rotation_vector(&(b.r * a.r.inverse())))
+}
+
+/// The pose at fraction `s` of the segment (`dv`, `dw`) from `from` ([`segment`]).
+fn along<T: Real>(from: &Pose<T>, dv: &Vector3<T>, dw: &Vector3<T>, s: T) -> Pose<T> {
+    from.displaced(&scale3(dv, s), &scale3(dw, s))
 }
 
 /// J·x, written out over J's column arrays (nalgebra's generic product, and loops, cost
@@ -538,11 +547,12 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         };
         let n = n.ceil().max(T::one());
         let samples = crate::geometry::to_f64(n) as u16;
+        let (dv, dw) = segment(&from, target);
         self.pending = Some(Pending {
             from,
             to: *target,
-            dv: sub3(&target.t, &from.t),
-            dw: rotation_vector(&(target.r * from.r.inverse())),
+            dv,
+            dw,
             samples: samples.max(1),
             next: 1,
             end_checked: false,
@@ -642,9 +652,8 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         } else {
             (p.samples, Job::PathEnd)
         };
-        // `interpolate(from, to, s)`, with the segment computed once.
         let s = lit::<T>(f64::from(k)) / lit(f64::from(p.samples));
-        self.begin(&p.from.displaced(&scale3(&p.dv, s), &scale3(&p.dw, s)), job);
+        self.begin(&along(&p.from, &p.dv, &p.dw, s), job);
     }
 
     fn begin(&mut self, pose: &Pose<T>, job: Job) {
