@@ -8,6 +8,7 @@
 
 use crate::branch::Branch;
 use crate::chain::{Chain, PerChain};
+use crate::double_buffer::DoubleBuffer;
 use crate::ik::{inverse, inverse_into, IkError, Solution};
 use crate::jacobian::tripod_jacobian;
 use crate::lu::Lu6;
@@ -377,10 +378,9 @@ pub const TRACK_RESIDUAL_MAX: f64 = 1e-6;
 pub struct FkTracker<T: Real> {
     branch: Branch,
     pose: Pose<T>,
-    /// Two solution slots, the estimate's (`slot`) and a trial's: a step solves its trial
-    /// pose into the other slot and, when it is kept, the slots swap roles (no copies).
-    sols: [Solution<T>; 2],
-    slot: bool,
+    /// The estimate's solution and a trial's: a step solves its trial pose into the spare
+    /// and, when it is kept, the two swap roles (no copies).
+    sols: DoubleBuffer<Solution<T>>,
     residual: T,
     /// LU factors of Jtilde at a recent estimate, the matrix of the steps.
     lu: Option<Lu6<T>>,
@@ -422,8 +422,7 @@ impl<T: Real> FkTracker<T> {
         Ok(FkTracker {
             branch,
             pose: s.pose,
-            sols: [s.solution, s.solution],
-            slot: false,
+            sols: DoubleBuffer::new(s.solution, s.solution),
             residual: s.residual,
             lu: None,
             fresh: None,
@@ -442,12 +441,7 @@ impl<T: Real> FkTracker<T> {
 
     /// Its inverse-kinematics solution.
     pub fn solution(&self) -> &Solution<T> {
-        let [a, b] = &self.sols;
-        if self.slot {
-            b
-        } else {
-            a
-        }
+        self.sols.current()
     }
 
     /// The largest joint residual of the estimate against the last readings (m or rad).
@@ -464,16 +458,6 @@ impl<T: Real> FkTracker<T> {
     /// cost the most; a caller with a budget per tick defers optional work off them).
     pub fn factorised(&self) -> bool {
         self.factorised
-    }
-
-    /// The estimate's solution and the trial slot.
-    fn slots(&mut self) -> (&Solution<T>, &mut Solution<T>) {
-        let [a, b] = &mut self.sols;
-        if self.slot {
-            (b, a)
-        } else {
-            (a, b)
-        }
     }
 
     /// Follows new joint readings. On error the estimate is kept (and stays valid for the
@@ -545,9 +529,8 @@ impl<T: Real> FkTracker<T> {
         let s = forward(m, q, self.branch, &from, cfg)?;
         self.counts.full_solves += 1;
         self.pose = s.pose;
-        let (_, trial) = self.slots();
-        *trial = s.solution;
-        self.slot = !self.slot;
+        *self.sols.spare_mut() = s.solution;
+        self.sols.swap();
         self.residual = s.residual;
         self.lu = None;
         self.fresh = None;
@@ -581,12 +564,12 @@ impl<T: Real> FkTracker<T> {
         let branch = self.branch;
         for _ in 0..TRACK_HALVINGS {
             let trial = self.pose.displaced(&dv, &dw);
-            let (_, slot) = self.slots();
+            let slot = self.sols.spare_mut();
             if inverse_into(m, &trial, branch, slot).is_ok() {
                 let (rt, _, worst) = residual(kinds, q, &slot.q(), cfg);
                 if weighted_norm(kinds, &rt, scale) < current {
                     self.pose = trial;
-                    self.slot = !self.slot;
+                    self.sols.swap();
                     return Some((rt, worst));
                 }
             }

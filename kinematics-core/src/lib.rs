@@ -29,6 +29,7 @@
 
 pub mod branch;
 pub mod chain;
+mod double_buffer;
 pub mod fk;
 pub mod geometry;
 pub mod guards;

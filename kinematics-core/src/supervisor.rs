@@ -34,6 +34,7 @@
 //!    reason until [`Supervisor::clear`].
 
 use crate::branch::Branch;
+use crate::double_buffer::DoubleBuffer;
 use crate::guards::{
     Depth, Evaluation, GuardSetupError, Guards, Limits, MotionSample, Reading, Severity, Solved,
     Staged,
@@ -243,11 +244,10 @@ pub struct Supervisor<T: Real, M: Mechanism<T>> {
     q: Joints<T>,
     qdot: Joints<T>,
     twist: Twist<T>,
-    /// The setpoint's solution and Jacobians (`evals[cur]`; J for the joint-speed caps,
-    /// valid when `jac_ok`, not at a serial singularity) and the candidate's (the other
-    /// slot): a kept candidate swaps the roles, so nothing is copied.
-    evals: [Evaluation<T>; 2],
-    cur: bool,
+    /// The setpoint's solution and Jacobians (the current one; J for the joint-speed caps,
+    /// valid when `jac_ok`, not at a serial singularity) and the candidate's (the spare): a
+    /// kept candidate swaps the roles, so nothing is copied.
+    evals: DoubleBuffer<Evaluation<T>>,
     jac_ok: bool,
     goal: Pose<T>,
     pending: Option<Pending<T>>,
@@ -399,8 +399,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             q: sol.q(),
             qdot: Joints::zeros(),
             twist: Twist::zeros(),
-            evals: [start_eval, Evaluation::new(branch)],
-            cur: false,
+            evals: DoubleBuffer::new(start_eval, Evaluation::new(branch)),
             jac_ok,
             goal: *start,
             pending: None,
@@ -456,9 +455,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
     /// The Jacobians at the current setpoint (None at a serial singularity), e.g. to map
     /// a known tool load to the joints.
     pub fn jacobians(&self) -> Option<&Jacobians<T>> {
-        let [a, b] = &self.evals;
-        let current = if self.cur { b } else { a };
-        self.jac_ok.then_some(&current.jac)
+        self.jac_ok.then_some(&self.evals.current().jac)
     }
     /// The latched stop reason.
     pub fn latched(&self) -> Option<&Reading<T>> {
@@ -582,7 +579,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         Ok(())
     }
 
-    /// Evaluates the kinematic guards at `pose` into the candidate's slot of `self.evals`
+    /// Evaluates the kinematic guards at `pose` into the spare of `self.evals`
     /// (the solution and its Jacobians; [`Self::keep_candidate`] makes it the setpoint's):
     /// the first stop-level reading, whether a warn level is reached, and what was solved.
     fn kinematic_check(&mut self, pose: &Pose<T>) -> (Option<Reading<T>>, bool, Solved) {
@@ -590,8 +587,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         let mut warn = false;
         // (The kinematic depth has no SVD to warm-start.)
         let cond = &mut self.cond_setpoint;
-        let [a, b] = &mut self.evals;
-        let scratch = if self.cur { a } else { b };
+        let scratch = self.evals.spare_mut();
         let solved = self.guards.evaluate_pose_into(
             pose,
             &mut |r| match r.severity {
@@ -606,14 +602,9 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         (stop, warn, solved)
     }
 
-    /// The candidate's slot of `self.evals` (see [`Self::kinematic_check`]).
+    /// The candidate's evaluation (see [`Self::kinematic_check`]).
     fn candidate(&self) -> &Evaluation<T> {
-        let [a, b] = &self.evals;
-        if self.cur {
-            a
-        } else {
-            b
-        }
+        self.evals.spare()
     }
 
     /// The candidate checked last becomes the setpoint: its pose, joints and Jacobians.
@@ -621,7 +612,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         self.q = self.candidate().sol.q();
         self.pose = *pose;
         self.jac_ok = solved == Solved::WithJacobian;
-        self.cur = !self.cur;
+        self.evals.swap();
     }
 
     /// Forgets the pending and the queued target (and a path check in progress).
