@@ -27,7 +27,7 @@ use host_sim::sim::run::run;
 use host_sim::sim::scenario::{Scenario, Stream, Trajectory};
 use kinematics_core::guards::Limits;
 use kinematics_core::{Pose, RsprGeometry};
-use rspr_plant::NUM_JOINTS;
+use plant::NUM_JOINTS;
 use std::hint::black_box;
 
 /// The master of `host-sim sim` (sim::run): the path's pose every stream period, each

@@ -10,7 +10,7 @@ use host_sim::sim::run::{run, Outcome};
 use host_sim::sim::scenario::{pose_mm_deg, FaultEvent, Jump, Scenario};
 use kinematics_core::guards::Limits;
 use kinematics_core::{Pose, RsprGeometry};
-use rspr_plant::Fault;
+use plant::Fault;
 
 fn robot() -> RsprGeometry<f64> {
     RsprGeometry::reference()
@@ -308,7 +308,7 @@ fn the_command_writes_its_report_files() {
 /// plus 0.032 N m motor side).
 #[test]
 fn the_payload_refresh_thresholds_bound_the_load_error() {
-    use controller::ToolLoad;
+    use control::ToolLoad;
     use kinematics_core::statics::joint_efforts;
     use kinematics_core::{inverse, jacobian, Branch};
     use nalgebra::Vector3;

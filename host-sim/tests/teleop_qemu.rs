@@ -3,7 +3,7 @@
 //!
 //! * `ci_scenario_against_a_fake_board`: the master's whole CI scenario (`--scenario ci
 //!   --path line`) over a Unix socket against a small fake board in this process: the
-//!   board side of the real link (`controller::link::LinkRx` / `LinkTx`: COBS, CRC,
+//!   board side of the real link (`control::link::LinkRx` / `LinkTx`: COBS, CRC,
 //!   version, sequence numbers, link counters), a toy state machine (homing takes 0.3 s,
 //!   the heartbeat holds after 100 ms and turns the drives off after 500 ms), targets
 //!   followed at once unless outside |x| <= 25 mm (acknowledged, then ignored: the robot
@@ -11,7 +11,7 @@
 //! * `ci_scenario_in_the_emulator` (ignored: needs qemu-system-arm, the thumbv7em target
 //!   and about two minutes): runs `firmware/qemu-board/run.sh` with the short line path.
 
-use controller::link::{Command, Inbound, LinkRx, LinkTx};
+use control::link::{Command, Inbound, LinkRx, LinkTx};
 use master_link::{
     BoardToMaster, FirmwareVersion, RobotState, StatusReport, Warnings, MAX_FRAME_LEN,
 };

@@ -615,6 +615,7 @@ pub struct Staged<T: Real> {
     eval: Evaluation<T>,
     jac_ok: bool,
     inv_cond: T,
+    inv_cond_ok: bool,
     stop: Option<Reading<T>>,
     warn: bool,
     next: Option<Stage>,
@@ -628,6 +629,7 @@ impl<T: Real> Staged<T> {
             eval: Evaluation::new(branch),
             jac_ok: false,
             inv_cond: T::zero(),
+            inv_cond_ok: false,
             stop: None,
             warn: false,
             next: None,
@@ -637,6 +639,7 @@ impl<T: Real> Staged<T> {
     pub fn start(&mut self, pose: &Pose<T>) {
         self.pose = *pose;
         self.jac_ok = false;
+        self.inv_cond_ok = false;
         self.stop = None;
         self.warn = false;
         self.next = Some(Stage::Kinematic);
@@ -660,6 +663,10 @@ impl<T: Real> Staged<T> {
     /// Whether a warn level was reached so far.
     pub fn warn(&self) -> bool {
         self.warn
+    }
+    /// The parallel measure (inverse condition number), once its SVD has converged.
+    pub fn inv_cond(&self) -> Option<T> {
+        self.inv_cond_ok.then_some(self.inv_cond)
     }
 }
 
@@ -1001,6 +1008,7 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
             eval,
             jac_ok,
             inv_cond,
+            inv_cond_ok,
             stop,
             warn,
             next,
@@ -1045,13 +1053,17 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
             }
             Stage::Parallel => match cond.sweep() {
                 None => Some(Stage::Parallel),
-                Some(result) => match self.parallel_verdict(result, &mut visit) {
-                    Some(x) if *jac_ok => {
+                Some(result) => {
+                    let value = self.parallel_verdict(result, &mut visit);
+                    if let Some(x) = value {
                         *inv_cond = x;
-                        Some(Stage::Statics)
+                        *inv_cond_ok = true;
                     }
-                    _ => None,
-                },
+                    match value {
+                        Some(_) if *jac_ok => Some(Stage::Statics),
+                        _ => None,
+                    }
+                }
             },
             Stage::Statics => {
                 self.statics_readings(&eval.jac, *inv_cond, &mut visit);

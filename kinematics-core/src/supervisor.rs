@@ -36,8 +36,8 @@
 use crate::branch::Branch;
 use crate::double_buffer::DoubleBuffer;
 use crate::guards::{
-    Depth, Evaluation, GuardSetupError, Guards, Limits, MotionSample, Reading, Severity, Solved,
-    Staged,
+    Depth, Evaluation, Guard, GuardSetupError, Guards, Limits, MotionSample, Reading, Severity,
+    Solved, Staged,
 };
 use crate::jacobian::{jacobian_into, Jacobians};
 use crate::mechanism::{JointKind, Mechanism};
@@ -213,6 +213,18 @@ struct Pending<T: Real> {
     end_checked: bool,
 }
 
+/// The singularity margins near the setpoint, for telemetry, from what the ticks computed
+/// (no inverse kinematics or SVD of their own).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Margins<T: Real> {
+    /// The smallest dimensionless serial measure of the setpoint's chains (Eq. 10.6 /
+    /// 10.11, from the setpoint's inverse-kinematics solution).
+    pub serial: T,
+    /// The parallel inverse condition number of the last full evaluation (a path sample
+    /// or braking point checked for the motion around the setpoint, or the start pose).
+    pub parallel: T,
+}
+
 /// Why the supervisor cannot start.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum SupervisorError<T: Real> {
@@ -278,6 +290,8 @@ pub struct Supervisor<T: Real, M: Mechanism<T>> {
     next_goal: Option<Pose<T>>,
     /// The braking-point job in progress was computed towards `next_goal`.
     job_for_next: bool,
+    /// The parallel measure of the last full evaluation.
+    parallel: T,
 }
 
 pub use crate::guards::MAX_STAGES;
@@ -343,6 +357,17 @@ fn shaved<T: Real>(l: &Limits<T>) -> Limits<T> {
     }
 }
 
+/// The parallel measure at the start pose (one full evaluation; NaN if it failed).
+fn start_parallel<T: Real, M: Mechanism<T>>(guards: &Guards<T, M>, start: &Pose<T>) -> T {
+    let mut parallel = lit::<T>(f64::NAN);
+    guards.evaluate_pose(start, &mut |r| {
+        if r.guard == Guard::ParallelSingularity {
+            parallel = r.value;
+        }
+    });
+    parallel
+}
+
 impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
     /// A supervisor holding at `start`, which must be safe.
     pub fn new(
@@ -385,6 +410,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         }
         let guards = Guards::new(robot, branch, limits).map_err(SupervisorError::Setup)?;
         let (verdict, sol) = guards.check_pose(start);
+        let start_parallel = start_parallel(&guards, start);
         let sol = match (verdict.is_stop(), sol) {
             (false, Some(s)) => s,
             _ => return Err(SupervisorError::UnsafeStart(verdict.first_stop().copied())),
@@ -420,6 +446,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             ahead_warn: false,
             next_goal: None,
             job_for_next: false,
+            parallel: start_parallel,
         })
     }
 
@@ -452,6 +479,14 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
     pub fn setpoint(&self) -> &Pose<T> {
         &self.pose
     }
+    /// The joints of the current setpoint.
+    pub fn setpoint_joints(&self) -> &Joints<T> {
+        &self.q
+    }
+    /// The setpoint's twist [v; ω].
+    pub fn twist(&self) -> &Twist<T> {
+        &self.twist
+    }
     /// The Jacobians at the current setpoint (None at a serial singularity), e.g. to map
     /// a known tool load to the joints.
     pub fn jacobians(&self) -> Option<&Jacobians<T>> {
@@ -460,6 +495,20 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
     /// The latched stop reason.
     pub fn latched(&self) -> Option<&Reading<T>> {
         self.latched.as_ref()
+    }
+    /// The singularity margins near the setpoint (see [`Margins`]).
+    pub fn margins(&self) -> Margins<T> {
+        let robot = self.guards.robot();
+        let sol = &self.evals.current().sol;
+        let serial = sol
+            .chains
+            .iter()
+            .map(|(_, c)| robot.serial_measure(c).1)
+            .fold(T::max_value().unwrap_or(T::one()), |m, x| m.min(x));
+        Margins {
+            serial,
+            parallel: self.parallel,
+        }
     }
 
     fn refuse(&mut self, r: Refusal<T>) -> Result<(), Refusal<T>> {
@@ -668,6 +717,9 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         }
         self.job = None;
         let stop = self.checker.stop().copied();
+        if let Some(x) = self.checker.inv_cond() {
+            self.parallel = x;
+        }
         match job {
             Job::Ahead => {
                 self.ahead_warn = self.checker.warn();

@@ -1,17 +1,27 @@
 //! The control application of the RSPR robot (thesis section 11.4), hardware-agnostic so
-//! that the same code runs on the STM32 board, under QEMU and on the host against the plant
-//! model. Each control tick:
+//! that the same code runs on the STM32 board, in the emulators and on the host against the
+//! plant model. The hardware sits behind the small traits of the `hal` crate.
 //!
+//! One control tick ([`runtime::Runtime::tick`]), as the code runs it:
 //! ```text
-//! read encoders -> joint positions -> forward kinematics (measured pose)
-//!               -> supervisor (target -> safe, rate-limited setpoint; its IK and guards)
-//!               -> per-joint PID with velocity feed-forward J·twist -> PWM duties
+//! sensing     counters read once -> extended counts -> joints -> measured pose
+//!             (FK tracker: one Newton step per tick while the joints move)
+//! runtime     heartbeat timers; the state machine decides what runs:
+//!   homing    switches, currents -> joint references -> outputs
+//!   planner   master target -> supervisor (path check, guards, speed/accel profile)
+//!             -> safe setpoint pose, its joints (IK) and feed-forward J·twist
+//!   drive     six joint servos (PID, backlash, tracking monitor) -> PWM duties
+//! telemetry   the status from what the tick computed
 //! ```
-//! The hardware sits behind the small traits of [`servo::hal`]. The tick has two halves
-//! ([`Controller::into_parts`]): the [`Planner`] (supervisor, the tool's backlash flanks),
-//! which depends only on the master's targets, and the [`Drive`] (encoders, measured pose,
-//! joint servos, outputs); the board runs them in turn, the host simulation may run the
-//! planner ahead on another core.
+//! The board targets run the [`service::TickService`] around the runtime (e-stop latch,
+//! queued master requests, timing, watchdog decision, status).
+//!
+//! Modules, by concept:
+//! - the tick's halves: [`sensing`], [`planner`], [`drive`], composed by [`controller`];
+//! - the board's behaviour: [`state_machine`], [`homing`], [`runtime`], [`service`];
+//! - the fail-safe rules: [`heartbeat`], [`estop`], [`watchdog`];
+//! - the master link's board side: [`link`] (frames to requests, replies to frames),
+//!   [`targets`] (target timestamps), [`wire`] (wire values), [`telemetry`] (the status).
 #![no_std]
 #![deny(
     clippy::unwrap_used,
@@ -21,11 +31,22 @@
 )]
 
 pub mod controller;
-pub mod failsafe;
+pub mod drive;
+pub mod estop;
+pub mod heartbeat;
+pub mod homing;
 pub mod link;
-pub mod state;
+pub mod planner;
+pub mod runtime;
+pub mod sensing;
+pub mod service;
+pub mod state_machine;
+pub mod targets;
+pub mod telemetry;
+pub mod watchdog;
+pub mod wire;
 
-pub use controller::{
-    Controller, ControllerConfig, ControllerError, Drive, JogError, Plan, Planner, Sensed,
-    TickReport, ToolLoad,
-};
+pub use controller::{Controller, ControllerConfig, ControllerError, JogError, Scalar};
+pub use drive::{Drive, TickReport};
+pub use planner::{Plan, Planner, ToolLoad};
+pub use sensing::{Measured, PoseStatus, Sensing, SensingError};

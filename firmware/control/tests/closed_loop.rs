@@ -3,34 +3,31 @@
 //! board, the plant integrated at 10x the control rate.
 
 use common::PlantHw;
-use controller::{Controller, ControllerConfig};
+use control::{Controller, ControllerConfig, Sensing};
 use kinematics_core::{inverse, Branch, Pose, RsprGeometry};
 use nalgebra::{Rotation3, Vector3};
 
 mod common;
 
-fn setup() -> (PlantHw, Controller<f64, RsprGeometry<f64>>, [f64; 6]) {
+type Sense = Sensing<f64, RsprGeometry<f64>>;
+
+fn setup() -> (PlantHw, Controller<f64, RsprGeometry<f64>>, Sense) {
     let g = RsprGeometry::<f64>::reference();
     let q0 = inverse(&g, &Pose::central(g.hc), Branch::OUTER)
         .unwrap()
         .q();
     let q0 = [q0[0], q0[1], q0[2], q0[3], q0[4], q0[5]];
-    let hw = PlantHw::new(q0);
-    let ctl = Controller::new(
-        g,
-        ControllerConfig::default(),
-        hw.plant.encoder_counts(),
-        q0,
-    )
-    .unwrap();
-    (hw, ctl, q0)
+    let mut hw = PlantHw::new(q0);
+    let sensing = common::homed_sensing(&mut hw, q0);
+    let ctl = Controller::new(g, ControllerConfig::default(), sensing.measured()).unwrap();
+    (hw, ctl, sensing)
 }
 
 /// A verified target is reached and held: the true platform pose (from the plant's
 /// load-side joints) ends within 60 µm of the target (half the plant's backlash).
 #[test]
 fn follows_a_target_in_closed_loop() {
-    let (mut hw, mut ctl, _) = setup();
+    let (mut hw, mut ctl, mut sensing) = setup();
     let g = RsprGeometry::<f64>::reference();
     let target = Pose {
         t: Vector3::new(0.008, -0.005, 0.163),
@@ -41,12 +38,12 @@ fn follows_a_target_in_closed_loop() {
     for _ in 0..2500 {
         // Drives on at every tick (a fault disables them within the tick).
         hw.enabled = true;
-        let r = ctl.tick(&mut hw);
+        let r = ctl.tick(sensing.update(&mut hw), &mut hw);
         assert!(r.servo.fault.is_none(), "{:?}", r.servo.fault);
         hw.step_ms();
         let q = hw.plant.joint_positions();
         let err = (0..3)
-            .map(|j| (q[j] - r.setpoint.q[j]).abs())
+            .map(|j| (q[j] - ctl.supervisor().setpoint_joints()[j]).abs())
             .fold(0.0, f64::max);
         worst_following = worst_following.max(err);
     }
@@ -72,8 +69,8 @@ fn follows_a_target_in_closed_loop() {
 /// A stuck encoder trips the tracking-error fault and every output goes off.
 #[test]
 fn stuck_encoder_trips_the_tracking_fault() {
-    let (mut hw, mut ctl, _) = setup();
-    hw.plant.inject(0, rspr_plant::Fault::EncoderStuck).unwrap();
+    let (mut hw, mut ctl, mut sensing) = setup();
+    hw.plant.inject(0, plant::Fault::EncoderStuck).unwrap();
     let target = Pose {
         t: Vector3::new(0.0, 0.0, 0.170),
         r: Rotation3::identity(),
@@ -83,7 +80,7 @@ fn stuck_encoder_trips_the_tracking_fault() {
     for k in 0..2000 {
         // Drives on at every tick (a fault disables them within the tick).
         hw.enabled = true;
-        let r = ctl.tick(&mut hw);
+        let r = ctl.tick(sensing.update(&mut hw), &mut hw);
         if r.servo.fault.is_some() && tripped_at.is_none() {
             tripped_at = Some(k);
         }

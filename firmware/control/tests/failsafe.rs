@@ -8,15 +8,15 @@
 //! emergency stop from every state (interrupt path and input level), any fault forcing the
 //! outputs off, and the watchdog feeding policy.
 
-use controller::failsafe::{
-    emergency_stop_isr, outputs_allowed, EStopLatch, FeedDecision, HeartbeatConfig, HeartbeatLevel,
-    HeartbeatMonitor, SafeOutputs, TickTiming, WatchdogConfig, WatchdogPolicy,
-};
-use controller::link::Command;
-use controller::state::{Event, Runtime, State};
+use control::estop::{emergency_stop_isr, outputs_allowed, EStopLatch};
+use control::heartbeat::{HeartbeatConfig, HeartbeatLevel, HeartbeatMonitor};
+use control::link::Command;
+use control::runtime::Runtime;
+use control::state_machine::{Event, State};
+use control::watchdog::{FeedDecision, TickTiming, WatchdogConfig, WatchdogPolicy};
+use hal::{QuadratureCounter, SafeOutputs};
 use kinematics_core::{Pose, RsprGeometry};
 use master_link::{Faults, NackReason, Warnings};
-use servo::hal::QuadratureCounter;
 
 mod common;
 use common::PlantHw;
@@ -117,7 +117,7 @@ fn heartbeat_loss_holds_then_disables_the_robot() {
         t: nalgebra::Vector3::new(0.0, 0.0, 0.165),
         r: nalgebra::Rotation3::identity(),
     };
-    let (p, r) = controller::link::pose_to_wire(&target);
+    let (p, r) = control::wire::pose_to_wire(&target);
     rt.command(
         &Command::Target {
             stamp_us: 1_000,
@@ -137,7 +137,7 @@ fn heartbeat_loss_holds_then_disables_the_robot() {
         let m = rt.machine();
         if held_at.is_none() && m.hold().is_some() {
             held_at = Some(t - last_beat);
-            z_at_hold = rt.measured_pose().t.z;
+            z_at_hold = rt.measured().pose.unwrap().t.z;
             assert!(rt.status().warnings.contains(Warnings::HEARTBEAT_LATE));
             // Targets are refused while holding.
             let cmd = Command::Target {
@@ -155,7 +155,7 @@ fn heartbeat_loss_holds_then_disables_the_robot() {
     assert_eq!(held_at, Some(HB.hold_after_us));
     assert_eq!(disabled_at, Some(HB.disable_after_us));
     // It was moving up when the hold began, and stopped within a few tenths of a mm.
-    let z_end = rt.measured_pose().t.z;
+    let z_end = rt.measured().pose.unwrap().t.z;
     assert!((z_end - z_at_hold).abs() < 0.5e-3, "{z_at_hold} -> {z_end}");
     assert!(z_end < 0.165 - 1e-3, "did not carry on to the target");
     assert!(rt.machine().homed());
@@ -269,8 +269,8 @@ fn emergency_stop_input_blocks_clearing_until_released() {
 #[test]
 fn a_tracking_fault_turns_every_output_off() {
     let (mut rt, mut hw, mut t) = enabled();
-    hw.plant.inject(0, rspr_plant::Fault::EncoderStuck).unwrap();
-    let (p, r) = controller::link::pose_to_wire(&Pose {
+    hw.plant.inject(0, plant::Fault::EncoderStuck).unwrap();
+    let (p, r) = control::wire::pose_to_wire(&Pose {
         t: nalgebra::Vector3::new(0.0, 0.0, 0.170),
         r: nalgebra::Rotation3::identity(),
     });

@@ -8,19 +8,20 @@
 //! decoded by the master; malformed, oversized, wrong-version, bad-checksum and replayed
 //! frames counted and ignored; the connection rule; timestamps; status contents.
 
-use controller::link::{
-    complete_status, fill_margins, guard_reason, pose_from_wire, refusal_reason, Command, Inbound,
-    LinkRx, LinkTx, Request, TargetClock, TargetClockConfig, FIRMWARE_VERSION,
-};
-use controller::state::{Runtime, State};
+use control::link::{Command, Inbound, LinkRx, LinkTx, Request, FIRMWARE_VERSION};
+use control::runtime::Runtime;
+use control::state_machine::State;
+use control::targets::{TargetClock, TargetClockConfig};
+use control::telemetry::with_link;
+use control::wire::{guard_reason, pose_from_wire, refusal_reason};
+use hal::QuadratureCounter;
 use kinematics_core::guards::Guard;
 use kinematics_core::supervisor::Refusal;
-use kinematics_core::{Branch, RsprGeometry};
+use kinematics_core::RsprGeometry;
 use master_link::{
     cobs, encode, BoardToMaster, FrameError, MasterDecoder, MasterToBoard, NackReason, RobotState,
     Seq, SeqCounter, StatusReport, CRC32, MAX_FRAME_LEN, PROTOCOL_VERSION,
 };
-use servo::hal::QuadratureCounter;
 
 mod common;
 use common::PlantHw;
@@ -283,7 +284,7 @@ fn every_message_round_trips_with_its_reply() {
     assert_eq!(r, nack(s, NackReason::VelocityLimit));
     run(&mut b, 1500);
     let (_, r) = exchange(&mut m, &mut b, &MasterToBoard::StatusRequest);
-    let BoardToMaster::Status(mut st) = r else {
+    let BoardToMaster::Status(st) = r else {
         panic!("{r:?}")
     };
     assert_eq!(st.state, RobotState::Enabled);
@@ -299,7 +300,8 @@ fn every_message_round_trips_with_its_reply() {
     );
     assert!((st.rotation_vector_rad[1] - 0.02).abs() < 2e-3);
     assert!(st.faults.is_empty());
-    fill_margins(&mut st, b.rt.robot(), Branch::OUTER, (0.15, 0.03));
+    // The margins the supervisor measured at its setpoint (the tick's, not a second
+    // evaluation).
     assert!(st.serial_singularity_margin > 0.15, "{st:?}");
     assert!(st.parallel_singularity_margin > 0.03, "{st:?}");
     // Clutch engaged: targets refused while the robot holds.
@@ -559,7 +561,7 @@ fn refusals_and_guards_map_to_nack_reasons() {
     }
     assert!(pose_from_wire::<f32>([0.0, 0.0, 0.16], [0.0, 0.0, f32::NAN]).is_err());
     let p = pose_from_wire::<f32>([0.01, 0.0, 0.16], [0.0, 0.1, 0.0]).unwrap();
-    let (t, r) = controller::link::pose_to_wire(&p);
+    let (t, r) = control::wire::pose_to_wire(&p);
     assert_eq!(t, [0.01, 0.0, 0.16]);
     assert!((r[1] - 0.1).abs() < 1e-6);
 }
@@ -606,12 +608,11 @@ fn tx_sequence_and_status_encoding() {
     assert_eq!(got, vec![Ok((3, BoardToMaster::Ack { seq: 1 }))]);
 }
 
-/// The status the boards send: the singularity margins at its pose, and the link counters
-/// with `LINK_ERRORS` raised exactly while a frame has been rejected; without counters the
-/// link fields stay as they were.
+/// The status the boards send: the link counters with `LINK_ERRORS` raised exactly while a
+/// frame has been rejected; without counters the link fields stay as they were. (The
+/// singularity margins come with the runtime's status: see the enabled robot's test.)
 #[test]
-fn complete_status_adds_margins_counters_and_the_link_warning() {
-    let robot = RsprGeometry::<f32>::reference();
+fn with_link_adds_the_counters_and_the_link_warning() {
     let base = StatusReport {
         position_m: [0.0, 0.0, 0.16],
         ..StatusReport::default()
@@ -625,15 +626,14 @@ fn complete_status_adds_margins_counters_and_the_link_warning() {
         ..clean
     };
     let mut st = base;
-    complete_status(&mut st, &robot, Branch::OUTER, (0.15, 0.03), Some(clean));
-    assert!(st.serial_singularity_margin > 0.15 && st.parallel_singularity_margin > 0.03);
+    with_link(&mut st, Some(clean));
     assert_eq!(st.link, clean);
     assert!(!st.warnings.contains(master_link::Warnings::LINK_ERRORS));
-    complete_status(&mut st, &robot, Branch::OUTER, (0.15, 0.03), Some(bad));
+    with_link(&mut st, Some(bad));
     assert_eq!(st.link, bad);
     assert!(st.warnings.contains(master_link::Warnings::LINK_ERRORS));
     let mut untouched = base;
-    complete_status(&mut untouched, &robot, Branch::OUTER, (0.15, 0.03), None);
+    with_link(&mut untouched, None);
     assert_eq!(untouched.link, base.link);
     assert!(!untouched
         .warnings

@@ -7,16 +7,19 @@
 //! The state machine (every state x every event), the homing procedure (fake joints and
 //! the plant model) and the runtime from boot to following a target.
 
-use controller::link::Command;
-use controller::state::{
-    next_state, Event, HomeMethod, Homing, HomingConfig, HomingError, HomingPhase, HomingStatus,
-    JointHoming, LimitSwitches, Refusal, Runtime, State, StateMachine, ALL_STATES,
+use control::homing::{
+    HomeMethod, Homing, HomingConfig, HomingError, HomingPhase, HomingStatus, JointHoming,
+    JointReferences,
 };
-use kinematics_core::{Pose, RsprGeometry};
+use control::link::Command;
+use control::runtime::Runtime;
+use control::state_machine::{next_state, Event, Refusal, State, StateMachine, ALL_STATES};
+use control::Sensing;
+use hal::{CurrentSense, LimitSwitches, MotorOutputs, QuadratureCounter};
+use kinematics_core::{Branch, Pose, RsprGeometry};
 use master_link::{Faults, NackReason};
 use nalgebra::{Rotation3, Vector3};
 use servo::encoder::{EncoderConfig, LEG_COUNTS_PER_M, LINK_COUNTS_PER_RAD};
-use servo::hal::{CurrentSense, MotorOutputs, QuadratureCounter};
 use servo::ServoConfig;
 
 mod common;
@@ -393,11 +396,37 @@ fn test_homing_config() -> HomingConfig<f64> {
     c
 }
 
-fn run_homing(h: &mut Homing<f64>, hw: &mut Fake, max_ms: u64) -> (HomingStatus<f64>, u64) {
+type Sense = Sensing<f64, RsprGeometry<f64>>;
+
+/// The runtime's sensing on `hw`: its counters as they are now read count 0.
+fn sensing(hw: &mut impl QuadratureCounter) -> Sense {
+    let mut s = Sensing::new(
+        RsprGeometry::reference(),
+        Branch::OUTER,
+        &EncoderConfig::default(),
+        Default::default(),
+    )
+    .unwrap();
+    s.boot(hw.counts());
+    s
+}
+
+/// One homing step as the runtime runs it: the sensing reads the encoders first.
+fn step(h: &mut Homing<f64>, hw: &mut Fake, s: &mut Sense, t: u64) -> HomingStatus {
+    s.update(hw);
+    h.step(hw, s, t)
+}
+
+fn run_homing(
+    h: &mut Homing<f64>,
+    hw: &mut Fake,
+    s: &mut Sense,
+    max_ms: u64,
+) -> (HomingStatus, u64) {
     hw.enable();
     let mut t = 1_000u64;
     for _ in 0..max_ms {
-        let st = h.step(hw, t);
+        let st = step(h, hw, s, t);
         if !matches!(st, HomingStatus::Running(_)) {
             return (st, t);
         }
@@ -408,7 +437,12 @@ fn run_homing(h: &mut Homing<f64>, hw: &mut Fake, max_ms: u64) -> (HomingStatus<
 }
 
 fn new_homing(cfg: &HomingConfig<f64>) -> Homing<f64> {
-    Homing::new(cfg, &EncoderConfig::default(), &ServoConfig::default()).unwrap()
+    Homing::new(cfg, &ServoConfig::default()).unwrap()
+}
+
+/// Starts homing from what the sensing reads now.
+fn start(h: &mut Homing<f64>, s: &Sense, t: u64) {
+    h.start(&s.joints(), &JointReferences::counts(s), t);
 }
 
 #[test]
@@ -423,12 +457,13 @@ fn homes_on_switches_and_hard_stops() {
     for j in 3..6 {
         hw.stop_below[j] = Some(-1.0);
     }
-    let enc = servo::Encoders::starting_at(&EncoderConfig::default(), &hw.counts()).unwrap();
-    h.start(&enc, 1_000);
-    let (st, _) = run_homing(&mut h, &mut hw, 60_000);
-    let HomingStatus::Done { q, .. } = st else {
+    let mut s = sensing(&mut hw);
+    start(&mut h, &s, 1_000);
+    let (st, _) = run_homing(&mut h, &mut hw, &mut s, 60_000);
+    let HomingStatus::Done = st else {
         panic!("{st:?}")
     };
+    let q = s.joints();
     for j in 0..6 {
         // The encoders now read the true positions (to a few counts: the switch is seen
         // one tick after it closes).
@@ -460,20 +495,21 @@ fn starting_on_the_switch_leaves_it_first() {
     for j in 3..6 {
         hw.stop_below[j] = Some(-1.0);
     }
-    let enc = servo::Encoders::starting_at(&EncoderConfig::default(), &hw.counts()).unwrap();
-    h.start(&enc, 1_000);
+    let mut s = sensing(&mut hw);
+    start(&mut h, &s, 1_000);
     hw.enable();
-    let st = h.step(&mut hw, 1_000);
+    let st = step(&mut h, &mut hw, &mut s, 1_000);
     assert_eq!(
         st,
         HomingStatus::Running(HomingPhase::LeaveSwitch { joint: 1 })
     );
-    h.step(&mut hw, 2_000);
+    step(&mut h, &mut hw, &mut s, 2_000);
     assert!(hw.duty[1] > 0.0, "drives off the switch (away from -q)");
-    let (st, _) = run_homing(&mut h, &mut hw, 60_000);
-    let HomingStatus::Done { q, .. } = st else {
+    let (st, _) = run_homing(&mut h, &mut hw, &mut s, 60_000);
+    let HomingStatus::Done = st else {
         panic!("{st:?}")
     };
+    let q = s.joints();
     assert!((q[1] - hw.q[1]).abs() < 0.02e-3);
 }
 
@@ -485,11 +521,9 @@ fn homing_failures_turn_the_outputs_off() {
     hw.stop_below[0] = Some(0.155);
     hw.switch_below[0] = Some(0.150);
     let mut h = new_homing(&cfg);
-    h.start(
-        &servo::Encoders::new(&EncoderConfig::default()).unwrap(),
-        1_000,
-    );
-    let (st, _) = run_homing(&mut h, &mut hw, 60_000);
+    let mut s = sensing(&mut hw);
+    start(&mut h, &s, 1_000);
+    let (st, _) = run_homing(&mut h, &mut hw, &mut s, 60_000);
     assert_eq!(
         st,
         HomingStatus::Failed(HomingError::StalledBeforeSwitch { joint: 0 })
@@ -498,22 +532,18 @@ fn homing_failures_turn_the_outputs_off() {
     // No switch at all: gives up after max_travel.
     let mut hw = Fake::new([0.17; 6]);
     let mut h = new_homing(&cfg);
-    h.start(
-        &servo::Encoders::new(&EncoderConfig::default()).unwrap(),
-        1_000,
-    );
-    let (st, _) = run_homing(&mut h, &mut hw, 60_000);
+    let mut s = sensing(&mut hw);
+    start(&mut h, &s, 1_000);
+    let (st, _) = run_homing(&mut h, &mut hw, &mut s, 60_000);
     assert_eq!(st, HomingStatus::Failed(HomingError::NotFound { joint: 0 }));
     assert!(!hw.enabled);
     // A switch that never releases.
     let mut hw = Fake::new([0.17; 6]);
     hw.stuck_switch = true;
     let mut h = new_homing(&cfg);
-    h.start(
-        &servo::Encoders::new(&EncoderConfig::default()).unwrap(),
-        1_000,
-    );
-    let (st, _) = run_homing(&mut h, &mut hw, 60_000);
+    let mut s = sensing(&mut hw);
+    start(&mut h, &s, 1_000);
+    let (st, _) = run_homing(&mut h, &mut hw, &mut s, 60_000);
     assert_eq!(
         st,
         HomingStatus::Failed(HomingError::SwitchStuck { joint: 0 })
@@ -524,11 +554,9 @@ fn homing_failures_turn_the_outputs_off() {
     let mut hw = Fake::new([0.17; 6]);
     hw.switch_below[0] = Some(0.150);
     let mut h = new_homing(&cfg2);
-    h.start(
-        &servo::Encoders::new(&EncoderConfig::default()).unwrap(),
-        1_000,
-    );
-    let (st, _) = run_homing(&mut h, &mut hw, 60_000);
+    let mut s = sensing(&mut hw);
+    start(&mut h, &s, 1_000);
+    let (st, _) = run_homing(&mut h, &mut hw, &mut s, 60_000);
     assert_eq!(st, HomingStatus::Failed(HomingError::Timeout { joint: 0 }));
 }
 
@@ -545,15 +573,13 @@ fn homing_current_limit_detects_the_stop() {
     hw.creep = 0.05;
     hw.stop_below[3] = Some(-1.0);
     let mut h = new_homing(&cfg);
-    h.start(
-        &servo::Encoders::starting_at(&EncoderConfig::default(), &hw.counts()).unwrap(),
-        1_000,
-    );
+    let mut s = sensing(&mut hw);
+    start(&mut h, &s, 1_000);
     hw.enable();
     let mut t = 1_000;
     let mut found = false;
     for _ in 0..5_000 {
-        let st = h.step(&mut hw, t);
+        let st = step(&mut h, &mut hw, &mut s, t);
         if st == HomingStatus::Running(HomingPhase::BackOff { joint: 3 }) {
             found = true;
             break;
@@ -564,7 +590,7 @@ fn homing_current_limit_detects_the_stop() {
     assert!(found, "{:?}", h.phase());
     // Found at the stop (it crept less than 2 mrad in), and the duty was limited.
     assert!(hw.q[3] < -1.0 && hw.q[3] > -1.002, "{}", hw.q[3]);
-    assert!((h.encoders().positions()[3] - hw.q[3]).abs() < 1e-3);
+    assert!((s.joints()[3] - hw.q[3]).abs() < 1e-3);
 }
 
 #[test]
@@ -604,14 +630,22 @@ fn homes_the_plant_and_parks_at_the_central_configuration() {
     let mut cfg = HomingConfig::reference([c[3], c[4], c[5]], Some(c));
     cfg.park_speed = [0.02, 0.02, 0.02, 0.5, 0.5, 0.5];
     let mut h = new_homing(&cfg);
-    let enc = servo::Encoders::starting_at(&EncoderConfig::default(), &hw.counts()).unwrap();
-    h.start(&enc, 0);
+    let mut s = Sensing::new(
+        RsprGeometry::reference(),
+        Branch::OUTER,
+        &EncoderConfig::default(),
+        Default::default(),
+    )
+    .unwrap();
+    s.boot(hw.counts());
+    start(&mut h, &s, 0);
     hw.enable();
     let mut t = 0;
     let mut done = None;
     for _ in 0..60_000 {
         t += 1000;
-        match h.step(&mut hw, t) {
+        s.update(&mut hw);
+        match h.step(&mut hw, &mut s, t) {
             HomingStatus::Running(_) => {}
             st => {
                 done = Some(st);
@@ -620,9 +654,10 @@ fn homes_the_plant_and_parks_at_the_central_configuration() {
         }
         hw.step_ms();
     }
-    let Some(HomingStatus::Done { q, .. }) = done else {
+    let Some(HomingStatus::Done) = done else {
         panic!("{done:?} in {:?}", h.phase())
     };
+    let q = s.joints();
     let truth = hw.plant.joint_positions();
     println!(
         "homing took {:.1} s; encoder vs load-side truth:",
@@ -685,7 +720,7 @@ fn runtime_boots_homes_enables_and_follows() {
         t: Vector3::new(0.004, -0.003, 0.162),
         r: Rotation3::from_scaled_axis(Vector3::new(0.02, 0.0, -0.01)),
     };
-    let (p, r) = controller::link::pose_to_wire(&target);
+    let (p, r) = control::wire::pose_to_wire(&target);
     let cmd = Command::Target {
         stamp_us: 5_000_000,
         position_m: p,
@@ -694,11 +729,11 @@ fn runtime_boots_homes_enables_and_follows() {
     rt.command(&cmd, t).unwrap();
     run(&mut rt, &mut hw, &mut t, 1500);
     assert_eq!(rt.state(), State::Enabled);
-    let err = (rt.measured_pose().t - target.t).norm();
+    let err = (rt.measured().pose.unwrap().t - target.t).norm();
     assert!(
         err < 0.2e-3,
         "measured pose {:?}, error {err}",
-        rt.measured_pose().t
+        rt.measured().pose.unwrap().t
     );
     // Clutch engaged: targets refused, the robot holds.
     rt.command(&Command::Clutch { engaged: true }, t).unwrap();
@@ -709,7 +744,7 @@ fn runtime_boots_homes_enables_and_follows() {
     };
     assert_eq!(rt.command(&cmd2, t), Err(NackReason::InvalidState));
     run(&mut rt, &mut hw, &mut t, 200);
-    assert!((rt.measured_pose().t - target.t).norm() < 0.2e-3);
+    assert!((rt.measured().pose.unwrap().t - target.t).norm() < 0.2e-3);
     rt.command(&Command::Clutch { engaged: false }, t).unwrap();
     // Disable: drives off, homing kept.
     rt.command(&Command::Disable, t).unwrap();
@@ -744,7 +779,7 @@ fn jog_moves_one_joint_and_stops_when_the_jogs_stop() {
     }
     rt.command(&Command::Enable, t).unwrap();
     run(&mut rt, &mut hw, &mut t, 50);
-    let q0 = rt.measured_q();
+    let q0 = rt.measured().q;
     assert_eq!(
         rt.command(
             &Command::Jog {
@@ -761,9 +796,9 @@ fn jog_moves_one_joint_and_stops_when_the_jogs_stop() {
         rt.command(&jog(0.005), t).unwrap();
         run(&mut rt, &mut hw, &mut t, 50);
     }
-    let q1 = rt.measured_q();
+    let q1 = rt.measured().q;
     run(&mut rt, &mut hw, &mut t, 500);
-    let q2 = rt.measured_q();
+    let q2 = rt.measured().q;
     let moved = q1[0] - q0[0];
     println!(
         "jog: l1 moved {:.3} mm in 1 s, {:.3} mm more after the jogs stopped",

@@ -21,9 +21,9 @@
 use num_traits::Float;
 
 use crate::config::{is_leg, Check, ConfigError};
-use crate::hal::QuadratureCounter;
 use crate::num::{from_i64, lit};
 use crate::NUM_JOINTS;
+use hal::QuadratureCounter;
 
 /// Extends a wrapping 16-bit counter to a 64-bit count.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

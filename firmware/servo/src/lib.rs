@@ -1,12 +1,10 @@
 //! # servo: the per-joint servo building blocks of the RSPR surgical robot
 //!
 //! The control tick (1..10 kHz, on the STM32 and on the host against the plant model)
-//! reads the six encoders, computes the joint setpoints from the kinematics and calls
+//! reads the six encoders (behind the `hal` crate's traits), computes the joint setpoints from the kinematics and calls
 //! [`JointServo::update`], which returns the six H-bridge duties. This crate holds the
 //! pieces of that chain:
 //!
-//! * [`hal`]: the tiny hardware traits the control code runs behind (encoder counters,
-//!   motor outputs, clock, current sense) and their sign conventions;
 //! * [`encoder`]: extension of the wrapping 16-bit hardware counters to 64-bit counts,
 //!   conversion to joint units and the homing offset;
 //! * [`pid`]: a per-joint PID with derivative on the measurement through a low-pass
@@ -28,7 +26,8 @@
 //!
 //! ## One control tick
 //! ```
-//! use servo::{EncoderConfig, Encoders, JointServo, QuadratureCounter, ServoConfig};
+//! use hal::QuadratureCounter;
+//! use servo::{EncoderConfig, Encoders, JointServo, ServoConfig};
 //!
 //! struct Counters([u16; 6]); // the timers in encoder mode
 //! impl QuadratureCounter for Counters {
@@ -66,14 +65,13 @@
 pub mod backlash;
 pub mod config;
 pub mod encoder;
-pub mod hal;
 pub mod joint_servo;
 mod num;
 pub mod pid;
 pub mod tracking;
 
-/// Number of actuated joints.
-pub const NUM_JOINTS: usize = 6;
+/// Number of actuated joints (the hardware traits' [`hal::NUM_JOINTS`]).
+pub const NUM_JOINTS: usize = hal::NUM_JOINTS;
 
 /// Names of the joints, in joint order (used in error and fault messages).
 pub const JOINT_NAMES: [&str; NUM_JOINTS] = ["l1", "l2", "l3", "theta1", "theta2", "theta3"];
@@ -88,7 +86,6 @@ pub use backlash::{
 };
 pub use config::{ConfigError, ServoConfig};
 pub use encoder::{CountExtender, EncoderConfig, Encoders, JointEncoder};
-pub use hal::{Clock, CurrentSense, MotorOutputs, QuadratureCounter};
 pub use joint_servo::{JointServo, ServoOutput};
 pub use pid::{AntiWindup, InputError, Pid, PidConfig, PidGains, PidInput, PidOutput, PidTerms};
 pub use tracking::{

@@ -1,8 +1,9 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 //! Encoder extension, joint units and homing.
+use hal::QuadratureCounter;
 use proptest::prelude::*;
 use servo::encoder::{LEG_COUNTS_PER_M, LINK_COUNTS_PER_RAD};
-use servo::{CountExtender, EncoderConfig, Encoders, JointEncoder, QuadratureCounter};
+use servo::{CountExtender, EncoderConfig, Encoders, JointEncoder};
 
 /// The hardware counter for a true (unbounded) count: the low 16 bits.
 fn raw(true_count: i64) -> u16 {

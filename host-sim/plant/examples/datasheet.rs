@@ -1,7 +1,7 @@
 //! Prints the derived figures of the shipped plant: resolution, ratings, speeds, time
 //! constants. `cargo run --example datasheet`
 #![allow(clippy::needless_range_loop)] // indexing the six joints reads best
-use rspr_plant::{Plant, PlantConfig, JOINT_NAMES, NUM_JOINTS};
+use plant::{Plant, PlantConfig, JOINT_NAMES, NUM_JOINTS};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let plant = Plant::new(&PlantConfig::default())?;

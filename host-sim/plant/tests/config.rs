@@ -1,8 +1,8 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 //! The parameter file: shipped defaults, overrides, validation messages.
 
-use rspr_plant::config::SHIPPED_TOML;
-use rspr_plant::{ConfigError, Plant, PlantConfig};
+use plant::config::SHIPPED_TOML;
+use plant::{ConfigError, Plant, PlantConfig};
 
 type TestResult = Result<(), Box<dyn std::error::Error>>;
 

@@ -4,7 +4,7 @@
 
 mod common;
 use common::*;
-use rspr_plant::{Fault, PlantError, NUM_JOINTS};
+use plant::{Fault, PlantError, NUM_JOINTS};
 
 const DT: f64 = 50e-6;
 

@@ -1,19 +1,22 @@
-//! The closed loop: the board's control application ([`controller::Controller`]) driving
-//! the plant model ([`rspr_plant::Plant`]) through the hardware traits, the plant stepped
+//! The closed loop: the board's control application ([`control::Controller`]) driving
+//! the plant model ([`plant::Plant`]) through the hardware traits, the plant stepped
 //! `plant_steps_per_tick` times per control tick, and the tool's weight mapped to joint
 //! loads at the true pose.
 
 use super::config::{PayloadUpdate, SimConfig};
-use controller::{Controller, ControllerConfig, Drive, Plan, Planner, TickReport, ToolLoad};
+use control::{
+    Controller, ControllerConfig, Drive, Measured, Plan, Planner, Sensing, TickReport, ToolLoad,
+};
+use hal::{MotorOutputs, QuadratureCounter};
 use kinematics_core::guards::Limits;
 use kinematics_core::statics::forces_with_inv_cond;
+use kinematics_core::supervisor::TickOutput;
 use kinematics_core::{
     forward, inverse, jacobian, Branch, FkConfig, FkSolution, Joints, Pose, RsprGeometry,
 };
 use nalgebra::Vector3;
-use rspr_plant::{Plant, PlantConfig, NUM_JOINTS};
+use plant::{Plant, PlantConfig, NUM_JOINTS};
 use servo::backlash::{BacklashConfig, BacklashRamp};
-use servo::hal::{MotorOutputs, QuadratureCounter};
 use std::time::Instant;
 
 /// The plant behind the board's hardware traits. The bridges stay off after
@@ -77,7 +80,11 @@ pub fn payload_from_config(cfg: &SimConfig) -> Payload {
 pub struct TickSample {
     /// Time of the tick (when the encoders are read), s.
     pub t_s: f64,
-    /// The controller's report (setpoint, measured pose, duties, fault).
+    /// The supervisor's setpoint of the tick.
+    pub setpoint: TickOutput<f64>,
+    /// The tick's measurements (joints, measured pose).
+    pub measured: Measured<f64>,
+    /// The controller's report (duties, fault).
     pub report: TickReport<f64>,
     /// True load-side joints at `t_s`.
     pub true_q: [f64; NUM_JOINTS],
@@ -103,8 +110,10 @@ pub struct Sim {
     /// The controller's planning half (supervisor), ticked by [`Sim::tick`]; a run may
     /// tick a copy of it on another thread and hand its plans to [`Sim::tick_with`].
     planner: Planner<f64, RsprGeometry<f64>>,
-    /// The controller's servo half (encoders, measured pose, joint servos).
-    drive: Drive<f64, RsprGeometry<f64>>,
+    /// The sensing (encoders, measured pose).
+    sensing: Sensing<f64, RsprGeometry<f64>>,
+    /// The controller's servo half (joint servos).
+    drive: Drive<f64>,
     plant_dt: f64,
     steps_per_tick: u32,
     control_dt: f64,
@@ -227,7 +236,16 @@ impl Sim {
         let q0 = arr(&sol.q());
         plant.set_joint_positions(q0).map_err(|e| e.to_string())?;
         let cc = controller_config(cfg, limits, compensation);
-        let (planner, drive) = Controller::new(*robot, cc, plant.encoder_counts(), q0)
+        let sensing = Sensing::homed_at(
+            *robot,
+            cc.branch,
+            &cc.encoders,
+            cc.fk,
+            plant.encoder_counts(),
+            &q0,
+        )
+        .map_err(|e| format!("sensing: {e}"))?;
+        let (planner, drive) = Controller::new(*robot, cc, sensing.measured())
             .map_err(|e| format!("controller: {e}"))?
             .into_parts();
         // 0.1 nm and 1 nrad on the joints: far below anything reported. The same
@@ -242,6 +260,7 @@ impl Sim {
             robot: *robot,
             plant,
             planner,
+            sensing,
             drive,
             plant_dt: cfg.plant_dt(),
             steps_per_tick: cfg.control.plant_steps_per_tick,
@@ -282,8 +301,12 @@ impl Sim {
         &self.planner
     }
     /// The controller's servo half.
-    pub fn drive(&self) -> &Drive<f64, RsprGeometry<f64>> {
+    pub fn drive(&self) -> &Drive<f64> {
         &self.drive
+    }
+    /// The sensing (encoders, measured pose, its counters).
+    pub fn sensing(&self) -> &Sensing<f64, RsprGeometry<f64>> {
+        &self.sensing
     }
     /// The tool the controller is told about when the payload is `on`.
     pub fn tool(&self, on: bool) -> Option<ToolLoad<f64>> {
@@ -464,8 +487,8 @@ impl Sim {
             plant: &mut self.plant,
             enabled: &mut self.enabled,
         };
-        // The controller's tick (`Controller::tick`): sense, plan, act.
-        let sensed = self.drive.sense(&mut io);
+        // The controller's tick (`Runtime::tick` while enabled): sense, plan, act.
+        let measured = *self.sensing.update(&mut io);
         let (plan, planned_s) = match plan {
             Some(p) => (*p, 0.0),
             None => {
@@ -474,7 +497,7 @@ impl Sim {
                 (p, tp.elapsed().as_secs_f64())
             }
         };
-        let report = self.drive.act(&mut io, &sensed, &plan);
+        let report = self.drive.act(&mut io, &measured, &plan);
         let t2 = Instant::now();
         let duty = self.plant.duty();
         let mut peak = [0.0f64; NUM_JOINTS];
@@ -500,6 +523,8 @@ impl Sim {
         self.ticks += 1;
         Ok(TickSample {
             t_s,
+            setpoint: plan.setpoint,
+            measured,
             report,
             true_q,
             true_pose,

@@ -545,7 +545,7 @@ impl Metrics {
     /// Adds one tick; `target` is the last target the master sent.
     pub fn add(&mut self, s: &TickSample, target: &Pose<f64>) -> TickErrors {
         let t = s.t_s;
-        let sp = &s.report.setpoint;
+        let sp = &s.setpoint;
         let tracking = pose_error(&s.true_pose, &sp.pose);
         let target_err = pose_error(&s.true_pose, target);
         let mut joints = [0.0; 6];

@@ -8,7 +8,7 @@ use super::metrics::{
     PhaseSummary, PoseErrorSummary, Refusals, StepSummary, SupervisorSummary,
 };
 use super::scenario::{Scenario, Stream};
-use controller::{Plan, Planner, ToolLoad};
+use control::{Plan, Planner, ToolLoad};
 use kinematics_core::guards::Limits;
 use kinematics_core::supervisor::Mode;
 use kinematics_core::{Pose, RsprGeometry};
@@ -320,10 +320,10 @@ pub fn run(
         if tick.is_multiple_of(every) {
             trace.push(TraceRow {
                 t_s: s.t_s,
-                mode: mode_name(s.report.setpoint.mode),
-                warning: s.report.setpoint.warning,
+                mode: mode_name(s.setpoint.mode),
+                warning: s.setpoint.warning,
                 target: edge_pose(&planned.last_target),
-                setpoint: edge_pose(&s.report.setpoint.pose),
+                setpoint: edge_pose(&s.setpoint.pose),
                 truth: edge_pose(&s.true_pose),
                 tip_error_mm: e.tracking.0,
                 orientation_error_deg: e.tracking.1,
@@ -393,7 +393,7 @@ pub fn run(
     let sup = master.planner.supervisor();
     let c = sup.counters();
     let first = master.first_refusal.clone();
-    let drive = sim.drive().counters();
+    let drive = sim.sensing().counters();
     let supervisor = SupervisorSummary {
         targets_sent: master.targets_sent,
         accepted: c.accepted,

@@ -9,7 +9,7 @@ use super::config::SimConfig;
 use kinematics_core::pose::rotation_angle;
 use kinematics_core::Pose;
 use nalgebra::{Rotation3, Vector3};
-use rspr_plant::Fault;
+use plant::Fault;
 use std::f64::consts::PI;
 
 /// The names `--scenario` accepts, the default first.

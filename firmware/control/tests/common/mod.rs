@@ -1,9 +1,8 @@
 //! The plant model behind the hardware traits, shared by the integration tests.
 #![allow(dead_code, clippy::unwrap_used, clippy::indexing_slicing)]
 
-use controller::state::LimitSwitches;
-use rspr_plant::{Plant, PlantConfig};
-use servo::hal::{CurrentSense, MotorOutputs, QuadratureCounter};
+use hal::{CurrentSense, LimitSwitches, MotorOutputs, QuadratureCounter};
+use plant::{Plant, PlantConfig};
 
 /// The plant behind the hardware traits, with optional home switches and hard stops (a
 /// stop seizes the load side when driven into it, and frees it when driven back out).
@@ -56,7 +55,7 @@ impl PlantHw {
             for j in 0..6 {
                 if let Some(s) = self.stop_below[j] {
                     if !self.seized[j] && q[j] <= s && duty[j] < 0.0 {
-                        self.plant.inject(j, rspr_plant::Fault::LoadSeized).unwrap();
+                        self.plant.inject(j, plant::Fault::LoadSeized).unwrap();
                         self.seized[j] = true;
                     } else if self.seized[j] && duty[j] > 0.0 {
                         self.plant.clear_faults(j).unwrap();
@@ -119,7 +118,7 @@ pub fn central_q() -> [f64; 6] {
 pub fn homing_fixture(
     legs: [f64; 3],
     above_stops: [f64; 3],
-) -> (PlantHw, [f64; 6], controller::state::RuntimeConfig<f64>) {
+) -> (PlantHw, [f64; 6], control::runtime::RuntimeConfig<f64>) {
     let c = central_q();
     let stops = [3, 4, 5].map(|j| c[j] - 60f64.to_radians());
     let hw = PlantHw::homing(
@@ -134,7 +133,24 @@ pub fn homing_fixture(
         0.150,
         stops,
     );
-    let mut cfg = controller::state::reference_config(c);
+    let mut cfg = control::runtime::reference_config(c);
     cfg.homing.park_speed = [0.02, 0.02, 0.02, 0.5, 0.5, 0.5];
     (hw, c, cfg)
+}
+
+/// The sensing of a robot homed at `q` on the plant `hw` (its counters read `q` now) with
+/// the pose established: what the runtime has after homing.
+pub fn homed_sensing(
+    hw: &mut PlantHw,
+    q: [f64; 6],
+) -> control::Sensing<f64, kinematics_core::RsprGeometry<f64>> {
+    control::Sensing::homed_at(
+        kinematics_core::RsprGeometry::reference(),
+        kinematics_core::Branch::OUTER,
+        &Default::default(),
+        Default::default(),
+        hw.counts(),
+        &q,
+    )
+    .unwrap()
 }

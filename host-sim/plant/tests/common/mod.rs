@@ -1,7 +1,7 @@
 //! Helpers shared by the integration tests.
 #![allow(dead_code)]
 
-use rspr_plant::{Plant, PlantConfig, NUM_JOINTS};
+use plant::{Plant, PlantConfig, NUM_JOINTS};
 
 pub type TestResult = Result<(), Box<dyn std::error::Error>>;
 

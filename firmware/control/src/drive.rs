@@ -1,0 +1,104 @@
+//! The servo half of a control tick: the six joint servos (`servo::JointServo`: PID,
+//! backlash compensation, tracking-error monitor) from the tick's measured joints
+//! ([`crate::sensing::Measured`]) towards the planner's setpoint, and the motor outputs.
+
+use hal::MotorOutputs;
+use kinematics_core::guards::Reading;
+use kinematics_core::supervisor::Mode;
+use kinematics_core::{scalar, JointKind, Joints};
+use servo::config::ConfigError;
+use servo::joint_servo::{JointServo, ServoOutput};
+use servo::{ServoConfig, NUM_JOINTS};
+
+use crate::controller::Scalar;
+use crate::planner::Plan;
+use crate::sensing::Measured;
+
+/// What one tick did (the setpoint itself is the planner's [`Plan`], and the supervisor's
+/// accessors).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TickReport<S: Scalar> {
+    /// The supervisor's mode.
+    pub mode: Mode,
+    /// A warn-level guard is violated at the setpoint.
+    pub warning: bool,
+    /// The supervisor's latched stop, if stopped.
+    pub stop: Option<Reading<S>>,
+    /// Duties, saturation and the latched tracking fault.
+    pub servo: ServoOutput<S>,
+}
+
+/// The joint servos and the outputs.
+#[derive(Clone, Debug)]
+pub struct Drive<S: Scalar> {
+    kinds: [JointKind; NUM_JOINTS],
+    dt: S,
+    servo: JointServo<S>,
+}
+
+impl<S: Scalar> Drive<S> {
+    /// Servos for joints of `kinds`, ticked every `dt` s, holding `q`.
+    pub fn new(
+        kinds: [JointKind; NUM_JOINTS],
+        dt: S,
+        cfg: &ServoConfig<S>,
+        q: &[S; NUM_JOINTS],
+    ) -> Result<Self, ConfigError> {
+        let mut servo = JointServo::new(cfg)?;
+        servo.reset(q);
+        Ok(Drive { kinds, dt, servo })
+    }
+
+    /// The control period, s.
+    pub fn dt(&self) -> S {
+        self.dt
+    }
+
+    /// The joint servos.
+    pub fn servo(&self) -> &JointServo<S> {
+        &self.servo
+    }
+
+    /// Resets the servo after a tracking fault, holding the joints `q`.
+    pub fn reset(&mut self, q: &[S; NUM_JOINTS]) {
+        self.servo.reset(q);
+    }
+
+    /// Runs the six joint servos from the measured joints towards the plan and drives the
+    /// outputs (all off on a tracking fault).
+    pub fn act<H: MotorOutputs<S> + ?Sized>(
+        &mut self,
+        hw: &mut H,
+        measured: &Measured<S>,
+        plan: &Plan<S>,
+    ) -> TickReport<S> {
+        let q_meas = &measured.q;
+        // Angles from the supervisor are wrapped to (-π, π]; unwrap them next to the
+        // (continuous) encoder readings.
+        let mut sp = to_array(&plan.setpoint.q);
+        for ((s, m), k) in sp.iter_mut().zip(q_meas.iter()).zip(self.kinds.iter()) {
+            if *k == JointKind::Angular {
+                *s = *m + scalar::wrap_angle(*s - *m);
+            }
+        }
+        self.servo.set_preloads(&plan.flanks);
+        let spd = to_array(&plan.setpoint.qdot);
+        let out = self.servo.update(&sp, &spd, q_meas, self.dt);
+        if out.fault.is_some() {
+            hw.disable();
+        } else {
+            hw.set_duties(&out.duty);
+        }
+        TickReport {
+            mode: plan.setpoint.mode,
+            warning: plan.setpoint.warning,
+            stop: plan.setpoint.stop,
+            servo: out,
+        }
+    }
+}
+
+/// The six components of a joint vector as an array (q order).
+pub fn to_array<S: Scalar>(q: &Joints<S>) -> [S; NUM_JOINTS] {
+    [q.x, q.y, q.z, q.w, q.a, q.b]
+}

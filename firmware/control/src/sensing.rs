@@ -1,0 +1,270 @@
+//! Sensing: the single owner of the measured joints and pose.
+//!
+//! Every control tick, in every state, starts with [`Sensing::update`]: the six raw
+//! counters are read once, extended once (`servo::encoder`), converted to joint positions,
+//! and, once the robot is homed, the measured pose follows them through the forward
+//! kinematics ([`FkTracker`]: one Newton step per tick while the joints move, nothing
+//! while they stand). Homing sets the encoders' reference through
+//! [`Sensing::set_reference`]; the controller, the homing, the fault monitors and the
+//! telemetry all read the tick's [`Measured`], never the hardware or a second estimate.
+
+use hal::QuadratureCounter;
+use kinematics_core::{
+    Branch, FkConfig, FkError, FkTracker, Joints, Mechanism, Pose, Tracked, TrackerCounts,
+};
+use servo::config::ConfigError;
+use servo::encoder::{EncoderConfig, Encoders};
+use servo::NUM_JOINTS;
+
+use crate::controller::Scalar;
+use crate::homing::JointReferences;
+
+/// What the forward kinematics did on this tick.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PoseStatus {
+    /// Not homed: the encoders read relative positions, there is no pose.
+    NotHomed,
+    /// The estimate already matched the joints.
+    Unchanged,
+    /// Newton steps followed the joints (the number of steps).
+    Stepped(u32),
+    /// The full solver ran (its iterations).
+    Solved(u32),
+    /// The forward kinematics failed on this tick; the pose is the last good one.
+    Failed(FkError),
+}
+
+/// The measurements of one tick: raw counters, joints and pose (the extended counts are
+/// the encoders': [`Sensing::encoders`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Measured<S: Scalar> {
+    /// The raw 16-bit counters as read.
+    pub raw: [u16; NUM_JOINTS],
+    /// Joint positions (m, rad), relative until homed.
+    pub q: [S; NUM_JOINTS],
+    /// The measured pose (the last good one after a failed tick), once homed.
+    pub pose: Option<Pose<S>>,
+    /// What the forward kinematics did on this tick.
+    pub status: PoseStatus,
+    /// The forward kinematics factorised its Jacobian on this tick (its heavy ticks: the
+    /// planner defers optional work off them).
+    pub factorised: bool,
+}
+
+/// Counts kept by the sensing.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SensingCounters {
+    /// Ticks sensed.
+    pub ticks: u64,
+    /// Ticks whose forward kinematics failed.
+    pub fk_failures: u32,
+    /// Consecutive failed ticks up to now.
+    pub fk_failures_in_row: u32,
+    /// Most Newton steps or iterations of one tick.
+    pub fk_max_iterations: u32,
+}
+
+/// The encoders and the forward-kinematics tracker.
+#[derive(Clone, Debug)]
+pub struct Sensing<S: Scalar, M: Mechanism<S>> {
+    robot: M,
+    branch: Branch,
+    fk_cfg: FkConfig<S>,
+    encoder_cfg: EncoderConfig<S>,
+    encoders: Encoders<S>,
+    tracker: Option<FkTracker<S>>,
+    measured: Measured<S>,
+    counters: SensingCounters,
+}
+
+/// Why the pose cannot be established after homing.
+pub type ReferenceError = FkError;
+
+/// Why a homed sensing cannot be set up ([`Sensing::homed_at`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SensingError {
+    /// An encoder setting.
+    Config(ConfigError),
+    /// The joints give no pose.
+    Pose(FkError),
+}
+
+impl core::fmt::Display for SensingError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            SensingError::Config(e) => write!(f, "encoders: {e}"),
+            SensingError::Pose(e) => write!(f, "no pose at the homed joints: {e}"),
+        }
+    }
+}
+
+impl<S: Scalar, M: Mechanism<S>> Sensing<S, M> {
+    /// Not homed; the counters read as zero until the first update.
+    pub fn new(
+        robot: M,
+        branch: Branch,
+        encoders: &EncoderConfig<S>,
+        fk: FkConfig<S>,
+    ) -> Result<Self, ConfigError> {
+        let encoder_cfg = *encoders;
+        let encoders = Encoders::new(&encoder_cfg)?;
+        Ok(Sensing {
+            robot,
+            branch,
+            fk_cfg: fk,
+            encoder_cfg,
+            measured: Measured {
+                raw: [0; NUM_JOINTS],
+                q: encoders.positions(),
+                pose: None,
+                status: PoseStatus::NotHomed,
+                factorised: false,
+            },
+            encoders,
+            tracker: None,
+            counters: SensingCounters::default(),
+        })
+    }
+
+    /// The sensing as the runtime has it after homing: the counters `raw` read the joints
+    /// `q`, the pose solved once (for the host's simulation, tests and benchmarks that
+    /// start homed).
+    pub fn homed_at(
+        robot: M,
+        branch: Branch,
+        encoders: &EncoderConfig<S>,
+        fk: FkConfig<S>,
+        raw: [u16; NUM_JOINTS],
+        q: &[S; NUM_JOINTS],
+    ) -> Result<Self, SensingError> {
+        let mut s = Sensing::new(robot, branch, encoders, fk).map_err(SensingError::Config)?;
+        s.boot(raw);
+        for (j, qj) in q.iter().enumerate() {
+            s.set_reference(j, *qj);
+        }
+        s.track_pose().map_err(SensingError::Pose)?;
+        Ok(s)
+    }
+
+    /// Power-up: the counters as they are now become count zero (the encoders are
+    /// incremental: relative until homed).
+    pub fn boot(&mut self, raw: [u16; NUM_JOINTS]) {
+        // (The configuration was validated by `new`: this cannot fail.)
+        if let Ok(e) = Encoders::starting_at(&self.encoder_cfg, &raw) {
+            self.encoders = e;
+        }
+        self.tracker = None;
+        self.measured.raw = raw;
+        self.measured.q = self.encoders.positions();
+        self.measured.pose = None;
+        self.measured.status = PoseStatus::NotHomed;
+    }
+
+    /// Reads the counters once and updates the joints and, once homed, the pose: the
+    /// start of every tick.
+    pub fn update<H: QuadratureCounter + ?Sized>(&mut self, hw: &mut H) -> &Measured<S> {
+        self.counters.ticks += 1;
+        let raw = hw.counts();
+        let q = self.encoders.update(&raw);
+        let m = &mut self.measured;
+        m.raw = raw;
+        m.q = q;
+        m.factorised = false;
+        let Some(tracker) = self.tracker.as_mut() else {
+            m.status = PoseStatus::NotHomed;
+            return &self.measured;
+        };
+        m.status = match tracker.update(&self.robot, &Joints::from_row_slice(&q), &self.fk_cfg) {
+            Ok(t) => {
+                let (status, n) = match t {
+                    Tracked::Unchanged => (PoseStatus::Unchanged, 0),
+                    Tracked::Stepped { steps } => (PoseStatus::Stepped(steps), steps),
+                    Tracked::Solved { iterations } => (PoseStatus::Solved(iterations), iterations),
+                };
+                self.counters.fk_max_iterations = self.counters.fk_max_iterations.max(n);
+                self.counters.fk_failures_in_row = 0;
+                status
+            }
+            Err(e) => {
+                self.counters.fk_failures = self.counters.fk_failures.wrapping_add(1);
+                self.counters.fk_failures_in_row =
+                    self.counters.fk_failures_in_row.saturating_add(1);
+                PoseStatus::Failed(e)
+            }
+        };
+        // The estimate moved only when the tracker stepped or solved (a failed update
+        // keeps the last good one).
+        if matches!(m.status, PoseStatus::Stepped(_) | PoseStatus::Solved(_)) {
+            m.pose = Some(*tracker.pose());
+        }
+        m.factorised = tracker.factorised();
+        &self.measured
+    }
+
+    /// The homing procedure's reference: joint `joint` is at `q` now (its count is kept).
+    /// The pose is not tracked until [`Sensing::track_pose`].
+    pub fn set_reference(&mut self, joint: usize, q: S) -> bool {
+        self.tracker = None;
+        self.measured.pose = None;
+        let ok = self.encoders.set_position(joint, q);
+        self.measured.q = self.encoders.positions();
+        ok
+    }
+
+    /// Every joint is referenced: the pose is solved once from the current joints (the
+    /// full solver, from the central pose) and tracked from then on.
+    pub fn track_pose(&mut self) -> Result<&Pose<S>, ReferenceError> {
+        let q = Joints::from_row_slice(&self.measured.q);
+        let guess = Pose::central(self.robot.hc());
+        let tracker = FkTracker::new(&self.robot, &q, self.branch, &guess, &self.fk_cfg)?;
+        self.measured.pose = Some(*tracker.pose());
+        self.measured.status = PoseStatus::Solved(0);
+        self.counters.fk_failures_in_row = 0;
+        Ok(self.tracker.insert(tracker).pose())
+    }
+
+    /// The reference is no longer trusted (a fault that may have moved the encoders'
+    /// zero, a new homing run): no pose until homed again.
+    pub fn lose_reference(&mut self) {
+        self.tracker = None;
+        self.measured.pose = None;
+        self.measured.status = PoseStatus::NotHomed;
+    }
+
+    /// This tick's measurements.
+    pub fn measured(&self) -> &Measured<S> {
+        &self.measured
+    }
+    /// The encoders (counts, positions, per-joint resolution).
+    pub fn encoders(&self) -> &Encoders<S> {
+        &self.encoders
+    }
+    /// The counters.
+    pub fn counters(&self) -> &SensingCounters {
+        &self.counters
+    }
+    /// What the forward-kinematics tracker did so far (None before homing).
+    pub fn fk_counts(&self) -> Option<&TrackerCounts> {
+        self.tracker.as_ref().map(|t| t.counts())
+    }
+    /// The robot.
+    pub fn robot(&self) -> &M {
+        &self.robot
+    }
+    /// The branch the robot is assembled on.
+    pub fn branch(&self) -> Branch {
+        self.branch
+    }
+}
+
+impl<S: Scalar, M: Mechanism<S>> JointReferences<S> for Sensing<S, M> {
+    fn joints(&self) -> [S; NUM_JOINTS] {
+        self.measured.q
+    }
+    fn counts(&self) -> [i64; NUM_JOINTS] {
+        self.encoders.counts()
+    }
+    fn set_reference(&mut self, joint: usize, q: S) -> bool {
+        Sensing::set_reference(self, joint, q)
+    }
+}

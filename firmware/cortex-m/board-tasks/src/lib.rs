@@ -1,0 +1,315 @@
+//! The embassy tasks every board target runs, written once. A target's `main.rs` brings
+//! the hardware up, implements the small traits below for it, and spawns three tasks that
+//! call these functions:
+//!
+//! * [`run_control`] (an interrupt executor above the link): the control tick every
+//!   period, around [`TickService`]: the e-stop latch and input level, the queued master
+//!   requests and their replies, the runtime's tick, timing, the watchdog, the status;
+//! * [`run_link_rx`] (thread mode): bytes -> frames -> requests for the control tick; an
+//!   `EmergencyStop` message forces the outputs safe at once, before it is queued;
+//! * [`run_link_tx`] (thread mode): replies, and the status every telemetry period once a
+//!   `Hello` was received, with the receiving side's link counters.
+//!
+//! The tasks meet in one [`Shared`] (channels, the latest status, the e-stop latch).
+#![no_std]
+
+use core::cell::Cell;
+use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
+
+use control::estop::{emergency_stop_isr, EStopLatch};
+use control::link::{Command, Inbound, LinkRx, LinkTx, Request};
+use control::service::{TickOutcome, TickService};
+use control::telemetry::with_link;
+use control::Scalar;
+use embassy_futures::select::{select, Either};
+use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
+use embassy_sync::blocking_mutex::Mutex;
+use embassy_sync::channel::Channel;
+use embassy_time::{Duration, Instant, Ticker, Timer};
+use hal::{CurrentSense, LimitSwitches, MotorOutputs, QuadratureCounter, SafeOutputs};
+use kinematics_core::Mechanism;
+use master_link::{BoardToMaster, LinkCounters, NackReason, StatusReport, MAX_FRAME_LEN};
+
+/// The firmware version sent in `HelloReply` (see [`firmware_version!`]).
+pub use master_link::FirmwareVersion;
+
+/// Requests queued for the control tick (the tick drains the queue every millisecond; a
+/// 100 Hz target stream with heartbeats brings two per 10 ms).
+pub const COMMAND_QUEUE: usize = 8;
+/// Replies queued for the link.
+pub const REPLY_QUEUE: usize = 8;
+
+/// What the tasks share.
+pub struct Shared {
+    /// Master requests for the control tick.
+    pub commands: Channel<CriticalSectionRawMutex, Request, COMMAND_QUEUE>,
+    /// Replies for the link.
+    pub replies: Channel<CriticalSectionRawMutex, BoardToMaster, REPLY_QUEUE>,
+    /// The latest status from the control tick (valid once `has_status`).
+    pub status: Mutex<CriticalSectionRawMutex, Cell<StatusReport>>,
+    /// The control tick has published a status.
+    pub has_status: AtomicBool,
+    /// The receiving side's counters.
+    pub link: Mutex<CriticalSectionRawMutex, Cell<Option<LinkCounters>>>,
+    /// A `Hello` was received: telemetry flows.
+    pub connected: AtomicBool,
+    /// Replies dropped because the reply queue was full.
+    pub replies_dropped: AtomicU32,
+    /// Frames that could not be encoded.
+    pub encode_errors: AtomicU32,
+    /// The e-stop latch: tripped by the e-stop interrupt and the `EmergencyStop` message,
+    /// taken by the control tick.
+    pub estop: EStopLatch,
+}
+
+impl Shared {
+    /// Empty queues, no status, not connected.
+    pub const fn new() -> Self {
+        Shared {
+            commands: Channel::new(),
+            replies: Channel::new(),
+            // All zero bits (state Boot), so that `Shared` is zero-initialised (.bss).
+            status: Mutex::new(Cell::new(EMPTY_STATUS)),
+            has_status: AtomicBool::new(false),
+            link: Mutex::new(Cell::new(None)),
+            connected: AtomicBool::new(false),
+            replies_dropped: AtomicU32::new(0),
+            encode_errors: AtomicU32::new(0),
+            estop: EStopLatch::new(),
+        }
+    }
+
+    /// Queues a reply for the link (counted when the queue is full).
+    pub fn reply(&self, reply: BoardToMaster) {
+        if self.replies.try_send(reply).is_err() {
+            self.replies_dropped.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+}
+
+/// A status of all zero bits (before the first tick).
+const EMPTY_STATUS: StatusReport = StatusReport {
+    state: master_link::RobotState::Boot,
+    position_m: [0.0; 3],
+    rotation_vector_rad: [0.0; 3],
+    joints: [0.0; master_link::JOINT_COUNT],
+    warnings: master_link::Warnings::NONE,
+    faults: master_link::Faults::NONE,
+    serial_singularity_margin: 0.0,
+    parallel_singularity_margin: 0.0,
+    link: LinkCounters {
+        frames_ok: 0,
+        bad_checksum: 0,
+        malformed: 0,
+        oversized: 0,
+        wrong_version: 0,
+        out_of_order: 0,
+        dropped: 0,
+    },
+    tick_jitter_max_us: 0,
+    tick_exec_max_us: 0,
+    targets_refused: 0,
+};
+
+impl Default for Shared {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// The firmware version of the calling crate (its `Cargo.toml`), for `HelloReply`.
+#[macro_export]
+macro_rules! firmware_version {
+    () => {
+        $crate::FirmwareVersion {
+            major: $crate::parse_version(env!("CARGO_PKG_VERSION_MAJOR")),
+            minor: $crate::parse_version(env!("CARGO_PKG_VERSION_MINOR")),
+            patch: $crate::parse_version(env!("CARGO_PKG_VERSION_PATCH")),
+        }
+    };
+}
+
+/// One component of a version number (255 if it is not a decimal number below 256).
+pub const fn parse_version(s: &str) -> u8 {
+    let mut rest = s.as_bytes();
+    if rest.is_empty() {
+        return u8::MAX;
+    }
+    let mut v: u32 = 0;
+    while let [d, tail @ ..] = rest {
+        if *d < b'0' || *d > b'9' || v > 25 {
+            return u8::MAX;
+        }
+        v = v * 10 + (*d - b'0') as u32;
+        rest = tail;
+    }
+    if v > 255 {
+        u8::MAX
+    } else {
+        v as u8
+    }
+}
+
+/// The board around the control tick.
+pub trait ControlBoard<S: Scalar> {
+    /// The hardware the runtime drives.
+    type Hardware: QuadratureCounter + MotorOutputs<S> + LimitSwitches + CurrentSense<S>;
+    /// The hardware.
+    fn hardware(&mut self) -> &mut Self::Hardware;
+    /// A free-running core cycle counter (e.g. the DWT's).
+    fn cycles(&mut self) -> u32;
+    /// The e-stop input's level (pressed or wire broken: asserted).
+    fn estop_asserted(&mut self) -> bool;
+    /// Feeds the independent watchdog.
+    fn feed_watchdog(&mut self);
+    /// Before the tick at `now_us` (an emulated plant advances to it).
+    fn before_tick(&mut self, now_us: u64) {
+        let _ = now_us;
+    }
+    /// After the tick (status LED, logs).
+    fn after_tick<M: Mechanism<S> + Clone>(
+        &mut self,
+        service: &TickService<S, M>,
+        outcome: &TickOutcome,
+    );
+}
+
+/// The control task: a tick every control period of `service`, forever. A tick that
+/// starts more than a period late does not run the missed periods back to back: they are
+/// counted ([`TickService::missed_periods`]) and the watchdog is not fed for the late tick.
+pub async fn run_control<S, M, B>(
+    shared: &'static Shared,
+    board: &mut B,
+    service: &mut TickService<S, M>,
+) -> !
+where
+    S: Scalar,
+    M: Mechanism<S> + Clone,
+    B: ControlBoard<S>,
+{
+    let period = u64::from(service.config().watchdog.period_us);
+    let mut next = Instant::now().as_micros() + period;
+    loop {
+        Timer::at(Instant::from_micros(next)).await;
+        let c0 = board.cycles();
+        let now = Instant::now().as_micros();
+        next += period;
+        let missed = if now >= next {
+            (now - next) / period + 1
+        } else {
+            0
+        };
+        next += missed * period;
+        board.before_tick(now);
+        let estop = board.estop_asserted();
+        service.begin(now, missed, shared.estop.take(), estop);
+        while let Ok(req) = shared.commands.try_receive() {
+            let reply = service.request(&req, now);
+            shared.reply(reply);
+        }
+        service.tick(board.hardware(), now);
+        let cycles = board.cycles().wrapping_sub(c0);
+        let outcome = service.finish(now, cycles);
+        shared.status.lock(|s| s.set(outcome.status));
+        shared.has_status.store(true, Ordering::Release);
+        if outcome.feed_watchdog {
+            board.feed_watchdog();
+        }
+        board.after_tick(service, &outcome);
+    }
+}
+
+/// The receiving side of the master link.
+#[allow(async_fn_in_trait)]
+pub trait ByteRx {
+    /// Reads what arrived (at least one byte); `Err` after a framing, noise or overrun
+    /// error (the link drops the partial frame).
+    async fn read(&mut self, buf: &mut [u8]) -> Result<usize, ()>;
+}
+
+/// The sending side of the master link.
+#[allow(async_fn_in_trait)]
+pub trait ByteTx {
+    /// Writes every byte of `frame`.
+    async fn write_all(&mut self, frame: &[u8]);
+}
+
+/// The link's receive task: bytes -> frames -> requests for the control tick, replies the
+/// link gives itself (HelloReply, NotConnected) for the send task. An `EmergencyStop`
+/// message forces the outputs safe through `kill` before it is queued; a full queue is
+/// answered `Busy`.
+pub async fn run_link_rx<R: ByteRx, K: SafeOutputs>(
+    shared: &'static Shared,
+    rx: &mut R,
+    kill: &mut K,
+    firmware: FirmwareVersion,
+) -> ! {
+    let mut link = LinkRx::new(firmware);
+    let mut buf = [0u8; 64];
+    loop {
+        match rx.read(&mut buf).await {
+            Ok(n) => {
+                for byte in buf.iter().take(n) {
+                    match link.push(*byte) {
+                        Some(Inbound::Reply(reply)) => shared.reply(reply),
+                        Some(Inbound::Request(req)) => {
+                            if req.command == Command::EmergencyStop {
+                                // Do not wait for the next tick.
+                                critical_section::with(|_| emergency_stop_isr(kill, &shared.estop));
+                            }
+                            if shared.commands.try_send(req).is_err() {
+                                shared.reply(BoardToMaster::Nack {
+                                    seq: req.seq,
+                                    reason: NackReason::Busy,
+                                });
+                            }
+                        }
+                        None => {}
+                    }
+                }
+            }
+            Err(()) => link.resync(),
+        }
+        shared.connected.store(link.connected(), Ordering::Relaxed);
+        let counters = link.counters();
+        shared.link.lock(|c| c.set(Some(counters)));
+    }
+}
+
+/// The link's send task: replies as they come, and the latest status every
+/// `telemetry_ms` once a `Hello` was received, with the receiving side's counters.
+pub async fn run_link_tx<T: ByteTx>(shared: &'static Shared, tx: &mut T, telemetry_ms: u64) -> ! {
+    let mut link = LinkTx::new();
+    let mut telemetry = Ticker::every(Duration::from_millis(telemetry_ms));
+    let mut buf = [0u8; MAX_FRAME_LEN];
+    loop {
+        let msg = match select(shared.replies.receive(), telemetry.next()).await {
+            Either::First(m) => m,
+            Either::Second(()) => {
+                if !shared.connected.load(Ordering::Relaxed)
+                    || !shared.has_status.load(Ordering::Acquire)
+                {
+                    continue;
+                }
+                BoardToMaster::Status(shared.status.lock(|s| s.get()))
+            }
+        };
+        let msg = match msg {
+            BoardToMaster::Status(mut s) => {
+                with_link(&mut s, shared.link.lock(|c| c.get()));
+                BoardToMaster::Status(s)
+            }
+            other => other,
+        };
+        match link.encode(&msg, &mut buf) {
+            Ok(n) => {
+                if let Some(frame) = buf.get(..n) {
+                    tx.write_all(frame).await;
+                }
+            }
+            Err(_) => {
+                shared.encode_errors.fetch_add(1, Ordering::Relaxed);
+            }
+        }
+    }
+}

@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# Builds the release board image for the STM32F405 (thumbv7em-none-eabihf) and prints its
+# text / data / bss sizes; fails when over budget: text <= 96 KiB, data + bss <= 24 KiB.
+# Uses arm-none-eabi-size (Debian: binutils-arm-none-eabi, installed when missing).
+set -euo pipefail
+source "$(dirname "$0")/../scripts.sh"
+cd "$CORTEX_M"
+
+TEXT_BUDGET=$((96 * 1024))
+RAM_BUDGET=$((24 * 1024))
+ensure_target
+ensure_apt arm-none-eabi-size binutils-arm-none-eabi
+cargo build --release -p board
+ELF="$(target_dir)/$TARGET/release/rspr-board"
+
+arm-none-eabi-size "$ELF"
+read -r text data bss _ < <(arm-none-eabi-size "$ELF" | awk 'NR == 2 { print $1, $2, $3 }')
+ram=$((data + bss))
+printf 'rspr-board release: text %d B (budget %d), data %d B, bss %d B, data+bss %d B (budget %d)\n' \
+    "$text" "$TEXT_BUDGET" "$data" "$bss" "$ram" "$RAM_BUDGET"
+status=0
+if [ "$text" -gt "$TEXT_BUDGET" ]; then
+    echo "error: text over budget by $((text - TEXT_BUDGET)) B" >&2
+    status=1
+fi
+if [ "$ram" -gt "$RAM_BUDGET" ]; then
+    echo "error: data+bss over budget by $((ram - RAM_BUDGET)) B" >&2
+    status=1
+fi
+exit $status

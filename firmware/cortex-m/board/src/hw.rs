@@ -1,0 +1,242 @@
+//! The board's peripherals behind the control application's hardware traits (`hal`), the
+//! board around the control tick (`board_tasks::ControlBoard`: cycle counter, e-stop
+//! input, watchdog, status LED, logs) and the master link's serial port
+//! (`board_tasks::{ByteRx, ByteTx}`).
+
+use board_tasks::{ByteRx, ByteTx, ControlBoard};
+use control::estop::EStopLatch;
+use control::service::{Indicator, TickOutcome, TickService};
+use cortex_m::peripheral::DWT;
+use defmt::{info, warn};
+use embassy_stm32::adc::SampleTime;
+use embassy_stm32::gpio::{Input, Level, Output};
+use embassy_stm32::mode::Async;
+use embassy_stm32::peripherals::IWDG;
+use embassy_stm32::usart::{RingBufferedUartRx, UartTx};
+use embassy_stm32::wdg::IndependentWatchdog;
+use hal::{CurrentSense, LimitSwitches, MotorOutputs, QuadratureCounter, SafeOutputs};
+use kinematics_core::Mechanism;
+
+use crate::board::{self, Encoders, Motors, Sensors};
+
+/// The interrupt-safe kill: register writes only.
+pub struct RawKill;
+
+impl SafeOutputs for RawKill {
+    fn force_safe(&mut self) {
+        board::force_outputs_safe();
+    }
+}
+
+/// Encoders, bridges, switches and current sense as the controller sees them.
+pub struct Hardware {
+    encoders: Encoders,
+    motors: Motors,
+    sensors: Sensors,
+    estop: &'static EStopLatch,
+    max_duty: [u32; 6],
+}
+
+impl Hardware {
+    /// Wraps the peripherals; the outputs stay safe until [`MotorOutputs::enable`].
+    pub fn new(
+        encoders: Encoders,
+        mut motors: Motors,
+        sensors: Sensors,
+        estop: &'static EStopLatch,
+    ) -> Self {
+        let max_duty = [
+            motors.pwm9.max_duty_cycle(),
+            motors.pwm9.max_duty_cycle(),
+            motors.pwm10.max_duty_cycle(),
+            motors.pwm11.max_duty_cycle(),
+            motors.pwm13.max_duty_cycle(),
+            motors.pwm14.max_duty_cycle(),
+        ];
+        motors.driver_enable.set_low();
+        Hardware {
+            encoders,
+            motors,
+            sensors,
+            estop,
+            max_duty,
+        }
+    }
+}
+
+fn signed(raw: u16, invert: bool) -> u16 {
+    if invert {
+        0u16.wrapping_sub(raw)
+    } else {
+        raw
+    }
+}
+
+impl QuadratureCounter for Hardware {
+    fn counts(&mut self) -> [u16; 6] {
+        let e = &self.encoders;
+        let raw = [
+            e.l1.count(),
+            e.l2.count(),
+            e.l3.count(),
+            e.t1.count(),
+            e.t2.count(),
+            e.t3.count(),
+        ];
+        let mut out = [0u16; 6];
+        for ((o, r), inv) in out.iter_mut().zip(raw).zip(board::INVERT_ENCODER) {
+            *o = signed(r, inv);
+        }
+        out
+    }
+}
+
+impl MotorOutputs<f32> for Hardware {
+    fn set_duties(&mut self, duty: &[f32; 6]) {
+        let mut counts = [0u32; 6];
+        for (j, (d, inv)) in duty.iter().zip(board::INVERT_MOTOR).enumerate() {
+            let d = if d.is_finite() {
+                d.clamp(-1.0, 1.0)
+            } else {
+                0.0
+            };
+            let d = if inv { -d } else { d };
+            let max = self.max_duty.get(j).copied().unwrap_or(0);
+            if let Some(c) = counts.get_mut(j) {
+                *c = ((d.abs() * max as f32) as u32).min(max);
+            }
+            if let Some(pin) = self.motors.dir.get_mut(j) {
+                pin.set_level(if d >= 0.0 { Level::High } else { Level::Low });
+            }
+        }
+        let m = &mut self.motors;
+        let [c0, c1, c2, c3, c4, c5] = counts;
+        m.pwm9.ch1().set_duty_cycle(c0);
+        m.pwm9.ch2().set_duty_cycle(c1);
+        m.pwm10.ch1().set_duty_cycle(c2);
+        m.pwm11.ch1().set_duty_cycle(c3);
+        m.pwm13.ch1().set_duty_cycle(c4);
+        m.pwm14.ch1().set_duty_cycle(c5);
+    }
+
+    fn disable(&mut self) {
+        critical_section::with(|_| board::force_outputs_safe());
+    }
+
+    fn enable(&mut self) {
+        // Atomic against the e-stop interrupt: never re-enable over a pending or present
+        // emergency stop.
+        critical_section::with(|_| {
+            if !self.estop.is_tripped() && !board::estop_asserted_raw() {
+                board::restore_outputs();
+            }
+        });
+    }
+}
+
+impl LimitSwitches for Hardware {
+    fn switches(&mut self) -> [bool; 6] {
+        let mut out = [false; 6];
+        for (o, s) in out.iter_mut().zip(self.sensors.switches.iter()) {
+            *o = s.is_high() == board::SWITCH_ACTIVE_HIGH;
+        }
+        out
+    }
+}
+
+impl CurrentSense<f32> for Hardware {
+    fn currents(&mut self) -> [f32; 6] {
+        let mut out = [0f32; 6];
+        let s = &mut self.sensors;
+        for ((o, ch), inv) in out
+            .iter_mut()
+            .zip(s.current.iter_mut())
+            .zip(board::INVERT_MOTOR)
+        {
+            let raw = f32::from(s.adc.blocking_read(ch, SampleTime::CYCLES15));
+            let i = (raw - board::CURRENT_ZERO_COUNT) * board::CURRENT_A_PER_COUNT;
+            *o = if inv { -i } else { i };
+        }
+        out
+    }
+}
+
+/// The board around the control tick.
+pub struct Control {
+    /// Encoders, bridges, switches, currents.
+    pub hw: Hardware,
+    /// The e-stop input.
+    pub estop: Input<'static>,
+    /// The status LED.
+    pub led: Output<'static>,
+    /// The independent watchdog (started).
+    pub iwdg: IndependentWatchdog<'static, IWDG>,
+    /// Ticks since the last timing log.
+    pub ticks: u32,
+}
+
+impl ControlBoard<f32> for Control {
+    type Hardware = Hardware;
+    fn hardware(&mut self) -> &mut Hardware {
+        &mut self.hw
+    }
+    fn cycles(&mut self) -> u32 {
+        DWT::cycle_count()
+    }
+    fn estop_asserted(&mut self) -> bool {
+        self.estop.is_high() == board::ESTOP_ACTIVE_HIGH
+    }
+    fn feed_watchdog(&mut self) {
+        self.iwdg.pet();
+    }
+    fn after_tick<M: Mechanism<f32> + Clone>(
+        &mut self,
+        service: &TickService<f32, M>,
+        outcome: &TickOutcome,
+    ) {
+        if let Some((from, to)) = outcome.state_change {
+            info!(
+                "state {} -> {} (faults {:x})",
+                from,
+                to,
+                outcome.status.faults.bits()
+            );
+        }
+        self.ticks = self.ticks.wrapping_add(1);
+        match Indicator::of(outcome.state) {
+            Indicator::Solid => self.led.set_high(),
+            Indicator::Blink(n) if self.ticks.is_multiple_of(n) => self.led.toggle(),
+            Indicator::Blink(_) => {}
+        }
+        if self.ticks.is_multiple_of(1000) {
+            let t = service.timing();
+            info!(
+                "tick: worst jitter {} us, worst exec {} us, last exec {} us, missed periods {}",
+                t.worst_jitter_us,
+                control::watchdog::TickTiming::cycles_to_us(t.worst_cycles, board::CPU_HZ),
+                outcome.exec_us,
+                service.missed_periods()
+            );
+        }
+    }
+}
+
+/// The master link's receiving side: USART3 with circular DMA.
+pub struct LinkRx(pub RingBufferedUartRx<'static>);
+
+impl ByteRx for LinkRx {
+    async fn read(&mut self, buf: &mut [u8]) -> Result<usize, ()> {
+        self.0.read(buf).await.map_err(|e| warn!("uart rx: {}", e))
+    }
+}
+
+/// The master link's sending side: USART3 with DMA.
+pub struct LinkTx(pub UartTx<'static, Async>);
+
+impl ByteTx for LinkTx {
+    async fn write_all(&mut self, frame: &[u8]) {
+        if let Err(e) = self.0.write(frame).await {
+            warn!("uart tx: {}", e);
+        }
+    }
+}

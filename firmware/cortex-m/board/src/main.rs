@@ -1,0 +1,154 @@
+//! Board firmware of the RSPR surgical robot controller: STM32F405RG at 168 MHz, embassy.
+//! Bring-up, priorities and task spawning; the tasks are `board_tasks`', the pin map is
+//! `board`'s, the hardware traits are `hw`'s.
+//!
+//! Interrupts and tasks, highest priority first:
+//! * `EXTI15_10` (P0): the e-stop edge forces every output off and trips the latch;
+//! * TIM12 time driver (P1);
+//! * `control` on an interrupt executor (`UART4` vector, P2): the 1 kHz control tick;
+//! * USART3 and its DMA (P4);
+//! * `link_rx`, `link_tx` in thread mode.
+#![no_std]
+#![no_main]
+
+mod board;
+mod hw;
+
+use board_tasks::{firmware_version, run_control, run_link_rx, run_link_tx, Shared};
+use control::estop::emergency_stop_isr;
+use control::runtime::{reference_config_for, Runtime};
+use control::service::{ServiceConfig, TickService};
+use defmt::{error, info};
+use embassy_executor::{InterruptExecutor, Spawner};
+use embassy_stm32::interrupt;
+use embassy_stm32::interrupt::{InterruptExt, Priority};
+use embassy_time::Instant;
+use hal::{QuadratureCounter, SafeOutputs};
+use kinematics_core::{Branch, RsprGeometry};
+use {defmt_rtt as _, panic_probe as _};
+
+/// Control period, µs (1 kHz).
+const PERIOD_US: u32 = 1000;
+/// Telemetry period, ms (50 Hz).
+const TELEMETRY_MS: u64 = 20;
+
+static SHARED: Shared = Shared::new();
+static EXECUTOR_CONTROL: InterruptExecutor = InterruptExecutor::new();
+
+#[interrupt]
+unsafe fn UART4() {
+    // SAFETY: the executor was started on this interrupt before it was unmasked.
+    unsafe { EXECUTOR_CONTROL.on_interrupt() }
+}
+
+#[interrupt]
+fn EXTI15_10() {
+    board::clear_estop_pending();
+    emergency_stop_isr(&mut hw::RawKill, &SHARED.estop);
+}
+
+/// The defined halt: outputs safe, error logged, nothing else runs.
+fn halt(reason: &str) -> ! {
+    critical_section::with(|_| hw::RawKill.force_safe());
+    error!("HALT: {}", reason);
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
+
+/// Moves a value into a task on the interrupt executor. The hardware drivers are not
+/// `Send`; each is moved here once and only ever used by that task afterwards.
+struct Owned<T>(T);
+// SAFETY: see above; the value is never shared.
+unsafe impl<T> Send for Owned<T> {}
+
+#[embassy_executor::main]
+async fn main(spawner: Spawner) {
+    let p = embassy_stm32::init(board::clock_config());
+    let version = firmware_version!();
+    info!(
+        "rspr-board {}.{}.{}",
+        version.major, version.minor, version.patch
+    );
+    let Some(mut cp) = cortex_m::Peripherals::take() else {
+        halt("core peripherals taken");
+    };
+    cp.DCB.enable_trace();
+    cp.DWT.enable_cycle_counter();
+    let b = match board::Board::new(p) {
+        Ok(b) => b,
+        Err(e) => {
+            error!("board setup: {}", e);
+            halt("board setup");
+        }
+    };
+
+    // Priorities: e-stop > time driver > control > link.
+    interrupt::EXTI15_10.set_priority(Priority::P0);
+    interrupt::TIM8_BRK_TIM12.set_priority(Priority::P1);
+    interrupt::UART4.set_priority(Priority::P2);
+    interrupt::USART3.set_priority(Priority::P4);
+    board::configure_estop_exti();
+    // SAFETY: the handler above is defined; enabling it cannot break a critical section.
+    unsafe { interrupt::EXTI15_10.enable() };
+
+    let mut iwdg = b.iwdg;
+    iwdg.unleash();
+    let control_board = hw::Control {
+        hw: hw::Hardware::new(b.encoders, b.motors, b.sensors, &SHARED.estop),
+        estop: b.estop,
+        led: b.led,
+        iwdg,
+        ticks: 0,
+    };
+    let control_spawner = EXECUTOR_CONTROL.start(interrupt::UART4);
+    match control(Owned(control_board)) {
+        Ok(t) => control_spawner.spawn(t),
+        Err(_) => halt("spawn control"),
+    }
+    let (tx, rx) = b.uart.split();
+    let Some(dma_buf) = cortex_m::singleton!(: [u8; 512] = [0; 512]) else {
+        halt("rx buffer");
+    };
+    match link_rx(hw::LinkRx(rx.into_ring_buffered(dma_buf))) {
+        Ok(t) => spawner.spawn(t),
+        Err(_) => halt("spawn link_rx"),
+    }
+    match link_tx(hw::LinkTx(tx)) {
+        Ok(t) => spawner.spawn(t),
+        Err(_) => halt("spawn link_tx"),
+    }
+}
+
+/// The reference robot's runtime, booted on the encoders as they read now, in its tick
+/// service. (A plain function: the intermediate values stay off the task's future.)
+fn control_service(board: &mut hw::Control) -> TickService<f32, RsprGeometry<f32>> {
+    let robot = RsprGeometry::<f32>::reference();
+    let Ok(cfg) = reference_config_for(&robot, Branch::OUTER) else {
+        halt("central configuration");
+    };
+    let now = Instant::now().as_micros();
+    let Ok(mut rt) = Runtime::new(robot, cfg, now) else {
+        halt("runtime configuration");
+    };
+    let _ = rt.boot_done(board.hw.counts(), now);
+    info!("boot done: {}", rt.state());
+    TickService::new(rt, ServiceConfig::for_period(PERIOD_US, board::CPU_HZ))
+}
+
+#[embassy_executor::task]
+async fn control(board: Owned<hw::Control>) {
+    let mut board = board.0;
+    let mut service = control_service(&mut board);
+    run_control(&SHARED, &mut board, &mut service).await
+}
+
+#[embassy_executor::task]
+async fn link_rx(mut rx: hw::LinkRx) {
+    run_link_rx(&SHARED, &mut rx, &mut hw::RawKill, firmware_version!()).await
+}
+
+#[embassy_executor::task]
+async fn link_tx(mut tx: hw::LinkTx) {
+    run_link_tx(&SHARED, &mut tx, TELEMETRY_MS).await
+}
