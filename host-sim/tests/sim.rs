@@ -309,7 +309,7 @@ fn the_command_writes_its_report_files() {
 #[test]
 fn the_payload_refresh_thresholds_bound_the_load_error() {
     use control::ToolLoad;
-    use kinematics_core::statics::joint_efforts;
+    use kinematics_core::statics::forces_with_inv_cond;
     use kinematics_core::{inverse, jacobian, Branch};
     use nalgebra::Vector3;
     let robot = robot();
@@ -319,7 +319,9 @@ fn the_payload_refresh_thresholds_bound_the_load_error() {
     let tau = |p: &Pose<f64>, tool: &ToolLoad<f64>| {
         let sol = inverse(&robot, p, Branch::OUTER).ok()?;
         let jac = jacobian(&robot, &sol).ok()?;
-        joint_efforts(&jac, &tool.wrench(p)).ok().map(|s| s.tau)
+        forces_with_inv_cond(&jac, &tool.wrench(p), 1.0, 0.0)
+            .ok()
+            .map(|s| s.tau)
     };
     let dt_m = cfg.plant.payload_refresh_mm * 1e-3;
     let dr = cfg.plant.payload_refresh_deg.to_radians();

@@ -2,7 +2,8 @@
 
 use crate::branch::Branch;
 use crate::chain::Chain;
-use crate::ik::{inverse, ChainSolution, IkError};
+use crate::ik::{inverse, IkError};
+use crate::mechanism::ChainSolution;
 use crate::mechanism::{JointKind, Mechanism, PlatformChain, SerialBlock};
 use crate::pose::Pose;
 use crate::scalar::{lit, Real};
@@ -209,7 +210,7 @@ impl<T: Real> Mechanism<T> for Robot<T> {
         pc: &PlatformChain<T>,
         bit_set: bool,
         out: &mut ChainSolution<T>,
-    ) -> Result<(), crate::ik::IkFailure> {
+    ) -> Result<(), crate::mechanism::IkFailure> {
         match self {
             Robot::Rspr(g) => g.chain_ik(chain, pc, bit_set, out),
             Robot::Usr(g) => g.chain_ik(chain, pc, bit_set, out),

@@ -2,8 +2,8 @@
 //! kinematics and the per-chain block of the serial Jacobian.
 
 use crate::chain::Chain;
-use crate::ik::{ChainSolution, IkFailure};
 use crate::scalar::{lit, Real};
+use core::fmt;
 use nalgebra::Vector3;
 
 /// Whether a joint is a length (m) or an angle (rad); residuals of angles are wrapped.
@@ -64,6 +64,83 @@ pub fn radial<T: Real>(chain: Chain) -> Vector3<T> {
         _ => (-0.5, -HALF_SQRT_3),
     };
     Vector3::new(lit(c), lit(s), T::zero())
+}
+
+/// Why one chain has no inverse-kinematics solution.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum IkFailure {
+    /// The pose has a non-finite component.
+    NonFiniteInput,
+    /// No real root: the chain cannot reach the platform point (negative discriminant of
+    /// Eq. 6.22, or |c| > sqrt(a² + b²) in Eq. 6.32).
+    NoRealRoot,
+    /// The plane P_i of the leg is parallel to the base plane or the platform stands
+    /// perpendicular to the base, so the line v_i of Eq. 6.14 is undefined (RSPR).
+    DegeneratePlane,
+    /// The coefficients of Eq. 6.28 vanish: every γ_i or none solves the chain (USR).
+    DegenerateEquation,
+    /// The lower link points straight up or down, so its yaw α_i is undefined (USR).
+    YawUndefined,
+    /// The spherical joint coincides with the revolute centre (zero-length leg).
+    ZeroLengthLeg,
+}
+
+impl fmt::Display for IkFailure {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let s = match self {
+            IkFailure::NonFiniteInput => "non-finite pose",
+            IkFailure::NoRealRoot => "no real root (pose out of reach)",
+            IkFailure::DegeneratePlane => "degenerate leg plane (platform perpendicular to base)",
+            IkFailure::DegenerateEquation => "degenerate chain equation",
+            IkFailure::YawUndefined => "lower link vertical, yaw undefined",
+            IkFailure::ZeroLengthLeg => "zero-length leg",
+        };
+        f.write_str(s)
+    }
+}
+
+/// The solution of one chain, with the intermediate points the guards and plots need.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ChainSolution<T: Real> {
+    /// Base pivot e_i.
+    pub e: Vector3<T>,
+    /// Spherical-joint centre b_i.
+    pub b: Vector3<T>,
+    /// Upper revolute centre p_i.
+    pub p: Vector3<T>,
+    /// Lower link l_bi = b_i - e_i (RSPR rotating link, USR lower link l_i1).
+    pub lb: Vector3<T>,
+    /// Unit vector ŝ1_i = (p_i - b_i)/|p_i - b_i| along the tripod link.
+    pub s1: Vector3<T>,
+    /// |p_i - b_i|: the RSPR prismatic length l_i, or l2 on the USR.
+    pub leg: T,
+    /// Unit axis ŝ2_i of the upper revolute joint in {0} (the line through b_i).
+    pub s2: Vector3<T>,
+    /// The chain's first joint: RSPR l_i (m), USR α_i (rad).
+    pub qa: T,
+    /// The chain's second joint: RSPR θ_i, USR β_i (rad).
+    pub qb: T,
+    /// USR: rotation γ_i of the upper link about r_i (Eq. 6.25); zero on the RSPR.
+    pub gamma: T,
+}
+
+impl<T: Real> ChainSolution<T> {
+    /// All zero (a placeholder, not a solution).
+    pub fn zeroed() -> Self {
+        let z = Vector3::zeros();
+        ChainSolution {
+            e: z,
+            b: z,
+            p: z,
+            lb: z,
+            s1: z,
+            leg: T::zero(),
+            s2: z,
+            qa: T::zero(),
+            qb: T::zero(),
+            gamma: T::zero(),
+        }
+    }
 }
 
 /// A robot of the thesis's class (Fig. 5.14): a tripod of SR dyads on top of three serial

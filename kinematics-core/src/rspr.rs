@@ -4,7 +4,7 @@
 
 use crate::chain::Chain;
 use crate::geometry::RsprGeometry;
-use crate::ik::{ChainSolution, IkFailure};
+use crate::mechanism::{ChainSolution, IkFailure};
 use crate::mechanism::{JointKind, Mechanism, PlatformChain, SerialBlock};
 use crate::scalar::{dot3, lit, norm3, sqrt, sub3, Real};
 use nalgebra::Vector3;

@@ -70,18 +70,10 @@ pub fn actuator_forces<T: Real>(
     forces_with_inv_cond(jac, se, inv_cond, min_inv_cond)
 }
 
-/// τ = J⁻ᵀ s_e without the conditioning check, for hints such as the flank a known load
-/// presses the lead screws against (still an error when Jtilde is exactly singular or the
-/// result is not finite). Guards use [`actuator_forces`].
-pub fn joint_efforts<T: Real>(
-    jac: &Jacobians<T>,
-    se: &Wrench<T>,
-) -> Result<Statics<T>, ForceError> {
-    forces_with_inv_cond(jac, se, T::one(), T::zero())
-}
-
 /// [`actuator_forces`] when the inverse condition number of the scaled Jtilde is already
-/// known (the guards compute it once for the singularity measure and the forces).
+/// known (the guards compute it once for the singularity measure and the forces; pass
+/// `inv_cond` 1 and `min_inv_cond` 0 for a hint that needs no conditioning check, such as
+/// the flank a known load presses the lead screws against).
 pub fn forces_with_inv_cond<T: Real>(
     jac: &Jacobians<T>,
     se: &Wrench<T>,

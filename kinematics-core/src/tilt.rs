@@ -40,12 +40,12 @@ pub fn socket_axis<T: Real, M: Mechanism<T> + ?Sized>(
 ) -> Result<Vector3<T>, IkError> {
     let central = Pose::central(m.hc());
     let pc = platform_chain(m, &central, chain);
-    let mut s = crate::ik::ChainSolution::zeroed();
+    let mut s = crate::mechanism::ChainSolution::zeroed();
     m.chain_ik(chain, &pc, bit_set, &mut s)
         .map_err(|reason| IkError { chain, reason })?;
     in_link_frame(&s.lb, &s.s1).ok_or(IkError {
         chain,
-        reason: crate::ik::IkFailure::YawUndefined,
+        reason: crate::mechanism::IkFailure::YawUndefined,
     })
 }
 

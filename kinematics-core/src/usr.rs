@@ -4,7 +4,7 @@
 
 use crate::chain::Chain;
 use crate::geometry::UsrGeometry;
-use crate::ik::{ChainSolution, IkFailure};
+use crate::mechanism::{ChainSolution, IkFailure};
 use crate::mechanism::{JointKind, Mechanism, PlatformChain, SerialBlock};
 use crate::rspr::{yaw_from, z_cross};
 use crate::scalar::{lit, wrap_angle, Real};

@@ -22,7 +22,7 @@ fn reference_inv_cond(jtilde: &Matrix6<f64>, rp: f64) -> f64 {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(256))]
+    #![proptest_config(proptest_config::cases(256))]
 
     /// Random matrices (entries in [-1, 1]): cold Jacobi = nalgebra's SVD to 1e-12
     /// relative in f64, and to 2e-5 in f32 (both against the f64 reference).

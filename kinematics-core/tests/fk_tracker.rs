@@ -11,7 +11,7 @@ use nalgebra::Vector3;
 use proptest::prelude::*;
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(64))]
+    #![proptest_config(proptest_config::cases(64))]
 
     /// 300 ticks at 25 mm/s and 30 deg/s (while the parallel measure stays above the
     /// guards' warn level 0.03 and the joints within the reference speed limits): the

@@ -456,7 +456,7 @@ fn thesis_task_box_claim_with_default_limits() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(256))]
+    #![proptest_config(proptest_config::cases(256))]
 
     /// A staged evaluation (one stage per call, as the supervisor runs it across control
     /// ticks) reaches the one-shot verdict: the same first stop-level reading, the same

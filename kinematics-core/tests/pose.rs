@@ -9,7 +9,7 @@ use nalgebra::{Rotation3, Vector3};
 use proptest::prelude::*;
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(1024))]
+    #![proptest_config(proptest_config::cases(1024))]
 
     /// exp([w]×) = Rotation3::from_scaled_axis(w) to 1e-15 for |w| from 1e-9 to 3 rad.
     #[test]

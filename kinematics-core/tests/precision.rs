@@ -9,7 +9,7 @@ use kinematics_core::*;
 use proptest::prelude::*;
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(512))]
+    #![proptest_config(proptest_config::cases(512))]
 
     /// In f32, IK then FK returns the pose to 1 µm and 1e-5 rad (outer branch, the
     /// prototype's, over and around the task box), warm-started as in the control loop.

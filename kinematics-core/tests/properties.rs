@@ -31,7 +31,7 @@ fn q_at(
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(512))]
+    #![proptest_config(proptest_config::cases(512))]
 
     /// IK then FK returns the pose (f64: 1e-9 m and 1e-9 rad), on every branch that has a
     /// solution outside the parallel-singularity stop level of the guards (inverse condition

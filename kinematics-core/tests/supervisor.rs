@@ -155,7 +155,7 @@ fn run(events: &[(Event, u16)]) -> Result<Counters, TestCaseError> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(128))]
+    #![proptest_config(proptest_config::cases(128))]
 
     /// For random target streams (including NaN, jumps of metres, poses outside the
     /// workspace, paths through singular configurations, replays and stale stamps), the

@@ -116,7 +116,7 @@ fn feed_chunked<M: WireMessage, const N: usize>(
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(512))]
+    #![proptest_config(proptest_config::cases(512))]
 
     /// Random byte streams: no panic, one result per non-empty terminated
     /// segment, and each result is counted in exactly its counter.

@@ -11,6 +11,8 @@ fn raw(true_count: i64) -> u16 {
 }
 
 proptest! {
+    #![proptest_config(proptest_config::cases(256))]
+
     /// Property: any sequence of increments with |delta| < 32768 per read, starting
     /// anywhere, reproduces the true count exactly after every read.
     #[test]

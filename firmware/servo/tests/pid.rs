@@ -417,6 +417,8 @@ fn gains() -> impl Strategy<Value = PidGains<f64>> {
 }
 
 proptest! {
+    #![proptest_config(proptest_config::cases(256))]
+
     /// Property: for any valid gains and any sequence of finite inputs and positive
     /// finite time steps, the duty is finite and within the output limit (f64).
     #[test]

@@ -212,6 +212,8 @@ fn tracking_config_defaults_are_valid_and_validate_names_the_field() {
 }
 
 proptest! {
+    #![proptest_config(proptest_config::cases(256))]
+
     /// Property: a joint whose measurement follows a smooth setpoint within bounded noise
     /// (less than half the window and half the stuck motion) never trips, whatever the
     /// duty does.

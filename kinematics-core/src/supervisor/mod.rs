@@ -32,6 +32,9 @@
 //!    (about 0.2 mm apart at 25 mm/s) and the path samples (0.5 mm apart) checked in full.
 //!    A stop-level violation of the candidate holds the last safe setpoint and latches the
 //!    reason until [`Supervisor::clear`].
+//!
+//! Modules: [`admission`] (the checks at submission, refusals, counters), [`path`] (the
+//! path check and the checker's jobs), [`profile`] (the motion profile, pure functions).
 
 use crate::branch::Branch;
 use crate::double_buffer::DoubleBuffer;
@@ -41,12 +44,21 @@ use crate::guards::{
 };
 use crate::jacobian::{jacobian_into, Jacobians};
 use crate::mechanism::{JointKind, Mechanism};
-use crate::pose::{rotation_angle, rotation_vector, Pose};
-use crate::scalar::{lit, norm3, scale3, sqrt, sub3, wrap_angle, Real};
+use crate::pose::{rotation_vector, Pose};
+use crate::scalar::{lit, norm3, wrap_angle, Real};
 use crate::singularity::ConditionEstimator;
 use crate::{Joints, Twist};
 use core::fmt;
 use nalgebra::Vector3;
+
+pub mod admission;
+pub mod path;
+pub mod profile;
+
+pub use admission::{Counters, Refusal};
+pub use path::interpolate;
+use path::Pending;
+use profile::ProfileLimits;
 
 /// Supervisor settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -109,78 +121,6 @@ pub enum Mode {
     Stopped,
 }
 
-/// Why a target was refused.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Refusal<T: Real> {
-    /// A component is NaN or infinite.
-    NonFinite,
-    /// The timestamp is older than `stale_after_us` (or from the future by as much).
-    Stale { age_us: i64 },
-    /// The timestamp is not newer than the last accepted one.
-    OutOfOrder,
-    /// Too far from the current setpoint (m, rad).
-    TooFar { distance: T, angle: T },
-    /// The straight path to it crosses a stop-level region at this fraction of the way.
-    Path { fraction: T, reading: Reading<T> },
-    /// The supervisor is stopped; clear it first.
-    Latched,
-}
-
-impl<T: Real> fmt::Display for Refusal<T> {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Refusal::NonFinite => f.write_str("target is not finite"),
-            Refusal::Stale { age_us } => write!(f, "target is stale ({age_us} µs old)"),
-            Refusal::OutOfOrder => f.write_str("target timestamp is not newer than the last"),
-            Refusal::TooFar { distance, angle } => write!(
-                f,
-                "target too far from the setpoint ({:.1} mm, {:.1} deg)",
-                crate::geometry::to_f64(*distance) * 1e3,
-                crate::geometry::to_f64(*angle).to_degrees()
-            ),
-            Refusal::Path { fraction, reading } => write!(
-                f,
-                "path crosses {} at {:.0}% of the way",
-                reading.guard,
-                crate::geometry::to_f64(*fraction) * 100.0
-            ),
-            Refusal::Latched => f.write_str("supervisor is stopped; clear the fault first"),
-        }
-    }
-}
-
-/// Counts of what the supervisor refused or did.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Counters {
-    pub accepted: u32,
-    pub non_finite: u32,
-    pub stale: u32,
-    pub out_of_order: u32,
-    pub too_far: u32,
-    pub path_refused: u32,
-    pub refused_latched: u32,
-    pub superseded: u32,
-    pub brakes: u32,
-    pub stops: u32,
-    pub warn_ticks: u32,
-}
-
-impl Counters {
-    /// Every target refused, whatever the reason (saturating).
-    pub fn refused(&self) -> u32 {
-        [
-            self.non_finite,
-            self.stale,
-            self.out_of_order,
-            self.too_far,
-            self.path_refused,
-            self.refused_latched,
-        ]
-        .iter()
-        .fold(0u32, |acc, x| acc.saturating_add(*x))
-    }
-}
-
 /// What one tick produces.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TickOutput<T: Real> {
@@ -198,19 +138,6 @@ pub struct TickOutput<T: Real> {
     pub warning: bool,
     /// The latched stop reason, if stopped.
     pub stop: Option<Reading<T>>,
-}
-
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct Pending<T: Real> {
-    from: Pose<T>,
-    to: Pose<T>,
-    /// The whole segment ([`segment`]), computed once, not for every sample.
-    dv: Vector3<T>,
-    dw: Vector3<T>,
-    samples: u16,
-    /// Next sample to check; sample `samples` (the end) is checked first.
-    next: u16,
-    end_checked: bool,
 }
 
 /// The singularity margins near the setpoint, for telemetry, from what the ticks computed
@@ -298,51 +225,13 @@ pub use crate::guards::MAX_STAGES;
 
 /// What the checker is evaluating.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Job {
+pub(super) enum Job {
     /// A sample of the pending path.
     Path,
     /// The end of the pending path (checked first).
     PathEnd,
     /// The braking point.
     Ahead,
-}
-
-/// Pose at fraction `s` of the straight segment a → b (translation linear, rotation about
-/// the fixed world axis of b·aᵀ).
-pub fn interpolate<T: Real>(a: &Pose<T>, b: &Pose<T>, s: T) -> Pose<T> {
-    let (dv, dw) = segment(a, b);
-    along(a, &dv, &dw, s)
-}
-
-/// The straight segment a → b: its translation and the rotation vector of b·aᵀ.
-fn segment<T: Real>(a: &Pose<T>, b: &Pose<T>) -> (Vector3<T>, Vector3<T>) {
-    (sub3(&b.t, &a.t), rotation_vector(&(b.r * a.r.inverse())))
-}
-
-/// The pose at fraction `s` of the segment (`dv`, `dw`) from `from` ([`segment`]).
-fn along<T: Real>(from: &Pose<T>, dv: &Vector3<T>, dw: &Vector3<T>, s: T) -> Pose<T> {
-    from.displaced(&scale3(dv, s), &scale3(dw, s))
-}
-
-/// J·x, written out over J's column arrays (nalgebra's generic product, and loops, cost
-/// several times the arithmetic on the Cortex-M4).
-fn jac_times<T: Real>(j: &nalgebra::Matrix6<T>, x: &[T; 6]) -> [T; 6] {
-    let [c0, c1, c2, c3, c4, c5] = &j.data.0;
-    let [x0, x1, x2, x3, x4, x5] = *x;
-    macro_rules! row {
-        ($i:literal) => {
-            c0[$i] * x0 + c1[$i] * x1 + c2[$i] * x2 + c3[$i] * x3 + c4[$i] * x4 + c5[$i] * x5
-        };
-    }
-    [row!(0), row!(1), row!(2), row!(3), row!(4), row!(5)]
-}
-
-/// The limit of a joint of `kind` from a [prismatic, revolute] pair.
-fn of_kind<T: Real>(pair: &[T; 2], kind: JointKind) -> T {
-    match kind {
-        JointKind::Linear => pair[0],
-        JointKind::Angular => pair[1],
-    }
 }
 
 /// The motion limits scaled by (1 - 1000 ε).
@@ -467,35 +356,43 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
     pub fn guards(&self) -> &Guards<T, M> {
         &self.guards
     }
+
     /// The counters.
     pub fn counters(&self) -> &Counters {
         &self.counters
     }
+
     /// The last refusal, if any.
     pub fn last_refusal(&self) -> Option<&Refusal<T>> {
         self.last_refusal.as_ref()
     }
+
     /// The current setpoint pose.
     pub fn setpoint(&self) -> &Pose<T> {
         &self.pose
     }
+
     /// The joints of the current setpoint.
     pub fn setpoint_joints(&self) -> &Joints<T> {
         &self.q
     }
+
     /// The setpoint's twist [v; ω].
     pub fn twist(&self) -> &Twist<T> {
         &self.twist
     }
+
     /// The Jacobians at the current setpoint (None at a serial singularity), e.g. to map
     /// a known tool load to the joints.
     pub fn jacobians(&self) -> Option<&Jacobians<T>> {
         self.jac_ok.then_some(&self.evals.current().jac)
     }
+
     /// The latched stop reason.
     pub fn latched(&self) -> Option<&Reading<T>> {
         self.latched.as_ref()
     }
+
     /// The singularity margins near the setpoint (see [`Margins`]).
     pub fn margins(&self) -> Margins<T> {
         let robot = self.guards.robot();
@@ -508,109 +405,6 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         Margins {
             serial,
             parallel: self.parallel,
-        }
-    }
-
-    fn refuse(&mut self, r: Refusal<T>) -> Result<(), Refusal<T>> {
-        let c = &mut self.counters;
-        match r {
-            Refusal::NonFinite => c.non_finite += 1,
-            Refusal::Stale { .. } => c.stale += 1,
-            Refusal::OutOfOrder => c.out_of_order += 1,
-            Refusal::TooFar { .. } => c.too_far += 1,
-            Refusal::Path { .. } => c.path_refused += 1,
-            Refusal::Latched => c.refused_latched += 1,
-        }
-        self.last_refusal = Some(r);
-        Err(r)
-    }
-
-    /// Submits a master target stamped `stamp_us`, at clock time `now_us`. Accepted targets
-    /// are verified over the next ticks; a refusal is returned (and counted) at once for
-    /// non-finite, stale, out-of-order or too-distant targets.
-    pub fn submit(
-        &mut self,
-        target: &Pose<T>,
-        stamp_us: u64,
-        now_us: u64,
-    ) -> Result<(), Refusal<T>> {
-        if self.latched.is_some() {
-            return self.refuse(Refusal::Latched);
-        }
-        if !target.is_finite() {
-            return self.refuse(Refusal::NonFinite);
-        }
-        let age = now_us as i128 - stamp_us as i128;
-        if age.unsigned_abs() > u128::from(self.cfg.stale_after_us) {
-            let age_us = age.clamp(i128::from(i64::MIN), i128::from(i64::MAX)) as i64;
-            return self.refuse(Refusal::Stale { age_us });
-        }
-        if self.last_stamp_us.is_some_and(|last| stamp_us <= last) {
-            return self.refuse(Refusal::OutOfOrder);
-        }
-        self.check_distance(target)?;
-        self.last_stamp_us = Some(stamp_us);
-        if self.pending.is_some() {
-            if self.queued.is_some() {
-                self.counters.superseded += 1;
-            }
-            self.queued = Some(*target);
-            return Ok(());
-        }
-        self.start_pending(target);
-        Ok(())
-    }
-
-    /// Refuses a target too far from the current setpoint.
-    fn check_distance(&mut self, target: &Pose<T>) -> Result<(), Refusal<T>> {
-        let distance = norm3(&(target.t - self.pose.t));
-        let angle = rotation_angle(&(target.r * self.pose.r.inverse()));
-        if !(distance <= self.cfg.max_segment && angle <= self.cfg.max_segment_angle) {
-            self.refuse(Refusal::TooFar { distance, angle })?;
-        }
-        Ok(())
-    }
-
-    /// Starts verifying the straight segment to `target` from whichever of the goal the
-    /// robot is heading for (itself verified) and the setpoint is nearer to it, in path
-    /// samples: a fast stream of targets is then verified in short steps from the goal
-    /// however far the setpoint lags behind it, and a target back towards the setpoint
-    /// from the setpoint. The motion from the setpoint to the new goal stays within the
-    /// braking-point checks. While braking, from the setpoint.
-    fn start_pending(&mut self, target: &Pose<T>) {
-        let samples_from = |from: &Pose<T>| {
-            let distance = norm3(&(target.t - from.t));
-            let angle = rotation_angle(&(target.r * from.r.inverse()));
-            (distance / self.cfg.path_step).max(angle / self.cfg.path_step_angle)
-        };
-        let goal = self.next_goal.unwrap_or(self.goal);
-        let (at_goal, at_setpoint) = (samples_from(&goal), samples_from(&self.pose));
-        // (The setpoint is within `max_segment` of the target: checked on submission.)
-        let (from, n) = if !self.braking && at_goal < at_setpoint {
-            (goal, at_goal)
-        } else {
-            (self.pose, at_setpoint)
-        };
-        let n = n.ceil().max(T::one());
-        let samples = crate::geometry::to_f64(n) as u16;
-        let (dv, dw) = segment(&from, target);
-        self.pending = Some(Pending {
-            from,
-            to: *target,
-            dv,
-            dw,
-            samples: samples.max(1),
-            next: 1,
-            end_checked: false,
-        });
-    }
-
-    /// Starts the queued target, if any, once the previous check is over.
-    fn start_queued(&mut self) {
-        if let Some(q) = self.queued.take() {
-            if self.check_distance(&q).is_ok() {
-                self.start_pending(&q);
-            }
         }
     }
 
@@ -664,176 +458,50 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         self.evals.swap();
     }
 
-    /// Forgets the pending and the queued target (and a path check in progress).
-    fn drop_pending(&mut self) {
-        self.pending = None;
-        self.queued = None;
-        self.next_goal = None;
-        if matches!(self.job, Some(Job::Path | Job::PathEnd)) {
-            self.job = None;
+    /// The joint kinds and the setpoint's Jacobian, when there is one (not at a serial
+    /// singularity).
+    fn setpoint_jacobian(&self) -> Option<&nalgebra::Matrix6<T>> {
+        self.jacobians().map(|j| &j.j)
+    }
+
+    /// This tick's profile limits: the motion limits a hair inside (so that rounding
+    /// never trips the motion guards that check the output), the accelerations within
+    /// what the joints can follow at the setpoint ([`profile::joint_safe_accels`]).
+    fn profile_limits(&self) -> ProfileLimits<T> {
+        let l = shaved(self.guards.limits());
+        let (mut tip_accel, mut angular_accel) = (l.tip_accel, l.angular_accel);
+        if let Some(j) = self.setpoint_jacobian() {
+            (tip_accel, angular_accel) = profile::joint_safe_accels(
+                j,
+                &self.guards.robot().joint_kinds(),
+                l.tip_accel,
+                l.angular_accel,
+                &l.joint_accel,
+                self.cfg.joint_accel_headroom,
+            );
+        }
+        ProfileLimits {
+            tip_speed: l.tip_speed,
+            angular_speed: l.angular_speed,
+            tip_accel,
+            angular_accel,
         }
     }
 
-    /// Starts the checker's next job, if there is one: a sample of the pending path or
-    /// the braking point `ahead` (while moving and not braking), in turn when both wait.
-    fn start_job(&mut self, ahead: Option<&Pose<T>>) {
-        match (self.pending, ahead) {
-            (Some(p), None) => self.begin_path(&p),
-            (Some(p), Some(_)) if self.path_turn => self.begin_path(&p),
-            (_, Some(a)) => self.begin(a, Job::Ahead),
-            (None, None) => {}
+    /// Speed caps along the unit directions at the setpoint ([`profile::speed_caps`]).
+    fn speed_caps(&self, l: &ProfileLimits<T>, dir_v: &Vector3<T>, dir_w: &Vector3<T>) -> (T, T) {
+        match self.setpoint_jacobian() {
+            Some(j) => profile::speed_caps(
+                j,
+                &self.guards.robot().joint_kinds(),
+                l,
+                &self.guards.limits().joint_speed,
+                self.cfg.joint_speed_headroom,
+                dir_v,
+                dir_w,
+            ),
+            None => (l.tip_speed, l.angular_speed),
         }
-    }
-
-    /// Starts on the pending path's next sample (its end first).
-    fn begin_path(&mut self, p: &Pending<T>) {
-        let (k, job) = if p.end_checked {
-            (p.next, Job::Path)
-        } else {
-            (p.samples, Job::PathEnd)
-        };
-        let s = lit::<T>(f64::from(k)) / lit(f64::from(p.samples));
-        self.begin(&along(&p.from, &p.dv, &p.dw, s), job);
-    }
-
-    fn begin(&mut self, pose: &Pose<T>, job: Job) {
-        self.checker.start(pose);
-        self.job = Some(job);
-        self.path_turn = job == Job::Ahead;
-    }
-
-    /// Runs one stage of the checker's job; when it finishes, acts on its verdict. Returns
-    /// whether a braking point was found unsafe.
-    fn run_stage(&mut self) -> bool {
-        let Some(job) = self.job else { return false };
-        let cond = match job {
-            Job::Path => &mut self.cond_path,
-            Job::PathEnd => &mut self.cond_path_end,
-            Job::Ahead => &mut self.cond_ahead,
-        };
-        self.guards.advance(&mut self.checker, cond);
-        if !self.checker.is_finished() {
-            return false;
-        }
-        self.job = None;
-        let stop = self.checker.stop().copied();
-        if let Some(x) = self.checker.inv_cond() {
-            self.parallel = x;
-        }
-        match job {
-            Job::Ahead => {
-                self.ahead_warn = self.checker.warn();
-                if stop.is_none() && self.job_for_next {
-                    if let Some(next) = self.next_goal.take() {
-                        self.goal = next;
-                    }
-                }
-                stop.is_some()
-            }
-            Job::Path | Job::PathEnd => {
-                self.path_sample_checked(stop);
-                false
-            }
-        }
-    }
-
-    /// The verdict on the pending path's current sample.
-    fn path_sample_checked(&mut self, stop: Option<Reading<T>>) {
-        let Some(mut p) = self.pending else { return };
-        if let Some(reading) = stop {
-            let k = if p.end_checked { p.next } else { p.samples };
-            self.pending = None;
-            let _ = self.refuse(Refusal::Path {
-                fraction: lit::<T>(f64::from(k)) / lit(f64::from(p.samples)),
-                reading,
-            });
-            self.start_queued();
-            return;
-        }
-        if p.end_checked {
-            p.next += 1;
-        } else {
-            p.end_checked = true;
-        }
-        if p.next >= p.samples {
-            self.pending = None;
-            if self.twist.iter().any(|x| *x != T::zero()) {
-                self.next_goal = Some(p.to);
-            } else {
-                self.goal = p.to;
-            }
-            self.braking = false;
-            self.counters.accepted += 1;
-            self.start_queued();
-            return;
-        }
-        self.pending = Some(p);
-    }
-
-    /// Speed caps (m/s, rad/s) for motion along the unit directions, within the joint
-    /// speed limits (with headroom) at the current setpoint's Jacobian.
-    fn speed_caps(&self, l: &Limits<T>, dir_v: &Vector3<T>, dir_w: &Vector3<T>) -> (T, T) {
-        let (vmax, wmax) = (l.tip_speed, l.angular_speed);
-        let Some(j) = self.jacobians().map(|j| &j.j) else {
-            return (vmax, wmax);
-        };
-        let probe = [
-            dir_v.x * vmax,
-            dir_v.y * vmax,
-            dir_v.z * vmax,
-            dir_w.x * wmax,
-            dir_w.y * wmax,
-            dir_w.z * wmax,
-        ];
-        // q̇ = J·probe over J's column-major storage (nalgebra's generic product costs
-        // several times the arithmetic on the Cortex-M4).
-        let qd = jac_times(j, &probe);
-        let mut scale = T::one();
-        for (v, kind) in qd.iter().zip(self.guards.robot().joint_kinds().iter()) {
-            let lim = of_kind(&l.joint_speed, *kind) * self.cfg.joint_speed_headroom;
-            if v.abs() * scale > lim {
-                scale = lim / v.abs();
-            }
-        }
-        (vmax * scale, wmax * scale)
-    }
-
-    /// The Cartesian acceleration limits scaled so that no joint exceeds its acceleration
-    /// limit (with headroom) whatever the direction of the change of twist, at the current
-    /// setpoint's Jacobian: |J_j·Δ| ≤ |J_j,v|·|Δv| + |J_j,ω|·|Δω| (Cauchy-Schwarz, per row).
-    fn joint_safe_accels(&self, l: &Limits<T>) -> (T, T) {
-        let (at, aw) = (l.tip_accel, l.angular_accel);
-        let Some(j) = self.jacobians().map(|j| &j.j) else {
-            return (at, aw);
-        };
-        // Squared norms of each row's [v] and [ω] halves, over the column arrays.
-        let [c0, c1, c2, c3, c4, c5] = &j.data.0;
-        macro_rules! halves {
-            ($i:literal) => {
-                (
-                    c0[$i] * c0[$i] + c1[$i] * c1[$i] + c2[$i] * c2[$i],
-                    c3[$i] * c3[$i] + c4[$i] * c4[$i] + c5[$i] * c5[$i],
-                )
-            };
-        }
-        let rows = [
-            halves!(0),
-            halves!(1),
-            halves!(2),
-            halves!(3),
-            halves!(4),
-            halves!(5),
-        ];
-        let mut scale = T::one();
-        let kinds = self.guards.robot().joint_kinds();
-        for (kind, (v2, w2)) in kinds.iter().zip(rows.iter()) {
-            let lim = of_kind(&l.joint_accel, *kind) * self.cfg.joint_accel_headroom;
-            let worst = sqrt(*v2) * at + sqrt(*w2) * aw;
-            if worst * scale > lim {
-                scale = lim / worst;
-            }
-        }
-        (at * scale, aw * scale)
     }
 
     fn hold(&mut self, reason: Reading<T>) -> TickOutput<T> {
@@ -869,7 +537,9 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         }
     }
 
-    /// One control tick.
+    /// Runs `stages_per_tick` stages of the checker: a path sample or the braking point in
+    /// turn (the braking point only while moving and not braking). Returns whether a
+    /// braking point was found unsafe.
     ///
     /// The braking point checked by a job that starts on this tick must cover what can
     /// happen until the next braking-point job has finished: a job takes at most L ticks
@@ -877,54 +547,28 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
     /// one path sample, so it finishes at most 3·L - 1 ticks after this one; until then the
     /// profile may accelerate, to v' = |v| + a·(3L - 1)·dt, and a violation found then
     /// starts braking from there. The point checked is where the robot, moving on for 3L
-    /// ticks at v' along its current twist, would stop from v': v'²/2a + 3L·v'·dt ahead
-    /// (3.7 mm at 25 mm/s, 250 mm/s², L = 13), but no farther than the goal (or the verified
-    /// target waiting to replace it): the profile stops there with deceleration in hand, so
-    /// a target next to a boundary is reached; the goal changes only after a check that
-    /// looked past it.
-    pub fn tick(&mut self) -> TickOutput<T> {
-        if self.latched.is_some() {
-            return self.output(false);
-        }
-        let moving = self.twist.iter().any(|x| *x != T::zero());
-        // The limiter runs a hair inside the limits so that rounding never trips the
-        // motion guards that check its output.
-        let mut l = shaved(self.guards.limits());
-        // Every acceleration of this tick (profile, braking, look-ahead) within what the
-        // joints can follow here.
-        (l.tip_accel, l.angular_accel) = self.joint_safe_accels(&l);
-        let dt = self.cfg.dt;
-        let two = lit::<T>(2.0);
-        let v0 = Vector3::new(self.twist.x, self.twist.y, self.twist.z);
-        let w0 = Vector3::new(self.twist.w, self.twist.a, self.twist.b);
-        // The checker: `stages_per_tick` stages.
+    /// ticks at v' along its current twist, would stop from v' ([`profile::braking_point`]:
+    /// 3.7 mm ahead at 25 mm/s, 250 mm/s², L = 13), but no farther than the goal (or the
+    /// verified target waiting to replace it): the profile stops there with deceleration
+    /// in hand, so a target next to a boundary is reached; the goal changes only after a
+    /// check that looked past it.
+    fn run_checker(
+        &mut self,
+        l: &ProfileLimits<T>,
+        moving: bool,
+        v0: &Vector3<T>,
+        w0: &Vector3<T>,
+    ) -> bool {
         let stages = self.cfg.stages_per_tick;
         let mut ahead_stop = false;
         for _ in 0..stages {
             if self.job.is_none() {
-                // The goal the profile stops at (or the verified target waiting to replace
-                // it): the braking point need not look past it.
                 let horizon = self.next_goal.unwrap_or(self.goal);
                 let for_next = self.next_goal.is_some();
                 let ahead = (moving && !self.braking).then(|| {
                     let per_job = MAX_STAGES.div_ceil(u32::from(stages));
                     let n = lit::<T>(f64::from(3 * per_job));
-                    let to_t = norm3(&(horizon.t - self.pose.t));
-                    let to_r = norm3(&rotation_vector(&(horizon.r * self.pose.r.inverse())));
-                    let reach = |v: &Vector3<T>, amax: T, to_horizon: T| {
-                        let speed = norm3(v);
-                        if speed > T::zero() {
-                            let vp = speed + amax * (n - T::one()) * dt;
-                            let far = (vp * vp / (two * amax) + n * vp * dt).min(to_horizon);
-                            v * (far / speed)
-                        } else {
-                            Vector3::zeros()
-                        }
-                    };
-                    self.pose.displaced(
-                        &reach(&v0, l.tip_accel, to_t),
-                        &reach(&w0, l.angular_accel, to_r),
-                    )
+                    profile::braking_point(&self.pose, v0, w0, &horizon, l, n, self.cfg.dt)
                 });
                 self.start_job(ahead.as_ref());
                 if self.job == Some(Job::Ahead) {
@@ -936,6 +580,83 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             }
             ahead_stop |= self.run_stage();
         }
+        ahead_stop
+    }
+
+    /// The joint rates of the candidate's twist: J·twist with the Jacobian its kinematic
+    /// check computed, or finite differences from the setpoint's joints when J is singular
+    /// (the serial guard stops long before).
+    fn candidate_rates(&self, twist: &Twist<T>, with_jacobian: bool) -> Joints<T> {
+        let dt = self.cfg.dt;
+        if with_jacobian {
+            return Joints::from(profile::jac_times(
+                &self.candidate().jac.j,
+                &(*twist).into(),
+            ));
+        }
+        let mut qd = (self.candidate().sol.q() - self.q) / dt;
+        for (x, k) in qd.iter_mut().zip(self.guards.robot().joint_kinds().iter()) {
+            if *k == JointKind::Angular {
+                *x = wrap_angle(*x * dt) / dt;
+            }
+        }
+        qd
+    }
+
+    /// The motion guards on the output itself (from the last output to this one): the
+    /// first stop-level reading, if any.
+    fn motion_stop(&self, twist: &Twist<T>, qdot: &Joints<T>) -> Option<Reading<T>> {
+        let dt = self.cfg.dt;
+        let prev = MotionSample {
+            twist: self.twist,
+            qdot: self.qdot,
+        };
+        let cur = MotionSample {
+            twist: *twist,
+            qdot: *qdot,
+        };
+        if self.guards.motion_within_limits(&prev, &cur, dt) {
+            return None;
+        }
+        // The readings, for the stop's reason.
+        let mut motion_stop = None;
+        self.guards.evaluate_motion(&prev, &cur, dt, &mut |r| {
+            if r.severity == Some(Severity::Stop) && motion_stop.is_none() {
+                motion_stop = Some(*r);
+            }
+        });
+        motion_stop
+    }
+
+    /// Snaps onto the (verified) goal and stops: its kinematic check first (the goal was
+    /// checked in full: the end of its path, first of all).
+    fn arrive(&mut self, at_goal: bool) -> TickOutput<T> {
+        if !at_goal {
+            let goal = self.goal;
+            let (stop, warn, solved) = self.kinematic_check(&goal);
+            if stop.is_none() && solved != Solved::No {
+                self.keep_candidate(&goal, solved);
+                self.warning = warn;
+            }
+        }
+        self.twist = Twist::zeros();
+        self.qdot = Joints::zeros();
+        self.output(self.warning)
+    }
+
+    /// One control tick: the checker's stages ([`Self::run_checker`]), the profile's step
+    /// towards the goal or a controlled stop ([`profile`]), the candidate setpoint's
+    /// kinematic guards and the motion guards on the output.
+    pub fn tick(&mut self) -> TickOutput<T> {
+        if self.latched.is_some() {
+            return self.output(false);
+        }
+        let moving = self.twist.iter().any(|x| *x != T::zero());
+        let l = self.profile_limits();
+        let dt = self.cfg.dt;
+        let v0 = Vector3::new(self.twist.x, self.twist.y, self.twist.z);
+        let w0 = Vector3::new(self.twist.w, self.twist.a, self.twist.b);
+        let ahead_stop = self.run_checker(&l, moving, &v0, &w0);
         // Standing still, a verified target waiting for a braking-point check takes over
         // at once (there is no motion to look past the goal).
         if !moving {
@@ -943,7 +664,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
                 self.goal = next;
             }
         }
-        // Desired twist towards the goal (world frame), with the braking profile.
+        // Towards the goal (world frame), with the braking profile.
         let e_t = self.goal.t - self.pose.t;
         let e_r = rotation_vector(&(self.goal.r * self.pose.r.inverse()));
         let (d, a) = (norm3(&e_t), norm3(&e_r));
@@ -958,49 +679,10 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             Vector3::zeros()
         };
         let (vcap, wcap) = self.speed_caps(&l, &dir_v, &dir_w);
-        // The braking profile, discrete: the largest speed v with v·dt + v²/2a' ≤ d, so that
-        // after this tick's move the robot can still stop at the goal, with a' 5 % under
-        // the deceleration braking uses (the acceleration scale changes along the way).
-        let curve = |dist: T, amax: T| {
-            let a_ = amax * lit(0.95);
-            sqrt(a_ * a_ * dt * dt + two * a_ * dist) - a_ * dt
-        };
-        let v_des = dir_v * vcap.min(curve(d, l.tip_accel)).min(d / dt);
-        let w_des = dir_w * wcap.min(curve(a, l.angular_accel)).min(a / dt);
-        // Acceleration limit on the change of twist.
-        let limit_step = |dv: Vector3<T>, amax: T| {
-            let n = norm3(&dv);
-            let m = amax * dt;
-            if n > m {
-                dv * (m / n)
-            } else {
-                dv
-            }
-        };
-        let mut v1 = v0 + limit_step(v_des - v0, l.tip_accel);
-        let mut w1 = w0 + limit_step(w_des - w0, l.angular_accel);
-        // Arrival: within one tick's worth of braking of the (verified) goal, at a speed that
-        // one tick of deceleration cancels, snap onto it and stop.
-        let dt2 = dt * dt;
-        if !self.braking
-            && self.pending.is_none()
-            && d <= l.tip_accel * dt2
-            && a <= l.angular_accel * dt2
-            && norm3(&v0) <= l.tip_accel * dt
-            && norm3(&w0) <= l.angular_accel * dt
-        {
-            if d + a > T::zero() {
-                // The goal was checked in full (the end of its path, first of all).
-                let goal = self.goal;
-                let (stop, warn, solved) = self.kinematic_check(&goal);
-                if stop.is_none() && solved != Solved::No {
-                    self.keep_candidate(&goal, solved);
-                    self.warning = warn;
-                }
-            }
-            self.twist = Twist::zeros();
-            self.qdot = Joints::zeros();
-            return self.output(self.warning);
+        let mut v1 = profile::step_towards(&v0, &dir_v, d, vcap, l.tip_accel, dt);
+        let mut w1 = profile::step_towards(&w0, &dir_w, a, wcap, l.angular_accel, dt);
+        if !self.braking && self.pending.is_none() && profile::arrived(d, a, &v0, &w0, &l, dt) {
+            return self.arrive(d + a == T::zero());
         }
         // At rest on the goal (e.g. while a new target is being verified): the setpoint
         // stays, and it was checked when it became the setpoint.
@@ -1010,12 +692,6 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             return self.output(self.warning);
         }
         let mut candidate = self.pose.displaced(&(v1 * dt), &(w1 * dt));
-        // Where braking from the candidate would stop.
-        let stop_point = |v: &Vector3<T>, w: &Vector3<T>, from: &Pose<T>| {
-            let sv = norm3(v) / (two * l.tip_accel);
-            let sw = norm3(w) / (two * l.angular_accel);
-            from.displaced(&(v * sv), &(w * sw))
-        };
         if ahead_stop || self.braking {
             // Brake on the stretch checked before: decelerate along the current twist, at
             // the full deceleration on every tick until the robot stands.
@@ -1024,10 +700,10 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             }
             self.braking = true;
             self.drop_pending();
-            v1 = v0 - limit_step(v0, l.tip_accel);
-            w1 = w0 - limit_step(w0, l.angular_accel);
+            v1 = profile::step_braking(&v0, l.tip_accel, dt);
+            w1 = profile::step_braking(&w0, l.angular_accel, dt);
             candidate = self.pose.displaced(&(v1 * dt), &(w1 * dt));
-            self.goal = stop_point(&v1, &w1, &candidate);
+            self.goal = profile::stop_point(&v1, &w1, &candidate, &l);
         }
         let (stop, warn, solved) = self.kinematic_check(&candidate);
         // A warn level reached at the braking point is reported as well (the payload's
@@ -1039,40 +715,10 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             _ => {}
         }
         // The guards computed the candidate's Jacobians already (in the scratch): reuse them.
-        let with_jac = solved == Solved::WithJacobian;
-        let q_new = self.candidate().sol.q();
         let twist = Twist::new(v1.x, v1.y, v1.z, w1.x, w1.y, w1.z);
-        let qdot = if with_jac {
-            Joints::from(jac_times(&self.candidate().jac.j, &twist.into()))
-        } else {
-            {
-                // Finite differences when J is singular (the serial guard stops long before).
-                let mut qd = (q_new - self.q) / dt;
-                for (x, k) in qd.iter_mut().zip(self.guards.robot().joint_kinds().iter()) {
-                    if *k == JointKind::Angular {
-                        *x = wrap_angle(*x * dt) / dt;
-                    }
-                }
-                qd
-            }
-        };
-        // Motion guards on the output itself.
-        let prev = MotionSample {
-            twist: self.twist,
-            qdot: self.qdot,
-        };
-        let cur = MotionSample { twist, qdot };
-        if !self.guards.motion_within_limits(&prev, &cur, dt) {
-            // The readings, for the stop's reason.
-            let mut motion_stop = None;
-            self.guards.evaluate_motion(&prev, &cur, dt, &mut |r| {
-                if r.severity == Some(Severity::Stop) && motion_stop.is_none() {
-                    motion_stop = Some(*r);
-                }
-            });
-            if let Some(r) = motion_stop {
-                return self.hold(r);
-            }
+        let qdot = self.candidate_rates(&twist, solved == Solved::WithJacobian);
+        if let Some(r) = self.motion_stop(&twist, &qdot) {
+            return self.hold(r);
         }
         self.keep_candidate(&candidate, solved);
         self.qdot = qdot;

@@ -1,0 +1,229 @@
+//! The supervisor's motion profile, as pure functions of the state and the limits: the
+//! Cartesian speed caps that keep every joint within its speed limit, the accelerations
+//! every joint can follow, the discrete braking curve, one acceleration-limited step of the
+//! twist, where braking stops, the braking point the checker looks at, and the arrival
+//! test. The supervisor's tick composes them; `tests/profile.rs` checks each.
+
+use crate::mechanism::JointKind;
+use crate::pose::{rotation_vector, Pose};
+use crate::scalar::{lit, norm3, sqrt, Real};
+use nalgebra::{Matrix6, Vector3};
+
+/// The Cartesian limits the profile runs within (already scaled to what the joints can
+/// follow, see [`joint_safe_accels`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ProfileLimits<T: Real> {
+    /// Largest tip speed, m/s.
+    pub tip_speed: T,
+    /// Largest angular speed, rad/s.
+    pub angular_speed: T,
+    /// Largest tip acceleration, m/s².
+    pub tip_accel: T,
+    /// Largest angular acceleration, rad/s².
+    pub angular_accel: T,
+}
+
+/// The share of the braking deceleration the braking curve plans with (5 % in hand: the
+/// acceleration scale changes along the way).
+pub const BRAKING_SHARE: f64 = 0.95;
+
+/// J·x, written out over J's column arrays (nalgebra's generic product, and loops, cost
+/// several times the arithmetic on the Cortex-M4).
+pub fn jac_times<T: Real>(j: &Matrix6<T>, x: &[T; 6]) -> [T; 6] {
+    let [c0, c1, c2, c3, c4, c5] = &j.data.0;
+    let [x0, x1, x2, x3, x4, x5] = *x;
+    macro_rules! row {
+        ($i:literal) => {
+            c0[$i] * x0 + c1[$i] * x1 + c2[$i] * x2 + c3[$i] * x3 + c4[$i] * x4 + c5[$i] * x5
+        };
+    }
+    [row!(0), row!(1), row!(2), row!(3), row!(4), row!(5)]
+}
+
+/// The limit of a joint of `kind` from a [prismatic, revolute] pair.
+pub fn of_kind<T: Real>(pair: &[T; 2], kind: JointKind) -> T {
+    match kind {
+        JointKind::Linear => pair[0],
+        JointKind::Angular => pair[1],
+    }
+}
+
+/// Speed caps (m/s, rad/s) for motion along the unit directions `dir_v`, `dir_w` at the
+/// Jacobian `j`: the tip and angular speed limits, scaled down together so that
+/// q̇ = J·[v; ω] stays within `headroom` × each joint's speed limit `joint_speed`
+/// ([prismatic, revolute]).
+pub fn speed_caps<T: Real>(
+    j: &Matrix6<T>,
+    kinds: &[JointKind; 6],
+    limits: &ProfileLimits<T>,
+    joint_speed: &[T; 2],
+    headroom: T,
+    dir_v: &Vector3<T>,
+    dir_w: &Vector3<T>,
+) -> (T, T) {
+    let (vmax, wmax) = (limits.tip_speed, limits.angular_speed);
+    let probe = [
+        dir_v.x * vmax,
+        dir_v.y * vmax,
+        dir_v.z * vmax,
+        dir_w.x * wmax,
+        dir_w.y * wmax,
+        dir_w.z * wmax,
+    ];
+    let qd = jac_times(j, &probe);
+    let mut scale = T::one();
+    for (v, kind) in qd.iter().zip(kinds.iter()) {
+        let lim = of_kind(joint_speed, *kind) * headroom;
+        if v.abs() * scale > lim {
+            scale = lim / v.abs();
+        }
+    }
+    (vmax * scale, wmax * scale)
+}
+
+/// The Cartesian acceleration limits (`tip_accel`, `angular_accel`) scaled down so that no
+/// joint exceeds `headroom` × its acceleration limit `joint_accel` whatever the direction
+/// of the change of twist, at the Jacobian `j`: |J_j·Δ| ≤ |J_j,v|·|Δv| + |J_j,ω|·|Δω|
+/// (Cauchy-Schwarz, per row).
+pub fn joint_safe_accels<T: Real>(
+    j: &Matrix6<T>,
+    kinds: &[JointKind; 6],
+    tip_accel: T,
+    angular_accel: T,
+    joint_accel: &[T; 2],
+    headroom: T,
+) -> (T, T) {
+    let (at, aw) = (tip_accel, angular_accel);
+    // Squared norms of each row's [v] and [ω] halves, over the column arrays.
+    let [c0, c1, c2, c3, c4, c5] = &j.data.0;
+    macro_rules! halves {
+        ($i:literal) => {
+            (
+                c0[$i] * c0[$i] + c1[$i] * c1[$i] + c2[$i] * c2[$i],
+                c3[$i] * c3[$i] + c4[$i] * c4[$i] + c5[$i] * c5[$i],
+            )
+        };
+    }
+    let rows = [
+        halves!(0),
+        halves!(1),
+        halves!(2),
+        halves!(3),
+        halves!(4),
+        halves!(5),
+    ];
+    let mut scale = T::one();
+    for (kind, (v2, w2)) in kinds.iter().zip(rows.iter()) {
+        let lim = of_kind(joint_accel, *kind) * headroom;
+        let worst = sqrt(*v2) * at + sqrt(*w2) * aw;
+        if worst * scale > lim {
+            scale = lim / worst;
+        }
+    }
+    (at * scale, aw * scale)
+}
+
+/// The discrete braking curve: the largest speed v with v·dt + v²/2a' ≤ `dist`, a' =
+/// [`BRAKING_SHARE`] × `amax`: after this tick's move at v the robot can still stop within
+/// `dist` decelerating at a'.
+pub fn braking_speed<T: Real>(dist: T, amax: T, dt: T) -> T {
+    let a = amax * lit(BRAKING_SHARE);
+    sqrt(a * a * dt * dt + lit::<T>(2.0) * a * dist) - a * dt
+}
+
+/// The change `dv` limited to `amax`·`dt` in length (the acceleration limit of one tick).
+pub fn limit_step<T: Real>(dv: Vector3<T>, amax: T, dt: T) -> Vector3<T> {
+    let n = norm3(&dv);
+    let m = amax * dt;
+    if n > m {
+        dv * (m / n)
+    } else {
+        dv
+    }
+}
+
+/// One tick of the profile towards a goal `dist` away along the unit direction `dir`:
+/// from the speed `v0`, towards `dir` × min(cap, braking curve, dist/dt), the change limited
+/// to `amax`·`dt`.
+pub fn step_towards<T: Real>(
+    v0: &Vector3<T>,
+    dir: &Vector3<T>,
+    dist: T,
+    cap: T,
+    amax: T,
+    dt: T,
+) -> Vector3<T> {
+    let v_des = dir * cap.min(braking_speed(dist, amax, dt)).min(dist / dt);
+    v0 + limit_step(v_des - v0, amax, dt)
+}
+
+/// One tick of a controlled stop: the speed `v0` reduced by `amax`·`dt` along itself (to
+/// zero at the end).
+pub fn step_braking<T: Real>(v0: &Vector3<T>, amax: T, dt: T) -> Vector3<T> {
+    v0 - limit_step(*v0, amax, dt)
+}
+
+/// Where braking at full deceleration from the twist (`v`, `w`) at `from` stops.
+pub fn stop_point<T: Real>(
+    v: &Vector3<T>,
+    w: &Vector3<T>,
+    from: &Pose<T>,
+    limits: &ProfileLimits<T>,
+) -> Pose<T> {
+    let two = lit::<T>(2.0);
+    let sv = norm3(v) / (two * limits.tip_accel);
+    let sw = norm3(w) / (two * limits.angular_accel);
+    from.displaced(&(v * sv), &(w * sw))
+}
+
+/// The braking point the checker evaluates while moving: from `pose`, moving on along its
+/// twist (`v0`, `w0`) for `n` ticks while accelerating to v' = |v| + a(n - 1)dt, where
+/// braking from v' would stop: v'²/2a + n·v'·dt ahead, but no farther than `horizon` (the
+/// goal, or the verified target waiting to replace it). With n = 3L (L the ticks one
+/// evaluation takes) this covers everything until the next braking-point check has
+/// finished (see the supervisor's tick).
+pub fn braking_point<T: Real>(
+    pose: &Pose<T>,
+    v0: &Vector3<T>,
+    w0: &Vector3<T>,
+    horizon: &Pose<T>,
+    limits: &ProfileLimits<T>,
+    n: T,
+    dt: T,
+) -> Pose<T> {
+    let two = lit::<T>(2.0);
+    let to_t = norm3(&(horizon.t - pose.t));
+    let to_r = norm3(&rotation_vector(&(horizon.r * pose.r.inverse())));
+    let reach = |v: &Vector3<T>, amax: T, to_horizon: T| {
+        let speed = norm3(v);
+        if speed > T::zero() {
+            let vp = speed + amax * (n - T::one()) * dt;
+            let far = (vp * vp / (two * amax) + n * vp * dt).min(to_horizon);
+            v * (far / speed)
+        } else {
+            Vector3::zeros()
+        }
+    };
+    pose.displaced(
+        &reach(v0, limits.tip_accel, to_t),
+        &reach(w0, limits.angular_accel, to_r),
+    )
+}
+
+/// Arrival: within one tick's worth of braking of the goal (`dist`, `angle` away), at a
+/// speed (`v0`, `w0`) that one tick of deceleration cancels: the profile snaps onto the
+/// goal and stops.
+pub fn arrived<T: Real>(
+    dist: T,
+    angle: T,
+    v0: &Vector3<T>,
+    w0: &Vector3<T>,
+    limits: &ProfileLimits<T>,
+    dt: T,
+) -> bool {
+    let dt2 = dt * dt;
+    dist <= limits.tip_accel * dt2
+        && angle <= limits.angular_accel * dt2
+        && norm3(v0) <= limits.tip_accel * dt
+        && norm3(w0) <= limits.angular_accel * dt
+}
