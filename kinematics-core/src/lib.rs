@@ -4,7 +4,8 @@
 //! instead of panicking or producing NaN. Generic over the scalar (`f32` on the MCU, `f64`
 //! on the host) through nalgebra's [`RealField`](nalgebra::RealField).
 //!
-//! Conventions (frames, units, joint order, branch numbering) follow `shared/CONVENTIONS.md`:
+//! Conventions (frames, units, joint order, branch numbering) follow the repository's
+//! `CONVENTIONS.md`:
 //! SI units everywhere, world frame at the base centre with x towards e_1, platform frame at
 //! the platform centre with x towards p_1, joints `q = [l1, l2, l3, θ1, θ2, θ3]` (RSPR) or
 //! `[α1, α2, α3, β1, β2, β3]` (USR), twists `[v; ω]` in the world frame.
