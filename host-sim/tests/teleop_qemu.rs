@@ -11,9 +11,9 @@
 //! * `ci_scenario_in_the_emulator` (ignored: needs qemu-system-arm, the thumbv7em target
 //!   and about two minutes): runs `firmware/qemu-board/run.sh` with the short line path.
 
-use control::link::{Command, Inbound, LinkRx, LinkTx};
+use control::link::{Answer, Command, Inbound, LinkRx, LinkTx};
 use master_link::{
-    BoardToMaster, FirmwareVersion, RobotState, StatusReport, Warnings, MAX_FRAME_LEN,
+    BoardToMaster, FirmwareVersion, ResetStatus, RobotState, StatusReport, Warnings, MAX_FRAME_LEN,
 };
 use std::io::{Read, Write};
 use std::os::unix::net::{UnixListener, UnixStream};
@@ -42,7 +42,7 @@ impl Board {
                 self.last_beat = now;
                 Ok(())
             }
-            Command::Home => {
+            Command::Home { .. } => {
                 self.state = RobotState::Homing;
                 self.homing_since = Some(now);
                 self.last_beat = now;
@@ -126,7 +126,7 @@ fn fake_board(mut stream: UnixStream) {
         minor: 8,
         patch: 7,
     };
-    let mut rx = LinkRx::new(version);
+    let mut rx = LinkRx::new();
     let mut tx = LinkTx::new();
     let start = Instant::now();
     let mut board = Board {
@@ -150,8 +150,15 @@ fn fake_board(mut stream: UnixStream) {
             Ok(n) => rx.feed(&buf[..n], |inbound| match inbound {
                 Inbound::Reply(r) => out.push(r),
                 Inbound::Request(req) => {
-                    let result = board.command(&req.command, now);
-                    out.push(req.reply(result, &board.status(now)));
+                    let result = match req.command {
+                        Command::Hello { session } => Ok(Answer::Hello {
+                            session,
+                            reset: ResetStatus::default(),
+                        }),
+                        Command::StatusRequest => Ok(Answer::Status),
+                        c => board.command(&c, now).map(|()| Answer::Ack),
+                    };
+                    out.push(req.reply(result, &board.status(now), version));
                 }
             }),
             Err(e)

@@ -8,8 +8,8 @@
 //! Bounds are relative rounding of f64 (a few ε on the quantities compared).
 
 use kinematics_core::supervisor::profile::{
-    arrived, braking_point, braking_speed, jac_times, joint_safe_accels, limit_step,
-    speed_caps, step_braking, step_towards, stop_point, ProfileLimits, BRAKING_SHARE,
+    arrived, braking_point, braking_speed, jac_times, joint_safe_accels, limit_step, speed_caps,
+    step_braking, step_towards, stop_point, ProfileLimits, BRAKING_SHARE,
 };
 use kinematics_core::{JointKind, Pose};
 use nalgebra::{Matrix6, Rotation3, Vector3};

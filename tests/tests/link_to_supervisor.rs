@@ -28,7 +28,11 @@ fn pose_targets_over_the_link_reach_the_supervisor() {
         position_m: [0.005, -0.004, 0.162],
         rotation_vector_rad: [0.02, 0.0, -0.01],
     };
-    let n = encode(&target, seq.next(), &mut buf).unwrap();
+    let header = Header {
+        session: 7,
+        seq: seq.next(),
+    };
+    let n = encode(&target, header, &mut buf).unwrap();
     wire.extend_from_slice(&buf[..n]);
     // Garbage on the line, then the same frame replayed.
     wire.extend_from_slice(&[0x13, 0x37, 0xff, 0x00]);

@@ -216,15 +216,12 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Controller<S, M> {
         self.drive.reset(q);
     }
 
-    /// One control tick on the tick's measurements: advance the supervisor, run the six
-    /// PIDs and drive the outputs (all off on a tracking fault).
-    pub fn tick<H: hal::MotorOutputs<S> + ?Sized>(
-        &mut self,
-        measured: &Measured<S>,
-        hw: &mut H,
-    ) -> TickReport<S> {
+    /// One control tick on the tick's measurements: advance the supervisor and run the six
+    /// PIDs; the duties are in the report (the runtime limits them and writes the outputs;
+    /// [`TickReport::apply`] writes them as they are).
+    pub fn tick(&mut self, measured: &Measured<S>) -> TickReport<S> {
         // Optional work of the planner (the tool's flanks) off the heavy FK ticks.
         let plan = self.planner.tick_with_budget(!measured.factorised);
-        self.drive.act(hw, measured, &plan)
+        self.drive.act(measured, &plan)
     }
 }

@@ -64,14 +64,10 @@ impl<S: Scalar> Drive<S> {
         self.servo.reset(q);
     }
 
-    /// Runs the six joint servos from the measured joints towards the plan and drives the
-    /// outputs (all off on a tracking fault).
-    pub fn act<H: MotorOutputs<S> + ?Sized>(
-        &mut self,
-        hw: &mut H,
-        measured: &Measured<S>,
-        plan: &Plan<S>,
-    ) -> TickReport<S> {
+    /// Runs the six joint servos from the measured joints towards the plan: the duties
+    /// (zero on a tracking fault) in the report, for the caller to limit and write
+    /// ([`TickReport::apply`]).
+    pub fn act(&mut self, measured: &Measured<S>, plan: &Plan<S>) -> TickReport<S> {
         let q_meas = &measured.q;
         // Angles from the supervisor are wrapped to (-π, π]; unwrap them next to the
         // (continuous) encoder readings.
@@ -84,16 +80,22 @@ impl<S: Scalar> Drive<S> {
         self.servo.set_preloads(&plan.flanks);
         let spd = to_array(&plan.setpoint.qdot);
         let out = self.servo.update(&sp, &spd, q_meas, self.dt);
-        if out.fault.is_some() {
-            hw.disable();
-        } else {
-            hw.set_duties(&out.duty);
-        }
         TickReport {
             mode: plan.setpoint.mode,
             warning: plan.setpoint.warning,
             stop: plan.setpoint.stop,
             servo: out,
+        }
+    }
+}
+
+impl<S: Scalar> TickReport<S> {
+    /// Writes the report's duties to the outputs, or turns them off on a tracking fault.
+    pub fn apply<H: MotorOutputs<S> + ?Sized>(&self, hw: &mut H) {
+        if self.servo.fault.is_some() {
+            hw.disable();
+        } else {
+            hw.set_duties(&self.servo.duty);
         }
     }
 }

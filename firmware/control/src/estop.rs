@@ -1,15 +1,14 @@
-//! The emergency stop in software: the e-stop interrupt turns the PWM and the driver
-//! enable off at once through [`SafeOutputs`] (no allocation, no lock: register writes) and
-//! trips an [`EStopLatch`] (an atomic) that the control tick turns into
-//! [`crate::state_machine::Event::EmergencyStop`]. In every state but `Homing` and
-//! `Enabled`, and on any fault, every output is off ([`outputs_allowed`]; the runtime
-//! disables the bridges every tick).
+//! The emergency stop's software channel. The button's first channel is hard-wired: it
+//! opens the safety relay, which removes the drivers' power and the brakes' coil power
+//! without the MCU (`firmware/README.md`). The second channel is this: the button's
+//! interrupt puts the outputs in their safe state at once through [`SafeOutputs`] (PWM
+//! off, driver enable low, brakes applied; no allocation, no lock: register writes) and
+//! trips an [`EStopLatch`] (an atomic) that the next control tick turns into the fault
+//! `EmergencyStopButton` (its stop: STO with brakes, [`crate::stops`]).
 
 use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
 use hal::SafeOutputs;
-
-use crate::state_machine::{State, StateMachine};
 
 /// Set by the e-stop interrupt, taken by the control tick. Lock-free (atomics), so it can
 /// live in a `static` shared by the interrupt and the tasks.
@@ -51,10 +50,4 @@ impl EStopLatch {
 pub fn emergency_stop_isr<O: SafeOutputs + ?Sized>(outputs: &mut O, latch: &EStopLatch) {
     outputs.force_safe();
     latch.trip();
-}
-
-/// Whether the state lets the outputs drive (homing or enabled, no fault); every other
-/// state keeps them in the safe state.
-pub fn outputs_allowed(sm: &StateMachine) -> bool {
-    sm.drives_on() && sm.faults().is_empty() && sm.state() != State::Fault
 }

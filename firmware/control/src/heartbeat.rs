@@ -1,7 +1,10 @@
 //! The master's heartbeat: no heartbeat for `hold_after_us` -> [`Event::HeartbeatLost`]
-//! (the robot holds); for `disable_after_us` -> [`Event::HeartbeatLostLong`] (drives off).
+//! (the robot holds); for `disable_after_us` -> the fault `HeartbeatTimeout` (SS1: the
+//! robot stops, then brakes and torque off).
 //! A heartbeat after a hold ends it ([`Event::HeartbeatRestored`]); after a disable the
 //! master must enable again.
+
+use master_link::FaultCause;
 
 use crate::state_machine::Event;
 
@@ -98,7 +101,7 @@ impl HeartbeatMonitor {
         if silence >= self.cfg.disable_after_us && self.level != HeartbeatLevel::Lost {
             self.level = HeartbeatLevel::Lost;
             self.losses = self.losses.wrapping_add(1);
-            Some(Event::HeartbeatLostLong)
+            Some(Event::Fault(FaultCause::HeartbeatTimeout))
         } else if silence >= self.cfg.hold_after_us && self.level == HeartbeatLevel::Alive {
             self.level = HeartbeatLevel::Late;
             self.holds = self.holds.wrapping_add(1);

@@ -1,11 +1,18 @@
 //! Homing: the incremental encoders find their reference, joint by joint, against a
-//! switch or a hard stop, then the robot parks.
+//! switch or a hard stop. While one joint homes, the others hold where they are under
+//! servo. The park move that follows is the runtime's: it goes through the setpoint
+//! supervisor and its guards like any target ([`crate::runtime`]).
 //!
 //! Each tick the runtime's sensing has read the encoders; [`Homing::step`] reads the
 //! joints and counts through [`JointReferences`], with the switches and the currents, sets
-//! the reference of a joint through it and drives the outputs.
+//! the reference of a joint through it and returns the duties (the runtime limits them and
+//! drives the outputs; on a failure it stops as the stop table says).
+//!
+//! A stall counts as the hard stop only within a window of the travel expected from the
+//! rest position (where the robot is when it is homed: its brakes held it where it was
+//! parked): a stall well before (an obstacle) or after is a failure.
 
-use hal::{CurrentSense, LimitSwitches, MotorOutputs};
+use hal::{CurrentSense, LimitSwitches};
 use num_traits::Float;
 use servo::config::ConfigError;
 use servo::joint_servo::JointServo;
@@ -39,8 +46,13 @@ pub struct JointHoming<S> {
     pub method: HomeMethod,
     /// Approach towards `+q` (else towards `-q`).
     pub towards_positive: bool,
-    /// Joint position at the switch point or the stop.
+    /// Joint position at the switch point or the stop (the board's mechanics).
     pub home_position: S,
+    /// Where the joint rests before homing (the park position its brake held), and so
+    /// the expected travel to the reference: `|rest - home_position|`.
+    pub rest_position: S,
+    /// A stall counts as the hard stop only within this much of the expected travel.
+    pub travel_tolerance: S,
     /// |duty| while approaching (slow), within the duty limit.
     pub approach_duty: S,
     /// |duty| while backing off.
@@ -69,67 +81,72 @@ pub struct HomingConfig<S> {
     pub stall_counts: i64,
     /// Longest time of one phase of one joint, µs.
     pub phase_timeout_us: u64,
-    /// After homing, move in joint space to these positions (e.g. the central
-    /// configuration), or stay where the last back-off ended.
+    /// After homing, move to these joints (e.g. the central configuration) through the
+    /// supervisor, or stay where the last back-off ended.
     pub park: Option<[S; NUM_JOINTS]>,
-    /// Park move speed per joint (m/s, rad/s).
-    pub park_speed: [S; NUM_JOINTS],
-    /// Park done when every |error| is within this (m, rad).
-    pub park_tolerance: [S; NUM_JOINTS],
+}
+
+/// The board's mechanics the homing and the joint-range monitor rely on (the drawing's
+/// values; the board's configuration carries them).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Mechanics<S> {
+    /// The legs' home switches close at this length, m (homing towards -q).
+    pub leg_switch_m: S,
+    /// The links' hard stops are this far below their central angles, rad (homing towards
+    /// -q).
+    pub link_stop_below_central_rad: S,
+    /// Every joint's mechanical range (m, rad), joint order: a measured joint outside it
+    /// is a fault.
+    pub range: [[S; 2]; NUM_JOINTS],
 }
 
 impl<S: Float> HomingConfig<S> {
-    /// Placeholder settings for the reference robot (to be confirmed on the mechanics):
-    /// legs home on a switch at the short end of the stroke (150 mm), links against a
-    /// hard stop 60 deg below the central angle (`link_centre` is the central θ of each
-    /// link, rad); park at `park`.
-    pub fn reference(link_centre: [S; 3], park: Option<[S; NUM_JOINTS]>) -> Self {
+    /// The settings for a robot whose central configuration is `central` (joints), with
+    /// the mechanics `mech`, resting at `rest` (joints) before homing and parking at
+    /// `park`: legs home on their switches, links against their hard stops.
+    pub fn for_mechanics(
+        mech: &Mechanics<S>,
+        central: &[S; NUM_JOINTS],
+        rest: &[S; NUM_JOINTS],
+        park: Option<[S; NUM_JOINTS]>,
+    ) -> Self {
         let lit = |x: f64| S::from(x).unwrap_or_else(S::zero);
-        let leg = JointHoming {
+        let at = |a: &[S; NUM_JOINTS], j: usize| a.get(j).copied().unwrap_or_else(S::zero);
+        let leg = |j: usize| JointHoming {
             method: HomeMethod::Switch,
             towards_positive: false,
-            home_position: lit(0.150),
+            home_position: mech.leg_switch_m,
+            rest_position: at(rest, j),
+            travel_tolerance: lit(0.010),
             approach_duty: lit(0.03),
             backoff_duty: lit(0.04),
             backoff_distance: lit(0.002),
             max_travel: lit(0.080),
+            // Under the overload monitor's 90 % of the 5.2 A peak.
             current_limit: lit(3.0),
         };
-        let link = |centre: S| JointHoming {
+        let link = |j: usize| JointHoming {
             method: HomeMethod::HardStop,
             towards_positive: false,
-            home_position: centre - lit(60f64.to_radians()),
+            home_position: at(central, j) - mech.link_stop_below_central_rad,
+            rest_position: at(rest, j),
+            travel_tolerance: lit(25f64.to_radians()),
             approach_duty: lit(0.02),
             backoff_duty: lit(0.03),
             backoff_distance: lit(0.05),
             max_travel: lit(3.5),
-            current_limit: lit(0.6),
+            // Well under the overload monitor's 90 % of the 0.66 A peak: a stop found at
+            // the homing's limit is not an overload.
+            current_limit: lit(0.4),
         };
-        let [c1, c2, c3] = link_centre;
         HomingConfig {
-            joints: [leg, leg, leg, link(c1), link(c2), link(c3)],
+            joints: [leg(0), leg(1), leg(2), link(3), link(4), link(5)],
             order: [0, 1, 2, 3, 4, 5],
             duty_limit: lit(0.3),
             stall_time_us: 150_000,
             stall_counts: 4,
             phase_timeout_us: 30_000_000,
             park,
-            park_speed: [
-                lit(0.005),
-                lit(0.005),
-                lit(0.005),
-                lit(0.1),
-                lit(0.1),
-                lit(0.1),
-            ],
-            park_tolerance: [
-                lit(0.2e-3),
-                lit(0.2e-3),
-                lit(0.2e-3),
-                lit(0.005),
-                lit(0.005),
-                lit(0.005),
-            ],
         }
     }
 
@@ -149,24 +166,19 @@ impl<S: Float> HomingConfig<S> {
         }
         for (j, h) in self.joints.iter().enumerate() {
             let ok = h.home_position.is_finite()
+                && h.rest_position.is_finite()
+                && pos(h.travel_tolerance)
                 && pos(h.approach_duty)
                 && pos(h.backoff_duty)
                 && pos(h.backoff_distance)
                 && pos(h.max_travel)
                 && h.current_limit > S::zero()
                 && !h.current_limit.is_nan();
-            if !ok {
-                return bad(j);
-            }
-        }
-        for j in 0..NUM_JOINTS {
-            let speed = self.park_speed.get(j).copied().unwrap_or_else(S::zero);
-            let tol = self.park_tolerance.get(j).copied().unwrap_or_else(S::zero);
             let park_ok = match self.park {
                 Some(p) => p.get(j).is_some_and(|x| x.is_finite()),
                 None => true,
             };
-            if !(pos(speed) && pos(tol) && park_ok) {
+            if !(ok && park_ok) {
                 return bad(j);
             }
         }
@@ -197,13 +209,52 @@ pub enum HomingError {
         /// Joint.
         joint: usize,
     },
+    /// Stalled outside the window of the travel expected to its hard stop (an obstacle).
+    StalledOutsideWindow {
+        /// Joint.
+        joint: usize,
+    },
     /// The switch stayed actuated after backing off.
     SwitchStuck {
         /// Joint.
         joint: usize,
     },
-    /// The park move tripped the tracking monitor or did not settle.
-    Park,
+    /// The park move after the references (`reason`: 1 a guard along the path, 2 a point
+    /// of the path without a pose, 3 invalid settings, 4 not settled at the park joints, 5
+    /// the supervisor refused to start at the park pose).
+    Park {
+        /// Why, 1 ..= 5.
+        reason: u8,
+    },
+}
+
+impl HomingError {
+    /// A number for the fault record's value: the kind × 10 + the joint (the park move:
+    /// 70 + its reason).
+    pub fn code(&self) -> f32 {
+        let (kind, joint) = match *self {
+            HomingError::Config { joint } => (1, joint),
+            HomingError::Timeout { joint } => (2, joint),
+            HomingError::NotFound { joint } => (3, joint),
+            HomingError::StalledBeforeSwitch { joint } => (4, joint),
+            HomingError::StalledOutsideWindow { joint } => (5, joint),
+            HomingError::SwitchStuck { joint } => (6, joint),
+            HomingError::Park { reason } => (7, usize::from(reason)),
+        };
+        (kind * 10 + joint) as f32
+    }
+    /// The joint it concerns, if any.
+    pub fn joint(&self) -> Option<usize> {
+        match *self {
+            HomingError::Config { joint }
+            | HomingError::Timeout { joint }
+            | HomingError::NotFound { joint }
+            | HomingError::StalledBeforeSwitch { joint }
+            | HomingError::StalledOutsideWindow { joint }
+            | HomingError::SwitchStuck { joint } => Some(joint),
+            HomingError::Park { .. } => None,
+        }
+    }
 }
 
 /// The homing procedure's phase.
@@ -226,10 +277,8 @@ pub enum HomingPhase {
         /// Joint.
         joint: usize,
     },
-    /// Joint-space move to the park position.
-    Park,
-    /// Finished.
-    Done,
+    /// Every joint has its reference.
+    Referenced,
     /// Failed.
     Failed(HomingError),
 }
@@ -239,10 +288,10 @@ pub enum HomingPhase {
 pub enum HomingStatus {
     /// Still going.
     Running(HomingPhase),
-    /// Homed: every joint's encoder has its reference (the sensing's joints are
-    /// absolute from now on).
-    Done,
-    /// Failed; every output is off.
+    /// Every joint's encoder has its reference (the sensing's joints are absolute from
+    /// now on); the park move is next.
+    Referenced,
+    /// Failed.
     Failed(HomingError),
 }
 
@@ -250,20 +299,24 @@ pub enum HomingStatus {
 #[derive(Clone, Debug)]
 pub struct Homing<S> {
     cfg: HomingConfig<S>,
+    /// Holds the joints not being homed.
     servo: JointServo<S>,
     phase: HomingPhase,
     /// Index into `order`.
     index: usize,
     phase_start_us: u64,
     phase_start_q: S,
+    /// Where the joint being homed started its approach (for the travel window).
+    approach_start_q: S,
     motion_count: i64,
     motion_us: u64,
     over_current_since: Option<u64>,
     /// Current limiting: the factor on the commanded duty.
     duty_scale: S,
-    park_from: [S; NUM_JOINTS],
-    park_duration_s: S,
-    park_start_us: u64,
+    /// Where the joints not being homed hold.
+    hold: [S; NUM_JOINTS],
+    /// Where the joints rested at the start (the travel windows' reference).
+    rest: [S; NUM_JOINTS],
     last_us: u64,
     /// The joints at the last step.
     q: [S; NUM_JOINTS],
@@ -277,8 +330,14 @@ fn joint_of<S>(cfg: &HomingConfig<S>, index: usize) -> Option<usize> {
     cfg.order.get(index).map(|j| usize::from(*j))
 }
 
+fn set<S: Copy>(a: &mut [S; NUM_JOINTS], j: usize, v: S) {
+    if let Some(x) = a.get_mut(j) {
+        *x = v;
+    }
+}
+
 impl<S: Float> Homing<S> {
-    /// A homing procedure (validates `cfg`; the servo settings are for the park move).
+    /// A homing procedure (validates `cfg`; the servo settings hold the other joints).
     pub fn new(cfg: &HomingConfig<S>, servo: &ServoConfig<S>) -> Result<Self, HomingSetupError> {
         cfg.validate().map_err(HomingSetupError::Homing)?;
         Ok(Homing {
@@ -288,13 +347,13 @@ impl<S: Float> Homing<S> {
             index: 0,
             phase_start_us: 0,
             phase_start_q: S::zero(),
+            approach_start_q: S::zero(),
             motion_count: 0,
             motion_us: 0,
             over_current_since: None,
             duty_scale: S::one(),
-            park_from: [S::zero(); NUM_JOINTS],
-            park_duration_s: S::zero(),
-            park_start_us: 0,
+            hold: [S::zero(); NUM_JOINTS],
+            rest: cfg.joints.map(|h| h.rest_position),
             last_us: 0,
             q: [S::zero(); NUM_JOINTS],
             counts: [0; NUM_JOINTS],
@@ -310,19 +369,38 @@ impl<S: Float> Homing<S> {
     pub fn phase(&self) -> HomingPhase {
         self.phase
     }
-    /// Starts homing from the joints `q` and counts `counts` the sensing reads now.
-    pub fn start(&mut self, q: &[S; NUM_JOINTS], counts: &[i64; NUM_JOINTS], now_us: u64) {
+
+    /// Starts homing from the joints `q` and counts `counts` the sensing reads now: every
+    /// joint holds there under servo until its turn. `rest`: where the joints are, when
+    /// known (a robot homed already and homed again), instead of the configured rest
+    /// positions (the travel windows are measured from it).
+    pub fn start(
+        &mut self,
+        q: &[S; NUM_JOINTS],
+        counts: &[i64; NUM_JOINTS],
+        rest: Option<&[S; NUM_JOINTS]>,
+        now_us: u64,
+    ) {
+        self.rest = match rest {
+            Some(r) => *r,
+            None => self.cfg.joints.map(|h| h.rest_position),
+        };
         self.q = *q;
         self.counts = *counts;
+        self.hold = *q;
+        self.servo.reset(q);
         self.index = 0;
         self.last_us = now_us;
         match joint_of(&self.cfg, 0) {
-            Some(j) => self.enter(HomingPhase::Approach { joint: j }, now_us),
+            Some(j) => {
+                self.approach_start_q = q.get(j).copied().unwrap_or_else(S::zero);
+                self.enter(HomingPhase::Approach { joint: j }, now_us);
+            }
             None => self.phase = HomingPhase::Failed(HomingError::Config { joint: 0 }),
         }
     }
 
-    /// Aborts: the phase becomes `Idle` (the caller turns the outputs off).
+    /// Aborts: the phase becomes `Idle`.
     pub fn abort(&mut self) {
         self.phase = HomingPhase::Idle;
     }
@@ -343,225 +421,225 @@ impl<S: Float> Homing<S> {
         }
     }
 
-    fn fail<H: MotorOutputs<S>>(&mut self, hw: &mut H, e: HomingError) -> HomingStatus {
-        hw.set_duties(&[S::zero(); NUM_JOINTS]);
-        hw.disable();
+    fn fail(&mut self, e: HomingError) -> HomingStatus {
         self.phase = HomingPhase::Failed(e);
         HomingStatus::Failed(e)
     }
 
-    fn next_joint(&mut self, now_us: u64) {
+    fn next_joint(&mut self, done: usize, now_us: u64) {
+        // The joint just homed holds where its back-off ended.
+        set(
+            &mut self.hold,
+            done,
+            self.q.get(done).copied().unwrap_or_else(S::zero),
+        );
         self.index += 1;
         match joint_of(&self.cfg, self.index) {
-            Some(j) => self.enter(HomingPhase::Approach { joint: j }, now_us),
-            None => match self.cfg.park {
-                Some(_) => self.start_park(now_us),
-                None => self.phase = HomingPhase::Done,
-            },
-        }
-    }
-
-    fn start_park(&mut self, now_us: u64) {
-        let q = self.q;
-        self.park_from = q;
-        self.servo.reset(&q);
-        let mut t = S::zero();
-        if let Some(park) = self.cfg.park {
-            for ((p, q0), v) in park.iter().zip(q.iter()).zip(self.cfg.park_speed.iter()) {
-                t = t.max((*p - *q0).abs() / *v);
+            Some(j) => {
+                self.approach_start_q = self.q.get(j).copied().unwrap_or_else(S::zero);
+                self.enter(HomingPhase::Approach { joint: j }, now_us);
             }
+            None => self.phase = HomingPhase::Referenced,
         }
-        self.park_duration_s = t;
-        self.park_start_us = now_us;
-        self.enter(HomingPhase::Park, now_us);
     }
 
-    /// One step on the tick's measurements (`sensing`, updated at the start of the
-    /// tick): reads the switches and currents, sets references, drives the outputs.
-    pub fn step<H, R>(&mut self, hw: &mut H, sensing: &mut R, now_us: u64) -> HomingStatus
+    /// The duties that hold every joint but `moving` where it is (`moving`'s servo
+    /// setpoint follows it, so that its tracking monitor sees no error; its loop restarts
+    /// bumplessly each tick, so that it holds without a kick when its move ends).
+    fn hold_others(
+        &mut self,
+        q: &[S; NUM_JOINTS],
+        moving: Option<usize>,
+        dt: S,
+    ) -> [S; NUM_JOINTS] {
+        if let Some(j) = moving {
+            let qj = q.get(j).copied().unwrap_or_else(S::zero);
+            set(&mut self.hold, j, qj);
+            self.servo.reset_joint(j, qj);
+        }
+        let out = self
+            .servo
+            .update(&self.hold, &[S::zero(); NUM_JOINTS], q, dt);
+        let limit = self.cfg.duty_limit;
+        out.duty.map(|d| d.max(-limit).min(limit))
+    }
+
+    /// Holds every joint at its hold position under the homing's servo (after the
+    /// references, while the park move's path is checked); `q` the measured joints.
+    pub fn hold(&mut self, q: &[S; NUM_JOINTS], now_us: u64) -> servo::ServoOutput<S> {
+        let hold = self.hold;
+        self.track(&hold, &[S::zero(); NUM_JOINTS], q, now_us)
+    }
+
+    /// Follows the joint setpoint `setpoint` (speed `qdot`) under the homing's servo, the
+    /// duties within the homing's duty limit (the park move); `q` the measured joints. The
+    /// hold positions follow the setpoint.
+    pub fn track(
+        &mut self,
+        setpoint: &[S; NUM_JOINTS],
+        qdot: &[S; NUM_JOINTS],
+        q: &[S; NUM_JOINTS],
+        now_us: u64,
+    ) -> servo::ServoOutput<S> {
+        let dt_us = now_us.saturating_sub(self.last_us).max(1);
+        self.last_us = now_us;
+        let dt = S::from(dt_us).unwrap_or_else(S::one) * S::from(1e-6).unwrap_or_else(S::zero);
+        self.hold = *setpoint;
+        let mut out = self.servo.update(setpoint, qdot, q, dt);
+        let limit = self.cfg.duty_limit;
+        out.duty = out.duty.map(|d| d.max(-limit).min(limit));
+        out
+    }
+
+    /// One step on the tick's measurements (`sensing`, updated at the start of the tick):
+    /// reads the switches and currents, sets references; returns the status and the duties.
+    pub fn step<H, R>(
+        &mut self,
+        hw: &mut H,
+        sensing: &mut R,
+        now_us: u64,
+    ) -> (HomingStatus, [S; NUM_JOINTS])
     where
-        H: MotorOutputs<S> + LimitSwitches + CurrentSense<S>,
+        H: LimitSwitches + CurrentSense<S>,
         R: JointReferences<S>,
     {
-        let dt_us = now_us.saturating_sub(self.last_us);
+        let dt_us = now_us.saturating_sub(self.last_us).max(1);
         self.last_us = now_us;
+        let dt = S::from(dt_us).unwrap_or_else(S::one) * S::from(1e-6).unwrap_or_else(S::zero);
         let (q, counts) = (sensing.joints(), sensing.counts());
         self.q = q;
         self.counts = counts;
         let switches = hw.switches();
         let currents = hw.currents();
         let elapsed = now_us.saturating_sub(self.phase_start_us);
-        let mut duty = [S::zero(); NUM_JOINTS];
-        match self.phase {
-            HomingPhase::Idle => {
-                hw.set_duties(&duty);
-                return HomingStatus::Running(HomingPhase::Idle);
-            }
-            HomingPhase::Failed(e) => return self.fail(hw, e),
-            HomingPhase::Done => {
-                hw.set_duties(&duty);
-                return HomingStatus::Done;
+        let zero = [S::zero(); NUM_JOINTS];
+        let joint = match self.phase {
+            HomingPhase::Idle => return (HomingStatus::Running(HomingPhase::Idle), zero),
+            HomingPhase::Failed(e) => return (HomingStatus::Failed(e), zero),
+            HomingPhase::Referenced => {
+                return (HomingStatus::Referenced, self.hold_others(&q, None, dt))
             }
             HomingPhase::LeaveSwitch { joint }
             | HomingPhase::Approach { joint }
-            | HomingPhase::BackOff { joint } => {
-                let (Some(h), Some(&qj), Some(&cj), Some(&sw), Some(&ij)) = (
-                    self.cfg.joints.get(joint).copied(),
-                    q.get(joint),
-                    counts.get(joint),
-                    switches.get(joint),
-                    currents.get(joint),
-                ) else {
-                    return self.fail(hw, HomingError::Config { joint });
-                };
-                let fresh = core::mem::replace(&mut self.fresh, false);
-                if elapsed > self.cfg.phase_timeout_us {
-                    return self.fail(hw, HomingError::Timeout { joint });
-                }
-                // Motion / stall tracking.
-                if (cj - self.motion_count).abs() >= self.cfg.stall_counts {
-                    self.motion_count = cj;
-                    self.motion_us = now_us;
-                }
-                // Current limit: scale the duty down while above it, relax back
-                // slowly; running at (90 % of) the limit for the stall time is a stall.
-                let i_abs = ij.abs();
-                if i_abs > h.current_limit {
-                    self.duty_scale = (self.duty_scale * h.current_limit / i_abs).min(S::one());
-                } else {
-                    let relax = S::from(1.05).unwrap_or_else(S::one);
-                    self.duty_scale = (self.duty_scale * relax).min(S::one());
-                }
-                let near = S::from(0.9).unwrap_or_else(S::one);
-                if i_abs >= h.current_limit * near {
-                    self.over_current_since.get_or_insert(now_us);
-                } else {
-                    self.over_current_since = None;
-                }
-                let stalled = now_us.saturating_sub(self.motion_us) >= self.cfg.stall_time_us
-                    || self
-                        .over_current_since
-                        .is_some_and(|t| now_us.saturating_sub(t) >= self.cfg.stall_time_us);
-                let scale = self.duty_scale;
-                let travel = (qj - self.phase_start_q).abs();
-                let sign = if h.towards_positive {
-                    S::one()
-                } else {
-                    -S::one()
-                };
-                let limit = self.cfg.duty_limit;
-                match self.phase {
-                    HomingPhase::Approach { .. } => {
-                        if h.method == HomeMethod::Switch && sw && fresh {
-                            // Already on the switch at the start: leave it first.
-                            self.enter(HomingPhase::LeaveSwitch { joint }, now_us);
-                        } else if h.method == HomeMethod::Switch && sw {
-                            // The reference: the position where the switch closes.
-                            sensing.set_reference(joint, h.home_position);
-                            self.q = sensing.joints();
-                            self.enter(HomingPhase::BackOff { joint }, now_us);
-                        } else if stalled {
-                            if h.method == HomeMethod::HardStop {
-                                sensing.set_reference(joint, h.home_position);
-                                self.q = sensing.joints();
-                                self.enter(HomingPhase::BackOff { joint }, now_us);
-                            } else {
-                                return self.fail(hw, HomingError::StalledBeforeSwitch { joint });
-                            }
-                        } else if travel > h.max_travel {
-                            return self.fail(hw, HomingError::NotFound { joint });
-                        } else {
-                            set(&mut duty, joint, sign * h.approach_duty.min(limit) * scale);
-                        }
-                    }
-                    HomingPhase::LeaveSwitch { .. } => {
-                        if !sw {
-                            self.enter(HomingPhase::Approach { joint }, now_us);
-                        } else if travel > h.max_travel || stalled {
-                            return self.fail(hw, HomingError::SwitchStuck { joint });
-                        } else {
-                            set(&mut duty, joint, -sign * h.backoff_duty.min(limit) * scale);
-                        }
-                    }
-                    _ => {
-                        // Back off.
-                        if travel >= h.backoff_distance {
-                            if h.method == HomeMethod::Switch && sw {
-                                return self.fail(hw, HomingError::SwitchStuck { joint });
-                            }
-                            self.next_joint(now_us);
-                        } else if stalled {
-                            return self.fail(hw, HomingError::Timeout { joint });
-                        } else {
-                            set(&mut duty, joint, -sign * h.backoff_duty.min(limit) * scale);
-                        }
-                    }
-                }
-            }
-            HomingPhase::Park => {
-                let Some(park) = self.cfg.park else {
-                    self.phase = HomingPhase::Done;
-                    hw.set_duties(&duty);
-                    return HomingStatus::Running(self.phase);
-                };
-                let us = S::from(1e-6).unwrap_or_else(S::zero);
-                let t =
-                    S::from(now_us.saturating_sub(self.park_start_us)).unwrap_or_else(S::zero) * us;
-                let total = self.park_duration_s;
-                let s = if total > S::zero() {
-                    (t / total).min(S::one())
-                } else {
-                    S::one()
-                };
-                let mut sp = [S::zero(); NUM_JOINTS];
-                let mut spd = [S::zero(); NUM_JOINTS];
-                for j in 0..NUM_JOINTS {
-                    let (Some(a), Some(b)) = (self.park_from.get(j), park.get(j)) else {
-                        continue;
-                    };
-                    set(&mut sp, j, *a + (*b - *a) * s);
-                    if s < S::one() && total > S::zero() {
-                        set(&mut spd, j, (*b - *a) / total);
-                    }
-                }
-                let dt = S::from(dt_us.max(1)).unwrap_or_else(S::one) * us;
-                let out = self.servo.update(&sp, &spd, &q, dt);
-                if out.fault.is_some() {
-                    return self.fail(hw, HomingError::Park);
-                }
-                let settled = park
-                    .iter()
-                    .zip(q.iter())
-                    .zip(self.cfg.park_tolerance.iter())
-                    .all(|((p, m), tol)| (*p - *m).abs() <= *tol);
-                if s >= S::one() && settled {
-                    self.phase = HomingPhase::Done;
-                    hw.set_duties(&duty);
-                    return HomingStatus::Done;
-                }
-                if elapsed > self.cfg.phase_timeout_us {
-                    return self.fail(hw, HomingError::Park);
-                }
-                for (d, o) in duty.iter_mut().zip(out.duty.iter()) {
-                    *d = o.max(-self.cfg.duty_limit).min(self.cfg.duty_limit);
-                }
-            }
+            | HomingPhase::BackOff { joint } => joint,
+        };
+        let (Some(h), Some(&qj), Some(&cj), Some(&sw), Some(&ij)) = (
+            self.cfg.joints.get(joint).copied(),
+            q.get(joint),
+            counts.get(joint),
+            switches.get(joint),
+            currents.get(joint),
+        ) else {
+            return (self.fail(HomingError::Config { joint }), zero);
+        };
+        let fresh = core::mem::replace(&mut self.fresh, false);
+        if elapsed > self.cfg.phase_timeout_us {
+            return (self.fail(HomingError::Timeout { joint }), zero);
         }
-        hw.set_duties(&duty);
+        // Motion / stall tracking.
+        if (cj - self.motion_count).abs() >= self.cfg.stall_counts {
+            self.motion_count = cj;
+            self.motion_us = now_us;
+        }
+        // Current limit: scale the duty down while above it, relax back slowly; running at
+        // (90 % of) the limit for the stall time counts as a stall.
+        let i_abs = ij.abs();
+        if i_abs > h.current_limit {
+            self.duty_scale = (self.duty_scale * h.current_limit / i_abs).min(S::one());
+        } else {
+            let relax = S::from(1.05).unwrap_or_else(S::one);
+            self.duty_scale = (self.duty_scale * relax).min(S::one());
+        }
+        let near = S::from(0.9).unwrap_or_else(S::one);
+        if i_abs >= h.current_limit * near {
+            self.over_current_since.get_or_insert(now_us);
+        } else {
+            self.over_current_since = None;
+        }
+        let stalled = now_us.saturating_sub(self.motion_us) >= self.cfg.stall_time_us
+            || self
+                .over_current_since
+                .is_some_and(|t| now_us.saturating_sub(t) >= self.cfg.stall_time_us);
+        let scale = self.duty_scale;
+        let travel = (qj - self.phase_start_q).abs();
+        let sign = if h.towards_positive {
+            S::one()
+        } else {
+            -S::one()
+        };
+        let limit = self.cfg.duty_limit;
+        let mut own = S::zero();
         match self.phase {
-            HomingPhase::Done => HomingStatus::Done,
-            p => HomingStatus::Running(p),
+            HomingPhase::Approach { .. } => {
+                if h.method == HomeMethod::Switch && sw && fresh {
+                    // Already on the switch at the start: leave it first.
+                    self.enter(HomingPhase::LeaveSwitch { joint }, now_us);
+                } else if h.method == HomeMethod::Switch && sw {
+                    // The reference: the position where the switch closes.
+                    sensing.set_reference(joint, h.home_position);
+                    self.q = sensing.joints();
+                    self.enter(HomingPhase::BackOff { joint }, now_us);
+                } else if stalled {
+                    if h.method == HomeMethod::Switch {
+                        return (self.fail(HomingError::StalledBeforeSwitch { joint }), zero);
+                    }
+                    // A stall is the hard stop only within the expected travel.
+                    let rest = self.rest.get(joint).copied().unwrap_or(h.rest_position);
+                    let expected = (rest - h.home_position).abs();
+                    let from_start = (qj - self.approach_start_q).abs();
+                    if (from_start - expected).abs() > h.travel_tolerance {
+                        return (self.fail(HomingError::StalledOutsideWindow { joint }), zero);
+                    }
+                    sensing.set_reference(joint, h.home_position);
+                    self.q = sensing.joints();
+                    self.enter(HomingPhase::BackOff { joint }, now_us);
+                } else if travel > h.max_travel {
+                    return (self.fail(HomingError::NotFound { joint }), zero);
+                } else {
+                    own = sign * h.approach_duty.min(limit) * scale;
+                }
+            }
+            HomingPhase::LeaveSwitch { .. } => {
+                if !sw {
+                    self.enter(HomingPhase::Approach { joint }, now_us);
+                } else if travel > h.max_travel || stalled {
+                    return (self.fail(HomingError::SwitchStuck { joint }), zero);
+                } else {
+                    own = -sign * h.backoff_duty.min(limit) * scale;
+                }
+            }
+            _ => {
+                // Back off.
+                if travel >= h.backoff_distance {
+                    if h.method == HomeMethod::Switch && sw {
+                        return (self.fail(HomingError::SwitchStuck { joint }), zero);
+                    }
+                    self.next_joint(joint, now_us);
+                } else if stalled {
+                    return (self.fail(HomingError::Timeout { joint }), zero);
+                } else {
+                    own = -sign * h.backoff_duty.min(limit) * scale;
+                }
+            }
         }
+        let q_now = self.q;
+        let moving = match self.phase {
+            HomingPhase::Referenced => None,
+            _ => Some(joint),
+        };
+        let mut duty = self.hold_others(&q_now, moving, dt);
+        if moving.is_some() {
+            set(&mut duty, joint, own);
+        }
+        let status = match self.phase {
+            HomingPhase::Referenced => HomingStatus::Referenced,
+            p => HomingStatus::Running(p),
+        };
+        (status, duty)
     }
 }
 
-fn set<S: Copy>(a: &mut [S; NUM_JOINTS], j: usize, v: S) {
-    if let Some(x) = a.get_mut(j) {
-        *x = v;
-    }
-}
-
-/// Why a [`Homing`] or [`Runtime`] cannot be set up.
+/// Why a [`Homing`] or [`crate::runtime::Runtime`] cannot be set up.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum HomingSetupError {
     /// Homing settings.

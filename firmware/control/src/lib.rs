@@ -19,7 +19,10 @@
 //! Modules, by concept:
 //! - the tick's halves: [`sensing`], [`planner`], [`drive`], composed by [`controller`];
 //! - the board's behaviour: [`state_machine`], [`homing`], [`runtime`], [`service`];
-//! - the fail-safe rules: [`heartbeat`], [`estop`], [`watchdog`];
+//! - safety: the stop categories and their table ([`stops`]), the holding brakes
+//!   ([`brakes`]), the current limits ([`current`]), the plausibility monitors
+//!   ([`monitors`]), the fault log ([`faults`]), the heartbeat ([`heartbeat`]), the
+//!   e-stop's interrupt path ([`estop`]) and the deadline ([`watchdog`]);
 //! - the master link's board side: [`link`] (frames to requests, replies to frames),
 //!   [`targets`] (target timestamps), [`wire`] (wire values), [`telemetry`] (the status).
 #![no_std]
@@ -29,18 +32,27 @@
     clippy::panic,
     clippy::indexing_slicing
 )]
+// `!(x <= limit)` is deliberate: unlike `x > limit` it is also true for NaN, so a NaN can
+// never pass a check.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod brakes;
 pub mod controller;
+pub mod current;
 pub mod drive;
 pub mod estop;
+pub mod faults;
 pub mod heartbeat;
 pub mod homing;
 pub mod link;
+pub mod monitors;
+pub mod park;
 pub mod planner;
 pub mod runtime;
 pub mod sensing;
 pub mod service;
 pub mod state_machine;
+pub mod stops;
 pub mod targets;
 pub mod telemetry;
 pub mod watchdog;

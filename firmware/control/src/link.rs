@@ -1,38 +1,60 @@
 //! The board side of the master link.
 //!
 //! ```text
-//! UART bytes -> LinkRx (BoardDecoder: COBS, CRC, version, sequence) -> Inbound
-//!     Inbound::Reply    answered by the link itself (HelloReply, Nack NotConnected /
+//! UART bytes -> LinkRx (BoardDecoder: COBS, CRC, version, session, sequence) -> Inbound
+//!     Inbound::Reply    answered by the link itself (Nack NotConnected /
 //!                       UnsupportedVersion)
-//!     Inbound::Request  a Command for the runtime (state-machine event, pose target,
-//!                       heartbeat, status request); its result becomes Ack / Nack
-//! replies -> LinkTx (sequence numbers, encode into the caller's buffer) -> UART
+//!     Inbound::Request  a Command for the runtime (a session opened, state-machine event,
+//!                       pose target, heartbeat, status or fault-log request); its outcome
+//!                       becomes HelloReply / Status / FaultLog / Ack / Nack
+//! replies -> LinkTx (the session, sequence numbers, encode into the caller's buffer) -> UART
 //! ```
-//! Malformed, oversized, wrong-version, bad-checksum and out-of-order (replayed) frames are
-//! counted by the decoder ([`LinkCounters`]) and dropped. Before a `Hello` with the
-//! board's protocol version only `Hello` and `EmergencyStop` are taken (the e-stop is
-//! always taken); everything else is refused with `NotConnected`. Every accepted master
-//! frame gets exactly one reply: `HelloReply`, `Status` (for `StatusRequest`), `Ack` or
-//! `Nack` carrying the frame's sequence number.
+//! Malformed, oversized, wrong-version, bad-checksum, out-of-order (replayed) frames and
+//! frames of an older session are counted by the decoder ([`LinkCounters`]) and dropped; an
+//! intact `EmergencyStop` frame is never dropped. Before a `Hello` with the board's
+//! protocol version only `Hello` and `EmergencyStop` are taken; everything else is refused
+//! with `NotConnected`. Every accepted master frame gets exactly one reply carrying its
+//! sequence number (the `HelloReply` opens the session for the master).
 
 use master_link::{
-    encode, BoardDecoder, BoardToMaster, EncodeError, FirmwareVersion, FrameError, LinkCounters,
-    MasterToBoard, NackReason, Seq, SeqCounter, StatusReport, PROTOCOL_VERSION,
+    encode, BoardDecoder, BoardToMaster, EncodeError, FaultLogPage, FirmwareVersion, FrameError,
+    Header, LinkCounters, MasterToBoard, NackReason, ResetStatus, Seq, SeqCounter, StatusReport,
+    PROTOCOL_VERSION,
 };
 
 /// A master request for the runtime.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Command {
+    /// A `Hello` with the board's protocol version opened a session.
+    Hello {
+        /// The session (the master's nonce).
+        session: u32,
+    },
     /// Enable the drives.
     Enable,
     /// Drives off.
     Disable,
-    /// Start homing.
-    Home,
-    /// Clutch pedal.
+    /// Start homing (`rehome`: confirms homing a homed robot again).
+    Home {
+        /// Confirms rehoming.
+        rehome: bool,
+    },
+    /// Clutch pedal: engaged, the master is decoupled and the robot holds.
     Clutch {
         /// Pressed.
         engaged: bool,
+    },
+    /// Operator presence (dead-man): absent, the robot holds.
+    OperatorPresent {
+        /// Present.
+        present: bool,
+    },
+    /// The master acknowledges the board's last reset.
+    AcknowledgeReset,
+    /// A page of the fault log from entry `first`.
+    FaultLogRequest {
+        /// First entry.
+        first: u16,
     },
     /// Emergency stop.
     EmergencyStop,
@@ -69,13 +91,43 @@ pub struct Request {
     pub command: Command,
 }
 
+/// What the runtime answers to a request it accepted.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Answer {
+    /// `Ack`.
+    Ack,
+    /// The status.
+    Status,
+    /// The session is open: `HelloReply` with the reset status.
+    Hello {
+        /// The session.
+        session: u32,
+        /// The last reset and its acknowledgement.
+        reset: ResetStatus,
+    },
+    /// A page of the fault log.
+    FaultLog(FaultLogPage),
+}
+
 impl Request {
-    /// The reply to this request given its outcome (`Status` for a status request).
-    pub fn reply(&self, result: Result<(), NackReason>, status: &StatusReport) -> BoardToMaster {
-        match (result, self.command) {
-            (Ok(()), Command::StatusRequest) => BoardToMaster::Status(*status),
-            (Ok(()), _) => BoardToMaster::Ack { seq: self.seq },
-            (Err(reason), _) => BoardToMaster::Nack {
+    /// The reply to this request given its outcome.
+    pub fn reply(
+        &self,
+        result: Result<Answer, NackReason>,
+        status: &StatusReport,
+        firmware: FirmwareVersion,
+    ) -> BoardToMaster {
+        match result {
+            Ok(Answer::Ack) => BoardToMaster::Ack { seq: self.seq },
+            Ok(Answer::Status) => BoardToMaster::Status(*status),
+            Ok(Answer::Hello { session, reset }) => BoardToMaster::HelloReply {
+                firmware_version: firmware,
+                protocol_version: PROTOCOL_VERSION,
+                session,
+                reset,
+            },
+            Ok(Answer::FaultLog(page)) => BoardToMaster::FaultLog(page),
+            Err(reason) => BoardToMaster::Nack {
                 seq: self.seq,
                 reason,
             },
@@ -92,7 +144,7 @@ pub enum Inbound {
     Reply(BoardToMaster),
 }
 
-/// Firmware version of this crate's release (the board passes its own).
+/// Firmware version of this crate's release (the boards pass their own).
 pub const FIRMWARE_VERSION: FirmwareVersion = FirmwareVersion {
     major: 0,
     minor: 1,
@@ -103,18 +155,22 @@ pub const FIRMWARE_VERSION: FirmwareVersion = FirmwareVersion {
 pub struct LinkRx {
     decoder: BoardDecoder,
     connected: bool,
-    firmware: FirmwareVersion,
     last_error: Option<FrameError>,
     refused_not_connected: u32,
 }
 
+impl Default for LinkRx {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 impl LinkRx {
     /// Not connected, zero counters.
-    pub const fn new(firmware: FirmwareVersion) -> Self {
+    pub const fn new() -> Self {
         LinkRx {
             decoder: BoardDecoder::new(),
             connected: false,
-            firmware,
             last_error: None,
             refused_not_connected: 0,
         }
@@ -142,20 +198,20 @@ impl LinkRx {
 
     fn dispatch(&mut self, seq: Seq, msg: MasterToBoard) -> Inbound {
         let command = match msg {
-            MasterToBoard::Hello { protocol_version } => {
-                return Inbound::Reply(if protocol_version == PROTOCOL_VERSION {
+            MasterToBoard::Hello {
+                protocol_version,
+                nonce,
+            } => {
+                if protocol_version == PROTOCOL_VERSION {
                     self.connected = true;
-                    BoardToMaster::HelloReply {
-                        firmware_version: self.firmware,
-                        protocol_version: PROTOCOL_VERSION,
-                    }
+                    Command::Hello { session: nonce }
                 } else {
                     self.connected = false;
-                    BoardToMaster::Nack {
+                    return Inbound::Reply(BoardToMaster::Nack {
                         seq,
                         reason: NackReason::UnsupportedVersion,
-                    }
-                });
+                    });
+                }
             }
             MasterToBoard::EmergencyStop => Command::EmergencyStop,
             _ if !self.connected => {
@@ -167,7 +223,7 @@ impl LinkRx {
             }
             MasterToBoard::Enable => Command::Enable,
             MasterToBoard::Disable => Command::Disable,
-            MasterToBoard::Home => Command::Home,
+            MasterToBoard::Home { rehome } => Command::Home { rehome },
             MasterToBoard::PoseTarget {
                 timestamp_us,
                 position_m,
@@ -182,6 +238,9 @@ impl LinkRx {
             MasterToBoard::Heartbeat => Command::Heartbeat,
             MasterToBoard::ClearFault => Command::ClearFault,
             MasterToBoard::StatusRequest => Command::StatusRequest,
+            MasterToBoard::OperatorPresent { present } => Command::OperatorPresent { present },
+            MasterToBoard::AcknowledgeReset => Command::AcknowledgeReset,
+            MasterToBoard::FaultLogRequest { first } => Command::FaultLogRequest { first },
         };
         Inbound::Request(Request { seq, command })
     }
@@ -189,6 +248,10 @@ impl LinkRx {
     /// A `Hello` with the right version was received.
     pub fn connected(&self) -> bool {
         self.connected
+    }
+    /// The session the last `Hello` opened.
+    pub fn session(&self) -> Option<u32> {
+        self.decoder.session()
     }
     /// Forgets the connection and the sequence reference (e.g. after a long silence):
     /// the master must send `Hello` again.
@@ -214,27 +277,37 @@ impl LinkRx {
     }
 }
 
-/// The sending side: the board's sequence numbers.
+/// The sending side: the session and the board's sequence numbers.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct LinkTx {
+    session: u32,
     seq: SeqCounter,
     sent: u32,
     errors: u32,
 }
 
 impl LinkTx {
-    /// Starts at sequence number 0.
+    /// Starts at sequence number 0, before any session.
     pub const fn new() -> Self {
         LinkTx {
+            session: 0,
             seq: SeqCounter::new(0),
             sent: 0,
             errors: 0,
         }
     }
     /// Encodes `msg` as one frame (delimiter included) into `buf` (use
-    /// `MAX_FRAME_LEN` bytes); returns its length.
+    /// `MAX_FRAME_LEN` bytes); returns its length. A `HelloReply` switches to its
+    /// session: it and every later frame carry it.
     pub fn encode(&mut self, msg: &BoardToMaster, buf: &mut [u8]) -> Result<usize, EncodeError> {
-        match encode(msg, self.seq.peek(), buf) {
+        if let BoardToMaster::HelloReply { session, .. } = msg {
+            self.session = *session;
+        }
+        let header = Header {
+            session: self.session,
+            seq: self.seq.peek(),
+        };
+        match encode(msg, header, buf) {
             Ok(n) => {
                 self.seq.next();
                 self.sent = self.sent.wrapping_add(1);

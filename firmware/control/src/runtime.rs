@@ -1,30 +1,49 @@
 //! The runtime: the board application's one control object. It owns the sensing, the
-//! state machine, the homing, the controller (while enabled), the heartbeat and target
-//! clocks, and turns master requests ([`Runtime::command`]) and control ticks
-//! ([`Runtime::tick`]) into outputs and a status.
+//! monitors, the state machine, the stop sequencer, the homing, the controller, the
+//! heartbeat and target clocks and the fault log, and turns master requests
+//! ([`Runtime::command`]) and control ticks ([`Runtime::tick`]) into outputs and a status.
 //!
 //! One tick, in every state:
 //! ```text
-//! sensing: counters -> extended counts -> joints -> measured pose (FK tracker, once homed)
-//! heartbeat timers
-//! Homing:  homing step (switches, currents, references) -> outputs
-//! Enabled: planner (supervisor: target -> safe setpoint) -> drive (six PIDs) -> outputs
-//! other:   outputs off
-//! status:  from what the tick computed (no second evaluation)
+//! sensing   counters -> extended counts -> joints -> measured pose (FK tracker, once homed)
+//! inputs    currents, supply, driver fault, switches, e-stop button, safety relay
+//! monitors  safety chain, power stage, currents (overcurrent, overload, I²t), encoders
+//!           (jump, dead), joint ranges and limit switches, standstill of a hold,
+//!           heartbeat: each finding is a fault with its cause, joint and value
+//! stops     the fault's (or a hold's) reaction from the stop table: STO, SS1 or SS2
+//! drive     Homing:   homing step (switches, currents, references), then the park move
+//!           Enabling: the brake check against the closed brakes, then the release
+//!           Enabled:  planner (supervisor) -> drive (six PIDs)
+//!           stops:    the supervisor brakes; the servo holds
+//! outputs   duties capped by the current limit -> PWM; brakes; torque off
+//! status    from what the tick computed (no second evaluation)
 //! ```
 
-use hal::{CurrentSense, LimitSwitches, MotorOutputs, QuadratureCounter};
-use kinematics_core::{Joints, Mechanism};
-use master_link::{Faults, NackReason, StatusReport, Warnings};
+use hal::Hardware;
+use kinematics_core::{Branch, Joints, Mechanism, Pose};
+use master_link::{
+    FaultCause, FaultLogPage, FaultRecord, GuardMargins, NackReason, ResetCause, ResetStatus,
+    StatusReport, Warnings,
+};
+use num_traits::Float;
 use servo::NUM_JOINTS;
 
+use crate::brakes::{BrakeCheck, BrakeCheckConfig, EnableStep};
 use crate::controller::{Controller, ControllerConfig, ControllerError, JogError, Scalar};
-use crate::drive::TickReport;
+use crate::current::{CurrentConfig, CurrentFault, CurrentMonitor};
+use crate::drive::{to_array, TickReport};
+use crate::faults::FaultLog;
 use crate::heartbeat::{HeartbeatConfig, HeartbeatMonitor};
-use crate::homing::{Homing, HomingConfig, HomingError, HomingSetupError, HomingStatus};
-use crate::link::Command;
+use crate::homing::{Homing, HomingConfig, HomingError, HomingSetupError, HomingStatus, Mechanics};
+use crate::link::{Answer, Command};
+use crate::monitors::{
+    check_ranges, DriveSample, EncoderCheck, EncoderCheckConfig, Finding, MotorCheck, PowerCheck,
+    PowerConfig, SafetyChainCheck, Standstill,
+};
+use crate::park::{ParkConfig, ParkMove, ParkRefusal, ParkStep};
 use crate::sensing::{Measured, Sensing};
 use crate::state_machine::{Event, Refusal, State, StateMachine, Transition};
+use crate::stops::{StopConfig, StopEvent, StopPhase, Stopper};
 use crate::targets::{TargetClock, TargetClockConfig};
 use crate::wire;
 
@@ -35,12 +54,28 @@ pub struct RuntimeConfig<S: Scalar> {
     pub controller: ControllerConfig<S>,
     /// Homing.
     pub homing: HomingConfig<S>,
+    /// The board's mechanics (joint ranges).
+    pub mechanics: Mechanics<S>,
     /// Heartbeat hold / disable times.
     pub heartbeat: HeartbeatConfig,
     /// Master target timestamps.
     pub targets: TargetClockConfig,
     /// Consecutive forward-kinematics failures that latch `FORWARD_KINEMATICS`.
     pub fk_failures_to_fault: u32,
+    /// The stops' timing.
+    pub stops: StopConfig,
+    /// The brake check and release at enable.
+    pub brakes: BrakeCheckConfig<S>,
+    /// Motor currents: limits, I²t, trips.
+    pub current: CurrentConfig<S>,
+    /// Encoder plausibility.
+    pub encoder_check: EncoderCheckConfig<S>,
+    /// The power stage's supply range.
+    pub power: PowerConfig<S>,
+    /// Ticks the e-stop button and the safety relay may disagree (the relay's switching).
+    pub relay_debounce_ticks: u16,
+    /// The park move after homing (speeds, path check, settling).
+    pub park: ParkConfig<S>,
 }
 
 /// What one runtime tick did.
@@ -52,31 +87,69 @@ pub struct RuntimeTick<S: Scalar> {
     pub control: Option<TickReport<S>>,
     /// The homing status, when homing.
     pub homing: Option<HomingStatus>,
-    /// Outputs were driven (else they were forced off).
+    /// The drives produced torque.
     pub drives_on: bool,
 }
 
-/// The board application: the sensing, the state machine, the fail-safe timers, homing
-/// and the controller, driven by [`Runtime::tick`] (every control period) and
-/// [`Runtime::command`] (every master request).
+/// The inputs read at the start of a tick.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Inputs<S> {
+    /// Motor currents, A.
+    pub currents: [S; NUM_JOINTS],
+    /// Supply voltage, V.
+    pub supply_v: S,
+    /// A driver reports a fault.
+    pub driver_fault: bool,
+    /// Limit switches.
+    pub switches: [bool; NUM_JOINTS],
+    /// The e-stop button is pressed.
+    pub estop_pressed: bool,
+    /// The safety relay is open.
+    pub relay_open: bool,
+}
+
+/// The board application: the sensing, the monitors, the state machine, the stops, the
+/// fail-safe timers, homing and the controller, driven by [`Runtime::tick`] (every control
+/// period) and [`Runtime::command`] (every master request).
 #[derive(Clone, Debug)]
 pub struct Runtime<S: Scalar, M: Mechanism<S> + Clone> {
     robot: M,
     cfg: RuntimeConfig<S>,
+    dt: S,
     sm: StateMachine,
     sensing: Sensing<S, M>,
     homing: Homing<S>,
+    parking: Option<ParkMove<S, M>>,
     controller: Option<Controller<S, M>>,
+    enabling: Option<BrakeCheck<S>>,
+    stopper: Stopper,
+    standstill: Standstill<S>,
+    current: CurrentMonitor<S>,
+    encoder_check: EncoderCheck<S>,
+    motor_check: MotorCheck<S>,
+    power: PowerCheck<S>,
+    chain: SafetyChainCheck,
     /// The jog stream in progress: (joint, time of the last Jog, the joints it aims at).
     jog: Option<(usize, u64, Joints<S>)>,
     heartbeat: HeartbeatMonitor,
     targets: TargetClock,
     warnings: Warnings,
+    /// The latched fault (the first one since the last clear).
+    fault: FaultRecord,
+    log: FaultLog,
+    reset: ResetStatus,
+    inputs: Inputs<S>,
+    /// The duties applied over the last tick (the back-EMF check).
+    last_duty: [S; NUM_JOINTS],
+    torque_on: bool,
+    outputs_on: bool,
     /// Worst tick jitter and execution time, µs (from the board).
     tick_timing: (u32, u32),
-    estop_input: bool,
-    was_holding: bool,
-    outputs_on: bool,
+    missed_ticks: u32,
+}
+
+fn lit<S: Scalar>(x: f64) -> S {
+    kinematics_core::scalar::lit(x)
 }
 
 impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
@@ -93,20 +166,49 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         cfg.heartbeat
             .validate()
             .map_err(|_| HomingSetupError::Homing(HomingError::Config { joint: 0 }))?;
+        let rate = cfg.controller.rate_hz;
+        if !(rate >= lit(100.0) && rate <= lit(10_000.0)) {
+            return Err(HomingSetupError::Homing(HomingError::Config { joint: 0 }));
+        }
         Ok(Runtime {
             robot,
+            dt: S::one() / rate,
             sm: StateMachine::new(),
             sensing,
             homing,
+            parking: None,
             controller: None,
+            enabling: None,
+            stopper: Stopper::new(cfg.stops),
+            standstill: Standstill::reference(),
+            current: CurrentMonitor::new(cfg.current),
+            encoder_check: EncoderCheck::new(cfg.encoder_check),
+            motor_check: MotorCheck::new(&cfg.current.motors),
+            power: PowerCheck::new(cfg.power),
+            chain: SafetyChainCheck::new(cfg.relay_debounce_ticks),
             jog: None,
             heartbeat: HeartbeatMonitor::new(cfg.heartbeat, now_us),
             targets: TargetClock::new(cfg.targets),
             warnings: Warnings::NOT_HOMED,
-            tick_timing: (0, 0),
-            estop_input: false,
-            was_holding: false,
+            fault: FaultRecord::NONE,
+            log: FaultLog::new(),
+            reset: ResetStatus {
+                cause: ResetCause::PowerOn,
+                acknowledged: true,
+            },
+            inputs: Inputs {
+                currents: [S::zero(); NUM_JOINTS],
+                supply_v: S::zero(),
+                driver_fault: false,
+                switches: [false; NUM_JOINTS],
+                estop_pressed: false,
+                relay_open: false,
+            },
+            last_duty: [S::zero(); NUM_JOINTS],
+            torque_on: false,
             outputs_on: false,
+            tick_timing: (0, 0),
+            missed_ticks: 0,
             cfg,
         })
     }
@@ -119,7 +221,8 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
     pub fn state(&self) -> State {
         self.sm.state()
     }
-    /// The controller, while enabled.
+    /// The controller, while it exists (from the park move after homing; while enabled or
+    /// stopping).
     pub fn controller(&self) -> Option<&Controller<S, M>> {
         self.controller.as_ref()
     }
@@ -139,6 +242,30 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
     pub fn measured(&self) -> &Measured<S> {
         self.sensing.measured()
     }
+    /// The inputs read at the start of the last tick.
+    pub fn inputs(&self) -> &Inputs<S> {
+        &self.inputs
+    }
+    /// The stop sequencer.
+    pub fn stopper(&self) -> &Stopper {
+        &self.stopper
+    }
+    /// The current monitor (peaks, heat).
+    pub fn current(&self) -> &CurrentMonitor<S> {
+        &self.current
+    }
+    /// The latched fault.
+    pub fn latched_fault(&self) -> &FaultRecord {
+        &self.fault
+    }
+    /// The fault log.
+    pub fn fault_log(&self) -> &FaultLog {
+        &self.log
+    }
+    /// The last reset and its acknowledgement.
+    pub fn reset(&self) -> ResetStatus {
+        self.reset
+    }
     /// The robot.
     pub fn robot(&self) -> &M {
         &self.robot
@@ -148,113 +275,280 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         &self.cfg
     }
 
-    /// Applies an event and its side effects (controller, homing, heartbeat, sensing).
-    pub fn event(&mut self, ev: Event, now_us: u64) -> Result<Transition, Refusal> {
-        // Building the controller may refuse the enable (no pose, unsafe start pose).
-        if ev == Event::Enable && self.sm.state() == State::Ready {
-            match Controller::new(
-                self.robot.clone(),
-                self.cfg.controller,
-                self.sensing.measured(),
-            ) {
-                Ok(c) => self.controller = Some(c),
-                Err(ControllerError::NoPose | ControllerError::Supervisor(_)) => {
-                    return Err(Refusal::UnsafeStart)
-                }
-                Err(_) => {
-                    let _ = self.sm.handle(Event::Fault(Faults::INTERNAL));
-                    return Err(Refusal::NotAllowed);
-                }
-            }
+    /// Power-up done: the encoders' current counters become the (unhomed) reference; the
+    /// reset cause the board read; the fault log kept across the reset, if any.
+    pub fn boot_done(
+        &mut self,
+        raw: [u16; NUM_JOINTS],
+        now_us: u64,
+        reset: ResetCause,
+        log: Option<FaultLog>,
+    ) -> Result<Transition, Refusal> {
+        self.sensing.boot(raw);
+        self.reset = ResetStatus {
+            cause: reset,
+            acknowledged: !reset.needs_acknowledgement(),
+        };
+        if let Some(log) = log {
+            self.log = log;
         }
+        self.event(Event::BootDone, now_us)
+    }
+
+    /// Latches a fault (the first since the last clear is the one reported), logs it, and
+    /// starts the stop the table names for it.
+    pub fn fault(&mut self, finding: Finding, now_us: u64) {
+        let record = finding.record(now_us);
+        let already = self.sm.state() == State::Fault;
+        if self.sm.handle(Event::Fault(finding.cause)).is_err() {
+            return;
+        }
+        // (A heartbeat loss while nothing moves is no fault: the state did not change.)
+        if self.sm.state() != State::Fault {
+            return;
+        }
+        if !already {
+            self.fault = record;
+        }
+        self.stopper
+            .request(StopEvent::Fault(finding.cause), now_us, self.torque_on);
+        self.start_decelerating();
+        self.log.record(record, self.stopper.status());
+        self.enabling = None;
+        self.parking = None;
+        self.jog = None;
+        if self.sm.state() == State::Fault && !self.sm.homed() {
+            self.sensing.lose_reference();
+        }
+    }
+
+    /// The fault of a missed control deadline (from the board's tick service).
+    pub fn deadline_missed(&mut self, late_us: u64, now_us: u64) {
+        let late = S::from(late_us).unwrap_or_else(S::infinity);
+        self.fault(Finding::board(FaultCause::DeadlineMissed, late), now_us);
+    }
+
+    /// Applies an event and its side effects (controller, homing, heartbeat, stops).
+    pub fn event(&mut self, ev: Event, now_us: u64) -> Result<Transition, Refusal> {
+        if let Event::Fault(cause) = ev {
+            self.fault(Finding::board::<S>(cause, S::zero()), now_us);
+            return Ok(Transition {
+                from: self.sm.state(),
+                to: self.sm.state(),
+                event: ev,
+            });
+        }
+        if ev == Event::Enable && self.sm.state() == State::Ready {
+            self.prepare_enable(now_us)?;
+        }
+        // A homed robot homed again: its joints are known, the travel windows start there.
+        let known = self.sm.homed().then_some(self.sensing.measured().q);
         let t = self.sm.handle(ev)?;
         if t.changed() {
-            if t.to == State::Enabled {
-                self.heartbeat.rearm(now_us);
-                self.targets.reset();
-                self.was_holding = false;
-            }
-            if t.to == State::Homing {
-                // The master just spoke: the heartbeat timing restarts.
-                self.heartbeat.rearm(now_us);
-                self.homing.start(
-                    &self.sensing.measured().q,
-                    &self.sensing.encoders().counts(),
-                    now_us,
-                );
+            match t.to {
+                State::Enabling => {
+                    self.heartbeat.rearm(now_us);
+                    self.targets.reset();
+                }
+                State::Homing => {
+                    // The master just spoke: the heartbeat timing restarts.
+                    self.heartbeat.rearm(now_us);
+                    self.sensing.lose_reference();
+                    self.controller = None;
+                    self.stopper.clear();
+                    self.homing.start(
+                        &self.sensing.measured().q,
+                        &self.sensing.encoders().counts(),
+                        known.as_ref(),
+                        now_us,
+                    );
+                }
+                _ => {}
             }
             if t.from == State::Homing && t.to != State::Ready {
                 self.homing.abort();
+                self.parking = None;
+            }
+            // Drives off on request: SS1 (decelerate, brakes, torque off).
+            if matches!(t.to, State::Ready | State::Disabled)
+                && matches!(
+                    t.from,
+                    State::Enabling | State::Enabled | State::Homing | State::Fault
+                )
+            {
+                self.stopper
+                    .request(StopEvent::Disable, now_us, self.torque_on);
+                self.start_decelerating();
+                self.enabling = None;
             }
         }
         if !self.sm.homed() {
             self.sensing.lose_reference();
         }
-        if t.to != State::Enabled {
-            self.controller = None;
-            self.jog = None;
-        }
+        self.update_holds(now_us);
         Ok(t)
     }
 
-    /// The e-stop input level (asserted = pressed or wire broken), sampled every tick;
-    /// while asserted the robot is in `Fault` and `ClearFault` is refused.
-    pub fn set_estop_input(&mut self, asserted: bool, now_us: u64) {
-        self.estop_input = asserted;
-        if asserted && !self.sm.faults().contains(Faults::EMERGENCY_STOP) {
-            let _ = self.event(Event::EmergencyStop, now_us);
+    /// The checks before an enable and its start: the reset acknowledged, the safety chain
+    /// sound, no stop still in progress, the controller at the measured pose, the brake
+    /// check started.
+    fn prepare_enable(&mut self, now_us: u64) -> Result<(), Refusal> {
+        if !self.reset.acknowledged {
+            return Err(Refusal::ResetNotAcknowledged);
+        }
+        if self.inputs.estop_pressed {
+            return Err(Refusal::FaultStillActive);
+        }
+        if !SafetyChainCheck::agrees(self.inputs.estop_pressed, self.inputs.relay_open) {
+            return Err(Refusal::SafetyRelayMismatch);
+        }
+        match self.stopper.phase() {
+            StopPhase::Running | StopPhase::TorqueOff { .. } => {}
+            _ => return Err(Refusal::Busy),
+        }
+        match Controller::new(
+            self.robot.clone(),
+            self.cfg.controller,
+            self.sensing.measured(),
+        ) {
+            Ok(c) => self.controller = Some(c),
+            Err(ControllerError::NoPose | ControllerError::Supervisor(_)) => {
+                return Err(Refusal::UnsafeStart)
+            }
+            Err(_) => return Err(Refusal::NotAllowed),
+        }
+        self.stopper.clear();
+        self.standstill.stop();
+        self.current.reset_overload();
+        self.enabling = Some(BrakeCheck::start(
+            self.cfg.brakes,
+            &self.sensing.measured().q,
+            now_us,
+        ));
+        Ok(())
+    }
+
+    /// The supervisor brakes at the start of a deceleration (and refuses targets).
+    fn start_decelerating(&mut self) {
+        if self.stopper.outputs(true).decelerate {
+            if let Some(ctl) = self.controller.as_mut() {
+                ctl.hold();
+            }
+            self.jog = None;
         }
     }
 
-    /// Power-up done: the encoders' current counters become the (unhomed) reference.
-    pub fn boot_done(
-        &mut self,
-        raw: [u16; NUM_JOINTS],
-        now_us: u64,
-    ) -> Result<Transition, Refusal> {
-        self.sensing.boot(raw);
-        self.event(Event::BootDone, now_us)
+    /// Starts or ends the holds (clutch, operator absent, heartbeat late) as stops SS2
+    /// without a fault.
+    fn update_holds(&mut self, now_us: u64) {
+        let hold = self.sm.hold();
+        let hold_event = self.stopper.event().filter(|e| {
+            matches!(
+                e,
+                StopEvent::ClutchEngaged | StopEvent::OperatorAbsent | StopEvent::HeartbeatLate
+            )
+        });
+        match (hold, hold_event) {
+            (Some(h), None) if self.sm.state() == State::Enabled => {
+                let event = if h.clutch {
+                    StopEvent::ClutchEngaged
+                } else if h.operator_absent {
+                    StopEvent::OperatorAbsent
+                } else {
+                    StopEvent::HeartbeatLate
+                };
+                self.stopper.request(event, now_us, self.torque_on);
+                self.start_decelerating();
+            }
+            (None, Some(_)) if self.sm.state() == State::Enabled => {
+                // The hold is over: follow again from where the robot stands.
+                self.stopper.clear();
+                self.standstill.stop();
+            }
+            _ => {}
+        }
     }
 
-    /// A master request (after the link layer): `Ok` to Ack, `Err` to Nack with.
-    pub fn command(&mut self, cmd: &Command, now_us: u64) -> Result<(), NackReason> {
+    /// A master request (after the link layer): the answer, or why it is refused.
+    pub fn command(&mut self, cmd: &Command, now_us: u64) -> Result<Answer, NackReason> {
         let ev = match *cmd {
+            Command::Hello { session } => {
+                return Ok(Answer::Hello {
+                    session,
+                    reset: self.reset,
+                })
+            }
             Command::Enable => Event::Enable,
             Command::Disable => Event::Disable,
-            Command::Home => Event::Home,
+            Command::Home { rehome } => Event::Home { rehome },
             Command::Clutch { engaged } => Event::Clutch { engaged },
-            Command::EmergencyStop => Event::EmergencyStop,
+            Command::OperatorPresent { present } => Event::OperatorPresent { present },
+            Command::EmergencyStop => {
+                self.fault(
+                    Finding::board::<S>(FaultCause::EmergencyStopMessage, S::zero()),
+                    now_us,
+                );
+                return Ok(Answer::Ack);
+            }
             Command::ClearFault => Event::ClearFault {
-                cause_active: self.estop_input,
+                cause_active: self.inputs.estop_pressed
+                    || !SafetyChainCheck::agrees(self.inputs.estop_pressed, self.inputs.relay_open),
             },
+            Command::AcknowledgeReset => {
+                self.reset.acknowledged = true;
+                return Ok(Answer::Ack);
+            }
+            Command::FaultLogRequest { first } => {
+                return Ok(Answer::FaultLog(self.fault_log_page(first)))
+            }
             Command::Heartbeat => {
                 if let Some(ev) = self.heartbeat.beat(now_us) {
                     let _ = self.event(ev, now_us);
                 }
-                return Ok(());
+                return Ok(Answer::Ack);
             }
-            Command::StatusRequest => return Ok(()),
-            Command::Jog { joint, velocity } => return self.jog(joint, velocity, now_us),
+            Command::StatusRequest => return Ok(Answer::Status),
+            Command::Jog { joint, velocity } => {
+                return self.jog(joint, velocity, now_us).map(|()| Answer::Ack)
+            }
             Command::Target {
                 stamp_us,
                 position_m,
                 rotation_vector_rad,
-            } => return self.target(stamp_us, position_m, rotation_vector_rad, now_us),
+            } => {
+                return self
+                    .target(stamp_us, position_m, rotation_vector_rad, now_us)
+                    .map(|()| Answer::Ack)
+            }
         };
-        let cleared = matches!(ev, Event::ClearFault { .. }) && self.sm.state() == State::Fault;
+        let clearing = matches!(ev, Event::ClearFault { .. }) && self.sm.state() == State::Fault;
         self.event(ev, now_us).map_err(NackReason::from)?;
-        if cleared {
+        if clearing {
+            self.fault = FaultRecord::NONE;
             self.warnings.remove(Warnings::HEARTBEAT_LATE);
+        }
+        Ok(Answer::Ack)
+    }
+
+    /// A page of the fault log.
+    pub fn fault_log_page(&self, first: u16) -> FaultLogPage {
+        self.log.page(first)
+    }
+
+    /// Whether targets are taken now (following, no stop in force), or why not.
+    fn target_gate(&self) -> Result<(), NackReason> {
+        self.sm.target_gate().map_err(NackReason::from)?;
+        if self.stopper.phase() != StopPhase::Running || self.enabling.is_some() {
+            return Err(NackReason::InvalidState);
         }
         Ok(())
     }
 
-    /// Jog: while following (Enabled, not clutched), move joint `joint` at `velocity`
-    /// (m/s or rad/s). The joint's target advances by velocity × the time since the last
-    /// Jog of the same stream, and never leads the setpoint by more than velocity ×
-    /// JOG_HORIZON_S: the master's repeated Jog is a dead-man, and when Jogs stop the robot
-    /// stops within that horizon. The target passes the supervisor like any other (speed
-    /// limits, path check, guards).
+    /// Jog: while following, move joint `joint` at `velocity` (m/s or rad/s). The joint's
+    /// target advances by velocity × the time since the last Jog of the same stream, and
+    /// never leads the setpoint by more than velocity × JOG_HORIZON_S: the master's
+    /// repeated Jog is a dead-man, and when Jogs stop the robot stops within that horizon.
+    /// The target passes the supervisor like any other (speed limits, path check, guards).
     fn jog(&mut self, joint: u8, velocity: f32, now_us: u64) -> Result<(), NackReason> {
         let j = usize::from(joint);
         if j >= NUM_JOINTS {
@@ -263,7 +557,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         if !velocity.is_finite() {
             return Err(NackReason::InvalidValue);
         }
-        self.sm.target_gate().map_err(NackReason::from)?;
+        self.target_gate()?;
         let ctl = self.controller.as_mut().ok_or(NackReason::InvalidState)?;
         let setpoint = ctl.setpoint_joints().map_err(jog_reason)?;
         let horizon_us = (JOG_HORIZON_S * 1e6) as u64;
@@ -275,11 +569,10 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             _ => (setpoint, horizon_us),
         };
         let here = setpoint.get(j).copied().ok_or(NackReason::InvalidJoint)?;
-        let lit = kinematics_core::scalar::lit::<S>;
-        let lead = lit(f64::from(velocity).abs() * JOG_HORIZON_S);
+        let lead = lit::<S>(f64::from(velocity).abs() * JOG_HORIZON_S);
         let slot = target.get_mut(j).ok_or(NackReason::InvalidJoint)?;
-        let advanced = *slot + lit(f64::from(velocity)) * lit(elapsed_us as f64 * 1e-6);
-        *slot = num_traits::Float::min(num_traits::Float::max(advanced, here - lead), here + lead);
+        let advanced = *slot + lit::<S>(f64::from(velocity)) * lit::<S>(elapsed_us as f64 * 1e-6);
+        *slot = Float::min(Float::max(advanced, here - lead), here + lead);
         let pose = ctl.joints_target(&target).map_err(jog_reason)?;
         let stamp = self.targets.board_stamp(now_us);
         ctl.submit(&pose, stamp, now_us)
@@ -296,7 +589,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         now_us: u64,
     ) -> Result<(), NackReason> {
         let pose = wire::pose_from_wire::<S>(position_m, rotation_vector_rad)?;
-        self.sm.target_gate().map_err(NackReason::from)?;
+        self.target_gate()?;
         let ctl = self.controller.as_mut().ok_or(NackReason::InvalidState)?;
         let board_stamp = self.targets.accept(stamp_us, now_us)?;
         ctl.submit(&pose, board_stamp, now_us)
@@ -306,86 +599,395 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         Ok(())
     }
 
-    /// One control tick: the sensing first (every state), the fail-safe timers, then
-    /// homing or the controller, and the outputs (forced off in every state but `Homing`
-    /// and `Enabled`).
-    pub fn tick<H>(&mut self, hw: &mut H, now_us: u64) -> RuntimeTick<S>
-    where
-        H: QuadratureCounter + MotorOutputs<S> + LimitSwitches + CurrentSense<S>,
-    {
-        // The sampling instant does not move with the work that follows.
+    /// Reads the inputs and runs the monitors: the first finding becomes a fault.
+    fn sense_and_monitor<H: Hardware<S>>(&mut self, hw: &mut H, now_us: u64) {
         self.sensing.update(hw);
+        self.inputs = Inputs {
+            currents: hw.currents(),
+            supply_v: hw.supply_voltage(),
+            driver_fault: hw.driver_fault(),
+            switches: hw.switches(),
+            estop_pressed: hw.estop_pressed(),
+            relay_open: hw.relay_open(),
+        };
+        let i = self.inputs;
         if let Some(ev) = self.heartbeat.poll(now_us) {
             let _ = self.event(ev, now_us);
         }
+        let mut finding = None;
+        if i.estop_pressed && self.fault.cause != FaultCause::EmergencyStopButton {
+            finding = Some(Finding::board::<S>(
+                FaultCause::EmergencyStopButton,
+                S::one(),
+            ));
+        }
+        let chain = self.chain.check(i.estop_pressed, i.relay_open);
+        let power = self.power.check(i.supply_v, i.driver_fault, self.torque_on);
+        let current = self
+            .current
+            .monitor(&i.currents, self.dt, self.torque_on, now_us)
+            .map(|f| match f {
+                CurrentFault::Overcurrent { joint, current_a } => {
+                    Finding::joint(FaultCause::Overcurrent, joint, current_a)
+                }
+                CurrentFault::Overload { joint, current_a } => {
+                    Finding::joint(FaultCause::Overload, joint, current_a)
+                }
+                CurrentFault::OverTemperature { joint, heat } => {
+                    Finding::joint(FaultCause::OverTemperature, joint, heat)
+                }
+            });
+        let counts = self.sensing.encoders().counts();
+        let drive = DriveSample {
+            duty: self.last_duty,
+            current: i.currents,
+            supply_v: i.supply_v,
+            torque: self.torque_on,
+        };
+        let encoder = self
+            .encoder_check
+            .check(&counts, self.dt, &self.cfg.current.motors, &drive);
+        let limits: [S; NUM_JOINTS] = core::array::from_fn(|j| self.current.peak_current(j));
+        let motor = self.motor_check.check(
+            &drive,
+            self.encoder_check.qdot(),
+            &self.cfg.current.motors,
+            &limits,
+        );
+        let q = self.sensing.measured().q;
+        let ranges = check_ranges(
+            &q,
+            &self.cfg.mechanics.range,
+            &i.switches,
+            self.sm.homed(),
+            self.sm.state() == State::Homing,
+        );
+        let standstill = if self.stopper.phase() == StopPhase::Holding {
+            self.standstill.check(&q)
+        } else {
+            None
+        };
+        let fk = (self.sensing.counters().fk_failures_in_row >= self.cfg.fk_failures_to_fault)
+            .then(|| {
+                let n = self.sensing.counters().fk_failures_in_row;
+                Finding::board(
+                    FaultCause::ForwardKinematics,
+                    S::from(n).unwrap_or_else(S::zero),
+                )
+            });
+        for f in [
+            chain, power, current, encoder, motor, ranges, standstill, fk,
+        ] {
+            finding = finding.or(f);
+        }
+        if let Some(f) = finding {
+            // A fault of the same cause and joint as the latched one is its repeat.
+            if self.sm.state() == State::Fault
+                && self.fault.cause == f.cause
+                && self.fault.joint == f.record(now_us).joint
+            {
+                return;
+            }
+            self.fault(f, now_us);
+        }
+    }
+
+    /// One control tick: the sensing and the monitors first (every state), then homing,
+    /// enabling or the controller as the state and the stop in force say, then the
+    /// outputs (duties within the current limit, brakes, torque).
+    pub fn tick<H: Hardware<S>>(&mut self, hw: &mut H, now_us: u64) -> RuntimeTick<S> {
+        self.sense_and_monitor(hw, now_us);
+        let mut out = self.stopper.outputs(self.sm.drives_on());
+        let mut duty = [S::zero(); NUM_JOINTS];
         let mut control = None;
         let mut homing = None;
-        if self.sm.drives_on() && !self.outputs_on {
-            hw.enable();
-            self.outputs_on = true;
-        }
-        match self.sm.state() {
-            State::Homing => {
-                let st = self.homing.step(hw, &mut self.sensing, now_us);
-                homing = Some(st);
-                match st {
-                    HomingStatus::Done => {
-                        // The references make a pose, or the homing failed.
-                        let ev = match self.sensing.track_pose() {
-                            Ok(_) => Event::HomingDone,
-                            Err(_) => Event::HomingFailed,
-                        };
-                        let _ = self.event(ev, now_us);
+        let mut standstill = true;
+        if out.torque {
+            match (self.sm.state(), self.stopper.phase()) {
+                (State::Homing, StopPhase::Running) => {
+                    if self.parking.is_some() {
+                        duty = self.park(now_us);
+                    } else {
+                        let (st, d) = self.homing.step(hw, &mut self.sensing, now_us);
+                        homing = Some(st);
+                        duty = d;
+                        self.homing_status(st, now_us);
                     }
-                    HomingStatus::Failed(_) => {
-                        let _ = self.event(Event::HomingFailed, now_us);
+                }
+                (State::Enabling, StopPhase::Running) => {
+                    control = self.enabling_tick(now_us, &mut duty, &mut out.brakes_released);
+                }
+                _ => {
+                    // Following, holding or stopping under the controller; without one (a
+                    // stop during homing) the drives stop where they are.
+                    if let Some(ctl) = self.controller.as_mut() {
+                        let report = ctl.tick(self.sensing.measured());
+                        duty = report.servo.duty;
+                        standstill = ctl.supervisor().twist().iter().all(|x| *x == S::zero());
+                        self.control_faults(&report, now_us);
+                        control = Some(report);
                     }
-                    HomingStatus::Running(_) => {}
                 }
             }
-            State::Enabled => control = self.control_tick(hw, now_us),
-            _ => {}
         }
-        let drives_on = self.sm.drives_on();
-        if !drives_on {
-            hw.disable();
-            self.outputs_on = false;
+        // The stop's progress: standstill ends a deceleration.
+        let was = self.stopper.phase();
+        if self.stopper.advance(now_us, standstill) {
+            let f = Finding::board::<S>(FaultCause::StandstillLost, S::zero());
+            self.fault(f, now_us);
         }
+        if was != StopPhase::Holding && self.stopper.phase() == StopPhase::Holding {
+            self.standstill.start(&self.sensing.measured().q);
+        }
+        if matches!(self.stopper.phase(), StopPhase::TorqueOff { .. })
+            && !self.sm.drives_on()
+            && self.parking.is_none()
+        {
+            // The stop is complete: the controller is rebuilt at the next enable.
+            self.controller = None;
+        }
+        self.write_outputs(hw, &mut duty, now_us);
         self.update_warnings(now_us);
         RuntimeTick {
             state: self.sm.state(),
             control,
             homing,
-            drives_on,
+            drives_on: self.torque_on,
         }
     }
 
-    fn control_tick<H>(&mut self, hw: &mut H, now_us: u64) -> Option<TickReport<S>>
-    where
-        H: MotorOutputs<S>,
-    {
-        // Brake to a stop when a hold starts.
-        let holding = self.sm.hold().is_some();
-        if holding && !self.was_holding {
-            if let Some(ctl) = self.controller.as_mut() {
-                ctl.hold();
+    /// The outputs of the tick: the duties within the current limit, the brakes, torque.
+    fn write_outputs<H: Hardware<S>>(
+        &mut self,
+        hw: &mut H,
+        duty: &mut [S; NUM_JOINTS],
+        now_us: u64,
+    ) {
+        let out = self.stopper.outputs(self.sm.drives_on());
+        let brakes_released =
+            out.brakes_released && self.enabling.as_ref().is_none_or(|e| e.brakes_released());
+        let _ = now_us;
+        if out.torque {
+            if !self.outputs_on {
+                hw.enable();
+                self.outputs_on = true;
+            }
+            self.current
+                .limit(duty, self.encoder_check.qdot(), self.inputs.supply_v);
+            hw.set_duties(duty);
+            self.last_duty = *duty;
+        } else {
+            hw.disable();
+            self.outputs_on = false;
+            self.last_duty = [S::zero(); NUM_JOINTS];
+            self.current.reset_overload();
+        }
+        hw.set_brakes_released(brakes_released && out.torque);
+        self.torque_on = out.torque;
+    }
+
+    /// The homing's status: a failure is a fault, the references start the park move.
+    fn homing_status(&mut self, st: HomingStatus, now_us: u64) {
+        match st {
+            HomingStatus::Failed(e) => {
+                let f = Finding {
+                    cause: FaultCause::HomingFailed,
+                    joint: e.joint(),
+                    value: e.code(),
+                };
+                self.fault(f, now_us);
+            }
+            HomingStatus::Referenced if self.parking.is_none() && self.controller.is_none() => {
+                self.start_park(now_us)
+            }
+            HomingStatus::Referenced => {}
+            HomingStatus::Running(_) => {}
+        }
+    }
+
+    /// A homing failure of the park move.
+    fn park_failed(&mut self, reason: ParkRefusal<S>, now_us: u64) {
+        let (joint, code) = match reason {
+            ParkRefusal::Guard { reading, .. } => {
+                let joint = match reading.subject {
+                    kinematics_core::guards::Subject::Joint(j) => {
+                        Some(usize::from(j).saturating_sub(1))
+                    }
+                    kinematics_core::guards::Subject::Chain(c) => Some(c.index()),
+                    _ => None,
+                };
+                (joint, HomingError::Park { reason: 1 })
+            }
+            ParkRefusal::NoPose { .. } => (None, HomingError::Park { reason: 2 }),
+            ParkRefusal::Invalid => (None, HomingError::Park { reason: 3 }),
+            ParkRefusal::NotSettled { joint, .. } => (Some(joint), HomingError::Park { reason: 4 }),
+        };
+        let f = Finding {
+            cause: FaultCause::HomingFailed,
+            joint,
+            value: code.code(),
+        };
+        self.fault(f, now_us);
+    }
+
+    /// Every joint referenced: the pose is solved, and the park move starts (its path is
+    /// checked against the guards first), or, without a park position, the homing is done.
+    fn start_park(&mut self, now_us: u64) {
+        if self.sensing.track_pose().is_err() {
+            return self.park_failed(ParkRefusal::NoPose { sample: 0 }, now_us);
+        }
+        let m = *self.sensing.measured();
+        let (Some(park), Some(pose)) = (self.cfg.homing.park, m.pose) else {
+            return self.finish_park(now_us);
+        };
+        let Ok(guards) = kinematics_core::guards::Guards::new(
+            self.robot.clone(),
+            self.cfg.controller.branch,
+            self.cfg.controller.limits,
+        ) else {
+            return self.park_failed(ParkRefusal::Invalid, now_us);
+        };
+        self.parking = Some(ParkMove::new(
+            guards,
+            self.cfg.controller.fk,
+            self.cfg.park,
+            m.q,
+            pose,
+            park,
+        ));
+    }
+
+    /// The park move done: the controller starts at the measured pose (its supervisor
+    /// must accept it), and the homing is done.
+    fn finish_park(&mut self, now_us: u64) {
+        self.parking = None;
+        if self.sensing.track_pose().is_err() {
+            return self.park_failed(ParkRefusal::NoPose { sample: u16::MAX }, now_us);
+        }
+        match Controller::new(
+            self.robot.clone(),
+            self.cfg.controller,
+            self.sensing.measured(),
+        ) {
+            Ok(c) => {
+                self.controller = Some(c);
+                if self.sm.state() == State::Homing {
+                    let _ = self.event(Event::HomingDone, now_us);
+                }
+            }
+            Err(_) => self.fault(
+                Finding {
+                    cause: FaultCause::HomingFailed,
+                    joint: None,
+                    value: HomingError::Park { reason: 5 }.code(),
+                },
+                now_us,
+            ),
+        }
+    }
+
+    /// One tick of the park move: the path check (holding), then the profile under the
+    /// homing's servo; the duties.
+    fn park(&mut self, now_us: u64) -> [S; NUM_JOINTS] {
+        let q = self.sensing.measured().q;
+        let Some(step) = self.parking.as_mut().map(|p| p.step(&q, now_us)) else {
+            return [S::zero(); NUM_JOINTS];
+        };
+        let out = match step {
+            ParkStep::Checking { .. } | ParkStep::Arrived => self.homing.hold(&q, now_us),
+            ParkStep::Move { q: sp, qdot } => self.homing.track(&sp, &qdot, &q, now_us),
+            ParkStep::Refused(r) => {
+                self.park_failed(r, now_us);
+                return [S::zero(); NUM_JOINTS];
+            }
+        };
+        if let Some(f) = out.fault {
+            let finding = match f.joint {
+                Some(j) => Finding::joint(FaultCause::FollowingError, j, f.error),
+                None => Finding::board(FaultCause::FollowingError, f.error),
+            };
+            self.fault(finding, now_us);
+            return [S::zero(); NUM_JOINTS];
+        }
+        if step == ParkStep::Arrived {
+            self.finish_park(now_us);
+        }
+        out.duty
+    }
+
+    /// One tick of an enable: the brake check, then the release under servo.
+    fn enabling_tick(
+        &mut self,
+        now_us: u64,
+        duty: &mut [S; NUM_JOINTS],
+        brakes_released: &mut bool,
+    ) -> Option<TickReport<S>> {
+        let q = self.sensing.measured().q;
+        let step = self.enabling.as_mut()?.step(&q, now_us);
+        match step {
+            EnableStep::Push(d) => {
+                *duty = d;
+                *brakes_released = false;
+                None
+            }
+            EnableStep::Failed { joint, motion } => {
+                self.fault(
+                    Finding::joint(FaultCause::BrakeCheck, joint, motion),
+                    now_us,
+                );
+                None
+            }
+            EnableStep::Hold | EnableStep::Released => {
+                let ctl = self.controller.as_mut()?;
+                let report = ctl.tick(self.sensing.measured());
+                *duty = report.servo.duty;
+                self.control_faults(&report, now_us);
+                if step == EnableStep::Released && self.sm.state() == State::Enabling {
+                    self.enabling = None;
+                    let _ = self.event(Event::EnableDone, now_us);
+                }
+                Some(report)
             }
         }
-        self.was_holding = holding;
-        let Some(ctl) = self.controller.as_mut() else {
-            let _ = self.event(Event::Fault(Faults::INTERNAL), now_us);
-            return None;
-        };
-        let report = ctl.tick(self.sensing.measured(), hw);
-        let fk_failures_in_row = self.sensing.counters().fk_failures_in_row;
-        if report.servo.fault.is_some() {
-            let _ = self.event(Event::TrackingFault, now_us);
+    }
+
+    /// The faults the controller's tick reports: the servo's, the supervisor's stop.
+    fn control_faults(&mut self, report: &TickReport<S>, now_us: u64) {
+        if let Some(f) = report.servo.fault {
+            let cause = match f.kind {
+                servo::tracking::FaultKind::FollowingError => FaultCause::FollowingError,
+                servo::tracking::FaultKind::NoMotion => FaultCause::NoMotion,
+                servo::tracking::FaultKind::NonFiniteInput
+                | servo::tracking::FaultKind::InvalidTimeStep => FaultCause::NonFiniteInput,
+            };
+            let finding = match f.joint {
+                Some(j) => Finding::joint(cause, j, f.error),
+                None => Finding::board(cause, f.error),
+            };
+            if self.fault.cause != cause {
+                self.fault(finding, now_us);
+            }
         } else if let Some(stop) = report.stop {
-            let _ = self.event(Event::Fault(wire::guard_fault(stop.guard)), now_us);
-        } else if fk_failures_in_row >= self.cfg.fk_failures_to_fault {
-            let _ = self.event(Event::Fault(Faults::FORWARD_KINEMATICS), now_us);
+            let cause = match wire::guard_fault(stop.guard) {
+                f if f == master_link::Faults::SINGULARITY => FaultCause::Singularity,
+                _ => FaultCause::GuardStop,
+            };
+            if self.sm.state() != State::Fault {
+                let joint = match stop.subject {
+                    kinematics_core::guards::Subject::Joint(j) => {
+                        Some(usize::from(j).saturating_sub(1))
+                    }
+                    kinematics_core::guards::Subject::Chain(c) => Some(c.index()),
+                    _ => None,
+                };
+                let finding = Finding {
+                    cause,
+                    joint,
+                    value: wire::to_f32(stop.value),
+                };
+                self.fault(finding, now_us);
+            }
         }
-        Some(report)
     }
 
     fn update_warnings(&mut self, now_us: u64) {
@@ -395,12 +997,17 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             Warnings::HEARTBEAT_LATE,
             self.sm.state() == State::Enabled && self.heartbeat.is_late(now_us),
         );
+        w.set(
+            Warnings::VELOCITY_LIMITED,
+            self.current.limited().iter().any(|x| *x),
+        );
     }
 
-    /// Records the control tick's worst start jitter and execution time (µs), measured by
-    /// the board (DWT cycle counter), for the status report.
-    pub fn set_tick_timing(&mut self, worst_jitter_us: u32, worst_exec_us: u32) {
+    /// Records the control tick's worst start jitter and execution time (µs) and the
+    /// missed periods, measured by the board, for the status report.
+    pub fn set_tick_timing(&mut self, worst_jitter_us: u32, worst_exec_us: u32, missed: u32) {
         self.tick_timing = (worst_jitter_us, worst_exec_us);
+        self.missed_ticks = missed;
     }
 
     /// Sets or clears extra warnings (e.g. `CYCLE_OVERRUN` from the board).
@@ -409,50 +1016,117 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
     }
 
     /// The status report of the last tick: the measured pose and joints (NaN until
-    /// homed), the singularity margins the supervisor measured near its setpoint (NaN
-    /// while it does not run) with their warnings, faults, warnings and timing. The link
-    /// counters are added as it goes out ([`crate::telemetry::with_link`]).
+    /// homed), the setpoint and the guard margins at it (NaN while the supervisor does not
+    /// run), the stop in force, the latched fault with its cause, joint and value, the
+    /// reset, the currents and the supply, warnings and timing. The link counters are
+    /// added as it goes out ([`crate::telemetry::with_link`]).
     pub fn status(&self) -> StatusReport {
         let m = self.sensing.measured();
         let nan3 = [f32::NAN; 3];
         let (position_m, rotation_vector_rad) =
             m.pose.map_or((nan3, nan3), |p| wire::pose_to_wire(&p));
-        let mut joints = [0f32; NUM_JOINTS];
-        for (o, q) in joints.iter_mut().zip(m.q.iter()) {
-            *o = wire::to_f32(*q);
-        }
+        let f32s = |a: &[S; NUM_JOINTS]| a.map(wire::to_f32);
         let mut warnings = self.warnings;
-        let (mut serial, mut parallel) = (f32::NAN, f32::NAN);
+        let nan = f32::NAN;
+        let mut margins = GuardMargins {
+            nearest: nan,
+            serial: nan,
+            parallel: nan,
+            stroke: nan,
+            tilt: nan,
+            collision: nan,
+            workspace: nan,
+        };
+        let (mut setpoint_p, mut setpoint_r) = (nan3, nan3);
         let mut refused = 0;
         if let Some(c) = self.controller.as_ref() {
             let sup = c.supervisor();
-            let (margins, limits) = (sup.margins(), sup.guards().limits());
-            serial = wire::to_f32(margins.serial);
-            parallel = wire::to_f32(margins.parallel);
+            let (sing, limits) = (sup.margins(), sup.guards().limits());
+            let k = sup.setpoint_margins();
+            let parallel =
+                (sing.parallel - limits.parallel.stop) / (S::one() - limits.parallel.stop);
+            margins = GuardMargins {
+                nearest: nan,
+                serial: wire::to_f32(k.serial),
+                parallel: wire::to_f32(parallel),
+                stroke: wire::to_f32(Float::min(k.stroke, k.link_angle)),
+                tilt: wire::to_f32(k.tilt),
+                collision: wire::to_f32(k.collision),
+                workspace: wire::to_f32(k.workspace),
+            };
+            margins.nearest = [
+                margins.serial,
+                margins.parallel,
+                margins.stroke,
+                margins.tilt,
+                margins.collision,
+                margins.workspace,
+            ]
+            .iter()
+            .fold(
+                f32::INFINITY,
+                |a, x| if *x < a || x.is_nan() { *x } else { a },
+            );
             warnings.set(
                 Warnings::NEAR_SERIAL_SINGULARITY,
-                margins.serial < limits.serial.warn,
+                sing.serial < limits.serial.warn,
             );
             warnings.set(
                 Warnings::NEAR_PARALLEL_SINGULARITY,
-                margins.parallel < limits.parallel.warn,
+                sing.parallel < limits.parallel.warn,
             );
+            warnings.set(
+                Warnings::NEAR_JOINT_LIMIT,
+                Float::min(k.stroke, k.link_angle) < lit(0.1),
+            );
+            (setpoint_p, setpoint_r) = wire::pose_to_wire(sup.setpoint());
             refused = sup.counters().refused();
         }
+        let legacy = |x: f32| x;
         StatusReport {
             state: self.sm.state(),
             position_m,
             rotation_vector_rad,
-            joints,
+            joints: f32s(&m.q),
             warnings,
             faults: self.sm.faults(),
-            serial_singularity_margin: serial,
-            parallel_singularity_margin: parallel,
+            serial_singularity_margin: legacy(
+                self.controller
+                    .as_ref()
+                    .map_or(nan, |c| wire::to_f32(c.supervisor().margins().serial)),
+            ),
+            parallel_singularity_margin: legacy(
+                self.controller
+                    .as_ref()
+                    .map_or(nan, |c| wire::to_f32(c.supervisor().margins().parallel)),
+            ),
             link: Default::default(),
             tick_jitter_max_us: self.tick_timing.0,
             tick_exec_max_us: self.tick_timing.1,
             targets_refused: refused,
+            stop: self.stopper.status(),
+            fault: self.fault,
+            reset: self.reset,
+            setpoint_position_m: setpoint_p,
+            setpoint_rotation_vector_rad: setpoint_r,
+            margins,
+            currents_a: f32s(&self.inputs.currents),
+            supply_v: wire::to_f32(self.inputs.supply_v),
+            fault_log_len: u16::try_from(self.log.len()).unwrap_or(u16::MAX),
+            missed_ticks: self.missed_ticks,
         }
+    }
+
+    /// The stop in force (for tests and logs).
+    pub fn stop_phase(&self) -> StopPhase {
+        self.stopper.phase()
+    }
+
+    /// The joints the drives hold or aim at (the controller's setpoint), if any.
+    pub fn setpoint_joints(&self) -> Option<[S; NUM_JOINTS]> {
+        self.controller
+            .as_ref()
+            .map(|c| to_array(c.supervisor().setpoint_joints()))
     }
 }
 
@@ -466,28 +1140,60 @@ fn jog_reason(e: JogError) -> NackReason {
 /// How far ahead of the setpoint a Jog aims at most, s: the dead-man time of a jog stream.
 pub const JOG_HORIZON_S: f64 = 0.1;
 
-/// The default configuration of `robot` assembled on `branch`: [`reference_config`] with
-/// the robot's central configuration (its inverse kinematics at the central pose).
-pub fn reference_config_for<S: Scalar, M: Mechanism<S>>(
-    robot: &M,
-    branch: kinematics_core::Branch,
-) -> Result<RuntimeConfig<S>, kinematics_core::IkError> {
-    let central =
-        kinematics_core::inverse(robot, &kinematics_core::Pose::central(robot.hc()), branch)?;
-    let mut cfg = reference_config(crate::drive::to_array(&central.q()));
-    cfg.controller.branch = branch;
-    Ok(cfg)
+/// The reference robot's mechanics, placed around the guards' ranges `limits` (the
+/// supervisor keeps every setpoint inside them; thesis chapter 11): the legs' home
+/// switches 1 mm below the shortest stroke (143 mm for 144 .. 210 mm), the links' hard
+/// stops 5 deg beyond their largest angle below the central angles (85 deg for ±80 deg); a
+/// measured joint more than 2 mm or 3 deg beyond a guard range is a fault (the servo's
+/// following error and the backlash stay well inside), which puts the switch and the stop
+/// just outside the working range and inside the monitored one only while homing.
+pub fn reference_mechanics<S: Scalar>(
+    central: &[S; NUM_JOINTS],
+    limits: &kinematics_core::guards::Limits<S>,
+) -> Mechanics<S> {
+    let deg = |d: f64| lit::<S>(d.to_radians());
+    let at = |j: usize| central.get(j).copied().unwrap_or_else(S::zero);
+    let [short, long] = limits.stroke;
+    let leg = [short - lit(0.002), long + lit(0.002)];
+    let reach = limits.link_angle_max + deg(3.0);
+    let link = |j: usize| [at(j) - reach, at(j) + reach];
+    Mechanics {
+        leg_switch_m: short - lit(0.001),
+        link_stop_below_central_rad: limits.link_angle_max + deg(5.0),
+        range: [leg, leg, leg, link(3), link(4), link(5)],
+    }
 }
 
-/// A default configuration for the reference robot: homing placeholders parking at the
-/// central configuration `central_q`.
-pub fn reference_config<S: Scalar>(central_q: [S; NUM_JOINTS]) -> RuntimeConfig<S> {
-    let [_, _, _, t1, t2, t3] = central_q;
-    RuntimeConfig {
-        controller: ControllerConfig::default(),
-        homing: HomingConfig::reference([t1, t2, t3], Some(central_q)),
+/// The default configuration of `robot` assembled on `branch` with the mechanics `mech`,
+/// resting at `rest` before homing (None: at its central configuration, where it parks):
+/// homing to the mechanics' switches and stops, parking at the central configuration.
+pub fn reference_config_for<S: Scalar, M: Mechanism<S>>(
+    robot: &M,
+    branch: Branch,
+    mech: Option<Mechanics<S>>,
+    rest: Option<[S; NUM_JOINTS]>,
+) -> Result<RuntimeConfig<S>, kinematics_core::IkError> {
+    let central = kinematics_core::inverse(robot, &Pose::central(robot.hc()), branch)?;
+    let central_q = to_array(&central.q());
+    let controller = ControllerConfig {
+        branch,
+        ..ControllerConfig::default()
+    };
+    let mech = mech.unwrap_or_else(|| reference_mechanics(&central_q, &controller.limits));
+    let rest = rest.unwrap_or(central_q);
+    Ok(RuntimeConfig {
+        encoder_check: EncoderCheckConfig::reference(controller.encoders.counts_per_unit),
+        controller,
+        homing: HomingConfig::for_mechanics(&mech, &central_q, &rest, Some(central_q)),
+        mechanics: mech,
         heartbeat: HeartbeatConfig::default(),
         targets: TargetClockConfig::default(),
         fk_failures_to_fault: 10,
-    }
+        stops: StopConfig::default(),
+        brakes: BrakeCheckConfig::default(),
+        current: CurrentConfig::default(),
+        power: PowerConfig::default(),
+        relay_debounce_ticks: 20,
+        park: ParkConfig::default(),
+    })
 }

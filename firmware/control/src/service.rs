@@ -1,18 +1,26 @@
-//! The tick service every board target runs around the [`Runtime`]: the e-stop latch and
-//! input level, the master's queued requests and their replies, the runtime's tick, the
-//! tick's timing (jitter, execution time, missed periods), the watchdog's decision and
-//! the status the telemetry sends. The targets supply the clock, the cycle counter, the
-//! hardware and the queues (`firmware/cortex-m/board-tasks`); this is the logic, tested on
-//! the host.
+//! The tick service every board target runs around the [`Runtime`]: the e-stop latch of
+//! the interrupt, the master's queued requests and their replies, the runtime's tick, the
+//! tick's timing (jitter, execution time, missed periods), the deadline policy and the
+//! watchdog's decision, and the status the telemetry sends. The targets supply the clock,
+//! the cycle counter, the hardware and the queues (`firmware/cortex-m/board-tasks`); this
+//! is the logic, tested on the host.
+//!
+//! **Deadline policy.** A tick that starts more than `max_lateness_us` after its period
+//! (missed periods included: they are skipped, not run back to back), or the third tick
+//! within `overrun_window` ticks that runs longer than `max_execution_us`, is a missed
+//! deadline: the fault `DeadlineMissed` is latched (its stop: STO with brakes) and the
+//! watchdog is no longer fed, so that it resets the board (the fault log survives the
+//! reset; the board then waits for the master to acknowledge it).
 
-use hal::{CurrentSense, LimitSwitches, MotorOutputs, QuadratureCounter};
+use hal::Hardware;
 use kinematics_core::Mechanism;
-use master_link::{BoardToMaster, StatusReport, Warnings};
+use master_link::{BoardToMaster, FirmwareVersion, StatusReport, Warnings};
 
 use crate::controller::Scalar;
 use crate::link::Request;
+use crate::monitors::Finding;
 use crate::runtime::{Runtime, RuntimeTick};
-use crate::state_machine::{Event, State};
+use crate::state_machine::State;
 use crate::watchdog::{TickTiming, WatchdogConfig, WatchdogPolicy};
 
 /// The tick service's settings.
@@ -25,12 +33,19 @@ pub struct ServiceConfig {
     /// Execution time above which the status warns `CYCLE_OVERRUN`, µs (default 80 % of
     /// the period).
     pub exec_warn_us: u32,
+    /// Overruns of `watchdog.max_execution_us` within `overrun_window` ticks that are a
+    /// missed deadline (default 3).
+    pub overruns_to_fault: u32,
+    /// The window of the overrun count, ticks (default 100).
+    pub overrun_window: u32,
+    /// The firmware version sent in `HelloReply`.
+    pub firmware: FirmwareVersion,
 }
 
 impl ServiceConfig {
-    /// A control period of `period_us` on a core at `cpu_hz`: the default watchdog
-    /// policy for that period, the overrun warning at 80 % of it.
-    pub fn for_period(period_us: u32, cpu_hz: u32) -> Self {
+    /// A control period of `period_us` on a core at `cpu_hz`: late by a quarter period is
+    /// a missed deadline, a tick may run 80 % of the period.
+    pub fn for_period(period_us: u32, cpu_hz: u32, firmware: FirmwareVersion) -> Self {
         let watchdog = WatchdogConfig {
             period_us,
             max_lateness_us: period_us / 4,
@@ -40,6 +55,9 @@ impl ServiceConfig {
             cpu_hz,
             watchdog,
             exec_warn_us: watchdog.max_execution_us,
+            overruns_to_fault: 3,
+            overrun_window: 100,
+            firmware,
         }
     }
 }
@@ -57,6 +75,8 @@ pub struct TickOutcome {
     pub status: StatusReport,
     /// This tick's execution time, µs.
     pub exec_us: u32,
+    /// The fault log has new entries since the last tick (persist it).
+    pub log_changed: bool,
 }
 
 /// How the board's status LED shows the state: solid in `Fault`, fast blink while the
@@ -74,7 +94,7 @@ impl Indicator {
     pub const fn of(state: State) -> Self {
         match state {
             State::Fault => Indicator::Solid,
-            State::Enabled | State::Homing => Indicator::Blink(100),
+            State::Enabled | State::Enabling | State::Homing => Indicator::Blink(100),
             _ => Indicator::Blink(500),
         }
     }
@@ -90,6 +110,12 @@ pub struct TickService<S: Scalar, M: Mechanism<S> + Clone> {
     last_start_us: Option<u64>,
     tick_start_state: State,
     missed_periods: u64,
+    /// Ticks since the start of the overrun window, and the overruns in it.
+    window: (u32, u32),
+    /// A deadline was missed: the watchdog is starved from then on.
+    starved: bool,
+    log_total: u32,
+    log_len: usize,
 }
 
 impl<S: Scalar, M: Mechanism<S> + Clone> TickService<S, M> {
@@ -97,18 +123,26 @@ impl<S: Scalar, M: Mechanism<S> + Clone> TickService<S, M> {
     pub fn new(runtime: Runtime<S, M>, cfg: ServiceConfig) -> Self {
         TickService {
             tick_start_state: runtime.state(),
+            log_total: runtime.fault_log().total(),
+            log_len: runtime.fault_log().len(),
             runtime,
             cfg,
             watchdog: WatchdogPolicy::new(cfg.watchdog),
             timing: TickTiming::default(),
             last_start_us: None,
             missed_periods: 0,
+            window: (0, 0),
+            starved: false,
         }
     }
 
     /// The runtime.
     pub fn runtime(&self) -> &Runtime<S, M> {
         &self.runtime
+    }
+    /// The runtime, to inject what the board detects outside the tick (tests too).
+    pub fn runtime_mut(&mut self) -> &mut Runtime<S, M> {
+        &mut self.runtime
     }
     /// The tick timing so far.
     pub fn timing(&self) -> &TickTiming {
@@ -122,67 +156,98 @@ impl<S: Scalar, M: Mechanism<S> + Clone> TickService<S, M> {
     pub fn missed_periods(&self) -> u64 {
         self.missed_periods
     }
+    /// A deadline was missed: the watchdog is starved.
+    pub fn starved(&self) -> bool {
+        self.starved
+    }
     /// The settings.
     pub fn config(&self) -> &ServiceConfig {
         &self.cfg
     }
 
     /// Start of a tick at `now_us`, `missed` control periods after the one scheduled
-    /// before it (the scheduler does not run missed periods back to back): the e-stop
-    /// latched by the interrupt since the last tick and the e-stop input's level.
-    pub fn begin(&mut self, now_us: u64, missed: u64, estop_tripped: bool, estop_asserted: bool) {
+    /// before it (the scheduler does not run missed periods back to back); whether the
+    /// e-stop interrupt tripped its latch since the last tick.
+    pub fn begin(&mut self, now_us: u64, missed: u64, estop_tripped: bool) {
         self.tick_start_state = self.runtime.state();
         self.missed_periods = self.missed_periods.saturating_add(missed);
         let period = u64::from(self.cfg.watchdog.period_us);
-        let jitter = match self.last_start_us {
-            Some(prev) => now_us
-                .saturating_sub(prev)
-                .abs_diff(period.saturating_mul(missed + 1)),
-            None => 0,
+        let (jitter, late) = match self.last_start_us {
+            Some(prev) => {
+                let interval = now_us.saturating_sub(prev);
+                (
+                    interval.abs_diff(period.saturating_mul(missed + 1)),
+                    interval.saturating_sub(period),
+                )
+            }
+            None => (0, 0),
         };
         self.last_start_us = Some(now_us);
         self.timing.last_jitter_us = u32::try_from(jitter).unwrap_or(u32::MAX);
         if estop_tripped {
-            let _ = self.runtime.event(Event::EmergencyStop, now_us);
+            let f = Finding::board::<S>(master_link::FaultCause::EmergencyStopButton, S::one());
+            self.runtime.fault(f, now_us);
         }
-        self.runtime.set_estop_input(estop_asserted, now_us);
+        if late > u64::from(self.cfg.watchdog.max_lateness_us) {
+            self.missed_deadline(late, now_us);
+        }
+    }
+
+    fn missed_deadline(&mut self, late_us: u64, now_us: u64) {
+        self.runtime.deadline_missed(late_us, now_us);
+        self.starved = true;
     }
 
     /// One queued master request: its reply.
     pub fn request(&mut self, req: &Request, now_us: u64) -> BoardToMaster {
         let result = self.runtime.command(&req.command, now_us);
-        req.reply(result, &self.runtime.status())
+        req.reply(result, &self.runtime.status(), self.cfg.firmware)
     }
 
     /// The runtime's tick.
-    pub fn tick<H>(&mut self, hw: &mut H, now_us: u64) -> RuntimeTick<S>
-    where
-        H: QuadratureCounter + MotorOutputs<S> + LimitSwitches + CurrentSense<S>,
-    {
+    pub fn tick<H: Hardware<S>>(&mut self, hw: &mut H, now_us: u64) -> RuntimeTick<S> {
         self.runtime.tick(hw, now_us)
     }
 
     /// End of the tick that began at `start_us` and ran `cycles` core cycles: the timing,
-    /// the `CYCLE_OVERRUN` warning, the watchdog's decision and the status.
+    /// the `CYCLE_OVERRUN` warning, the deadline policy, the watchdog's decision and the
+    /// status.
     pub fn finish(&mut self, start_us: u64, cycles: u32) -> TickOutcome {
         let jitter = self.timing.last_jitter_us;
         self.timing.record(jitter, cycles);
         let exec_us = TickTiming::cycles_to_us(cycles, self.cfg.cpu_hz);
+        // Overruns within the window.
+        self.window.0 += 1;
+        if exec_us > self.cfg.watchdog.max_execution_us {
+            self.window.1 += 1;
+        }
+        if self.window.1 >= self.cfg.overruns_to_fault {
+            self.missed_deadline(u64::from(exec_us), start_us);
+            self.window = (0, 0);
+        } else if self.window.0 >= self.cfg.overrun_window {
+            self.window = (0, 0);
+        }
         self.runtime
             .set_warning(Warnings::CYCLE_OVERRUN, exec_us > self.cfg.exec_warn_us);
         self.runtime.set_tick_timing(
             self.timing.worst_jitter_us,
             TickTiming::cycles_to_us(self.timing.worst_cycles, self.cfg.cpu_hz),
+            u32::try_from(self.missed_periods).unwrap_or(u32::MAX),
         );
-        let feed_watchdog = self.watchdog.on_tick(start_us, exec_us).feed();
+        let feed_watchdog = self.watchdog.on_tick(start_us, exec_us).feed() && !self.starved;
         let state = self.runtime.state();
         let from = self.tick_start_state;
+        let log = self.runtime.fault_log();
+        let log_changed = log.total() != self.log_total || log.len() != self.log_len;
+        self.log_total = log.total();
+        self.log_len = log.len();
         TickOutcome {
             feed_watchdog,
             state_change: (from != state).then_some((from, state)),
             state,
             status: self.runtime.status(),
             exec_us,
+            log_changed,
         }
     }
 }

@@ -4,6 +4,7 @@
 
 use common::PlantHw;
 use control::{Controller, ControllerConfig, Sensing};
+use hal::{Brakes, MotorOutputs};
 use kinematics_core::{inverse, Branch, Pose, RsprGeometry};
 use nalgebra::{Rotation3, Vector3};
 
@@ -37,8 +38,10 @@ fn follows_a_target_in_closed_loop() {
     let mut worst_following: f64 = 0.0;
     for _ in 0..2500 {
         // Drives on at every tick (a fault disables them within the tick).
-        hw.enabled = true;
-        let r = ctl.tick(sensing.update(&mut hw), &mut hw);
+        hw.enable();
+        hw.set_brakes_released(true);
+        let r = ctl.tick(sensing.update(&mut hw));
+        r.apply(&mut hw);
         assert!(r.servo.fault.is_none(), "{:?}", r.servo.fault);
         hw.step_ms();
         let q = hw.plant.joint_positions();
@@ -79,8 +82,10 @@ fn stuck_encoder_trips_the_tracking_fault() {
     let mut tripped_at = None;
     for k in 0..2000 {
         // Drives on at every tick (a fault disables them within the tick).
-        hw.enabled = true;
-        let r = ctl.tick(sensing.update(&mut hw), &mut hw);
+        hw.enable();
+        hw.set_brakes_released(true);
+        let r = ctl.tick(sensing.update(&mut hw));
+        r.apply(&mut hw);
         if r.servo.fault.is_some() && tripped_at.is_none() {
             tripped_at = Some(k);
         }

@@ -4,19 +4,23 @@
     clippy::indexing_slicing,
     clippy::needless_range_loop
 )]
-//! The fail-safe rules: heartbeat hold then disable at the configured times, the
-//! emergency stop from every state (interrupt path and input level), any fault forcing the
-//! outputs off, and the watchdog feeding policy.
+//! The fail-safe rules: the heartbeat's hold (SS2) then its fault (SS1); the emergency
+//! stop through both channels (the hard-wired relay, the interrupt) from every state; the
+//! safety relay's feedback; a tracking fault's STO with brakes; outputs off once a stop is
+//! complete; the deadline policy and the watchdog; the fault log across a reset.
 
-use control::estop::{emergency_stop_isr, outputs_allowed, EStopLatch};
+use control::estop::{emergency_stop_isr, EStopLatch};
+use control::faults::{FaultLog, Persisted};
 use control::heartbeat::{HeartbeatConfig, HeartbeatLevel, HeartbeatMonitor};
 use control::link::Command;
+use control::monitors::Finding;
 use control::runtime::Runtime;
+use control::service::{ServiceConfig, TickService};
 use control::state_machine::{Event, State};
 use control::watchdog::{FeedDecision, TickTiming, WatchdogConfig, WatchdogPolicy};
 use hal::{QuadratureCounter, SafeOutputs};
 use kinematics_core::{Pose, RsprGeometry};
-use master_link::{Faults, NackReason, Warnings};
+use master_link::{FaultCause, Faults, NackReason, ResetCause, StopStatus, Warnings};
 
 mod common;
 use common::PlantHw;
@@ -27,13 +31,23 @@ use common::PlantHw;
 
 type Rt = Runtime<f64, RsprGeometry<f64>>;
 
-/// Heartbeat times of these tests: hold after 30 ms, disable after 120 ms.
+/// Heartbeat times of these tests: hold after 30 ms, fault after 120 ms.
 const HB: HeartbeatConfig = HeartbeatConfig {
     hold_after_us: 30_000,
     disable_after_us: 120_000,
 };
 
-/// A runtime and plant in each state: Boot, Disabled, Homing, Ready, Enabled, Fault.
+fn tick(rt: &mut Rt, hw: &mut PlantHw, t: &mut u64, beat: bool) {
+    *t += 1000;
+    if beat {
+        rt.command(&Command::Heartbeat, *t).unwrap();
+    }
+    rt.tick(hw, *t);
+    hw.step_ms();
+}
+
+/// A runtime and plant in each state: Boot, Disabled, Homing, Ready (its stop done),
+/// Enabling, Enabled, Fault.
 fn snapshots() -> Vec<(State, Rt, PlantHw, u64)> {
     let g = RsprGeometry::<f64>::reference();
     // The plant with home switches on the legs and hard stops on the links.
@@ -42,40 +56,41 @@ fn snapshots() -> Vec<(State, Rt, PlantHw, u64)> {
     let mut rt = Rt::new(g, cfg, 0).unwrap();
     let mut out = vec![(State::Boot, rt.clone(), hw.clone(), 0)];
     let mut t = 0;
-    rt.boot_done(hw.counts(), t).unwrap();
+    rt.boot_done(hw.counts(), t, ResetCause::PowerOn, None)
+        .unwrap();
     out.push((State::Disabled, rt.clone(), hw.clone(), t));
-    rt.command(&Command::Home, t).unwrap();
+    rt.command(&Command::Home { rehome: false }, t).unwrap();
     for _ in 0..50 {
-        t += 1000;
-        rt.command(&Command::Heartbeat, t).unwrap();
-        rt.tick(&mut hw, t);
-        hw.step_ms();
+        tick(&mut rt, &mut hw, &mut t, true);
     }
     assert_eq!(rt.state(), State::Homing);
     out.push((State::Homing, rt.clone(), hw.clone(), t));
     while rt.state() == State::Homing {
-        t += 1000;
-        rt.command(&Command::Heartbeat, t).unwrap();
-        rt.tick(&mut hw, t);
-        hw.step_ms();
+        tick(&mut rt, &mut hw, &mut t, true);
         assert!(t < 60_000_000);
     }
     assert_eq!(rt.state(), State::Ready);
+    for _ in 0..100 {
+        tick(&mut rt, &mut hw, &mut t, true);
+    }
     out.push((State::Ready, rt.clone(), hw.clone(), t));
     rt.command(&Command::Enable, t).unwrap();
-    t += 1000;
-    rt.command(&Command::Heartbeat, t).unwrap();
-    rt.tick(&mut hw, t);
-    hw.step_ms();
-    assert_eq!(rt.state(), State::Enabled);
+    tick(&mut rt, &mut hw, &mut t, true);
+    assert_eq!(rt.state(), State::Enabling);
+    out.push((State::Enabling, rt.clone(), hw.clone(), t));
+    while rt.state() == State::Enabling {
+        tick(&mut rt, &mut hw, &mut t, true);
+        assert!(t < 70_000_000);
+    }
+    assert_eq!(rt.state(), State::Enabled, "{:?}", rt.status().fault);
     out.push((State::Enabled, rt.clone(), hw.clone(), t));
-    rt.event(Event::Fault(Faults::OVERCURRENT), t).unwrap();
+    rt.fault(Finding::joint(FaultCause::Overcurrent, 2, 9.0f64), t);
     out.push((State::Fault, rt, hw, t));
     out
 }
 
 fn enabled() -> (Rt, PlantHw, u64) {
-    let (_, rt, hw, t) = snapshots().remove(4);
+    let (_, rt, hw, t) = snapshots().remove(5);
     assert_eq!(rt.state(), State::Enabled);
     (rt, hw, t)
 }
@@ -99,18 +114,24 @@ fn heartbeat_monitor_escalates_once_at_the_configured_times() {
     assert_eq!(m.poll(1_000 + 31_000), None, "once");
     assert_eq!(m.level(), HeartbeatLevel::Late);
     assert_eq!(m.poll(1_000 + 119_999), None);
-    assert_eq!(m.poll(1_000 + 120_000), Some(Event::HeartbeatLostLong));
+    let lost = Some(Event::Fault(FaultCause::HeartbeatTimeout));
+    assert_eq!(m.poll(1_000 + 120_000), lost);
     assert_eq!(m.poll(1_000 + 500_000), None, "once");
     assert_eq!(m.beat(700_000), Some(Event::HeartbeatRestored));
     assert_eq!(m.beat(701_000), None);
     assert_eq!(m.level(), HeartbeatLevel::Alive);
-    // A silence seen only after the disable time jumps straight to the disable.
-    assert_eq!(m.poll(701_000 + 200_000), Some(Event::HeartbeatLostLong));
+    // A silence seen only after the fault time jumps straight to the fault.
+    assert_eq!(m.poll(701_000 + 200_000), lost);
     assert_eq!((m.holds(), m.losses(), m.beats()), (1, 2, 2));
 }
 
+/// Property: a silent master makes a moving robot hold (SS2) at the hold time, refusing
+/// targets, and at the fault time the fault `HeartbeatTimeout` stops it as SS1: the
+/// brakes applied while the drives still hold, torque off once they have engaged; the
+/// robot stays within 0.5 mm of where the hold stopped it, short of the target, and the
+/// homing is kept.
 #[test]
-fn heartbeat_loss_holds_then_disables_the_robot() {
+fn heartbeat_loss_holds_then_stops_with_brakes() {
     let (mut rt, mut hw, mut t) = enabled();
     let last_beat = t;
     let target = Pose {
@@ -128,18 +149,17 @@ fn heartbeat_loss_holds_then_disables_the_robot() {
     )
     .unwrap();
     let mut held_at = None;
-    let mut disabled_at = None;
+    let mut faulted_at = None;
+    let mut braked_at = None;
+    let mut off_at = None;
     let mut z_at_hold = 0.0;
-    while t - last_beat < 200_000 {
-        t += 1000;
-        rt.tick(&mut hw, t);
-        hw.step_ms();
-        let m = rt.machine();
-        if held_at.is_none() && m.hold().is_some() {
-            held_at = Some(t - last_beat);
-            z_at_hold = rt.measured().pose.unwrap().t.z;
+    while t - last_beat < 250_000 {
+        tick(&mut rt, &mut hw, &mut t, false);
+        let since = t - last_beat;
+        if held_at.is_none() && rt.machine().hold().is_some() {
+            held_at = Some(since);
+            z_at_hold = common::true_pose(&hw).t.z;
             assert!(rt.status().warnings.contains(Warnings::HEARTBEAT_LATE));
-            // Targets are refused while holding.
             let cmd = Command::Target {
                 stamp_us: 2_000,
                 position_m: p,
@@ -147,40 +167,51 @@ fn heartbeat_loss_holds_then_disables_the_robot() {
             };
             assert_eq!(rt.command(&cmd, t), Err(NackReason::InvalidState));
         }
-        if disabled_at.is_none() && rt.state() == State::Ready {
-            disabled_at = Some(t - last_beat);
-            assert!(!hw.enabled, "drives off at the disable");
+        if faulted_at.is_none() && rt.state() == State::Fault {
+            faulted_at = Some(since);
+            assert_eq!(rt.status().fault.cause, FaultCause::HeartbeatTimeout);
+            assert!(hw.enabled, "SS1: the drives hold while the brakes engage");
+        }
+        if braked_at.is_none() && faulted_at.is_some() && !hw.brakes_released {
+            braked_at = Some(since);
+            assert!(hw.enabled);
+        }
+        if off_at.is_none() && braked_at.is_some() && !hw.enabled {
+            off_at = Some(since);
+            assert_eq!(rt.status().stop, StopStatus::SafeStop1Done);
         }
     }
     assert_eq!(held_at, Some(HB.hold_after_us));
-    assert_eq!(disabled_at, Some(HB.disable_after_us));
-    // It was moving up when the hold began, and stopped within a few tenths of a mm.
-    let z_end = rt.measured().pose.unwrap().t.z;
+    assert_eq!(faulted_at, Some(HB.disable_after_us));
+    let (braked, off) = (braked_at.unwrap(), off_at.unwrap());
+    assert!(braked <= HB.disable_after_us + 2_000, "brakes at {braked}");
+    assert_eq!(off - braked, rt.stopper().config().brake_engage_us);
+    let z_end = common::true_pose(&hw).t.z;
     assert!((z_end - z_at_hold).abs() < 0.5e-3, "{z_at_hold} -> {z_end}");
     assert!(z_end < 0.165 - 1e-3, "did not carry on to the target");
     assert!(rt.machine().homed());
-    // Heartbeats again: the master must enable again.
+    // Heartbeats again: clear, then the master enables again.
     rt.command(&Command::Heartbeat, t).unwrap();
+    rt.command(&Command::ClearFault, t).unwrap();
     assert_eq!(rt.state(), State::Ready);
     rt.command(&Command::Enable, t).unwrap();
-    assert_eq!(rt.state(), State::Enabled);
+    assert_eq!(rt.state(), State::Enabling);
 }
 
 #[test]
 fn heartbeat_hold_ends_with_a_heartbeat() {
     let (mut rt, mut hw, mut t) = enabled();
     for _ in 0..40 {
-        t += 1000;
-        rt.tick(&mut hw, t);
-        hw.step_ms();
+        tick(&mut rt, &mut hw, &mut t, false);
     }
     assert!(rt.machine().hold().is_some_and(|h| h.heartbeat));
+    assert_eq!(rt.status().stop, StopStatus::SafeOperatingStop);
     rt.command(&Command::Heartbeat, t).unwrap();
     assert!(rt.machine().following());
-    t += 1000;
-    rt.tick(&mut hw, t);
+    tick(&mut rt, &mut hw, &mut t, true);
     assert_eq!(rt.state(), State::Enabled);
-    assert!(hw.enabled);
+    assert_eq!(rt.status().stop, StopStatus::None);
+    assert!(hw.enabled && hw.brakes_released);
 }
 
 // ---------------------------------------------------------------------------------------
@@ -192,6 +223,7 @@ fn heartbeat_hold_ends_with_a_heartbeat() {
 struct Regs {
     pwm_on: bool,
     driver_enable: bool,
+    brake_coils: bool,
     forced: u32,
 }
 
@@ -199,75 +231,147 @@ impl SafeOutputs for Regs {
     fn force_safe(&mut self) {
         self.pwm_on = false;
         self.driver_enable = false;
+        self.brake_coils = false;
         self.forced += 1;
     }
 }
 
 static LATCH: EStopLatch = EStopLatch::new();
 
+/// Property: from every state, the e-stop interrupt puts the outputs in their safe state
+/// at once (PWM off, driver enable low, brakes applied) and the next tick latches
+/// `EmergencyStopButton` with STO: the drives off and the brakes applied in that tick.
 #[test]
 fn emergency_stop_from_every_state() {
-    for (state, mut rt, mut hw, t) in snapshots() {
-        // The interrupt: outputs off at once, latch tripped.
+    for (state, rt, mut hw, t) in snapshots() {
         let mut regs = Regs {
             pwm_on: true,
             driver_enable: true,
+            brake_coils: true,
             forced: 0,
         };
         let latch = EStopLatch::new();
         emergency_stop_isr(&mut regs, &latch);
-        assert!(!regs.pwm_on && !regs.driver_enable && regs.forced == 1);
+        assert!(!regs.pwm_on && !regs.driver_enable && !regs.brake_coils && regs.forced == 1);
         assert!(latch.is_tripped());
-        // The next control tick takes the latch.
-        assert!(latch.take());
+        let cfg = ServiceConfig::for_period(1000, 168_000_000, control::link::FIRMWARE_VERSION);
+        let mut svc = TickService::new(rt, cfg);
+        svc.begin(t + 1000, 0, latch.take());
         assert!(!latch.take(), "taken once");
-        let tr = rt.event(Event::EmergencyStop, t).unwrap();
-        assert_eq!(tr.to, State::Fault, "from {state:?}");
-        rt.tick(&mut hw, t + 1000);
-        assert!(!hw.enabled && hw.plant.duty() == [0.0; 6], "from {state:?}");
+        svc.tick(&mut hw, t + 1000);
+        let rt = svc.runtime();
+        assert_eq!(rt.state(), State::Fault, "from {state:?}");
+        assert!(!hw.enabled && !hw.brakes_released, "from {state:?}");
         assert!(rt.machine().faults().contains(Faults::EMERGENCY_STOP));
-        assert_eq!(rt.status().state, master_link::RobotState::Fault);
-        assert!(!outputs_allowed(rt.machine()));
+        let st = rt.status();
+        assert_eq!(st.stop, StopStatus::SafeTorqueOff, "from {state:?}");
+        // The status reports the first fault since the last clear; the log has them all.
+        if state != State::Fault {
+            assert_eq!(st.fault.cause, FaultCause::EmergencyStopButton);
+        }
+        let newest = rt.fault_log().newest().unwrap();
+        assert_eq!(newest.record.cause, FaultCause::EmergencyStopButton);
+        assert_eq!(newest.stop, StopStatus::SafeTorqueOff);
         // The message path too.
         let mut rt2 = rt.clone();
-        assert_eq!(rt2.command(&Command::EmergencyStop, t), Ok(()));
+        assert_eq!(
+            rt2.command(&Command::EmergencyStop, t),
+            Ok(control::link::Answer::Ack)
+        );
         assert_eq!(rt2.state(), State::Fault);
     }
-    // The static latch of the board.
     LATCH.trip();
     LATCH.trip();
     assert!(LATCH.take());
     assert_eq!(LATCH.count(), 2);
 }
 
+/// Property: the button's hard-wired channel stops the robot without the MCU (the relay
+/// removes the drivers' power and the brakes' coil power while no tick runs); the MCU
+/// latches `EmergencyStopButton`, refuses to clear while the button is pressed, and once it
+/// is released clears to Ready (the homing is kept) and enables again.
 #[test]
-fn emergency_stop_input_blocks_clearing_until_released() {
+fn the_hard_wired_estop_stops_without_the_mcu_and_blocks_clearing() {
     let (mut rt, mut hw, mut t) = enabled();
-    rt.set_estop_input(true, t);
+    hw.press_estop(true);
+    // No tick: the relay alone.
+    assert_eq!(hw.plant.bridges_on(), [false; 6]);
+    hw.step_ms();
+    for _ in 0..20 {
+        hw.step_ms();
+    }
+    assert_eq!(hw.plant.brakes_holding(), [true; 6]);
+    // The MCU sees the button.
+    tick(&mut rt, &mut hw, &mut t, true);
     assert_eq!(rt.state(), State::Fault);
-    t += 1000;
-    rt.tick(&mut hw, t);
-    assert!(!hw.enabled);
+    assert_eq!(rt.status().fault.cause, FaultCause::EmergencyStopButton);
+    assert!(!hw.enabled && !hw.brakes_released);
     assert_eq!(
         rt.command(&Command::ClearFault, t),
         Err(NackReason::FaultStillActive)
     );
     assert_eq!(rt.command(&Command::Enable, t), Err(NackReason::Faulted));
-    rt.set_estop_input(false, t);
+    hw.press_estop(false);
+    tick(&mut rt, &mut hw, &mut t, true);
     rt.command(&Command::ClearFault, t).unwrap();
-    // The e-stop keeps the homing.
     assert_eq!(rt.state(), State::Ready);
     assert!(rt.status().faults.is_empty());
     rt.command(&Command::Enable, t).unwrap();
-    assert_eq!(rt.state(), State::Enabled);
+    assert_eq!(rt.state(), State::Enabling);
+}
+
+/// Property: the button and the relay's feedback must agree within the debounce time: a
+/// welded relay (button pressed, relay closed) and a relay open without the button both
+/// latch `SafetyRelayMismatch` with the case in its value (1, 2), and an enable is refused
+/// while they disagree.
+#[test]
+fn a_safety_relay_that_disagrees_with_the_button_is_a_fault() {
+    // Welded: the button is pressed, the relay stays closed.
+    let (mut rt, mut hw, mut t) = enabled();
+    hw.relay_welded = true;
+    hw.press_estop(true);
+    let debounce = rt.config().relay_debounce_ticks;
+    for _ in 0..=debounce {
+        tick(&mut rt, &mut hw, &mut t, true);
+    }
+    let log = rt.fault_log();
+    let causes: Vec<_> = (0..log.len()).map(|i| log.get(i).unwrap().record).collect();
+    assert_eq!(causes[0].cause, FaultCause::EmergencyStopButton);
+    let mismatch = causes
+        .iter()
+        .find(|r| r.cause == FaultCause::SafetyRelayMismatch)
+        .expect("mismatch logged");
+    assert_eq!(mismatch.value, 1.0);
+    // Open without the button (a failed relay or a cut wire): enable refused, then fault.
+    let (_, mut rt, mut hw, mut t) = snapshots().remove(3);
+    assert_eq!(rt.state(), State::Ready);
+    hw.relay_stuck_open = true;
+    tick(&mut rt, &mut hw, &mut t, true);
+    assert_eq!(
+        rt.command(&Command::Enable, t),
+        Err(NackReason::SafetyRelayMismatch)
+    );
+    for _ in 0..=debounce {
+        tick(&mut rt, &mut hw, &mut t, true);
+    }
+    assert_eq!(rt.state(), State::Fault);
+    assert_eq!(rt.status().fault.cause, FaultCause::SafetyRelayMismatch);
+    assert_eq!(rt.status().fault.value, 2.0);
+    assert_eq!(
+        rt.command(&Command::ClearFault, t),
+        Err(NackReason::FaultStillActive)
+    );
 }
 
 // ---------------------------------------------------------------------------------------
-// Any fault: outputs safe
+// Any fault: its stop
 // ---------------------------------------------------------------------------------------
 
+/// Property: a stuck encoder is found (a dead encoder or the following error, with its
+/// joint), its stop is STO: the drives off and the brakes applied in the tick it is
+/// found; the homing is lost.
 #[test]
-fn a_tracking_fault_turns_every_output_off() {
+fn a_stuck_encoder_stops_with_sto_and_brakes() {
     let (mut rt, mut hw, mut t) = enabled();
     hw.plant.inject(0, plant::Fault::EncoderStuck).unwrap();
     let (p, r) = control::wire::pose_to_wire(&Pose {
@@ -285,41 +389,140 @@ fn a_tracking_fault_turns_every_output_off() {
     .unwrap();
     let mut faulted = None;
     for k in 0..2000 {
-        t += 1000;
-        rt.command(&Command::Heartbeat, t).unwrap();
-        rt.tick(&mut hw, t);
+        tick(&mut rt, &mut hw, &mut t, true);
         if rt.state() == State::Fault {
             faulted.get_or_insert(k);
-            assert!(!hw.enabled && hw.plant.duty() == [0.0; 6]);
+            assert!(!hw.enabled && !hw.brakes_released);
         }
-        hw.step_ms();
     }
-    assert!(faulted.is_some());
+    let k = faulted.expect("found");
     let st = rt.status();
+    println!("stuck encoder: {:?} after {k} ms", st.fault);
     assert!(
-        st.faults.contains(Faults::FOLLOWING_ERROR),
+        matches!(
+            st.fault.cause,
+            FaultCause::EncoderDead | FaultCause::FollowingError
+        ),
         "{:?}",
-        st.faults
+        st.fault
     );
+    assert_eq!(st.fault.joint, 0);
+    assert_eq!(st.stop, StopStatus::SafeTorqueOff);
     // The homing is lost: clearing goes to Disabled.
     rt.command(&Command::ClearFault, t).unwrap();
     assert_eq!(rt.state(), State::Disabled);
     assert!(rt.status().warnings.contains(Warnings::NOT_HOMED));
 }
 
+/// Property: outside homing, enabling and enabled, once any stop is complete, the drives
+/// are off and the brakes applied on every tick.
 #[test]
-fn outputs_stay_off_outside_homing_and_enabled() {
-    for (state, mut rt, mut hw, t) in snapshots() {
-        hw.enabled = true;
-        let before = hw.disables;
-        rt.tick(&mut hw, t + 1000);
-        let drives = matches!(rt.state(), State::Homing | State::Enabled);
+fn outputs_stay_off_outside_the_driving_states() {
+    for (state, mut rt, mut hw, mut t) in snapshots() {
+        for _ in 0..100 {
+            tick(&mut rt, &mut hw, &mut t, true);
+        }
+        let drives = matches!(rt.state(), State::Homing | State::Enabling | State::Enabled);
         assert_eq!(hw.enabled, drives, "{state:?}");
-        assert_eq!(outputs_allowed(rt.machine()), drives, "{state:?}");
         if !drives {
-            assert!(hw.disables > before);
+            assert!(!hw.brakes_released, "{state:?}");
         }
     }
+}
+
+// ---------------------------------------------------------------------------------------
+// Deadlines, resets, the fault log
+// ---------------------------------------------------------------------------------------
+
+/// Property: a tick late by more than a quarter period, or the third overrun within 100
+/// ticks, latches `DeadlineMissed` (its value: µs late or run) with STO, and the watchdog
+/// is never fed again (it resets the board).
+#[test]
+fn a_missed_deadline_is_a_fault_and_starves_the_watchdog() {
+    let cfg = ServiceConfig::for_period(1000, 168_000_000, control::link::FIRMWARE_VERSION);
+    let cycles = |us: u32| us * 168;
+    // Late start.
+    let (rt, mut hw, t0) = enabled();
+    let mut svc = TickService::new(rt, cfg);
+    let mut t = t0;
+    for _ in 0..5 {
+        t += 1000;
+        svc.runtime_mut().command(&Command::Heartbeat, t).unwrap();
+        svc.begin(t, 0, false);
+        svc.tick(&mut hw, t);
+        assert!(svc.finish(t, cycles(300)).feed_watchdog);
+        hw.step_ms();
+    }
+    t += 1000 + 300;
+    svc.begin(t, 0, false);
+    svc.tick(&mut hw, t);
+    let out = svc.finish(t, cycles(300));
+    assert!(!out.feed_watchdog && svc.starved());
+    assert_eq!(out.status.fault.cause, FaultCause::DeadlineMissed);
+    assert_eq!(out.status.fault.value, 300.0);
+    assert_eq!(out.status.stop, StopStatus::SafeTorqueOff);
+    assert!(!hw.enabled && !hw.brakes_released);
+    for _ in 0..10 {
+        t += 1000;
+        svc.begin(t, 0, false);
+        svc.tick(&mut hw, t);
+        assert!(
+            !svc.finish(t, cycles(300)).feed_watchdog,
+            "starved for good"
+        );
+    }
+    // Overruns: two are tolerated, the third within the window is not.
+    let (rt, mut hw, t0) = enabled();
+    let mut svc = TickService::new(rt, cfg);
+    let mut t = t0;
+    for k in 0..3 {
+        t += 1000;
+        svc.runtime_mut().command(&Command::Heartbeat, t).unwrap();
+        svc.begin(t, 0, false);
+        svc.tick(&mut hw, t);
+        let out = svc.finish(t, cycles(900));
+        hw.step_ms();
+        if k < 2 {
+            assert_eq!(out.status.fault.cause, FaultCause::None);
+        } else {
+            assert_eq!(out.status.fault.cause, FaultCause::DeadlineMissed);
+            assert_eq!(out.status.fault.value, 900.0);
+            assert!(!out.feed_watchdog);
+        }
+    }
+}
+
+/// Property: the fault log survives a reset in RAM the start-up code does not clear: what
+/// `persist` wrote, `restore` gives back entry for entry; garbage and a corrupted word are
+/// refused; a runtime booted with the log reports it and the reset cause.
+#[test]
+fn the_fault_log_survives_a_watchdog_reset() {
+    let (mut rt, mut hw, mut t) = enabled();
+    rt.fault(Finding::joint(FaultCause::Overload, 4, 0.61f64), t);
+    tick(&mut rt, &mut hw, &mut t, true);
+    rt.fault(Finding::board(FaultCause::DeadlineMissed, 412.0f64), t);
+    let mut words = Persisted::ZERO;
+    rt.fault_log().persist(&mut words);
+    let log = FaultLog::restore(&words).expect("valid");
+    assert_eq!(&log, rt.fault_log());
+    assert_eq!(FaultLog::restore(&Persisted::ZERO), None);
+    let mut bad = words;
+    bad.entries[0][1] ^= 1 << 7;
+    assert_eq!(FaultLog::restore(&bad), None);
+    // Boot after the watchdog reset.
+    let (hw2, _, cfg) = common::homing_fixture([0.16, 0.161, 0.159], [0.2; 3]);
+    let mut rt2 = Rt::new(RsprGeometry::reference(), cfg, 0).unwrap();
+    let mut hw2 = hw2;
+    rt2.boot_done(hw2.counts(), 0, ResetCause::Watchdog, Some(log))
+        .unwrap();
+    let st = rt2.status();
+    assert_eq!(st.fault_log_len, 2);
+    assert_eq!(st.reset.cause, ResetCause::Watchdog);
+    assert!(!st.reset.acknowledged);
+    let page = rt2.fault_log_page(0);
+    assert_eq!(page.entries[0].record.cause, FaultCause::Overload);
+    assert_eq!(page.entries[0].record.joint, 4);
+    assert_eq!(page.entries[1].record.cause, FaultCause::DeadlineMissed);
 }
 
 // ---------------------------------------------------------------------------------------

@@ -5,8 +5,10 @@
     clippy::needless_range_loop
 )]
 //! The protocol through the link layer: every master message in, its reply out and
-//! decoded by the master; malformed, oversized, wrong-version, bad-checksum and replayed
-//! frames counted and ignored; the connection rule; timestamps; status contents.
+//! decoded by the master; malformed, oversized, wrong-version, bad-checksum, replayed and
+//! old-session frames counted and ignored (never an emergency stop); the connection and
+//! session rules; the clutch, the reset acknowledgement and the fault log at the wire
+//! level; timestamps; status contents.
 
 use control::link::{Command, Inbound, LinkRx, LinkTx, Request, FIRMWARE_VERSION};
 use control::runtime::Runtime;
@@ -19,8 +21,9 @@ use kinematics_core::guards::Guard;
 use kinematics_core::supervisor::Refusal;
 use kinematics_core::RsprGeometry;
 use master_link::{
-    cobs, encode, BoardToMaster, FrameError, MasterDecoder, MasterToBoard, NackReason, RobotState,
-    Seq, SeqCounter, StatusReport, CRC32, MAX_FRAME_LEN, PROTOCOL_VERSION,
+    cobs, encode, BoardToMaster, FaultCause, FrameError, Header, MasterDecoder, MasterToBoard,
+    NackReason, ResetCause, ResetStatus, RobotState, Seq, SeqCounter, StatusReport, CRC32,
+    MAX_FRAME_LEN, PROTOCOL_VERSION,
 };
 
 mod common;
@@ -30,13 +33,20 @@ use common::PlantHw;
 // Helpers
 // ---------------------------------------------------------------------------------------
 
-fn frame<M: master_link::WireMessage>(msg: &M, seq: Seq) -> Vec<u8> {
+/// The session of the tests' master.
+const SESSION: u32 = 0x5e55_1011;
+
+fn frame_in<M: master_link::WireMessage>(msg: &M, session: u32, seq: Seq) -> Vec<u8> {
     let mut buf = [0u8; MAX_FRAME_LEN];
-    let n = encode(msg, seq, &mut buf).unwrap();
+    let n = encode(msg, Header { session, seq }, &mut buf).unwrap();
     buf[..n].to_vec()
 }
 
-/// The raw (un-stuffed) content of an encoded frame: version, seq, body, CRC.
+fn frame<M: master_link::WireMessage>(msg: &M, seq: Seq) -> Vec<u8> {
+    frame_in(msg, SESSION, seq)
+}
+
+/// The raw (un-stuffed) content of an encoded frame: version, session, seq, body, CRC.
 fn raw_of(frame: &[u8]) -> Vec<u8> {
     let mut f = frame[..frame.len() - 1].to_vec();
     let n = cobs::decode_in_place(&mut f).unwrap();
@@ -64,8 +74,9 @@ fn feed(rx: &mut LinkRx, bytes: &[u8]) -> Vec<Inbound> {
     v
 }
 
-/// The master side: encodes with its own sequence, decodes the board's replies.
+/// The master side: encodes with its session and sequence, decodes the board's replies.
 struct Master {
+    session: u32,
     seq: SeqCounter,
     rx: MasterDecoder,
 }
@@ -73,13 +84,14 @@ struct Master {
 impl Master {
     fn new() -> Self {
         Master {
+            session: SESSION,
             seq: SeqCounter::new(100),
             rx: MasterDecoder::new(),
         }
     }
     fn send(&mut self, msg: &MasterToBoard) -> (Seq, Vec<u8>) {
         let s = self.seq.next();
-        (s, frame(msg, s))
+        (s, frame_in(msg, self.session, s))
     }
     fn receive(&mut self, bytes: &[u8]) -> Vec<BoardToMaster> {
         self.rx.feed(bytes).map(|r| r.unwrap().1).collect()
@@ -105,7 +117,7 @@ impl<H> Board<H> {
                     let result = self.rt.command(&req.command, self.now);
                     let mut status = self.rt.status();
                     status.link = self.rx.counters();
-                    req.reply(result, &status)
+                    req.reply(result, &status, FIRMWARE_VERSION)
                 }
             };
             let mut buf = [0u8; MAX_FRAME_LEN];
@@ -124,21 +136,25 @@ fn exchange<H>(m: &mut Master, b: &mut Board<H>, msg: &MasterToBoard) -> (Seq, B
     (seq, replies[0])
 }
 
-fn board() -> Board<PlantHw> {
+fn board_after(reset: ResetCause) -> Board<PlantHw> {
     let g = RsprGeometry::<f64>::reference();
     // The plant fixture (switches on the legs, stops on the links).
     let (mut hw, _, mut cfg) = common::homing_fixture([0.16; 3], [0.2; 3]);
     cfg.heartbeat.hold_after_us = 1_000_000_000;
     cfg.heartbeat.disable_after_us = 2_000_000_000;
     let mut rt = Runtime::new(g, cfg, 0).unwrap();
-    rt.boot_done(hw.counts(), 0).unwrap();
+    rt.boot_done(hw.counts(), 0, reset, None).unwrap();
     Board {
-        rx: LinkRx::new(FIRMWARE_VERSION),
+        rx: LinkRx::new(),
         tx: LinkTx::new(),
         rt,
         hw,
         now: 0,
     }
+}
+
+fn board() -> Board<PlantHw> {
+    board_after(ResetCause::PowerOn)
 }
 
 fn run(b: &mut Board<PlantHw>, ms: u64) {
@@ -149,8 +165,8 @@ fn run(b: &mut Board<PlantHw>, ms: u64) {
     }
 }
 
-fn home(m: &mut Master, b: &mut Board<PlantHw>) {
-    let (s, r) = exchange(m, b, &MasterToBoard::Home);
+fn home_with(m: &mut Master, b: &mut Board<PlantHw>, rehome: bool) {
+    let (s, r) = exchange(m, b, &MasterToBoard::Home { rehome });
     assert_eq!(r, BoardToMaster::Ack { seq: s });
     let mut ms = 0;
     while b.rt.state() == State::Homing {
@@ -158,24 +174,51 @@ fn home(m: &mut Master, b: &mut Board<PlantHw>) {
         ms += 1;
         assert!(ms < 60_000);
     }
-    assert_eq!(b.rt.state(), State::Ready);
+    assert_eq!(b.rt.state(), State::Ready, "{:?}", b.rt.status().fault);
+    // The stop after homing: brakes, then the drives off.
+    run(b, 100);
 }
 
-fn hello(m: &mut Master, b: &mut Board<PlantHw>) {
+fn home(m: &mut Master, b: &mut Board<PlantHw>) {
+    home_with(m, b, false)
+}
+
+/// Sends `Enable` and runs the brake check and release.
+fn enable(m: &mut Master, b: &mut Board<PlantHw>) {
+    let (s, r) = exchange(m, b, &MasterToBoard::Enable);
+    assert_eq!(r, BoardToMaster::Ack { seq: s });
+    let mut ms = 0;
+    while b.rt.state() == State::Enabling {
+        run(b, 1);
+        ms += 1;
+        assert!(ms < 1_000);
+    }
+    assert_eq!(b.rt.state(), State::Enabled, "{:?}", b.rt.status().fault);
+}
+
+/// Opens the master's session; returns the reply's reset status.
+fn hello(m: &mut Master, b: &mut Board<PlantHw>) -> ResetStatus {
     let (_, r) = exchange(
         m,
         b,
         &MasterToBoard::Hello {
             protocol_version: PROTOCOL_VERSION,
+            nonce: m.session,
         },
     );
-    assert_eq!(
-        r,
-        BoardToMaster::HelloReply {
-            firmware_version: FIRMWARE_VERSION,
-            protocol_version: PROTOCOL_VERSION
-        }
-    );
+    let BoardToMaster::HelloReply {
+        firmware_version,
+        protocol_version,
+        session,
+        reset,
+    } = r
+    else {
+        panic!("{r:?}")
+    };
+    assert_eq!(firmware_version, FIRMWARE_VERSION);
+    assert_eq!(protocol_version, PROTOCOL_VERSION);
+    assert_eq!(session, m.session);
+    reset
 }
 
 // ---------------------------------------------------------------------------------------
@@ -186,8 +229,16 @@ fn hello(m: &mut Master, b: &mut Board<PlantHw>) {
 fn every_message_round_trips_with_its_reply() {
     let mut m = Master::new();
     let mut b = board();
-    hello(&mut m, &mut b);
+    let reset = hello(&mut m, &mut b);
+    assert_eq!(
+        reset,
+        ResetStatus {
+            cause: ResetCause::PowerOn,
+            acknowledged: true
+        }
+    );
     assert!(b.rx.connected());
+    assert_eq!(b.rx.session(), Some(SESSION));
     let ack = |s| BoardToMaster::Ack { seq: s };
     let nack = |s, reason| BoardToMaster::Nack { seq: s, reason };
     // Disabled, not homed.
@@ -245,17 +296,20 @@ fn every_message_round_trips_with_its_reply() {
     assert!(st.link.frames_ok >= 10);
     // Home, enable, follow.
     home(&mut m, &mut b);
-    let (s, r) = exchange(&mut m, &mut b, &MasterToBoard::Home);
-    assert_eq!(r, ack(s), "re-homing from Ready is allowed");
-    b.rt.command(&Command::Disable, b.now).unwrap();
-    assert_eq!(b.rt.state(), State::Disabled);
-    home(&mut m, &mut b);
-    let (s, r) = exchange(&mut m, &mut b, &MasterToBoard::Enable);
-    assert_eq!(r, ack(s));
-    let (s, r) = exchange(&mut m, &mut b, &MasterToBoard::Home);
+    let (s, r) = exchange(&mut m, &mut b, &MasterToBoard::Home { rehome: false });
+    assert_eq!(
+        r,
+        nack(s, NackReason::AlreadyHomed),
+        "re-homing needs the confirmation"
+    );
+    home_with(&mut m, &mut b, true);
+    enable(&mut m, &mut b);
+    let (s, r) = exchange(&mut m, &mut b, &MasterToBoard::Home { rehome: true });
     assert_eq!(r, nack(s, NackReason::InvalidState));
     b.now += 1000;
     let stamp = 50_000_000;
+    // The master's clock: `stamp` now.
+    let now0 = b.now;
     let target = MasterToBoard::PoseTarget {
         timestamp_us: stamp,
         position_m: [0.003, 0.002, 0.162],
@@ -301,10 +355,19 @@ fn every_message_round_trips_with_its_reply() {
     assert!((st.rotation_vector_rad[1] - 0.02).abs() < 2e-3);
     assert!(st.faults.is_empty());
     // The margins the supervisor measured at its setpoint (the tick's, not a second
-    // evaluation).
+    // evaluation), the setpoint, the stop and fault fields.
     assert!(st.serial_singularity_margin > 0.15, "{st:?}");
     assert!(st.parallel_singularity_margin > 0.03, "{st:?}");
-    // Clutch engaged: targets refused while the robot holds.
+    assert!(
+        st.margins.nearest > 0.0 && st.margins.nearest <= 1.0,
+        "{st:?}"
+    );
+    assert!((st.setpoint_position_m[0] - 0.003).abs() < 1e-6, "{st:?}");
+    assert_eq!(st.stop, master_link::StopStatus::None);
+    assert_eq!(st.fault.cause, FaultCause::None);
+    assert!((st.supply_v - 24.0).abs() < 1e-3);
+    // Clutch engaged (pedal pressed): the master is decoupled, the robot holds and
+    // targets are refused; released, targets move the robot again.
     let (s, r) = exchange(&mut m, &mut b, &MasterToBoard::Clutch { engaged: true });
     assert_eq!(r, ack(s));
     let t2 = MasterToBoard::PoseTarget {
@@ -314,8 +377,26 @@ fn every_message_round_trips_with_its_reply() {
     };
     let (s, r) = exchange(&mut m, &mut b, &t2);
     assert_eq!(r, nack(s, NackReason::InvalidState));
+    run(&mut b, 300);
+    let held = b.rt.status().position_m;
+    assert!((held[0] - 0.003).abs() < 0.2e-3, "held at {held:?}");
+    assert_eq!(
+        b.rt.status().stop,
+        master_link::StopStatus::SafeOperatingStop
+    );
     let (s, r) = exchange(&mut m, &mut b, &MasterToBoard::Clutch { engaged: false });
     assert_eq!(r, ack(s));
+    run(&mut b, 2);
+    let t3 = MasterToBoard::PoseTarget {
+        timestamp_us: stamp + (b.now - now0),
+        position_m: [0.0, 0.0, 0.162],
+        rotation_vector_rad: [0.0; 3],
+    };
+    let (s, r) = exchange(&mut m, &mut b, &t3);
+    assert_eq!(r, ack(s), "clutch released: targets move the robot");
+    run(&mut b, 1500);
+    let moved = b.rt.status().position_m;
+    assert!(moved[0].abs() < 0.2e-3, "followed to {moved:?}");
     // E-stop, refusals while faulted, clear.
     let (s, r) = exchange(&mut m, &mut b, &MasterToBoard::EmergencyStop);
     assert_eq!(r, ack(s));
@@ -329,6 +410,18 @@ fn every_message_round_trips_with_its_reply() {
     };
     assert_eq!(st.state, RobotState::Fault);
     assert!(st.faults.contains(master_link::Faults::EMERGENCY_STOP));
+    assert_eq!(st.fault.cause, FaultCause::EmergencyStopMessage);
+    assert_eq!(st.stop, master_link::StopStatus::SafeTorqueOff);
+    // The fault log holds the e-stop.
+    let (_, r) = exchange(&mut m, &mut b, &MasterToBoard::FaultLogRequest { first: 0 });
+    let BoardToMaster::FaultLog(page) = r else {
+        panic!("{r:?}")
+    };
+    assert_eq!(page.total, 1);
+    assert_eq!(
+        page.entries[0].record.cause,
+        FaultCause::EmergencyStopMessage
+    );
     let (s, r) = exchange(&mut m, &mut b, &MasterToBoard::ClearFault);
     assert_eq!(r, ack(s));
     assert_eq!(b.rt.state(), State::Ready);
@@ -343,7 +436,7 @@ fn every_message_round_trips_with_its_reply() {
 fn commands_before_hello_are_refused_except_the_emergency_stop() {
     let mut m = Master::new();
     let mut b = board();
-    let (s, r) = exchange(&mut m, &mut b, &MasterToBoard::Home);
+    let (s, r) = exchange(&mut m, &mut b, &MasterToBoard::Home { rehome: false });
     assert_eq!(
         r,
         BoardToMaster::Nack {
@@ -359,6 +452,7 @@ fn commands_before_hello_are_refused_except_the_emergency_stop() {
         &mut b,
         &MasterToBoard::Hello {
             protocol_version: 9,
+            nonce: SESSION,
         },
     );
     assert_eq!(
@@ -394,10 +488,11 @@ fn commands_before_hello_are_refused_except_the_emergency_stop() {
 
 #[test]
 fn bad_frames_are_counted_and_dropped() {
-    let mut rx = LinkRx::new(FIRMWARE_VERSION);
+    let mut rx = LinkRx::new();
     let good = frame(
         &MasterToBoard::Hello {
             protocol_version: PROTOCOL_VERSION,
+            nonce: SESSION,
         },
         1,
     );
@@ -469,7 +564,7 @@ fn bad_frames_do_not_reach_the_runtime() {
     let mut b = board();
     hello(&mut m, &mut b);
     // A Home frame with a bad checksum, then replayed Home: neither homes.
-    let (_, home) = m.send(&MasterToBoard::Home);
+    let (_, home) = m.send(&MasterToBoard::Home { rehome: false });
     let mut raw = raw_of(&home);
     let n = raw.len();
     raw[n - 1] ^= 1;
@@ -588,10 +683,12 @@ fn tx_sequence_and_status_encoding() {
             wrong_version: u32::MAX,
             out_of_order: u32::MAX,
             dropped: u32::MAX,
+            wrong_session: u32::MAX,
         },
         tick_jitter_max_us: 12,
         tick_exec_max_us: 431,
         targets_refused: u32::MAX,
+        ..StatusReport::default()
     });
     for k in 0..3u16 {
         let n = tx.encode(&status, &mut buf).unwrap();
@@ -638,4 +735,92 @@ fn with_link_adds_the_counters_and_the_link_warning() {
     assert!(!untouched
         .warnings
         .contains(master_link::Warnings::LINK_ERRORS));
+}
+
+// ---------------------------------------------------------------------------------------
+// Sessions, the emergency stop, resets
+// ---------------------------------------------------------------------------------------
+
+/// Property: after a new `Hello` (a new nonce), frames of the older session never reach
+/// the runtime (counted as `wrong_session`), whatever their sequence numbers; an intact
+/// `EmergencyStop` is taken from any session and out of order.
+#[test]
+fn an_older_session_is_refused_but_never_an_emergency_stop() {
+    let mut m = Master::new();
+    let mut b = board();
+    hello(&mut m, &mut b);
+    // A frame recorded in this session...
+    let (_, old_home) = m.send(&MasterToBoard::Home { rehome: false });
+    // ... then the master reconnects with a new nonce.
+    let mut m2 = Master::new();
+    m2.session = SESSION ^ 0xffff_0000;
+    m2.seq = SeqCounter::new(5);
+    hello(&mut m2, &mut b);
+    assert_eq!(b.rx.session(), Some(m2.session));
+    // The old frame, replayed (its sequence number is far ahead): refused.
+    assert!(b.receive(&old_home).is_empty());
+    assert_eq!(b.rt.state(), State::Disabled);
+    assert_eq!(b.rx.counters().wrong_session, 1);
+    assert_eq!(
+        b.rx.last_error(),
+        Some(FrameError::WrongSession {
+            received: SESSION,
+            expected: m2.session
+        })
+    );
+    // The new session works.
+    let (s, r) = exchange(&mut m2, &mut b, &MasterToBoard::Heartbeat);
+    assert_eq!(r, BoardToMaster::Ack { seq: s });
+    // An emergency stop of the old session, with a stale sequence number: taken.
+    let estop = frame_in(&MasterToBoard::EmergencyStop, SESSION, 1);
+    let replies = m2.receive(&b.receive(&estop));
+    assert_eq!(replies.len(), 1);
+    assert_eq!(b.rt.state(), State::Fault);
+    assert_eq!(b.rt.status().fault.cause, FaultCause::EmergencyStopMessage);
+    // And a replayed emergency stop of the current session, out of order: taken too.
+    let (s, r) = exchange(&mut m2, &mut b, &MasterToBoard::ClearFault);
+    assert_eq!(r, BoardToMaster::Ack { seq: s });
+    let replay = frame_in(&MasterToBoard::EmergencyStop, m2.session, 0);
+    assert_eq!(m2.receive(&b.receive(&replay)).len(), 1);
+    assert_eq!(b.rt.state(), State::Fault);
+}
+
+/// Property: after a watchdog or brown-out reset, the hello reply and the status report
+/// the cause unacknowledged, and `Enable` is refused with `ResetNotAcknowledged` until the
+/// master acknowledges; after a power-on or pin reset nothing needs acknowledging.
+#[test]
+fn a_watchdog_reset_must_be_acknowledged_before_enabling() {
+    for cause in [
+        ResetCause::Watchdog,
+        ResetCause::BrownOut,
+        ResetCause::Software,
+        ResetCause::Pin,
+        ResetCause::PowerOn,
+    ] {
+        let mut m = Master::new();
+        let mut b = board_after(cause);
+        let reset = hello(&mut m, &mut b);
+        assert_eq!(reset.cause, cause);
+        let needs = cause.needs_acknowledgement();
+        assert_eq!(reset.acknowledged, !needs, "{cause:?}");
+        assert_eq!(b.rt.status().reset, reset);
+        home(&mut m, &mut b);
+        let (s, r) = exchange(&mut m, &mut b, &MasterToBoard::Enable);
+        if needs {
+            assert_eq!(
+                r,
+                BoardToMaster::Nack {
+                    seq: s,
+                    reason: NackReason::ResetNotAcknowledged
+                },
+                "{cause:?}"
+            );
+            let (s, r) = exchange(&mut m, &mut b, &MasterToBoard::AcknowledgeReset);
+            assert_eq!(r, BoardToMaster::Ack { seq: s });
+            assert!(b.rt.status().reset.acknowledged);
+            enable(&mut m, &mut b);
+        } else {
+            assert_eq!(r, BoardToMaster::Ack { seq: s }, "{cause:?}");
+        }
+    }
 }

@@ -87,10 +87,11 @@ impl<T: LimitSwitches + ?Sized> LimitSwitches for &mut T {
 }
 
 /// The outputs' safe state, reachable from an interrupt or a fault handler: every PWM
-/// output off and the driver enable de-asserted. Implementations must not allocate, block
-/// or take locks (plain register writes).
+/// output off, the driver enable de-asserted and the brakes applied (their coils
+/// unpowered). Implementations must not allocate, block or take locks (plain register
+/// writes).
 pub trait SafeOutputs {
-    /// Every PWM output off and the driver enable de-asserted, now.
+    /// Every PWM output off, the driver enable de-asserted, the brakes applied, now.
     fn force_safe(&mut self);
 }
 
@@ -98,4 +99,76 @@ impl<T: SafeOutputs + ?Sized> SafeOutputs for &mut T {
     fn force_safe(&mut self) {
         (**self).force_safe()
     }
+}
+
+/// The holding brakes (spring-applied: unpowered = holding), e.g. two GPIO outputs driving
+/// the brake coils of the legs and of the links.
+pub trait Brakes {
+    /// Releases (`true`: coils powered) or applies (`false`) every brake.
+    fn set_brakes_released(&mut self, released: bool);
+}
+
+impl<T: Brakes + ?Sized> Brakes for &mut T {
+    fn set_brakes_released(&mut self, released: bool) {
+        (**self).set_brakes_released(released)
+    }
+}
+
+/// The power stage's health: the supply voltage and the motor drivers' fault output.
+pub trait PowerStage<S: Float> {
+    /// The supply voltage of the H-bridges, V.
+    fn supply_voltage(&mut self) -> S;
+    /// A motor driver reports a fault (over-temperature, short, under-voltage lockout).
+    fn driver_fault(&mut self) -> bool;
+}
+
+impl<S: Float, T: PowerStage<S> + ?Sized> PowerStage<S> for &mut T {
+    fn supply_voltage(&mut self) -> S {
+        (**self).supply_voltage()
+    }
+    fn driver_fault(&mut self) -> bool {
+        (**self).driver_fault()
+    }
+}
+
+/// The hard-wired safety chain as the MCU reads it: the e-stop button (a normally closed
+/// contact: open when pressed or broken) and the safety relay's feedback contact (open
+/// while the relay has removed the drivers' power).
+pub trait SafetyChain {
+    /// The e-stop button is pressed (or its wire is broken).
+    fn estop_pressed(&mut self) -> bool;
+    /// The safety relay is open: the drivers' power is removed (STO by hardware).
+    fn relay_open(&mut self) -> bool;
+}
+
+impl<T: SafetyChain + ?Sized> SafetyChain for &mut T {
+    fn estop_pressed(&mut self) -> bool {
+        (**self).estop_pressed()
+    }
+    fn relay_open(&mut self) -> bool {
+        (**self).relay_open()
+    }
+}
+
+/// Everything the board application drives and reads, in one bound.
+pub trait Hardware<S: Float>:
+    QuadratureCounter
+    + MotorOutputs<S>
+    + CurrentSense<S>
+    + LimitSwitches
+    + Brakes
+    + PowerStage<S>
+    + SafetyChain
+{
+}
+
+impl<S: Float, T> Hardware<S> for T where
+    T: QuadratureCounter
+        + MotorOutputs<S>
+        + CurrentSense<S>
+        + LimitSwitches
+        + Brakes
+        + PowerStage<S>
+        + SafetyChain
+{
 }

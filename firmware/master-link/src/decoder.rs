@@ -2,7 +2,7 @@
 
 use core::marker::PhantomData;
 
-use crate::frame::{decode_frame, FrameError, MAX_FRAME_LEN};
+use crate::frame::{decode_frame, FrameError, Header, MAX_FRAME_LEN};
 use crate::messages::{BoardToMaster, LinkCounters, MasterToBoard, Seq, WireMessage};
 
 /// Half of the sequence space: `seq` is newer than `last` when
@@ -62,17 +62,25 @@ enum RxState {
 /// bytes). Rejected frames are counted in [`LinkCounters`] and returned as
 /// `Err` so the caller can log them; the caller simply continues feeding.
 ///
+/// Session rule: a message that opens a session (`Hello` / `HelloReply`) is accepted
+/// whatever its header and sets the current session; once there is one, frames of any
+/// other session are rejected as `WrongSession` (an earlier connection's frames, replayed).
+///
 /// Sequence rule: the first frame after construction / [`reset`](Self::reset)
-/// and every `resets_sequence()` message (`Hello` / `HelloReply`) are
-/// accepted whatever their sequence number and become the reference; any
-/// other frame must be newer than the last accepted one ([`seq_is_newer`]),
-/// else it is rejected as `OutOfOrder`. Skipped numbers are counted in
-/// `dropped`.
+/// and every session-opening message are accepted whatever their sequence number and
+/// become the reference; any other frame must be newer than the last accepted one
+/// ([`seq_is_newer`]), else it is rejected as `OutOfOrder`. Skipped numbers are counted
+/// in `dropped`.
+///
+/// A message that bypasses the sequence (`EmergencyStop`) is accepted whenever its frame
+/// is intact (CRC, version, body): in session and order like any frame, and otherwise
+/// too, leaving the reference as it was. No filter drops an emergency stop.
 pub struct FrameDecoder<M, const N: usize = MAX_FRAME_LEN> {
     buf: [u8; N],
     len: usize,
     state: RxState,
     last_seq: Option<Seq>,
+    session: Option<u32>,
     counters: LinkCounters,
     _msg: PhantomData<fn() -> M>,
 }
@@ -96,6 +104,7 @@ impl<M: WireMessage, const N: usize> FrameDecoder<M, N> {
             len: 0,
             state: RxState::Collecting,
             last_seq: None,
+            session: None,
             counters: LinkCounters {
                 frames_ok: 0,
                 bad_checksum: 0,
@@ -104,6 +113,7 @@ impl<M: WireMessage, const N: usize> FrameDecoder<M, N> {
                 wrong_version: 0,
                 out_of_order: 0,
                 dropped: 0,
+                wrong_session: 0,
             },
             _msg: PhantomData,
         }
@@ -124,6 +134,11 @@ impl<M: WireMessage, const N: usize> FrameDecoder<M, N> {
         self.last_seq
     }
 
+    /// The current session (opened by the last `Hello` / `HelloReply`), if any.
+    pub const fn session(&self) -> Option<u32> {
+        self.session
+    }
+
     /// Forgets the sequence reference: the next frame is accepted whatever
     /// its number (e.g. after a link timeout).
     pub fn reset_sequence(&mut self) {
@@ -137,11 +152,12 @@ impl<M: WireMessage, const N: usize> FrameDecoder<M, N> {
         self.state = RxState::Resync;
     }
 
-    /// Drops any partial frame and the sequence reference (counters kept).
+    /// Drops any partial frame, the sequence reference and the session (counters kept).
     pub fn reset(&mut self) {
         self.len = 0;
         self.state = RxState::Collecting;
         self.last_seq = None;
+        self.session = None;
     }
 
     /// Feeds one byte. Returns `Some` when it completed a non-empty frame.
@@ -185,18 +201,42 @@ impl<M: WireMessage, const N: usize> FrameDecoder<M, N> {
 
     fn process(&mut self) -> Result<(Seq, M), FrameError> {
         let frame = self.buf.get_mut(..self.len).ok_or(FrameError::Oversized)?;
-        let (seq, msg) = decode_frame::<M>(frame)?;
-        if !msg.resets_sequence() {
-            if let Some(last) = self.last_seq {
-                if !seq_is_newer(seq, last) {
-                    return Err(FrameError::OutOfOrder { seq, last });
+        let (Header { session, seq }, msg) = decode_frame::<M>(frame)?;
+        if let Some(opened) = msg.opens_session() {
+            self.session = Some(opened);
+            self.last_seq = Some(seq);
+            return Ok((seq, msg));
+        }
+        match self.check(session, seq) {
+            Ok(()) => {
+                if let Some(last) = self.last_seq {
+                    let lost = u32::from(seq.wrapping_sub(last).wrapping_sub(1));
+                    self.counters.dropped = self.counters.dropped.wrapping_add(lost);
                 }
-                let lost = u32::from(seq.wrapping_sub(last).wrapping_sub(1));
-                self.counters.dropped = self.counters.dropped.wrapping_add(lost);
+                self.last_seq = Some(seq);
+                Ok((seq, msg))
+            }
+            // An emergency stop of another session or out of order is still taken; it
+            // leaves the reference as it was.
+            Err(_) if msg.bypasses_sequence() => Ok((seq, msg)),
+            Err(e) => Err(e),
+        }
+    }
+
+    /// The session and sequence checks of a frame that opens no session.
+    fn check(&self, session: u32, seq: Seq) -> Result<(), FrameError> {
+        if let Some(expected) = self.session {
+            if session != expected {
+                return Err(FrameError::WrongSession {
+                    received: session,
+                    expected,
+                });
             }
         }
-        self.last_seq = Some(seq);
-        Ok((seq, msg))
+        match self.last_seq {
+            Some(last) if !seq_is_newer(seq, last) => Err(FrameError::OutOfOrder { seq, last }),
+            _ => Ok(()),
+        }
     }
 
     fn count(&mut self, result: &Result<(Seq, M), FrameError>) {
@@ -208,6 +248,7 @@ impl<M: WireMessage, const N: usize> FrameDecoder<M, N> {
             Err(FrameError::BadChecksum) => &mut c.bad_checksum,
             Err(FrameError::WrongVersion { .. }) => &mut c.wrong_version,
             Err(FrameError::OutOfOrder { .. }) => &mut c.out_of_order,
+            Err(FrameError::WrongSession { .. }) => &mut c.wrong_session,
         };
         *counter = counter.wrapping_add(1);
     }

@@ -127,6 +127,14 @@ bit_flags! {
         const WATCHDOG = 13;
         /// Internal firmware error (should not happen).
         const INTERNAL = 14;
+        /// The e-stop button and the safety relay's feedback disagree.
+        const SAFETY_RELAY = 15;
+        /// Standstill monitoring failed during a safe operating stop.
+        const STANDSTILL = 16;
+        /// The holding brakes failed their check.
+        const BRAKE = 17;
+        /// A motor circuit is open (current commanded, none flows).
+        const MOTOR = 18;
     }
 }
 

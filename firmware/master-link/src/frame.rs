@@ -6,18 +6,22 @@ use crate::cobs;
 use crate::messages::{Seq, WireMessage};
 
 /// Protocol version carried in every frame header (and in `Hello`).
-/// Version 2 added the control tick's worst jitter and execution time to `StatusReport`.
-pub const PROTOCOL_VERSION: u8 = 3;
+/// Version 2 added the control tick's worst jitter and execution time to `StatusReport`;
+/// 3 the refused targets; 4 the session nonce, the stop in force, fault causes with joint
+/// and value, the reset cause, guard margins, currents, the fault log, rehoming
+/// confirmation and frames of up to 255 bytes.
+pub const PROTOCOL_VERSION: u8 = 4;
 
-/// Header length: version (1 byte) + sequence number (2 bytes, little endian).
-pub const HEADER_LEN: usize = 3;
+/// Header length: version (1 byte) + session (4 bytes, little endian) + sequence number
+/// (2 bytes, little endian).
+pub const HEADER_LEN: usize = 7;
 /// Checksum length: CRC-32 (little endian).
 pub const CRC_LEN: usize = 4;
 /// Maximum size of one frame on the wire, COBS overhead and the `0x00`
 /// delimiter included. An encode buffer of this size always suffices, and a
 /// [`FrameDecoder`](crate::FrameDecoder) with `N = MAX_FRAME_LEN` accepts
 /// every valid frame.
-pub const MAX_FRAME_LEN: usize = 128;
+pub const MAX_FRAME_LEN: usize = 255;
 /// Maximum un-stuffed frame length (header + body + CRC): `MAX_FRAME_LEN`
 /// minus one delimiter byte and the COBS overhead (1 byte up to 254 bytes).
 pub const MAX_RAW_LEN: usize = MAX_FRAME_LEN - 2;
@@ -80,16 +84,39 @@ pub enum FrameError {
         /// Last accepted sequence number.
         last: Seq,
     },
+    /// A frame of another session than the one the last `Hello` opened
+    /// (`wrong_session`): e.g. replayed from an earlier connection.
+    WrongSession {
+        /// Session in the frame's header.
+        received: u32,
+        /// The current session.
+        expected: u32,
+    },
 }
 
-/// Encodes `msg` with sequence number `seq` into `buf` as one complete frame
+/// The header of a frame: the session it belongs to and its sequence number.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Header {
+    /// The session (the nonce of the `Hello` that opened it; 0 before one).
+    pub session: u32,
+    /// The sequence number.
+    pub seq: Seq,
+}
+
+/// Encodes `msg` with the header `header` into `buf` as one complete frame
 /// (COBS + trailing `0x00`). Returns the number of bytes written, delimiter
 /// included; at most [`MAX_FRAME_LEN`].
-pub fn encode<M: WireMessage>(msg: &M, seq: Seq, buf: &mut [u8]) -> Result<usize, EncodeError> {
+pub fn encode<M: WireMessage>(
+    msg: &M,
+    header: Header,
+    buf: &mut [u8],
+) -> Result<usize, EncodeError> {
     let mut raw = [0u8; MAX_RAW_LEN];
-    let [version, seq_lo, seq_hi, body_and_crc @ ..] = &mut raw;
+    let [version, s0, s1, s2, s3, seq_lo, seq_hi, body_and_crc @ ..] = &mut raw;
     *version = PROTOCOL_VERSION;
-    [*seq_lo, *seq_hi] = seq.to_le_bytes();
+    [*s0, *s1, *s2, *s3] = header.session.to_le_bytes();
+    [*seq_lo, *seq_hi] = header.seq.to_le_bytes();
 
     let body_buf = body_and_crc
         .get_mut(..MAX_BODY_LEN)
@@ -121,8 +148,8 @@ pub fn encode<M: WireMessage>(msg: &M, seq: Seq, buf: &mut [u8]) -> Result<usize
 /// Decodes one frame **without** its `0x00` delimiter. `encoded` is
 /// COBS-decoded in place (its content is destroyed). Checks, in order: COBS,
 /// length, CRC, protocol version, body. Does *not* check the sequence number
-/// (that is the job of [`FrameDecoder`](crate::FrameDecoder)).
-pub fn decode_frame<M: WireMessage>(encoded: &mut [u8]) -> Result<(Seq, M), FrameError> {
+/// nor the session (that is the job of [`FrameDecoder`](crate::FrameDecoder)).
+pub fn decode_frame<M: WireMessage>(encoded: &mut [u8]) -> Result<(Header, M), FrameError> {
     let n = cobs::decode_in_place(encoded).ok_or(FrameError::Malformed(Malformed::Cobs))?;
     if n > MAX_RAW_LEN {
         return Err(FrameError::Oversized);
@@ -142,17 +169,20 @@ pub fn decode_frame<M: WireMessage>(encoded: &mut [u8]) -> Result<(Seq, M), Fram
     if CRC32.checksum(content) != u32::from_le_bytes(crc_bytes) {
         return Err(FrameError::BadChecksum);
     }
-    let [version, seq_lo, seq_hi, body @ ..] = content else {
+    let [version, s0, s1, s2, s3, seq_lo, seq_hi, body @ ..] = content else {
         return Err(FrameError::Malformed(Malformed::Truncated));
     };
     if *version != PROTOCOL_VERSION {
         return Err(FrameError::WrongVersion { received: *version });
     }
-    let seq = Seq::from_le_bytes([*seq_lo, *seq_hi]);
+    let header = Header {
+        session: u32::from_le_bytes([*s0, *s1, *s2, *s3]),
+        seq: Seq::from_le_bytes([*seq_lo, *seq_hi]),
+    };
     let (msg, rest) =
         postcard::take_from_bytes::<M>(body).map_err(|_| FrameError::Malformed(Malformed::Body))?;
     if !rest.is_empty() {
         return Err(FrameError::Malformed(Malformed::TrailingBytes));
     }
-    Ok((seq, msg))
+    Ok((header, msg))
 }

@@ -9,27 +9,33 @@
 //! # Frame layout
 //!
 //! ```text
-//! on the wire:   COBS(raw) 0x00            (<= MAX_FRAME_LEN = 128 bytes)
+//! on the wire:   COBS(raw) 0x00            (<= MAX_FRAME_LEN = 255 bytes)
 //!
-//! raw (un-stuffed, 8..=126 bytes):
-//! +---------+----------------+---------------------------+----------------+
-//! | version | sequence       | body                      | CRC-32         |
-//! | u8      | u16 LE         | postcard(MasterToBoard |  | u32 LE         |
-//! |         |                |          BoardToMaster)   |                |
-//! +---------+----------------+---------------------------+----------------+
-//!   1 byte    2 bytes          1..=119 bytes               4 bytes
-//!   \___________ CRC-32/ISO-HDLC covers these ___________/
+//! raw (un-stuffed, 12..=253 bytes):
+//! +---------+-----------+-----------+---------------------------+-----------+
+//! | version | session   | sequence  | body                      | CRC-32    |
+//! | u8      | u32 LE    | u16 LE    | postcard(MasterToBoard |  | u32 LE    |
+//! |         |           |           |          BoardToMaster)   |           |
+//! +---------+-----------+-----------+---------------------------+-----------+
+//!   1 byte    4 bytes     2 bytes     1..=242 bytes               4 bytes
+//!   \______________ CRC-32/ISO-HDLC covers these ______________/
 //! ```
 //!
 //! * **version**: [`PROTOCOL_VERSION`]; frames of another version are
 //!   counted (`wrong_version`) and dropped. The version byte position, COBS
 //!   and the CRC are frozen across protocol versions.
+//! * **session**: the master's `Hello` carries a fresh nonce and opens a session; the
+//!   board's `HelloReply` confirms it, and every later frame of both directions carries
+//!   it. A receiver refuses frames of another session as `wrong_session` (an earlier
+//!   connection's frames, replayed).
 //! * **sequence**: per direction, incremented by the sender for every frame
 //!   ([`SeqCounter`]), wrapping. The receiver rejects numbers that are not
 //!   newer than the last accepted one (serial-number arithmetic, window
 //!   [`SEQ_WINDOW`]) as `out_of_order`, accepts gaps and counts the skipped
 //!   numbers as `dropped`. `Hello` / `HelloReply` restart the sequence.
 //!   `Ack`/`Nack` carry the sequence number of the master frame they answer.
+//!   An `EmergencyStop` is never dropped by the session or sequence checks: an intact
+//!   frame carrying it is always taken.
 //! * **body**: postcard encoding of the message enum; the message kind is the
 //!   enum variant index (first varint). Variants and fields are append-only.
 //! * **CRC**: CRC-32/ISO-HDLC (zlib/Ethernet) of version + sequence + body,
@@ -44,10 +50,11 @@
 //! # Example
 //!
 //! ```
-//! use master_link::{encode, BoardDecoder, MasterToBoard, MAX_FRAME_LEN};
+//! use master_link::{encode, BoardDecoder, Header, MasterToBoard, MAX_FRAME_LEN};
 //!
 //! let mut wire = [0u8; MAX_FRAME_LEN];
-//! let n = encode(&MasterToBoard::Clutch { engaged: true }, 7, &mut wire).unwrap();
+//! let header = Header { session: 0, seq: 7 };
+//! let n = encode(&MasterToBoard::Clutch { engaged: true }, header, &mut wire).unwrap();
 //!
 //! let mut rx = BoardDecoder::new();
 //! let mut got = None;
@@ -79,11 +86,12 @@ pub use decoder::{
 };
 pub use flags::{Faults, Warnings};
 pub use frame::{
-    decode_frame, encode, EncodeError, FrameError, Malformed, CRC32, CRC_LEN, HEADER_LEN,
+    decode_frame, encode, EncodeError, FrameError, Header, Malformed, CRC32, CRC_LEN, HEADER_LEN,
     MAX_BODY_LEN, MAX_FRAME_LEN, MAX_RAW_LEN, MIN_RAW_LEN, PROTOCOL_VERSION,
 };
 pub use messages::{
-    BoardToMaster, FirmwareVersion, LinkCounters, MasterToBoard, NackReason, RobotState, Seq,
-    StatusReport, WireMessage, JOINT_COUNT, JOINT_L1, JOINT_L2, JOINT_L3, JOINT_THETA1,
-    JOINT_THETA2, JOINT_THETA3,
+    BoardToMaster, FaultCause, FaultLogEntry, FaultLogPage, FaultRecord, FirmwareVersion,
+    GuardMargins, LinkCounters, MasterToBoard, NackReason, ResetCause, ResetStatus, RobotState,
+    Seq, StatusReport, StopStatus, WireMessage, FAULT_LOG_PAGE, JOINT_COUNT, JOINT_L1, JOINT_L2,
+    JOINT_L3, JOINT_THETA1, JOINT_THETA2, JOINT_THETA3, NO_JOINT,
 };

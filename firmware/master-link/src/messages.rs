@@ -29,27 +29,39 @@ pub const JOINT_THETA3: usize = 5;
 
 /// A message type that can travel in a frame.
 pub trait WireMessage: Serialize + DeserializeOwned {
-    /// `true` for the handshake message (`Hello` / `HelloReply`): it is
-    /// accepted whatever its sequence number and restarts the receiver's
-    /// sequence tracking from it.
-    fn resets_sequence(&self) -> bool;
+    /// The session a handshake message opens (`Hello`: its nonce; `HelloReply`: the
+    /// session it confirms): it is accepted whatever its session and sequence number,
+    /// and restarts the receiver's sequence tracking from it.
+    fn opens_session(&self) -> Option<u32>;
+    /// `true` for a message no session or sequence check may drop (`EmergencyStop`): it
+    /// is taken whenever its frame is intact.
+    fn bypasses_sequence(&self) -> bool;
 }
 
 /// Messages from the host master to the actuator-controller board.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum MasterToBoard {
-    /// Handshake; (re)starts the board's sequence tracking of this direction.
+    /// Handshake: opens a session and (re)starts the board's sequence tracking of this
+    /// direction. Frames sent before it (an older session) are refused.
     Hello {
         /// Protocol version spoken by the master.
         protocol_version: u8,
+        /// The master's session nonce, echoed in `HelloReply` (a fresh random value per
+        /// connection).
+        nonce: u32,
     },
     /// Enable the drives (Ready -> Enabled).
     Enable,
     /// Disable the drives (-> Disabled).
     Disable,
-    /// Start the homing sequence.
-    Home,
+    /// Start the homing sequence. A robot that is homed already is homed again only
+    /// with `rehome` set (an explicit confirmation); otherwise the board refuses
+    /// (`NackReason::AlreadyHomed`).
+    Home {
+        /// Confirms homing a robot that is homed already.
+        rehome: bool,
+    },
     /// Cartesian pose set-point of the end effector.
     PoseTarget {
         /// Master timestamp of the target, microseconds.
@@ -66,9 +78,11 @@ pub enum MasterToBoard {
         /// m/s for prismatic joints 0..=2, rad/s for revolute joints 3..=5.
         velocity: f32,
     },
-    /// Master clutch: while engaged, master motion moves the robot.
+    /// Master clutch (indexing), as on a da Vinci: while the clutch is **engaged** (pedal
+    /// pressed) the master is decoupled from the robot and the robot **holds** (targets are
+    /// refused); releasing it couples them again.
     Clutch {
-        /// Clutch pedal state.
+        /// Clutch pedal pressed: master decoupled, robot holding.
         engaged: bool,
     },
     /// Keep-alive; the board faults when heartbeats stop while enabled.
@@ -79,11 +93,30 @@ pub enum MasterToBoard {
     ClearFault,
     /// Ask for one `Status` message.
     StatusRequest,
+    /// Operator present (the dead-man): released, the robot holds (targets refused).
+    OperatorPresent {
+        /// The operator's hand is on the master.
+        present: bool,
+    },
+    /// Acknowledges the board's last reset (needed before `Enable` after a watchdog or
+    /// brown-out reset).
+    AcknowledgeReset,
+    /// Ask for the fault log's entries from index `first` (oldest kept = 0).
+    FaultLogRequest {
+        /// First entry wanted.
+        first: u16,
+    },
 }
 
 impl WireMessage for MasterToBoard {
-    fn resets_sequence(&self) -> bool {
-        matches!(self, Self::Hello { .. })
+    fn opens_session(&self) -> Option<u32> {
+        match self {
+            Self::Hello { nonce, .. } => Some(*nonce),
+            _ => None,
+        }
+    }
+    fn bypasses_sequence(&self) -> bool {
+        matches!(self, Self::EmergencyStop)
     }
 }
 
@@ -133,6 +166,16 @@ pub enum NackReason {
     ClutchDisengaged,
     /// Board busy (e.g. homing in progress).
     Busy,
+    /// The robot is homed already: `Home` needs `rehome` set.
+    AlreadyHomed,
+    /// The last reset (watchdog, brown-out) must be acknowledged first.
+    ResetNotAcknowledged,
+    /// The e-stop button and the safety relay's feedback disagree.
+    SafetyRelayMismatch,
+    /// The holding brakes did not hold in the brake check.
+    BrakeCheckFailed,
+    /// The operator is not present (dead-man released).
+    OperatorAbsent,
 }
 
 /// Controller state machine state.
@@ -150,16 +193,19 @@ pub enum RobotState {
     Ready,
     /// Drives on, following targets.
     Enabled,
-    /// Latched fault, drives off.
+    /// Latched fault; the stop in force says what the drives do (`StatusReport::stop`).
     Fault,
+    /// Enabling: the drives hold the robot while the holding brakes are checked and
+    /// released (protocol version 4); `Enabled` follows.
+    Enabling,
 }
 
 /// Link statistics of one receiving direction (see `FrameDecoder`).
 ///
 /// Every non-empty delimiter-terminated frame increments exactly one of
 /// `frames_ok`, `bad_checksum`, `malformed`, `oversized`, `wrong_version`,
-/// `out_of_order`; `dropped` counts sequence numbers skipped between accepted
-/// frames (frames lost on the way). All counters wrap.
+/// `out_of_order`, `wrong_session`; `dropped` counts sequence numbers skipped between
+/// accepted frames (frames lost on the way). All counters wrap.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct LinkCounters {
@@ -177,6 +223,8 @@ pub struct LinkCounters {
     pub out_of_order: u32,
     /// Frames lost (gaps in the sequence numbers of accepted frames).
     pub dropped: u32,
+    /// Frames of another session than the current one (protocol version 4).
+    pub wrong_session: u32,
 }
 
 impl LinkCounters {
@@ -187,6 +235,7 @@ impl LinkCounters {
             .wrapping_add(self.oversized)
             .wrapping_add(self.wrong_version)
             .wrapping_add(self.out_of_order)
+            .wrapping_add(self.wrong_session)
     }
 
     /// Every frame seen, accepted or rejected.
@@ -226,6 +275,301 @@ pub struct StatusReport {
     /// submission (also answered by a `Nack`) or later, when the straight path to an
     /// acknowledged target crosses a stop-level guard (protocol version 3).
     pub targets_refused: u32,
+    /// The stop in force (protocol version 4).
+    pub stop: StopStatus,
+    /// The latched fault that caused it: cause, joint, value (protocol version 4).
+    pub fault: FaultRecord,
+    /// Why the board last reset, and whether the master acknowledged it.
+    pub reset: ResetStatus,
+    /// The setpoint pose: position, m.
+    pub setpoint_position_m: [f32; 3],
+    /// The setpoint pose: rotation vector, rad.
+    pub setpoint_rotation_vector_rad: [f32; 3],
+    /// The guard margins at the setpoint, each as a fraction of its range (1 = far, 0 = at
+    /// the stop level, NaN while the supervisor does not run).
+    pub margins: GuardMargins,
+    /// Measured motor currents, A, joint order.
+    pub currents_a: [f32; JOINT_COUNT],
+    /// Supply voltage of the power stage, V.
+    pub supply_v: f32,
+    /// Entries in the fault log since boot (read them with `FaultLogRequest`).
+    pub fault_log_len: u16,
+    /// Missed control periods since boot (late ticks not run back to back).
+    pub missed_ticks: u32,
+}
+
+/// The stop in force and how far it has got (IEC 60204-1 stop categories; IEC 61800-5-2
+/// safety functions).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum StopStatus {
+    /// No stop: the drives follow (or are off because the robot is not enabled).
+    #[default]
+    None,
+    /// Safe torque off (stop category 0): torque removed at once, brakes applied.
+    SafeTorqueOff,
+    /// Safe stop 1, decelerating under power.
+    SafeStop1Decelerating,
+    /// Safe stop 1: at rest, brakes engaging before the torque goes off.
+    SafeStop1Braking,
+    /// Safe stop 1 done: brakes applied, torque off.
+    SafeStop1Done,
+    /// Safe stop 2, decelerating under power.
+    SafeStop2Decelerating,
+    /// Safe operating stop (after SS2): holding position under power, standstill monitored.
+    SafeOperatingStop,
+}
+
+/// Why a fault was latched: one cause per kind of failure (never merged).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum FaultCause {
+    /// No fault.
+    #[default]
+    None,
+    /// The e-stop button (hard-wired chain, read by the MCU).
+    EmergencyStopButton,
+    /// An `EmergencyStop` message.
+    EmergencyStopMessage,
+    /// The e-stop button and the safety relay's feedback disagree (value: 1 = button
+    /// pressed, relay closed; 2 = button released, relay open).
+    SafetyRelayMismatch,
+    /// The master's heartbeat stayed away longer than the disable time (value: ms).
+    HeartbeatTimeout,
+    /// A measured joint left its range (value: the joint position, m or rad).
+    JointLimit,
+    /// A limit switch closed outside homing (value: the joint position).
+    LimitSwitch,
+    /// The following error stayed outside its window (value: the error, m or rad).
+    FollowingError,
+    /// Driven hard without moving: stuck encoder, open motor, jam (value: the duty).
+    NoMotion,
+    /// The encoder count jumped beyond the joint's top speed (value: counts in one tick).
+    EncoderJump,
+    /// Current without the motion the motor model expects: a dead encoder (value: the
+    /// expected motion, counts).
+    EncoderDead,
+    /// Voltage applied and no current flows: the motor circuit is open (a broken lead or
+    /// connector; value: the duty).
+    MotorOpen,
+    /// Motor current above the trip level (value: A).
+    Overcurrent,
+    /// The current limit held the command for longer than the overload time: the joint
+    /// pushes against something with its rated force (value: the current, A).
+    Overload,
+    /// The motor's I²t model exceeded its continuous rating (value: the heat, fraction of
+    /// the limit).
+    OverTemperature,
+    /// The motor driver's fault output (value: 1).
+    DriverFault,
+    /// Supply voltage out of range (value: V).
+    SupplyVoltage,
+    /// Homing failed (value: the homing error code).
+    HomingFailed,
+    /// The supervisor stopped at a singularity guard (value: the measure).
+    Singularity,
+    /// The supervisor stopped at another guard (value: the guard's value).
+    GuardStop,
+    /// Forward kinematics failed repeatedly (value: consecutive failures).
+    ForwardKinematics,
+    /// The control tick missed its deadline (value: µs late).
+    DeadlineMissed,
+    /// Standstill monitoring during a safe operating stop (value: the motion, m or rad).
+    StandstillLost,
+    /// The holding brakes let the joint move in the brake check (value: the motion).
+    BrakeCheck,
+    /// A non-finite value reached the servo (value: 0).
+    NonFiniteInput,
+    /// An internal error (value: a code).
+    Internal,
+}
+
+impl FaultCause {
+    /// The fault bit of the cause (the bits group causes: e.g. `ENCODER` for a jump, a
+    /// dead encoder and no motion).
+    pub const fn bit(self) -> Faults {
+        match self {
+            FaultCause::None => Faults::NONE,
+            FaultCause::EmergencyStopButton | FaultCause::EmergencyStopMessage => {
+                Faults::EMERGENCY_STOP
+            }
+            FaultCause::SafetyRelayMismatch => Faults::SAFETY_RELAY,
+            FaultCause::HeartbeatTimeout => Faults::HEARTBEAT_TIMEOUT,
+            FaultCause::JointLimit | FaultCause::LimitSwitch => Faults::JOINT_LIMIT,
+            FaultCause::FollowingError => Faults::FOLLOWING_ERROR,
+            FaultCause::NoMotion | FaultCause::EncoderJump | FaultCause::EncoderDead => {
+                Faults::ENCODER
+            }
+            FaultCause::MotorOpen => Faults::MOTOR,
+            FaultCause::Overcurrent | FaultCause::Overload => Faults::OVERCURRENT,
+            FaultCause::OverTemperature => Faults::OVER_TEMPERATURE,
+            FaultCause::DriverFault => Faults::DRIVER,
+            FaultCause::SupplyVoltage => Faults::SUPPLY_VOLTAGE,
+            FaultCause::HomingFailed => Faults::HOMING_FAILED,
+            FaultCause::Singularity => Faults::SINGULARITY,
+            FaultCause::GuardStop => Faults::KINEMATICS,
+            FaultCause::ForwardKinematics => Faults::FORWARD_KINEMATICS,
+            FaultCause::DeadlineMissed => Faults::WATCHDOG,
+            FaultCause::StandstillLost => Faults::STANDSTILL,
+            FaultCause::BrakeCheck => Faults::BRAKE,
+            FaultCause::NonFiniteInput | FaultCause::Internal => Faults::INTERNAL,
+        }
+    }
+
+    /// Every cause but `None`, in declaration order.
+    pub const ALL: [FaultCause; 25] = [
+        FaultCause::EmergencyStopButton,
+        FaultCause::EmergencyStopMessage,
+        FaultCause::SafetyRelayMismatch,
+        FaultCause::HeartbeatTimeout,
+        FaultCause::JointLimit,
+        FaultCause::LimitSwitch,
+        FaultCause::FollowingError,
+        FaultCause::NoMotion,
+        FaultCause::EncoderJump,
+        FaultCause::EncoderDead,
+        FaultCause::MotorOpen,
+        FaultCause::Overcurrent,
+        FaultCause::Overload,
+        FaultCause::OverTemperature,
+        FaultCause::DriverFault,
+        FaultCause::SupplyVoltage,
+        FaultCause::HomingFailed,
+        FaultCause::Singularity,
+        FaultCause::GuardStop,
+        FaultCause::ForwardKinematics,
+        FaultCause::DeadlineMissed,
+        FaultCause::StandstillLost,
+        FaultCause::BrakeCheck,
+        FaultCause::NonFiniteInput,
+        FaultCause::Internal,
+    ];
+}
+
+/// A fault with what it concerned: the cause, the joint and the value.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FaultRecord {
+    /// The cause.
+    pub cause: FaultCause,
+    /// The joint (0..=5, joint order), or [`NO_JOINT`].
+    pub joint: u8,
+    /// The value that tripped it (units: see [`FaultCause`]).
+    pub value: f32,
+    /// Board time when it was detected, ms since boot.
+    pub time_ms: u32,
+}
+
+/// `FaultRecord::joint` of a fault that concerns no joint.
+pub const NO_JOINT: u8 = u8::MAX;
+
+impl FaultRecord {
+    /// No fault.
+    pub const NONE: FaultRecord = FaultRecord {
+        cause: FaultCause::None,
+        joint: NO_JOINT,
+        value: 0.0,
+        time_ms: 0,
+    };
+}
+
+impl Default for FaultRecord {
+    fn default() -> Self {
+        FaultRecord::NONE
+    }
+}
+
+/// Why the board last reset (the MCU's reset flags, read at boot).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ResetCause {
+    /// Power-on (or the flags were not readable).
+    #[default]
+    PowerOn,
+    /// The reset pin (NRST).
+    Pin,
+    /// A software reset.
+    Software,
+    /// The independent watchdog.
+    Watchdog,
+    /// The window watchdog.
+    WindowWatchdog,
+    /// A brown-out (supply dip).
+    BrownOut,
+    /// A low-power management reset.
+    LowPower,
+}
+
+impl ResetCause {
+    /// A reset the master must acknowledge before the board enables again.
+    pub const fn needs_acknowledgement(self) -> bool {
+        matches!(
+            self,
+            ResetCause::Watchdog | ResetCause::WindowWatchdog | ResetCause::BrownOut
+        )
+    }
+}
+
+/// The last reset and its acknowledgement.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ResetStatus {
+    /// Why the board last reset.
+    pub cause: ResetCause,
+    /// The master acknowledged it (or it needed no acknowledgement).
+    pub acknowledged: bool,
+}
+
+/// The guard margins at the setpoint as fractions of their ranges (1 = far from the
+/// limit, 0 = at the stop level; NaN while the supervisor does not run).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct GuardMargins {
+    /// The smallest of all below.
+    pub nearest: f32,
+    /// Serial singularity (dimensionless measure).
+    pub serial: f32,
+    /// Parallel singularity (inverse condition number).
+    pub parallel: f32,
+    /// Prismatic stroke (distance to the nearer end over half the stroke).
+    pub stroke: f32,
+    /// Spherical-joint tilt.
+    pub tilt: f32,
+    /// Collision circle.
+    pub collision: f32,
+    /// The task box with its margin.
+    pub workspace: f32,
+}
+
+/// One entry of the fault log.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FaultLogEntry {
+    /// The fault (its first occurrence).
+    pub record: FaultRecord,
+    /// The stop it caused.
+    pub stop: StopStatus,
+    /// How many times it occurred in a row (same cause and joint).
+    pub count: u16,
+}
+
+/// Entries of the fault log per `FaultLog` message.
+pub const FAULT_LOG_PAGE: usize = 12;
+
+/// A page of the fault log.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FaultLogPage {
+    /// Entries in the log (kept), oldest first.
+    pub len: u16,
+    /// Entries ever logged (since the log was cleared; survives a watchdog reset).
+    pub total: u32,
+    /// Index of `entries[0]`.
+    pub first: u16,
+    /// How many of `entries` are valid.
+    pub count: u8,
+    /// The entries.
+    pub entries: [FaultLogEntry; FAULT_LOG_PAGE],
 }
 
 /// Messages from the board to the host master.
@@ -238,6 +582,10 @@ pub enum BoardToMaster {
         firmware_version: FirmwareVersion,
         /// Protocol version spoken by the board.
         protocol_version: u8,
+        /// The session: the `Hello`'s nonce.
+        session: u32,
+        /// Why the board last reset, and whether that was acknowledged.
+        reset: ResetStatus,
     },
     /// Command accepted.
     Ack {
@@ -253,10 +601,18 @@ pub enum BoardToMaster {
     },
     /// Status report.
     Status(StatusReport),
+    /// A page of the fault log (answer to `FaultLogRequest`).
+    FaultLog(FaultLogPage),
 }
 
 impl WireMessage for BoardToMaster {
-    fn resets_sequence(&self) -> bool {
-        matches!(self, Self::HelloReply { .. })
+    fn opens_session(&self) -> Option<u32> {
+        match self {
+            Self::HelloReply { session, .. } => Some(*session),
+            _ => None,
+        }
+    }
+    fn bypasses_sequence(&self) -> bool {
+        false
     }
 }

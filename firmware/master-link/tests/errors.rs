@@ -227,6 +227,7 @@ fn gaps_are_accepted_and_counted_as_dropped() {
 fn hello_resets_the_sequence() {
     let hello = MasterToBoard::Hello {
         protocol_version: PROTOCOL_VERSION,
+        nonce: 0,
     };
     let mut dec = BoardDecoder::new();
     one(&mut dec, &enc(&HB, 40_000)).unwrap();
@@ -261,7 +262,10 @@ fn oversized_frame_is_dropped_and_decoder_recovers() {
 
     // Small receive buffer: a PoseTarget does not fit, a Heartbeat does.
     let mut small = FrameDecoder::<MasterToBoard, 16>::new();
-    let pose = master_samples()[4];
+    let pose = master_samples()
+        .into_iter()
+        .find(|m| matches!(m, MasterToBoard::PoseTarget { .. }))
+        .unwrap();
     let mut stream = enc(&pose, 1);
     stream.extend(enc(&HB, 2));
     assert_eq!(
@@ -272,10 +276,10 @@ fn oversized_frame_is_dropped_and_decoder_recovers() {
     // Exactly N encoded bytes fit, N + 1 do not.
     let frame = enc(&pose, 3);
     let n = frame.len() - 1;
-    let mut exact = FrameDecoder::<MasterToBoard, 43>::new();
-    assert_eq!(n, 43);
+    let mut exact = FrameDecoder::<MasterToBoard, 47>::new();
+    assert_eq!(n, 47);
     assert_eq!(decode_all(&mut exact, &frame), vec![Ok((3, pose))]);
-    let mut tight = FrameDecoder::<MasterToBoard, 42>::new();
+    let mut tight = FrameDecoder::<MasterToBoard, 46>::new();
     assert_eq!(
         decode_all(&mut tight, &frame),
         vec![Err(FrameError::Oversized)]
@@ -342,4 +346,69 @@ fn resync_discards_partial_frame_silently() {
     rest.extend(enc(&HB, 2));
     assert_eq!(decode_all(&mut dec, &rest), vec![Ok((2, HB))]);
     assert_eq!(dec.counters().frames_total(), 1);
+}
+
+/// A Hello opens a session: frames of the session before it (replayed from an earlier
+/// connection, whatever their sequence numbers) are refused and counted as
+/// `wrong_session`; frames of the new session are taken.
+#[test]
+fn frames_of_an_older_session_are_refused() {
+    let mut dec = BoardDecoder::new();
+    let old = MasterToBoard::Hello {
+        protocol_version: PROTOCOL_VERSION,
+        nonce: 0x1111,
+    };
+    let new = MasterToBoard::Hello {
+        protocol_version: PROTOCOL_VERSION,
+        nonce: 0x2222,
+    };
+    assert!(one(&mut dec, &enc_in(&old, 0, 1)).is_ok());
+    assert_eq!(one(&mut dec, &enc_in(&HB, 0x1111, 2)), Ok((2, HB)));
+    assert!(one(&mut dec, &enc_in(&new, 0x1111, 3)).is_ok());
+    assert_eq!(dec.session(), Some(0x2222));
+    // The old session's next frames, newer sequence numbers and all.
+    for seq in [4, 5, 1000] {
+        assert_eq!(
+            one(&mut dec, &enc_in(&HB, 0x1111, seq)),
+            Err(FrameError::WrongSession {
+                received: 0x1111,
+                expected: 0x2222
+            })
+        );
+    }
+    assert_eq!(dec.counters().wrong_session, 3);
+    assert_eq!(one(&mut dec, &enc_in(&HB, 0x2222, 4)), Ok((4, HB)));
+    assert_eq!(dec.counters().dropped, 0);
+}
+
+/// No filter drops an emergency stop: out of order, replayed, of another session or
+/// before any Hello, an intact EmergencyStop frame is taken; it leaves the session and
+/// the sequence reference as they were.
+#[test]
+fn an_emergency_stop_is_never_dropped_by_the_session_or_sequence_checks() {
+    let stop = MasterToBoard::EmergencyStop;
+    let mut dec = BoardDecoder::new();
+    assert_eq!(one(&mut dec, &enc_in(&stop, 77, 9)), Ok((9, stop)));
+    let hello = MasterToBoard::Hello {
+        protocol_version: PROTOCOL_VERSION,
+        nonce: 5,
+    };
+    assert!(one(&mut dec, &enc_in(&hello, 0, 100)).is_ok());
+    assert_eq!(one(&mut dec, &enc_in(&HB, 5, 101)), Ok((101, HB)));
+    // Out of order, same session.
+    assert_eq!(one(&mut dec, &enc_in(&stop, 5, 50)), Ok((50, stop)));
+    // Of another session.
+    assert_eq!(one(&mut dec, &enc_in(&stop, 6, 102)), Ok((102, stop)));
+    // Replayed: the same frame twice.
+    let f = enc_in(&stop, 5, 101);
+    assert_eq!(one(&mut dec, &f), Ok((101, stop)));
+    assert_eq!(one(&mut dec, &f), Ok((101, stop)));
+    assert_eq!(dec.counters().rejected(), 0);
+    // The reference stayed at 101: the next heartbeat continues the sequence.
+    assert_eq!(one(&mut dec, &enc_in(&HB, 5, 102)), Ok((102, HB)));
+    assert_eq!(dec.counters().dropped, 0);
+    // A corrupted one is still a bad frame (the CRC protects it like any other).
+    let mut bad = enc_in(&stop, 5, 103);
+    bad[2] ^= 0x40;
+    assert!(one(&mut dec, &bad).is_err());
 }

@@ -75,22 +75,31 @@ fn same<M: WireMessage>(a: &M, b: &M) -> bool {
     body(a) == body(b)
 }
 
-/// One frame per message with increasing (wrapping) sequence numbers;
-/// returns the stream and the expected `dropped` count.
+/// One frame per message with increasing (wrapping) sequence numbers, each in the
+/// session the last handshake opened; returns the stream and the expected `dropped`
+/// count (the gaps, but at a handshake, which restarts the sequence). Every frame is in
+/// order and in session, so an emergency stop counts like any frame.
 fn build_stream<M: WireMessage>(msgs: &[M], start: Seq, steps: &[u16]) -> (Vec<u8>, Vec<Seq>, u32) {
     let mut stream = Vec::new();
     let mut seqs = Vec::new();
     let mut seq = start;
     let mut dropped = 0u32;
+    let mut session = 0u32;
+    let mut last: Option<Seq> = None;
     for (i, m) in msgs.iter().enumerate() {
-        let step = steps[i % steps.len()];
         if i > 0 {
-            seq = seq.wrapping_add(step);
-            if !m.resets_sequence() {
-                dropped += u32::from(step) - 1;
-            }
+            seq = seq.wrapping_add(steps[i % steps.len()]);
         }
-        stream.extend(enc(m, seq));
+        if let Some(opened) = m.opens_session() {
+            session = opened;
+            last = Some(seq);
+        } else {
+            if let Some(l) = last {
+                dropped += u32::from(seq.wrapping_sub(l).wrapping_sub(1));
+            }
+            last = Some(seq);
+        }
+        stream.extend(enc_in(m, session, seq));
         seqs.push(seq);
     }
     (stream, seqs, dropped)
@@ -212,12 +221,15 @@ proptest! {
         let mut stream = Vec::new();
         let mut gi = garbage.iter().cycle();
         let mut seq: Seq = 0;
+        let mut session = 0u32;
         for m in &msgs {
             let g = gi.next().expect("cycle");
             stream.extend(g);
             stream.push(0);
             seq = seq.wrapping_add(1);
-            stream.extend(enc(m, seq));
+            // Each frame in the session the last Hello opened.
+            session = m.opens_session().unwrap_or(session);
+            stream.extend(enc_in(m, session, seq));
         }
         let mut dec = BoardDecoder::new();
         let results: Vec<_> = dec.feed(&stream).collect();
@@ -250,7 +262,7 @@ proptest! {
     #[test]
     fn encode_never_panics_on_short_buffers(m in arb_board(), len in 0usize..140) {
         let mut buf = vec![0u8; len];
-        match encode(&m, 1, &mut buf) {
+        match encode(&m, Header { session: 0, seq: 1 }, &mut buf) {
             Ok(n) => prop_assert!(n <= len && n <= MAX_FRAME_LEN),
             Err(e) => prop_assert_eq!(e, EncodeError::BufferTooSmall),
         }

@@ -12,10 +12,13 @@ fn every_master_to_board_variant_round_trips() {
     let samples = master_samples();
     let mut seen = [false; MASTER_VARIANTS];
     let mut dec = BoardDecoder::new();
+    let mut session = 0;
     for (i, msg) in samples.iter().enumerate() {
         seen[master_variant(msg)] = true;
         let seq = 100 + i as Seq;
-        let frame = enc(msg, seq);
+        // Every frame in the session the last Hello opened.
+        session = msg.opens_session().unwrap_or(session);
+        let frame = enc_in(msg, session, seq);
         assert_eq!(frame.last(), Some(&0));
         assert!(!frame[..frame.len() - 1].contains(&0), "COBS removes zeros");
         assert_eq!(decode_all(&mut dec, &frame), vec![Ok((seq, *msg))]);
@@ -33,10 +36,12 @@ fn every_board_to_master_variant_round_trips() {
     let samples = board_samples();
     let mut seen = [false; BOARD_VARIANTS];
     let mut dec = MasterDecoder::new();
+    let mut session = 0;
     for (i, msg) in samples.iter().enumerate() {
         seen[board_variant(msg)] = true;
         let seq = (u16::MAX - 3).wrapping_add(i as Seq); // also crosses the wrap
-        let frame = enc(msg, seq);
+        session = msg.opens_session().unwrap_or(session);
+        let frame = enc_in(msg, session, seq);
         assert_eq!(decode_all(&mut dec, &frame), vec![Ok((seq, *msg))]);
     }
     assert!(seen.iter().all(|s| *s), "a variant has no sample: {seen:?}");
@@ -44,26 +49,41 @@ fn every_board_to_master_variant_round_trips() {
     assert_eq!(dec.counters().rejected(), 0);
 }
 
-/// The largest message (Status with every varint maximal; PoseTarget with
-/// u64::MAX timestamp) fits into MAX_FRAME_LEN, and so does every sample.
+/// The largest messages (Status with every varint maximal, the fullest fault-log page;
+/// PoseTarget with a u64::MAX timestamp) fit into MAX_FRAME_LEN, and so does every sample.
 #[test]
 fn largest_message_fits_in_max_frame() {
     let status = enc(&BoardToMaster::Status(max_status()), u16::MAX).len();
-    let pose = enc(&master_samples()[4], u16::MAX).len();
+    let log = enc(&BoardToMaster::FaultLog(max_fault_log()), u16::MAX).len();
+    let pose_msg = master_samples()
+        .into_iter()
+        .find(|m| matches!(m, MasterToBoard::PoseTarget { .. }))
+        .unwrap();
+    let pose = enc(&pose_msg, u16::MAX).len();
     let all_master = master_samples().iter().map(|m| enc(m, 1).len()).max();
     let all_board = board_samples().iter().map(|m| enc(m, 1).len()).max();
     println!(
-        "largest frames: Status {status} B, PoseTarget {pose} B (limit {MAX_FRAME_LEN} B, body {} B of {MAX_BODY_LEN})",
-        body(&BoardToMaster::Status(max_status())).len()
+        "largest frames: Status {status} B (body {} B), fault log {log} B (body {} B), PoseTarget {pose} B (limit {MAX_FRAME_LEN} B, body {MAX_BODY_LEN} B)",
+        body(&BoardToMaster::Status(max_status())).len(),
+        body(&BoardToMaster::FaultLog(max_fault_log())).len(),
     );
-    assert_eq!(all_board, Some(status), "max Status is the largest message");
+    assert_eq!(
+        all_board,
+        Some(status.max(log)),
+        "max Status or log page is the largest"
+    );
     assert!(all_master <= Some(pose));
-    assert!(status <= MAX_FRAME_LEN);
-    assert!(pose <= MAX_FRAME_LEN);
+    assert!(status <= MAX_FRAME_LEN && log <= MAX_FRAME_LEN);
     // Documented sizes (update the README/report if the messages change).
-    assert_eq!(status, 127);
-    assert_eq!(pose, 44);
+    assert_eq!(status, STATUS_FRAME_LEN);
+    assert_eq!(log, LOG_FRAME_LEN);
+    assert_eq!(pose, 48);
 }
+
+/// The largest Status frame on the wire, bytes (documented in firmware/README.md).
+const STATUS_FRAME_LEN: usize = 238;
+/// The largest fault-log frame on the wire, bytes.
+const LOG_FRAME_LEN: usize = 206;
 
 /// encode() into a buffer that is too small returns BufferTooSmall for
 /// every length short of the frame, never panics; the exact size works.
@@ -73,10 +93,16 @@ fn encode_into_too_small_buffer_is_an_error() {
     let needed = enc(&msg, 9).len();
     for len in 0..needed {
         let mut buf = vec![0u8; len];
-        assert_eq!(encode(&msg, 9, &mut buf), Err(EncodeError::BufferTooSmall));
+        assert_eq!(
+            encode(&msg, Header { session: 0, seq: 9 }, &mut buf),
+            Err(EncodeError::BufferTooSmall)
+        );
     }
     let mut buf = vec![0u8; needed];
-    assert_eq!(encode(&msg, 9, &mut buf), Ok(needed));
+    assert_eq!(
+        encode(&msg, Header { session: 0, seq: 9 }, &mut buf),
+        Ok(needed)
+    );
 }
 
 /// decode_frame() (single frame, no sequence check) inverts encode().
@@ -85,7 +111,16 @@ fn decode_frame_inverts_encode() {
     for msg in master_samples() {
         let mut frame = enc(&msg, 42);
         frame.pop(); // delimiter
-        assert_eq!(decode_frame::<MasterToBoard>(&mut frame), Ok((42, msg)));
+        assert_eq!(
+            decode_frame::<MasterToBoard>(&mut frame),
+            Ok((
+                Header {
+                    session: 0,
+                    seq: 42
+                },
+                msg
+            ))
+        );
     }
 }
 
@@ -108,20 +143,23 @@ fn feed_by_slices_equals_push_by_bytes() {
     assert_eq!(a.counters(), b.counters());
 }
 
-/// The frame header is version | seq LE, and the CRC is CRC-32/ISO-HDLC
+/// The frame header is version | session LE | seq LE, and the CRC is CRC-32/ISO-HDLC
 /// (check value 0xCBF43926) in little endian at the end.
 #[test]
 fn frame_layout_matches_documentation() {
     assert_eq!(CRC32.checksum(b"123456789"), 0xCBF4_3926);
-    let mut frame = enc(&MasterToBoard::Heartbeat, 0x0201);
+    let mut frame = enc_in(&MasterToBoard::Heartbeat, 0x0A0B_0C0D, 0x0201);
     frame.pop();
     let n = cobs::decode_in_place(&mut frame).unwrap();
     let raw = &frame[..n];
     assert_eq!(raw.len(), HEADER_LEN + 1 + CRC_LEN);
-    assert_eq!(&raw[..3], &[PROTOCOL_VERSION, 0x01, 0x02]);
-    assert_eq!(raw[3], 7, "Heartbeat is variant index 7");
-    let crc = CRC32.checksum(&raw[..4]);
-    assert_eq!(&raw[4..], &crc.to_le_bytes());
+    assert_eq!(
+        &raw[..7],
+        &[PROTOCOL_VERSION, 0x0D, 0x0C, 0x0B, 0x0A, 0x01, 0x02]
+    );
+    assert_eq!(raw[7], 7, "Heartbeat is variant index 7");
+    let crc = CRC32.checksum(&raw[..8]);
+    assert_eq!(&raw[8..], &crc.to_le_bytes());
 }
 
 /// SeqCounter wraps and seq_is_newer follows serial-number arithmetic.

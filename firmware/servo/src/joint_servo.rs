@@ -262,6 +262,20 @@ impl<S: Float> JointServo<S> {
         }
     }
 
+    /// Restarts one joint's loop bumplessly at `measured` (its PID integral and filters,
+    /// its tracking timers), e.g. when the joint passes from an open-loop move back to
+    /// the servo; the other joints and a latched fault are untouched. False outside `0..6`.
+    pub fn reset_joint(&mut self, joint: usize, measured: S) -> bool {
+        match self.channels.get_mut(joint) {
+            Some(ch) => {
+                ch.pid.reset(measured);
+                ch.tracking.reset();
+                true
+            }
+            None => false,
+        }
+    }
+
     /// Tells the backlash compensators which flank each joint is on (e.g. after homing)
     /// with the setpoints `setpoint_q` at that moment.
     pub fn reset_backlash(

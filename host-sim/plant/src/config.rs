@@ -191,6 +191,16 @@ param_struct! {
 }
 
 param_struct! {
+    /// The spring-applied holding brakes on the motor shafts (all six alike in timing).
+    pub struct BrakeConfig {
+        /// Time from the coil's power removed to the brake holding, ms.
+        engage_ms: [0.0, 1000.0],
+        /// Time from the coil powered to the brake free, ms.
+        release_ms: [0.0, 1000.0],
+    }
+}
+
+param_struct! {
     /// Parameters of one prismatic (lead-screw) joint, in the units of their names.
     pub struct PrismaticConfig {
         /// Motor terminal resistance, ohm.
@@ -205,6 +215,11 @@ param_struct! {
         rotor_inertia_kg_m2: [1e-10, 1e-2],
         /// Maximum continuous (thermal) current, A.
         nominal_current_a: [1e-3, 200.0],
+        /// The driver's current regulation (cycle-by-cycle chopping): the largest
+        /// |current| the H-bridge lets flow, A.
+        current_limit_a: [1e-3, 1000.0],
+        /// Holding torque of the spring-applied brake on the motor shaft, N m (0: none).
+        brake_holding_torque_nm: [0.0, 10.0],
         /// Coulomb friction torque at the motor shaft (motor + transmission drag), N m.
         coulomb_friction_motor_side_nm: [0.0, 1.0],
         /// Viscous friction at the motor shaft, N m s/rad.
@@ -248,6 +263,11 @@ param_struct! {
         rotor_inertia_kg_m2: [1e-10, 1e-2],
         /// Maximum continuous (thermal) current, A.
         nominal_current_a: [1e-3, 200.0],
+        /// The driver's current regulation (cycle-by-cycle chopping): the largest
+        /// |current| the H-bridge lets flow, A.
+        current_limit_a: [1e-3, 1000.0],
+        /// Holding torque of the spring-applied brake on the motor shaft, N m (0: none).
+        brake_holding_torque_nm: [0.0, 10.0],
         /// Coulomb friction torque at the motor shaft (motor + gear drag), N m.
         coulomb_friction_motor_side_nm: [0.0, 1.0],
         /// Viscous friction at the motor shaft, N m s/rad.
@@ -287,6 +307,12 @@ fn check_kt_ke(prefix: &str, kt: f64, ke: f64) -> Result<(), ConfigError> {
 }
 
 impl HBridgeConfig {
+    fn check_consistency(&self, _prefix: &str) -> Result<(), ConfigError> {
+        Ok(())
+    }
+}
+
+impl BrakeConfig {
     fn check_consistency(&self, _prefix: &str) -> Result<(), ConfigError> {
         Ok(())
     }
@@ -384,6 +410,8 @@ impl EncoderConfig {
 pub struct PlantConfig {
     /// `[hbridge]`.
     pub hbridge: HBridgeConfig,
+    /// `[brake]`.
+    pub brake: BrakeConfig,
     /// `[encoder]`.
     pub encoder: EncoderConfig,
     /// `[prismatic]` merged with `[joint.l1]` .. `[joint.l3]`: joints l1, l2, l3.
@@ -419,22 +447,25 @@ impl PlantConfig {
         for key in root.keys() {
             if !matches!(
                 key.as_str(),
-                "hbridge" | "encoder" | "prismatic" | "rotary" | "joint"
+                "hbridge" | "brake" | "encoder" | "prismatic" | "rotary" | "joint"
             ) {
                 return Err(ConfigError::UnknownKey(key.clone()));
             }
         }
         let hbridge = HBridgeConfig::from_table("hbridge", required_table(&root, "hbridge")?)?;
+        let brake = BrakeConfig::from_table("brake", required_table(&root, "brake")?)?;
         let encoder = EncoderConfig::from_table("encoder", required_table(&root, "encoder")?)?;
         let prismatic =
             PrismaticConfig::from_table("prismatic", required_table(&root, "prismatic")?)?;
         let rotary = RotaryConfig::from_table("rotary", required_table(&root, "rotary")?)?;
         // Whole sections first, so that errors name the section the value came from.
         hbridge.validate("hbridge")?;
+        brake.validate("brake")?;
         prismatic.validate("prismatic")?;
         rotary.validate("rotary")?;
         let mut cfg = PlantConfig {
             hbridge,
+            brake,
             encoder,
             prismatic: [prismatic; 3],
             rotary: [rotary; 3],
@@ -472,6 +503,7 @@ impl PlantConfig {
     /// `hbridge.supply_v`, `l2.backlash_mm`, `theta1.gear_ratio`, ...
     pub fn validate(&self) -> Result<(), ConfigError> {
         self.hbridge.validate("hbridge")?;
+        self.brake.validate("brake")?;
         self.encoder.validate("encoder")?;
         for (j, p) in self.prismatic.iter().enumerate() {
             p.validate(JOINT_NAMES[j])?;
@@ -493,6 +525,8 @@ impl Default for PlantConfig {
             back_emf_v_s_per_rad: 0.0302,
             rotor_inertia_kg_m2: 142e-7,
             nominal_current_a: 5.77,
+            current_limit_a: 5.23,
+            brake_holding_torque_nm: 0.1,
             coulomb_friction_motor_side_nm: 5.1e-3,
             viscous_friction_motor_side_nm_s_per_rad: 1.0e-6,
             breakaway_to_coulomb_ratio: 1.2,
@@ -513,6 +547,8 @@ impl Default for PlantConfig {
             back_emf_v_s_per_rad: 0.0234,
             rotor_inertia_kg_m2: 10.8e-7,
             nominal_current_a: 1.2,
+            current_limit_a: 0.66,
+            brake_holding_torque_nm: 0.03,
             coulomb_friction_motor_side_nm: 0.9e-3,
             viscous_friction_motor_side_nm_s_per_rad: 1.0e-7,
             breakaway_to_coulomb_ratio: 1.2,
@@ -528,6 +564,10 @@ impl Default for PlantConfig {
             hbridge: HBridgeConfig {
                 supply_v: 24.0,
                 on_resistance_ohm: 0.03,
+            },
+            brake: BrakeConfig {
+                engage_ms: 15.0,
+                release_ms: 25.0,
             },
             encoder: EncoderConfig {
                 lines_per_rev: 500,

@@ -102,6 +102,12 @@ impl QuadratureEncoder {
         self.counter = self.counter.wrapping_add(delta.rem_euclid(1 << 16) as u16);
     }
 
+    /// Moves the counter by `counts` without shaft motion (an electrical glitch: noise on
+    /// the A/B lines counted as edges).
+    pub fn glitch(&mut self, counts: i64) {
+        self.counter = self.counter.wrapping_add(counts.rem_euclid(1 << 16) as u16);
+    }
+
     /// The 16-bit hardware counter.
     pub fn counter(&self) -> u16 {
         self.counter

@@ -49,7 +49,7 @@ pub enum JointKind {
 }
 
 /// Faults currently injected into one joint (all off by default).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct JointFaults {
     /// The encoder counter is frozen.
     pub encoder_stuck: bool,
@@ -60,6 +60,18 @@ pub struct JointFaults {
     /// The load side is jammed (e.g. a mechanical collision): it does not move; the
     /// motor still moves within the backlash.
     pub load_seized: bool,
+    /// The motor's terminals are shorted: the driver's short-circuit protection latches
+    /// its fault as soon as it drives the motor, and the shorted winding brakes the shaft.
+    pub motor_shorted: bool,
+    /// The driver's current regulation no longer limits the current (a failed sense
+    /// resistor or comparator).
+    pub current_regulation_lost: bool,
+    /// Part of the winding is shorted: its resistance is this fraction of the nominal
+    /// (None: healthy).
+    pub winding_resistance_ratio: Option<f64>,
+    /// The driver reports a fault of its own (over-temperature, under-voltage lockout)
+    /// and turns its bridge off whenever it is enabled.
+    pub driver_failed: bool,
 }
 
 /// Physical parameters of one joint, SI, joint units.
@@ -82,6 +94,42 @@ pub struct JointModel {
     pub load_inertia: f64,
     /// Friction on the load side (N or N m, per m/s or rad/s).
     pub load_friction: Friction,
+    /// The driver's current regulation: the largest |current|, A (infinite: none).
+    pub current_limit: f64,
+    /// The holding brake on the motor shaft: holding torque (N m), engage and release
+    /// times (s).
+    pub brake: BrakeModel,
+}
+
+/// A spring-applied holding brake on the motor shaft.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BrakeModel {
+    /// Holding torque at the motor shaft, N m (0: no brake).
+    pub holding_torque: f64,
+    /// From the coil's power removed to holding, s.
+    pub engage_s: f64,
+    /// From the coil powered to free, s.
+    pub release_s: f64,
+}
+
+impl BrakeModel {
+    /// No brake.
+    pub const NONE: BrakeModel = BrakeModel {
+        holding_torque: 0.0,
+        engage_s: 0.0,
+        release_s: 0.0,
+    };
+}
+
+/// The brake's state: what the coil is told and what the brake does.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct BrakeState {
+    /// The coil is powered (release commanded).
+    released_cmd: bool,
+    /// The brake holds now.
+    holding: bool,
+    /// Time left until the brake follows the command, s.
+    timer: f64,
 }
 
 impl JointModel {
@@ -174,6 +222,10 @@ struct StepConstants {
     /// `M_l / dt`, and `alpha = M_l / dt + c_l` of the transmitted force (`Contact`).
     mass_l_per_dt: f64,
     alpha: f64,
+    /// Force at the joint per ampere, `n Kt`.
+    force_per_amp: f64,
+    /// `dt` times the brake's holding force at the joint, `dt n T_b`.
+    dt_brake: f64,
 }
 
 impl StepConstants {
@@ -219,6 +271,8 @@ impl StepConstants {
             share_l: mass_l / mass,
             mass_l_per_dt: mass_l / dt,
             alpha: mass_l / dt + fl.viscous,
+            force_per_amp: n * kt,
+            dt_brake: dt * n * m.brake.holding_torque,
         }
     }
 }
@@ -340,6 +394,8 @@ impl Contact {
 #[derive(Debug, Clone)]
 pub struct Joint {
     model: JointModel,
+    /// The model without the injected faults (a winding short changes `model`).
+    nominal: JointModel,
     /// Load-side position (true joint position), m or rad.
     q: f64,
     /// Load-side velocity.
@@ -361,6 +417,14 @@ pub struct Joint {
     encoder: QuadratureEncoder,
     /// The step's constants for the last step length.
     consts: StepConstants,
+    /// The H-bridge is enabled (else high-impedance: the motor coasts).
+    bridge_enabled: bool,
+    /// The driver latched a fault (short circuit): its bridge is off until it is
+    /// re-enabled.
+    driver_fault: bool,
+    /// The current regulation limited the current in the last step.
+    current_limited: bool,
+    brake: BrakeState,
 }
 
 impl Joint {
@@ -368,6 +432,7 @@ impl Joint {
     pub fn new(model: JointModel, counts_per_rev: u32) -> Self {
         let mut j = Joint {
             model,
+            nominal: model,
             q: 0.0,
             v_load: 0.0,
             gap: 0.0,
@@ -384,6 +449,14 @@ impl Joint {
             faults: JointFaults::default(),
             encoder: QuadratureEncoder::new(counts_per_rev),
             consts: StepConstants::new(&model, f64::NAN),
+            bridge_enabled: true,
+            driver_fault: false,
+            current_limited: false,
+            brake: BrakeState {
+                released_cmd: true,
+                holding: false,
+                timer: 0.0,
+            },
         };
         j.set_position(0.0);
         j
@@ -423,9 +496,61 @@ impl Joint {
         self.external = load;
     }
 
+    /// Enables the H-bridge or turns it off (high-impedance: no current, the motor
+    /// coasts). Enabling clears a latched driver fault (the cause may trip it again).
+    pub fn set_bridge_enabled(&mut self, enabled: bool) {
+        if enabled && !self.bridge_enabled {
+            self.driver_fault = false;
+        }
+        self.bridge_enabled = enabled;
+    }
+
+    /// The bridge is enabled and its driver not latched off.
+    pub fn bridge_on(&self) -> bool {
+        self.bridge_enabled && !self.driver_fault
+    }
+
+    /// The driver latched a fault.
+    pub fn driver_fault(&self) -> bool {
+        self.driver_fault
+    }
+
+    /// The current regulation limited the current in the last step.
+    pub fn current_limited(&self) -> bool {
+        self.current_limited
+    }
+
+    /// Powers the brake's coil (`true`: release) or removes its power (apply); the brake
+    /// follows after its release or engage time.
+    pub fn set_brake_released(&mut self, released: bool) {
+        if released != self.brake.released_cmd {
+            self.brake.released_cmd = released;
+            self.brake.timer = if released {
+                self.model.brake.release_s
+            } else {
+                self.model.brake.engage_s
+            };
+        }
+    }
+
+    /// The brake holds now.
+    pub fn brake_holding(&self) -> bool {
+        self.brake.holding
+    }
+
+    /// Sets the supply voltage of the joint's bridge, V.
+    pub fn set_supply(&mut self, volts: f64) {
+        self.model.bridge.supply = volts;
+        self.nominal.bridge.supply = volts;
+    }
+
     /// Replaces the set of injected faults.
     pub fn set_faults(&mut self, faults: JointFaults) {
         self.faults = faults;
+        let ratio = faults.winding_resistance_ratio.unwrap_or(1.0);
+        self.model.motor.resistance = self.nominal.motor.resistance * ratio;
+        // The step's constants depend on the resistance.
+        self.consts.dt = f64::NAN;
         self.encoder.stuck = faults.encoder_stuck;
         self.encoder.lose_one_in = faults.encoder_lose_one_in;
         if faults.motor_disconnected {
@@ -477,6 +602,12 @@ impl Joint {
         self.gap
     }
 
+    /// The motor's effort at the joint, `n Kt i` (N or N m, before the transmission's
+    /// losses).
+    pub fn motor_effort(&self) -> f64 {
+        self.model.transmission.ratio * self.model.motor.torque_constant * self.current
+    }
+
     /// Force (N) or torque (N m) carried by the transmission at the joint.
     pub fn transmitted_effort(&self) -> f64 {
         self.transmitted
@@ -496,20 +627,51 @@ impl Joint {
         if self.consts.dt != dt {
             self.refresh_constants(dt);
         }
+        self.step_brake(dt);
+        // A shorted motor trips the driver's short-circuit protection as soon as the
+        // bridge drives it.
+        if (self.faults.motor_shorted && self.bridge_on() && self.duty.applied != 0.0)
+            || (self.faults.driver_failed && self.bridge_enabled)
+        {
+            self.driver_fault = true;
+        }
+        let bridge_on = self.bridge_on();
         // Borrowed, not copied: the step reads a few of the constants on each path.
         let k = &self.consts;
         let (decay, inv_r, emf_per_v) = (k.decay, k.inv_r, k.emf_per_v);
-        let u = self.model.bridge.voltage(self.duty);
-        let disconnected = self.faults.motor_disconnected;
-        let off = usize::from(disconnected);
+        let shorted = self.faults.motor_shorted;
+        // No current path: open leads, or a bridge off (high-impedance) on a sound winding.
+        let open = self.faults.motor_disconnected || (!bridge_on && !shorted);
+        let u = if bridge_on && !shorted {
+            self.model.bridge.voltage(self.duty)
+        } else {
+            0.0
+        };
+        let mut off = usize::from(open);
+        let brake = if self.brake.holding { k.dt_brake } else { 0.0 };
 
         // 1. Electrical: mean drive force at the joint over the step, affine in the end
         //    velocity (motor.rs: n Kt (phi i0 + (1 - phi) u / R) - damping v).
-        let drive = if disconnected {
+        let mut drive = if open {
             0.0
         } else {
             k.drive_i * self.current + k.drive_u * u
         };
+        // The driver's current regulation: where the mean current at the present speed
+        // would exceed the limit, the driver chops and holds the current at the limit
+        // (a current source: constant force, no back-EMF damping).
+        let limit = if bridge_on && !self.faults.current_regulation_lost {
+            self.model.current_limit
+        } else {
+            f64::INFINITY
+        };
+        let at_speed = drive - k.drive_u * emf_per_v * self.v_motor;
+        let chopping = !open && at_speed.abs() > k.force_per_amp * limit;
+        if chopping {
+            drive = (k.force_per_amp * limit).copysign(at_speed);
+            off = 1;
+        }
+        self.current_limited = chopping;
         let ext = self.external;
 
         // 2. Each side on its own: the backward-Euler step with Coulomb friction of
@@ -521,7 +683,7 @@ impl Joint {
                 (self.v_motor, k.dt_coulomb_m)
             };
             let p = k.mass_m * v0 + dt * drive;
-            velocity_step_from_momentum(p, k.dt_coulomb_m, hold, k.inv_den_m[off])
+            velocity_step_from_momentum(p, k.dt_coulomb_m + brake, hold + brake, k.inv_den_m[off])
         };
         let free_l = if self.faults.load_seized {
             VelocityStep {
@@ -578,8 +740,8 @@ impl Joint {
             };
             let contact = Contact {
                 p: k.mass * v_start + dt * (drive + ext),
-                dt_coulomb: k.dt_coulomb_both,
-                dt_hold,
+                dt_coulomb: k.dt_coulomb_both + brake,
+                dt_hold: dt_hold + brake,
                 inv_den: k.inv_den_both[off],
                 dt_mu: k.dt_mu,
                 // F_t = M_l (v - v_c) / dt - F_ext + c_l v + F_c,l sgn v
@@ -608,8 +770,10 @@ impl Joint {
 
         // 4. Current at the new speed, exact exponential (motor.rs):
         //    i = i_ss + (i0 - i_ss) exp(-dt R / L), i_ss = (u - Ke n v) / R.
-        self.current = if disconnected {
+        self.current = if open {
             0.0
+        } else if chopping {
+            limit.copysign(at_speed)
         } else {
             let i_ss = (u - emf_per_v * self.v_motor) * inv_r;
             let i = i_ss + (self.current - i_ss) * decay;
@@ -617,10 +781,28 @@ impl Joint {
             if i.abs() < 1e-15 {
                 0.0
             } else {
-                i
+                i.clamp(-limit, limit)
             }
         };
         self.encoder.update(self.motor_angle());
+    }
+
+    /// The brake follows its coil after the engage or release time.
+    fn step_brake(&mut self, dt: f64) {
+        let b = &mut self.brake;
+        let holding = !b.released_cmd;
+        if b.holding != holding {
+            b.timer -= dt;
+            if b.timer <= 0.0 {
+                b.holding = holding;
+                b.timer = 0.0;
+            }
+        }
+    }
+
+    /// Moves the encoder's counter by `counts` at once (an electrical glitch).
+    pub fn glitch_encoder(&mut self, counts: i64) {
+        self.encoder.glitch(counts);
     }
 
     /// The step as first written (every constant recomputed, the contact force by four
@@ -797,7 +979,10 @@ mod tests {
         let cpr = plant.config().encoder.counts_per_rev();
         let dt = 1e-4;
         for j in 0..6 {
-            let model = *plant.joint(j)?.model();
+            // The reference step predates the driver's current regulation: both run
+            // without it here (tests/drive.rs tests the regulation).
+            let mut model = *plant.joint(j)?.model();
+            model.current_limit = f64::INFINITY;
             let effort = model.rated_effort();
             let mut a = Joint::new(model, cpr);
             let mut b = Joint::new(model, cpr);

@@ -56,10 +56,26 @@
 //! any small H-bridge's rating, so the controller (or a driver current limit) must keep
 //! the current near the nominal 5.8 A: [`PlantStats`] counts the steps above it.
 //!
+//! ## The drive side
+//! * **Driver current regulation** (cycle-by-cycle chopping, `current_limit_a`): the
+//!   current never exceeds the limit, set to the rating over the transmission's
+//!   efficiency (5.23 A on a leg: 220 N; 0.66 A on a link: 0.5 N m). Lost with
+//!   [`Fault::CurrentRegulationLost`].
+//! * **Bridge enable** ([`Plant::set_bridges_enabled`]): off, the bridges are
+//!   high-impedance and the motors coast; duty 0 with the bridges on shorts the motor
+//!   (back-EMF braking). A driver latches a short circuit ([`Fault::MotorShorted`]) or a
+//!   fault of its own ([`Fault::DriverFailed`]) on its fault output
+//!   ([`Plant::driver_fault`]) and turns its bridge off until re-enabled.
+//! * **Holding brakes** ([`Plant::set_brakes_released`]): spring-applied on the motor
+//!   shafts, holding torque `brake_holding_torque_nm` as friction on the motor side,
+//!   following the coil after `[brake] engage_ms` / `release_ms`. The plant starts with
+//!   the bridges enabled and the brakes released (the plant alone behaves as before).
+//! * **Supply** ([`Plant::set_supply_voltage`]): a sag scales every bridge's voltage.
+//!
 //! ## Not modelled
 //! Joint end stops, the coupling of the six joints through the platform (the simulator
 //! supplies it as external loads), motor heating, PWM ripple, encoder index pulses and
-//! edge-rate limits, an H-bridge current limit.
+//! edge-rate limits.
 
 pub mod backlash;
 pub mod config;
@@ -73,5 +89,5 @@ pub mod motor;
 pub mod plant;
 
 pub use config::{ConfigError, PlantConfig, JOINT_NAMES};
-pub use joint::{JointFaults, JointKind};
+pub use joint::{BrakeModel, JointFaults, JointKind};
 pub use plant::{DutySaturation, Fault, Plant, PlantError, PlantStats, NUM_JOINTS};

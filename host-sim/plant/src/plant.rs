@@ -1,11 +1,13 @@
 //! The six joints together: the interface the host simulator drives.
 
 use crate::backlash::Backlash;
-use crate::config::{ConfigError, PlantConfig, PrismaticConfig, RotaryConfig, JOINT_NAMES};
+use crate::config::{
+    BrakeConfig, ConfigError, PlantConfig, PrismaticConfig, RotaryConfig, JOINT_NAMES,
+};
 use crate::friction::Friction;
 use crate::gearing::Transmission;
 use crate::hbridge::HBridge;
-use crate::joint::{Joint, JointFaults, JointKind, JointModel};
+use crate::joint::{BrakeModel, Joint, JointFaults, JointKind, JointModel};
 use crate::leadscrew::LeadScrew;
 use crate::motor::DcMotor;
 use std::fmt;
@@ -15,7 +17,7 @@ pub const NUM_JOINTS: usize = 6;
 
 /// A fault to inject into one joint (see [`Plant::inject`]). Faults add up; clear them
 /// with [`Plant::clear_faults`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Fault {
     /// The encoder counter freezes while the shaft turns (e.g. a broken encoder cable).
     EncoderStuck,
@@ -28,6 +30,26 @@ pub enum Fault {
     MotorDisconnected,
     /// The load side jams (collision, seized bearing): it stops and stays.
     LoadSeized,
+    /// The encoder's counter jumps by `counts` at once (noise on the A/B lines); applied
+    /// once, nothing stays injected.
+    EncoderJump {
+        /// Counts added (either sign, not 0).
+        counts: i32,
+    },
+    /// The motor's terminals are shorted: the driver latches its short-circuit fault as
+    /// soon as it drives the motor; the shorted winding brakes the shaft.
+    MotorShorted,
+    /// The driver's current regulation stops limiting the current.
+    CurrentRegulationLost,
+    /// Part of the winding is shorted: the resistance drops to `resistance_ratio` of
+    /// the nominal (in (0, 1]).
+    WindingShort {
+        /// Remaining fraction of the winding's resistance.
+        resistance_ratio: f64,
+    },
+    /// The driver reports a fault of its own (over-temperature, under-voltage lockout)
+    /// and keeps its bridge off.
+    DriverFailed,
 }
 
 /// Errors of the plant's run-time interface. Nothing in the plant panics on bad input.
@@ -101,6 +123,12 @@ pub struct PlantStats {
     pub saturated_steps: [u64; NUM_JOINTS],
     /// Steps that ended with |current| above the motor's nominal (continuous) current.
     pub over_nominal_current_steps: [u64; NUM_JOINTS],
+    /// Largest |force| (N) or |torque| (N m) the transmission carried at the joint.
+    pub peak_abs_transmitted_effort: [f64; NUM_JOINTS],
+    /// Largest |motor effort| `n Kt i` at the joint (N or N m).
+    pub peak_abs_motor_effort: [f64; NUM_JOINTS],
+    /// Steps in which the driver's current regulation limited the current.
+    pub current_limited_steps: [u64; NUM_JOINTS],
 }
 
 /// The physical plant: six actuated joints `q = [l1, l2, l3, theta1, theta2, theta3]`
@@ -113,7 +141,7 @@ pub struct Plant {
     stats: PlantStats,
 }
 
-fn prismatic_model(p: &PrismaticConfig, bridge: HBridge) -> JointModel {
+fn prismatic_model(p: &PrismaticConfig, bridge: HBridge, brake: &BrakeConfig) -> JointModel {
     JointModel {
         kind: JointKind::Prismatic,
         motor: DcMotor {
@@ -148,10 +176,16 @@ fn prismatic_model(p: &PrismaticConfig, bridge: HBridge) -> JointModel {
             viscous: p.load_viscous_friction_n_s_per_m,
             breakaway_ratio: p.breakaway_to_coulomb_ratio,
         },
+        current_limit: p.current_limit_a,
+        brake: BrakeModel {
+            holding_torque: p.brake_holding_torque_nm,
+            engage_s: brake.engage_ms * 1e-3,
+            release_s: brake.release_ms * 1e-3,
+        },
     }
 }
 
-fn rotary_model(r: &RotaryConfig, bridge: HBridge) -> JointModel {
+fn rotary_model(r: &RotaryConfig, bridge: HBridge, brake: &BrakeConfig) -> JointModel {
     JointModel {
         kind: JointKind::Rotary,
         motor: DcMotor {
@@ -182,6 +216,12 @@ fn rotary_model(r: &RotaryConfig, bridge: HBridge) -> JointModel {
             viscous: r.load_viscous_friction_nm_s_per_rad,
             breakaway_ratio: r.breakaway_to_coulomb_ratio,
         },
+        current_limit: r.current_limit_a,
+        brake: BrakeModel {
+            holding_torque: r.brake_holding_torque_nm,
+            engage_s: brake.engage_ms * 1e-3,
+            release_s: brake.release_ms * 1e-3,
+        },
     }
 }
 
@@ -208,9 +248,9 @@ impl Plant {
         let cpr = config.encoder.counts_per_rev();
         let joints = std::array::from_fn(|j| {
             let model = if j < 3 {
-                prismatic_model(&config.prismatic[j], bridge)
+                prismatic_model(&config.prismatic[j], bridge, &config.brake)
             } else {
-                rotary_model(&config.rotary[j - 3], bridge)
+                rotary_model(&config.rotary[j - 3], bridge, &config.brake)
             };
             Joint::new(model, cpr)
         });
@@ -295,6 +335,10 @@ impl Plant {
             }
             s.saturated_steps[j] += u64::from(joint.duty().saturated);
             s.over_nominal_current_steps[j] += u64::from(i > joint.model().motor.nominal_current);
+            s.peak_abs_transmitted_effort[j] =
+                s.peak_abs_transmitted_effort[j].max(joint.transmitted_effort().abs());
+            s.peak_abs_motor_effort[j] = s.peak_abs_motor_effort[j].max(joint.motor_effort().abs());
+            s.current_limited_steps[j] += u64::from(joint.current_limited());
         }
         self.time += dt;
         self.stats.steps += 1;
@@ -365,6 +409,68 @@ impl Plant {
         std::array::from_fn(|j| self.joints[j].model().no_load_speed(1.0))
     }
 
+    /// Enables the six H-bridges (the driver enable line) or turns them off: off, the
+    /// bridges are high-impedance and the motors coast (no braking by the bridge). Enabling
+    /// clears the drivers' latched faults; a cause that persists trips again.
+    pub fn set_bridges_enabled(&mut self, enabled: bool) {
+        for j in &mut self.joints {
+            j.set_bridge_enabled(enabled);
+        }
+    }
+
+    /// Which bridges drive their motor (enabled and not latched off by their driver).
+    pub fn bridges_on(&self) -> [bool; NUM_JOINTS] {
+        std::array::from_fn(|j| self.joints[j].bridge_on())
+    }
+
+    /// Some driver has latched a fault (the drivers' shared fault output).
+    pub fn driver_fault(&self) -> bool {
+        self.joints.iter().any(|j| j.driver_fault())
+    }
+
+    /// Powers (`true`: released) or unpowers (applied) each joint's brake coil; the brakes
+    /// follow after their release or engage time (`[brake]` in the configuration).
+    pub fn set_brakes_released(&mut self, released: [bool; NUM_JOINTS]) {
+        for (j, r) in self.joints.iter_mut().zip(released) {
+            j.set_brake_released(r);
+        }
+    }
+
+    /// Which brakes hold now.
+    pub fn brakes_holding(&self) -> [bool; NUM_JOINTS] {
+        std::array::from_fn(|j| self.joints[j].brake_holding())
+    }
+
+    /// Sets the bridges' supply voltage (a sag, a surge), V; finite and not negative.
+    pub fn set_supply_voltage(&mut self, volts: f64) -> Result<(), PlantError> {
+        if !(volts.is_finite() && volts >= 0.0) {
+            return Err(PlantError::NotFinite {
+                what: "supply voltage",
+                joint: 0,
+                value: volts,
+            });
+        }
+        for j in &mut self.joints {
+            j.set_supply(volts);
+        }
+        Ok(())
+    }
+
+    /// The bridges' supply voltage, V.
+    pub fn supply_voltage(&self) -> f64 {
+        self.joints[0].model().bridge.supply
+    }
+
+    /// The motors' efforts at the joints, `n Kt i` (N, N m).
+    pub fn motor_efforts(&self) -> [f64; NUM_JOINTS] {
+        std::array::from_fn(|j| self.joints[j].motor_effort())
+    }
+
+    /// The efforts the transmissions carry at the joints (N, N m; + pushes towards +q).
+    pub fn transmitted_efforts(&self) -> [f64; NUM_JOINTS] {
+        std::array::from_fn(|j| self.joints[j].transmitted_effort())
+    }
+
     /// Injects a fault into joint `joint` (0..6); faults add up.
     pub fn inject(&mut self, joint: usize, fault: Fault) -> Result<(), PlantError> {
         let j = self
@@ -382,6 +488,22 @@ impl Plant {
             }
             Fault::MotorDisconnected => f.motor_disconnected = true,
             Fault::LoadSeized => f.load_seized = true,
+            Fault::EncoderJump { counts } => {
+                if counts == 0 {
+                    return Err(PlantError::InvalidFault(fault));
+                }
+                j.glitch_encoder(i64::from(counts));
+                return Ok(());
+            }
+            Fault::MotorShorted => f.motor_shorted = true,
+            Fault::CurrentRegulationLost => f.current_regulation_lost = true,
+            Fault::WindingShort { resistance_ratio } => {
+                if !(resistance_ratio > 0.0 && resistance_ratio <= 1.0) {
+                    return Err(PlantError::InvalidFault(fault));
+                }
+                f.winding_resistance_ratio = Some(resistance_ratio);
+            }
+            Fault::DriverFailed => f.driver_failed = true,
         }
         j.set_faults(f);
         Ok(())

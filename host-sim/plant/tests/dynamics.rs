@@ -42,12 +42,12 @@ fn constant_duty_gives_the_no_load_speed() -> TestResult {
     Ok(())
 }
 
-/// Property: with the shaft held (load seized, motor stalled on a flank) the current
-/// settles at the stall current `duty V / (R + R_bridge)`.
+/// Property: with the shaft held (load seized, motor stalled on a flank) and no current
+/// regulation, the current settles at the stall current `duty V / (R + R_bridge)`.
 #[test]
 fn stall_current_is_supply_over_resistance() -> TestResult {
     for duty in [1.0, -0.3] {
-        let mut p = plant()?;
+        let mut p = unregulated_plant()?;
         for j in 0..NUM_JOINTS {
             p.inject(j, Fault::LoadSeized)?;
         }
@@ -73,7 +73,9 @@ fn continuous_ratings_220_n_and_half_n_m_at_nominal_current() -> TestResult {
         assert!(*r >= rating[j], "joint {j}: rated {r} < {}", rating[j]);
     }
     for (scale, must_advance) in [(1.0, true), (0.0, false)] {
-        let mut p = plant()?;
+        // The motors' own capability: without the drivers' current regulation, which is
+        // set to the rating and tested in tests/drive.rs.
+        let mut p = unregulated_plant()?;
         let load: [f64; NUM_JOINTS] = std::array::from_fn(|j| {
             if must_advance {
                 -rating[j] * scale
@@ -318,8 +320,7 @@ fn external_load_acts_in_plus_q() -> TestResult {
 /// Runs a demanding scenario (duty steps, reversal through the backlash, external loads)
 /// with step `dt`; returns positions, velocities and currents every 10 ms.
 fn scenario(dt: f64) -> Result<Vec<[[f64; NUM_JOINTS]; 3]>, Box<dyn std::error::Error>> {
-    let mut p = Plant::new(&PlantConfig::default())?;
-    p.set_joint_positions(HOME)?;
+    let mut p = unregulated_plant()?;
     p.set_external_load([-10.0, 5.0, 0.0, -0.2, 0.1, 0.0])?;
     let duties = [
         [0.3, -0.3, 0.1, 0.3, -0.3, 0.05],

@@ -84,7 +84,8 @@ fn counts_follow_the_motor_shaft_with_floor_quantisation_and_sign() -> TestResul
 /// counter is the true count modulo 2^16, and extending it recovers the true count.
 #[test]
 fn the_u16_counter_wraps_correctly_over_long_moves_both_ways() -> TestResult {
-    let mut p = plant()?;
+    // Unregulated, to reach the top speeds quickly.
+    let mut p = unregulated_plant()?;
     let cpu = p.counts_per_joint_unit();
     let x0 = p.motor_side_joint_positions();
     let mut ext = CounterExtender::new(&p);

@@ -497,7 +497,8 @@ impl Sim {
                 (p, tp.elapsed().as_secs_f64())
             }
         };
-        let report = self.drive.act(&mut io, &measured, &plan);
+        let report = self.drive.act(&measured, &plan);
+        report.apply(&mut io);
         let t2 = Instant::now();
         let duty = self.plant.duty();
         let mut peak = [0.0f64; NUM_JOINTS];

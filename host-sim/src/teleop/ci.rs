@@ -5,8 +5,8 @@ use super::session::{Session, StatusRow};
 use super::tracking::{deviation, rms_max};
 use kinematics_core::Pose;
 use master_link::{
-    cobs, encode, MasterToBoard, NackReason, RobotState, StatusReport, Warnings, CRC32, CRC_LEN,
-    MAX_FRAME_LEN, PROTOCOL_VERSION,
+    cobs, encode, FaultCause, Header, MasterToBoard, NackReason, RobotState, StatusReport,
+    StopStatus, Warnings, CRC32, CRC_LEN, MAX_FRAME_LEN, PROTOCOL_VERSION,
 };
 use nalgebra::Vector3;
 
@@ -120,7 +120,7 @@ pub fn home(
     s.phase("home");
     let t0 = s.now_s();
     let since = s.statuses.len();
-    let nack = s.request(MasterToBoard::Home, 1.0)?;
+    let nack = s.request(MasterToBoard::Home { rehome: false }, 1.0)?;
     let row = match nack {
         None => s
             .wait_for(since, timeout_s, |st| {
@@ -171,7 +171,7 @@ pub fn home(
 pub fn enable(s: &mut Session, checks: &mut Checks) -> Result<bool, String> {
     s.phase("enable");
     let since = s.statuses.len();
-    let nack = s.request(MasterToBoard::Enable, 1.0)?;
+    let nack = request_enable(s)?;
     let row = s.wait_for(since, 1.0, |st| st.state == RobotState::Enabled)?;
     let ok = nack.is_none() && row.is_some();
     checks.check(
@@ -183,6 +183,19 @@ pub fn enable(s: &mut Session, checks: &mut Checks) -> Result<bool, String> {
         ),
     );
     Ok(ok)
+}
+
+/// Sends `Enable`, again while the board answers `Busy` (the stop that ends homing or a
+/// disable still applies the brakes: about 100 ms), for at most a second; the last refusal.
+fn request_enable(s: &mut Session) -> Result<Option<NackReason>, String> {
+    let end = s.now_s() + 1.0;
+    loop {
+        let nack = s.request(MasterToBoard::Enable, 1.0)?;
+        if nack != Some(NackReason::Busy) || s.now_s() >= end {
+            return Ok(nack);
+        }
+        s.wait(0.05)?;
+    }
 }
 
 /// Streams `traj` at `rate_hz`, then settles; checks the tracking.
@@ -371,7 +384,8 @@ pub fn refuse(s: &mut Session, checks: &mut Checks, centre: &Pose<f64>) -> Resul
 /// A valid `Heartbeat` frame with protocol version `version` (CRC correct).
 fn frame_with_version(seq: u16, version: u8) -> Result<Vec<u8>, String> {
     let mut buf = [0u8; MAX_FRAME_LEN];
-    let n = encode(&MasterToBoard::Heartbeat, seq, &mut buf).map_err(|e| format!("{e:?}"))?;
+    let header = Header { session: 0, seq };
+    let n = encode(&MasterToBoard::Heartbeat, header, &mut buf).map_err(|e| format!("{e:?}"))?;
     let enc = buf.get_mut(..n.saturating_sub(1)).ok_or("frame")?;
     let raw_len = cobs::decode_in_place(enc).ok_or("cobs")?;
     let mut raw = enc.get(..raw_len).ok_or("raw")?.to_vec();
@@ -410,8 +424,11 @@ pub fn garbage(s: &mut Session, checks: &mut Checks) -> Result<(), String> {
     s.link.write_raw(&noise)?;
     // 2: a valid frame with one byte flipped (bad checksum or malformed).
     let mut buf = [0u8; MAX_FRAME_LEN];
-    let n = encode(&MasterToBoard::Heartbeat, s.link.next_seq(), &mut buf)
-        .map_err(|e| format!("{e:?}"))?;
+    let header = Header {
+        session: s.link.session(),
+        seq: s.link.next_seq(),
+    };
+    let n = encode(&MasterToBoard::Heartbeat, header, &mut buf).map_err(|e| format!("{e:?}"))?;
     let mut bad = buf.get(..n).unwrap_or_default().to_vec();
     if let Some(b) = bad.get_mut(n / 2) {
         *b = if *b == 0xFF { 0x7F } else { *b ^ 0x80 | 1 };
@@ -475,8 +492,10 @@ pub fn garbage(s: &mut Session, checks: &mut Checks) -> Result<(), String> {
     Ok(())
 }
 
-/// The heartbeat stops: the board holds (`HEARTBEAT_LATE`, no motion) after ~100 ms and
-/// turns the drives off (`Ready`, still homed) after ~500 ms; then heartbeats resume.
+/// The heartbeat stops: the board holds (`HEARTBEAT_LATE`, safe operating stop, no
+/// motion) after ~100 ms, and after ~500 ms latches `HeartbeatTimeout` and stops as SS1
+/// (brakes, then torque off; still homed); then heartbeats resume, the master clears the
+/// fault and enables again.
 pub fn heartbeat_loss(s: &mut Session, checks: &mut Checks) -> Result<(), String> {
     s.wait(0.2)?;
     let phase = s.phase("heartbeat stopped");
@@ -492,23 +511,26 @@ pub fn heartbeat_loss(s: &mut Session, checks: &mut Checks) -> Result<(), String
         r.status.warnings.contains(Warnings::HEARTBEAT_LATE)
             || r.status.state != RobotState::Enabled
     });
-    let off = rows.iter().find(|r| r.status.state != RobotState::Enabled);
+    let off = rows.iter().find(|r| r.status.state == RobotState::Fault);
     let moved = max_displacement(rows.iter(), &p0);
     let end = rows.last().map(|r| r.status);
     let t = |r: Option<&StatusRow>| r.map(|r| r.t_s - t_stop);
     let (th, toff) = (t(hold), t(off));
     let ok = th.is_some_and(|x| (0.08..=0.25).contains(&x))
         && toff.is_some_and(|x| (0.45..=0.75).contains(&x))
-        && off.is_some_and(|r| r.status.state == RobotState::Ready)
-        && end.is_some_and(|e| !e.warnings.contains(Warnings::NOT_HOMED))
+        && off.is_some_and(|r| r.status.fault.cause == FaultCause::HeartbeatTimeout)
+        && end.is_some_and(|e| {
+            !e.warnings.contains(Warnings::NOT_HOMED) && e.stop == StopStatus::SafeStop1Done
+        })
         && moved < 0.05e-3;
     checks.check(
-        "when the heartbeat stops the firmware holds, then disables",
+        "when the heartbeat stops the firmware holds, then stops with brakes",
         ok,
         format!(
-            "after the last heartbeat: hold (HEARTBEAT_LATE) seen at {} ms, drives off ({:?}) at {} ms (status every 20 ms; limits 100 / 500 ms); largest displacement {}; still homed {}",
+            "after the last heartbeat: hold (HEARTBEAT_LATE) seen at {} ms, fault ({:?}, stop at the end {:?}) at {} ms (status every 20 ms; limits 100 / 500 ms); largest displacement {}; still homed {}",
             th.map_or("never".into(), |x| format!("{:.0}", x * 1e3)),
-            off.map(|r| r.status.state),
+            off.map(|r| r.status.fault.cause),
+            end.map(|e| e.stop),
             toff.map_or("never".into(), |x| format!("{:.0}", x * 1e3)),
             mm(moved),
             end.is_some_and(|e| !e.warnings.contains(Warnings::NOT_HOMED))
@@ -518,7 +540,11 @@ pub fn heartbeat_loss(s: &mut Session, checks: &mut Checks) -> Result<(), String
     s.heartbeat = true;
     s.wait(0.2)?;
     let since = s.statuses.len();
-    let nack = s.request(MasterToBoard::Enable, 1.0)?;
+    let cleared = s.request(MasterToBoard::ClearFault, 1.0)?;
+    let nack = match cleared {
+        None => request_enable(s)?,
+        refused => refused,
+    };
     let row = s.wait_for(since, 1.0, |st| {
         st.state == RobotState::Enabled && !st.warnings.contains(Warnings::HEARTBEAT_LATE)
     })?;

@@ -4,7 +4,7 @@
 //! with the master's sequence numbers.
 
 use master_link::{
-    encode, BoardToMaster, LinkCounters, MasterDecoder, MasterToBoard, Seq, SeqCounter,
+    encode, BoardToMaster, Header, LinkCounters, MasterDecoder, MasterToBoard, Seq, SeqCounter,
     MAX_FRAME_LEN,
 };
 use std::fs::{File, OpenOptions};
@@ -40,6 +40,8 @@ pub struct Link {
     writer: Box<dyn Write + Send>,
     rx: Receiver<FromReader>,
     seq: SeqCounter,
+    /// The session nonce of this connection (sent in `Hello`, carried by every frame).
+    session: u32,
     t0: Instant,
     counters: Arc<Mutex<LinkCounters>>,
     closed: Option<String>,
@@ -137,6 +139,7 @@ impl Link {
             writer,
             rx,
             seq: SeqCounter::new(0),
+            session: session_nonce(),
             t0,
             counters,
             closed: None,
@@ -155,11 +158,20 @@ impl Link {
         u64::try_from(self.t0.elapsed().as_micros()).unwrap_or(u64::MAX)
     }
 
+    /// The session nonce of this connection.
+    pub fn session(&self) -> u32 {
+        self.session
+    }
+
     /// Sends `msg` as the next frame; returns its sequence number.
     pub fn send(&mut self, msg: &MasterToBoard) -> Result<Seq, String> {
         let seq = self.seq.next();
         let mut buf = [0u8; MAX_FRAME_LEN];
-        let n = encode(msg, seq, &mut buf).map_err(|e| format!("encode {msg:?}: {e:?}"))?;
+        let header = Header {
+            session: self.session,
+            seq,
+        };
+        let n = encode(msg, header, &mut buf).map_err(|e| format!("encode {msg:?}: {e:?}"))?;
         self.write_raw(buf.get(..n).unwrap_or_default())?;
         self.frames_sent += 1;
         Ok(seq)
@@ -168,7 +180,11 @@ impl Link {
     /// Sends `msg` with sequence number `seq` without advancing the counter (a replay).
     pub fn send_with_seq(&mut self, msg: &MasterToBoard, seq: Seq) -> Result<(), String> {
         let mut buf = [0u8; MAX_FRAME_LEN];
-        let n = encode(msg, seq, &mut buf).map_err(|e| format!("encode {msg:?}: {e:?}"))?;
+        let header = Header {
+            session: self.session,
+            seq,
+        };
+        let n = encode(msg, header, &mut buf).map_err(|e| format!("encode {msg:?}: {e:?}"))?;
         self.write_raw(buf.get(..n).unwrap_or_default())
     }
 
@@ -208,4 +224,18 @@ impl Link {
     pub fn counters(&self) -> LinkCounters {
         self.counters.lock().map(|c| *c).unwrap_or_default()
     }
+}
+
+/// A fresh session nonce: the clock's nanoseconds mixed with the process id (distinct per
+/// connection; not a secret).
+fn session_nonce() -> u32 {
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_nanos());
+    let x = (nanos as u64) ^ (u64::from(std::process::id()) << 32);
+    // splitmix64's finaliser.
+    let mut z = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    ((z ^ (z >> 31)) as u32).max(1)
 }

@@ -71,6 +71,8 @@ pub struct Session {
     pub targets: Vec<(f64, Pose<f64>)>,
     /// Requests refused.
     pub refused: Vec<Refused>,
+    /// Fault-log pages received.
+    pub fault_log: Vec<master_link::FaultLogPage>,
     /// The board's `HelloReply`.
     pub hello: Option<(FirmwareVersion, u8)>,
     /// Requests in flight and answered: seq -> (request, reply and its time).
@@ -100,6 +102,7 @@ impl Session {
             statuses: Vec::new(),
             targets: Vec::new(),
             refused: Vec::new(),
+            fault_log: Vec::new(),
             hello: None,
             requests: HashMap::new(),
             acks: 0,
@@ -199,6 +202,7 @@ impl Session {
             BoardToMaster::HelloReply {
                 firmware_version,
                 protocol_version,
+                ..
             } => self.hello = Some((firmware_version, protocol_version)),
             BoardToMaster::Ack { seq } => {
                 self.acks += 1;
@@ -217,6 +221,7 @@ impl Session {
                     });
                 }
             }
+            BoardToMaster::FaultLog(page) => self.fault_log.push(page),
         }
     }
 
@@ -286,8 +291,10 @@ impl Session {
     pub fn hello(&mut self, timeout_s: f64) -> Result<(FirmwareVersion, u8), String> {
         let end = self.now_s() + timeout_s;
         while self.now_s() < end {
+            let nonce = self.link.session();
             self.link.send(&MasterToBoard::Hello {
                 protocol_version: PROTOCOL_VERSION,
+                nonce,
             })?;
             let t = (self.now_s() + 0.5).min(end);
             while self.now_s() < t {

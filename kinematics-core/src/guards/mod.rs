@@ -31,7 +31,7 @@ pub mod staged;
 
 pub use limits::{Levels, Limits, LimitsError};
 pub use motion::MotionSample;
-pub use pose::{orientation_distance, Depth, Evaluation, Solved};
+pub use pose::{orientation_distance, Depth, Evaluation, GuardMargins, Solved};
 pub use readings::{Guard, Reading, Severity, Subject, Verdict, MAX_VIOLATIONS};
 pub use staged::{Stage, Staged, MAX_STAGES};
 

@@ -9,7 +9,7 @@ use crate::ik::{inverse_into, Solution};
 use crate::jacobian::{jacobian_into, tripod_jacobian, Jacobians};
 use crate::mechanism::{JointKind, Mechanism};
 use crate::pose::{rotation_angle, Pose};
-use crate::scalar::{wrap_angle, Real};
+use crate::scalar::{lit, wrap_angle, Real};
 use crate::singularity::ConditionEstimator;
 use crate::statics::forces_with_inv_cond;
 use crate::tilt::tilt_angles;
@@ -36,6 +36,25 @@ impl<T: Real> Evaluation<T> {
             jac: Jacobians::zeroed(),
         }
     }
+}
+
+/// How far a solution is from each group of stop levels, as fractions of their ranges:
+/// 1 far away (at the middle of a range), 0 at the stop level, negative beyond it (see
+/// [`Guards::margins_at`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GuardMargins<T: Real> {
+    /// Prismatic stroke (RSPR) or lower-link yaw (USR).
+    pub stroke: T,
+    /// Rotating-link angle (RSPR) or lower-link pitch (USR).
+    pub link_angle: T,
+    /// Spherical-joint tilt.
+    pub tilt: T,
+    /// Collision circle (1 when disabled).
+    pub collision: T,
+    /// Task box with its margin, and the tilt cone.
+    pub workspace: T,
+    /// Serial singularity measure.
+    pub serial: T,
 }
 
 /// How much of the guards an evaluation runs.
@@ -106,6 +125,46 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
         } else {
             Solved::WithoutJacobian
         }
+    }
+
+    /// The kinematic guard margins of a solution the caller has (e.g. the supervisor's
+    /// setpoint): no inverse kinematics, no SVD; each the smallest over the chains, as a
+    /// fraction of its range ([`GuardMargins`]).
+    pub fn margins_at(&self, sol: &Solution<T>) -> GuardMargins<T> {
+        let l = &self.limits;
+        let one = T::one();
+        let half_stroke = (l.stroke[1] - l.stroke[0]) * lit(0.5);
+        let mut m = GuardMargins {
+            stroke: one,
+            link_angle: one,
+            tilt: one,
+            collision: one,
+            workspace: one,
+            serial: one,
+        };
+        let keep = |slot: &mut T, x: T| {
+            if !(x >= *slot) {
+                *slot = x;
+            }
+        };
+        let mut visit = |r: &Reading<T>| match r.guard {
+            Guard::Stroke => keep(&mut m.stroke, r.margin / half_stroke),
+            Guard::Yaw => keep(&mut m.stroke, r.margin / l.link_angle_max),
+            Guard::LinkAngle => keep(&mut m.link_angle, r.margin / l.link_angle_max),
+            Guard::Pitch => keep(&mut m.link_angle, r.margin / l.pitch_max),
+            Guard::Tilt => keep(&mut m.tilt, r.margin / l.tilt_max),
+            Guard::Collision => keep(&mut m.collision, r.margin / l.collision_radius),
+            Guard::Workspace => keep(
+                &mut m.workspace,
+                r.margin / (l.box_half.max() + l.box_margin),
+            ),
+            Guard::TiltCone => keep(&mut m.workspace, r.margin / l.tilt_cone),
+            Guard::SerialSingularity => keep(&mut m.serial, r.margin / (one - l.serial.stop)),
+            _ => {}
+        };
+        self.workspace_readings(&sol.pose, &mut visit);
+        self.kinematic_readings(sol, &mut visit);
+        m
     }
 
     /// The verdict at a pose: every violation, with its severity.

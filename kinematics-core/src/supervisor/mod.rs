@@ -393,6 +393,12 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         self.latched.as_ref()
     }
 
+    /// The kinematic guard margins of the setpoint (from its solution, no new evaluation;
+    /// see [`crate::guards::Guards::margins_at`]).
+    pub fn setpoint_margins(&self) -> crate::guards::GuardMargins<T> {
+        self.guards.margins_at(&self.evals.current().sol)
+    }
+
     /// The singularity margins near the setpoint (see [`Margins`]).
     pub fn margins(&self) -> Margins<T> {
         let robot = self.guards.robot();

@@ -1,7 +1,9 @@
 //! The plant model behind the hardware traits, shared by the integration tests.
 #![allow(dead_code, clippy::unwrap_used, clippy::indexing_slicing)]
 
-use hal::{CurrentSense, LimitSwitches, MotorOutputs, QuadratureCounter};
+use hal::{
+    Brakes, CurrentSense, LimitSwitches, MotorOutputs, PowerStage, QuadratureCounter, SafetyChain,
+};
 use plant::{Plant, PlantConfig};
 
 /// The plant behind the hardware traits, with optional home switches and hard stops (a
@@ -18,6 +20,14 @@ pub struct PlantHw {
     pub seized: [bool; 6],
     /// How many times the outputs were disabled.
     pub disables: u32,
+    /// The e-stop button is pressed.
+    pub estop: bool,
+    /// The safety relay's contacts are welded shut (it does not open with the button).
+    pub relay_welded: bool,
+    /// The safety relay is open without the button (a failed coil or a cut wire).
+    pub relay_stuck_open: bool,
+    /// The brakes' coils are powered (released), as the MCU drives them.
+    pub brakes_released: bool,
 }
 
 impl PlantHw {
@@ -32,7 +42,37 @@ impl PlantHw {
             stop_below: [None; 6],
             seized: [false; 6],
             disables: 0,
+            estop: false,
+            relay_welded: false,
+            relay_stuck_open: false,
+            brakes_released: false,
         }
+        .wired()
+    }
+
+    /// The safety relay: open while the button is pressed (unless welded); open, it
+    /// removes the drivers' power and the brakes' coils' power.
+    pub fn relay_open(&self) -> bool {
+        (self.estop && !self.relay_welded) || self.relay_stuck_open
+    }
+
+    /// Applies what the MCU commands and the safety chain allows to the plant.
+    fn wired(mut self) -> Self {
+        self.apply();
+        self
+    }
+
+    fn apply(&mut self) {
+        let powered = !self.relay_open();
+        self.plant.set_bridges_enabled(self.enabled && powered);
+        self.plant
+            .set_brakes_released([self.brakes_released && powered; 6]);
+    }
+
+    /// Presses or releases the e-stop button.
+    pub fn press_estop(&mut self, pressed: bool) {
+        self.estop = pressed;
+        self.apply();
     }
 
     /// The default plant at `q` with home switches on the legs at `switch` and hard
@@ -48,6 +88,7 @@ impl PlantHw {
 
     /// One millisecond of the plant: 10 steps of 100 µs, with the hard stops.
     pub fn step_ms(&mut self) {
+        self.apply();
         for _ in 0..10 {
             self.plant.step(1e-4).unwrap();
             let q = self.plant.joint_positions();
@@ -76,15 +117,44 @@ impl QuadratureCounter for PlantHw {
 impl MotorOutputs<f64> for PlantHw {
     fn set_duties(&mut self, duty: &[f64; 6]) {
         let d = if self.enabled { *duty } else { [0.0; 6] };
-        let _ = self.plant.set_duty(d.map(|x| x.clamp(-1.0, 1.0)));
+        let _ = self
+            .plant
+            .set_duty(d.map(|x| if x.is_nan() { 0.0 } else { x.clamp(-1.0, 1.0) }));
     }
     fn disable(&mut self) {
         self.enabled = false;
         self.disables += 1;
         let _ = self.plant.set_duty([0.0; 6]);
+        self.apply();
     }
     fn enable(&mut self) {
         self.enabled = true;
+        self.apply();
+    }
+}
+
+impl Brakes for PlantHw {
+    fn set_brakes_released(&mut self, released: bool) {
+        self.brakes_released = released;
+        self.apply();
+    }
+}
+
+impl PowerStage<f64> for PlantHw {
+    fn supply_voltage(&mut self) -> f64 {
+        self.plant.supply_voltage()
+    }
+    fn driver_fault(&mut self) -> bool {
+        self.plant.driver_fault()
+    }
+}
+
+impl SafetyChain for PlantHw {
+    fn estop_pressed(&mut self) -> bool {
+        self.estop
+    }
+    fn relay_open(&mut self) -> bool {
+        PlantHw::relay_open(self)
     }
 }
 
@@ -111,16 +181,19 @@ pub fn central_q() -> [f64; 6] {
     std::array::from_fn(|j| q[j])
 }
 
-/// The homing fixture: the plant with home switches at 150 mm on the legs and hard stops
-/// 60 deg below the central angles on the links, started at leg lengths `legs` and the
-/// links `above_stops` rad above their stops; and the reference runtime configuration
-/// (quick park). Returns the plant, the central joints and the configuration.
+/// The homing fixture: the plant with the reference mechanics' home switches on the legs
+/// (143 mm) and hard stops on the links (85 deg below the central angles), started at leg
+/// lengths `legs` and the links `above_stops` rad above their stops; and the reference
+/// runtime configuration for that rest position. Returns the plant, the central joints
+/// and the configuration.
 pub fn homing_fixture(
     legs: [f64; 3],
     above_stops: [f64; 3],
 ) -> (PlantHw, [f64; 6], control::runtime::RuntimeConfig<f64>) {
     let c = central_q();
-    let stops = [3, 4, 5].map(|j| c[j] - 60f64.to_radians());
+    let mech =
+        control::runtime::reference_mechanics(&c, &kinematics_core::guards::Limits::reference());
+    let stops = [3, 4, 5].map(|j| c[j] - mech.link_stop_below_central_rad);
     let hw = PlantHw::homing(
         [
             legs[0],
@@ -130,12 +203,22 @@ pub fn homing_fixture(
             stops[1] + above_stops[1],
             stops[2] + above_stops[2],
         ],
-        0.150,
+        mech.leg_switch_m,
         stops,
     );
-    let mut cfg = control::runtime::reference_config(c);
-    cfg.homing.park_speed = [0.02, 0.02, 0.02, 0.5, 0.5, 0.5];
+    let cfg = control::runtime::reference_config_for(
+        &kinematics_core::RsprGeometry::reference(),
+        kinematics_core::Branch::OUTER,
+        None,
+        Some(hw_rest(&hw)),
+    )
+    .unwrap();
     (hw, c, cfg)
+}
+
+/// Where the fixture's plant rests.
+fn hw_rest(hw: &PlantHw) -> [f64; 6] {
+    hw.plant.joint_positions()
 }
 
 /// The sensing of a robot homed at `q` on the plant `hw` (its counters read `q` now) with
@@ -153,4 +236,46 @@ pub fn homed_sensing(
         &q,
     )
     .unwrap()
+}
+
+/// The joint loads (N, N m, in +q) of the thesis tool (1.2 kg, its centre of mass 100 mm
+/// from o_p along x_0) at the platform pose of the load-side joints `q`: the platform's
+/// wrench on the tool s_e = [m g z0; c x m g z0] mapped by tau = J^-T s_e (Eq. 7.10), the
+/// loads -tau.
+pub fn tool_loads(q: &[f64; 6]) -> [f64; 6] {
+    use kinematics_core::{forward, jacobian, statics::forces_with_inv_cond, Branch, Pose};
+    use kinematics_core::{RsprGeometry, Wrench};
+    let g = RsprGeometry::<f64>::reference();
+    let qv = nalgebra::Vector6::from_row_slice(q);
+    let fk = forward(
+        &g,
+        &qv,
+        Branch::OUTER,
+        &Pose::central(g.hc),
+        &Default::default(),
+    )
+    .unwrap();
+    let f = nalgebra::Vector3::new(0.0, 0.0, 1.2 * 9.81);
+    let c = fk.pose.r * nalgebra::Vector3::new(0.100, 0.0, 0.0);
+    let m = c.cross(&f);
+    let se = Wrench::from_row_slice(&[f.x, f.y, f.z, m.x, m.y, m.z]);
+    let jac = jacobian(&g, &fk.solution).unwrap();
+    let st = forces_with_inv_cond(&jac, &se, 1.0, 0.0).unwrap();
+    std::array::from_fn(|j| -st.tau[j])
+}
+
+/// The true platform pose of the plant's load-side joints.
+pub fn true_pose(hw: &PlantHw) -> kinematics_core::Pose<f64> {
+    use kinematics_core::{forward, Branch, Pose, RsprGeometry};
+    let g = RsprGeometry::<f64>::reference();
+    let q = nalgebra::Vector6::from_row_slice(&hw.plant.joint_positions());
+    forward(
+        &g,
+        &q,
+        Branch::OUTER,
+        &Pose::central(g.hc),
+        &Default::default(),
+    )
+    .unwrap()
+    .pose
 }

@@ -3,8 +3,10 @@
 //! call these functions:
 //!
 //! * [`run_control`] (an interrupt executor above the link): the control tick every
-//!   period, around [`TickService`]: the e-stop latch and input level, the queued master
-//!   requests and their replies, the runtime's tick, timing, the watchdog, the status;
+//!   period, around [`TickService`]: the e-stop latch, the queued master requests and
+//!   their replies, the runtime's tick (which reads the safety chain, the power stage and
+//!   every sensor), timing, the deadline policy, the watchdog, the fault log kept across
+//!   resets, the status;
 //! * [`run_link_rx`] (thread mode): bytes -> frames -> requests for the control tick; an
 //!   `EmergencyStop` message forces the outputs safe at once, before it is queued;
 //! * [`run_link_tx`] (thread mode): replies, and the status every telemetry period once a
@@ -17,6 +19,7 @@ use core::cell::Cell;
 use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
 use control::estop::{emergency_stop_isr, EStopLatch};
+use control::faults::FaultLog;
 use control::link::{Command, Inbound, LinkRx, LinkTx, Request};
 use control::service::{TickOutcome, TickService};
 use control::telemetry::with_link;
@@ -26,9 +29,12 @@ use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::blocking_mutex::Mutex;
 use embassy_sync::channel::Channel;
 use embassy_time::{Duration, Instant, Ticker, Timer};
-use hal::{CurrentSense, LimitSwitches, MotorOutputs, QuadratureCounter, SafeOutputs};
+use hal::{Hardware, SafeOutputs};
 use kinematics_core::Mechanism;
-use master_link::{BoardToMaster, LinkCounters, NackReason, StatusReport, MAX_FRAME_LEN};
+use master_link::{
+    BoardToMaster, FaultCause, FaultRecord, LinkCounters, NackReason, ResetCause, ResetStatus,
+    StatusReport, MAX_FRAME_LEN,
+};
 
 /// The firmware version sent in `HelloReply` (see [`firmware_version!`]).
 pub use master_link::FirmwareVersion;
@@ -105,10 +111,37 @@ const EMPTY_STATUS: StatusReport = StatusReport {
         wrong_version: 0,
         out_of_order: 0,
         dropped: 0,
+        wrong_session: 0,
     },
     tick_jitter_max_us: 0,
     tick_exec_max_us: 0,
     targets_refused: 0,
+    stop: master_link::StopStatus::None,
+    fault: FaultRecord {
+        cause: FaultCause::None,
+        joint: 0,
+        value: 0.0,
+        time_ms: 0,
+    },
+    reset: ResetStatus {
+        cause: ResetCause::PowerOn,
+        acknowledged: false,
+    },
+    setpoint_position_m: [0.0; 3],
+    setpoint_rotation_vector_rad: [0.0; 3],
+    margins: master_link::GuardMargins {
+        nearest: 0.0,
+        serial: 0.0,
+        parallel: 0.0,
+        stroke: 0.0,
+        tilt: 0.0,
+        collision: 0.0,
+        workspace: 0.0,
+    },
+    currents_a: [0.0; master_link::JOINT_COUNT],
+    supply_v: 0.0,
+    fault_log_len: 0,
+    missed_ticks: 0,
 };
 
 impl Default for Shared {
@@ -152,16 +185,19 @@ pub const fn parse_version(s: &str) -> u8 {
 
 /// The board around the control tick.
 pub trait ControlBoard<S: Scalar> {
-    /// The hardware the runtime drives.
-    type Hardware: QuadratureCounter + MotorOutputs<S> + LimitSwitches + CurrentSense<S>;
+    /// The hardware the runtime drives and reads.
+    type Hardware: Hardware<S>;
     /// The hardware.
     fn hardware(&mut self) -> &mut Self::Hardware;
     /// A free-running core cycle counter (e.g. the DWT's).
     fn cycles(&mut self) -> u32;
-    /// The e-stop input's level (pressed or wire broken: asserted).
-    fn estop_asserted(&mut self) -> bool;
     /// Feeds the independent watchdog.
     fn feed_watchdog(&mut self);
+    /// Keeps the fault log for the next reset (RAM the start-up code does not clear),
+    /// after every tick that logged a fault. The default keeps nothing.
+    fn persist_fault_log(&mut self, log: &FaultLog) {
+        let _ = log;
+    }
     /// Before the tick at `now_us` (an emulated plant advances to it).
     fn before_tick(&mut self, now_us: u64) {
         let _ = now_us;
@@ -201,8 +237,7 @@ where
         };
         next += missed * period;
         board.before_tick(now);
-        let estop = board.estop_asserted();
-        service.begin(now, missed, shared.estop.take(), estop);
+        service.begin(now, missed, shared.estop.take());
         while let Ok(req) = shared.commands.try_receive() {
             let reply = service.request(&req, now);
             shared.reply(reply);
@@ -214,6 +249,9 @@ where
         shared.has_status.store(true, Ordering::Release);
         if outcome.feed_watchdog {
             board.feed_watchdog();
+        }
+        if outcome.log_changed {
+            board.persist_fault_log(service.runtime().fault_log());
         }
         board.after_tick(service, &outcome);
     }
@@ -242,9 +280,8 @@ pub async fn run_link_rx<R: ByteRx, K: SafeOutputs>(
     shared: &'static Shared,
     rx: &mut R,
     kill: &mut K,
-    firmware: FirmwareVersion,
 ) -> ! {
-    let mut link = LinkRx::new(firmware);
+    let mut link = LinkRx::new();
     let mut buf = [0u8; 64];
     loop {
         match rx.read(&mut buf).await {

@@ -17,8 +17,13 @@
 //! | PWM theta3               | PA7        | TIM14 CH1             |
 //! | DIR l1, l2, l3           | PB12, PB13, PB14 | GPIO out        |
 //! | DIR theta1, 2, 3         | PB15, PC8, PC9   | GPIO out        |
-//! | driver enable (all)      | PB0        | GPIO out, high = on   |
+//! | driver enable (all)      | PA10       | GPIO out, high = on   |
+//! | driver fault (nFAULT, wired-OR of the six drivers) | PC15 | GPIO in, low = fault |
+//! | supply voltage sense     | PB0        | ADC1 IN8, divider 12:1 |
+//! | brakes, legs l1..l3      | PA11       | GPIO out, high = released |
+//! | brakes, links theta1..3  | PA12       | GPIO out, high = released |
 //! | emergency stop           | PC13       | GPIO in + EXTI13      |
+//! | safety relay feedback    | PC14       | GPIO in, high = relay open |
 //! | home switch l1, l2, l3   | PC10, PC11, PC12 | GPIO in         |
 //! | home switch theta1, 2, 3 | PD2, PA4, PB1    | GPIO in         |
 //! | motor current l1..theta3 | PC0..PC5   | ADC1 IN10..IN15       |
@@ -30,6 +35,25 @@
 //!
 //! The six PWM channels fit exactly on TIM9 (2 channels) + TIM10/11/13/14 (1 each):
 //! sign-magnitude drive, one PWM and one direction pin per H-bridge.
+//!
+//! **Brakes in two groups.** Each joint has a spring-applied brake on its motor (unpowered
+//! = holding); the coils are switched in two groups, the legs (PA11) and the links (PA12),
+//! each through a low-side MOSFET. The firmware always applies and releases all six
+//! together (a stop holds the whole platform, an enable releases it under servo), so one
+//! output per joint would buy nothing but pins; two groups keep the legs' larger coils on
+//! their own switch. The safety relay's second pole cuts the coils' supply, so the
+//! hard-wired e-stop applies the brakes without the MCU.
+//!
+//! **Power stage.** The six drivers' nFAULT outputs (open drain) share PC15 with a
+//! pull-up: low = some driver latched a fault (short circuit, over-temperature,
+//! under-voltage). The bridges' supply is divided 12:1 (110 kΩ over 10 kΩ: 24 V -> 2.0 V,
+//! 39.6 V full scale) onto PB0. The drivers regulate their current cycle by cycle at the
+//! joints' rated effort (ITRIP resistor: 5.2 A on the legs, 0.66 A on the links).
+//!
+//! **Safety relay feedback.** The relay's force-guided auxiliary contact is closed to
+//! ground while the relay holds its main contacts closed (drivers powered); with the
+//! pull-up, high = relay open, and a broken feedback wire also reads open, which the
+//! firmware sees as a mismatch with the released button and refuses to enable.
 
 use embassy_stm32::adc::{Adc, AdcChannel, AnyAdcChannel};
 use embassy_stm32::gpio::{Input, Level, Output, OutputType, Pull, Speed};
@@ -43,6 +67,7 @@ use embassy_stm32::timer::simple_pwm::{PwmPin, SimplePwm};
 use embassy_stm32::usart::{self, Uart};
 use embassy_stm32::wdg::IndependentWatchdog;
 use embassy_stm32::{bind_interrupts, dma, pac, peripherals, Peripherals};
+use master_link::ResetCause;
 
 bind_interrupts!(pub struct Irqs {
     USART3 => usart::InterruptHandler<peripherals::USART3>;
@@ -75,10 +100,16 @@ pub const ESTOP_ACTIVE_HIGH: bool = true;
 pub const CURRENT_A_PER_COUNT: f32 = 3.3 / 4096.0 / (20.0 * 0.010);
 /// ADC count at zero current.
 pub const CURRENT_ZERO_COUNT: f32 = 2048.0;
+/// Supply sense: volts of the bridges' supply per ADC count (3.3 V reference, 12:1
+/// divider).
+pub const SUPPLY_V_PER_COUNT: f32 = 3.3 / 4096.0 * 12.0;
 
-/// The driver-enable pin at register level (for the interrupt-safe kill): GPIOB pin 0.
-const DRV_EN_PORT: pac::gpio::Gpio = pac::GPIOB;
-const DRV_EN_PIN: usize = 0;
+/// The driver-enable pin at register level (for the interrupt-safe kill): GPIOA pin 10.
+const DRV_EN_PORT: pac::gpio::Gpio = pac::GPIOA;
+const DRV_EN_PIN: usize = 10;
+/// The brake outputs at register level: GPIOA pins 11 (legs) and 12 (links).
+const BRAKE_PORT: pac::gpio::Gpio = pac::GPIOA;
+const BRAKE_PINS: [usize; 2] = [11, 12];
 
 /// The clock tree: 8 MHz HSE -> PLL 168 MHz SYSCLK, APB1 42 MHz (timers 84 MHz), APB2
 /// 84 MHz (timers 168 MHz), 48 MHz for USB.
@@ -116,7 +147,8 @@ pub struct Encoders {
     pub t3: Qei<'static, TIM8>,
 }
 
-/// The six H-bridges: PWM timers, direction pins, the common driver enable.
+/// The six H-bridges: PWM timers, direction pins, the common driver enable, and the
+/// brake outputs.
 pub struct Motors {
     pub pwm9: SimplePwm<'static, TIM9>,
     pub pwm10: SimplePwm<'static, TIM10>,
@@ -125,13 +157,18 @@ pub struct Motors {
     pub pwm14: SimplePwm<'static, TIM14>,
     pub dir: [Output<'static>; 6],
     pub driver_enable: Output<'static>,
+    /// Brake coils: legs, links (high = released).
+    pub brakes: [Output<'static>; 2],
 }
 
-/// Home switches and motor currents.
+/// Home switches, motor currents, the supply, the drivers' fault line, the relay feedback.
 pub struct Sensors {
     pub switches: [Input<'static>; 6],
     pub adc: Adc<'static, ADC1>,
     pub current: [AnyAdcChannel<'static, ADC1>; 6],
+    pub supply: AnyAdcChannel<'static, ADC1>,
+    pub driver_fault: Input<'static>,
+    pub relay_feedback: Input<'static>,
 }
 
 /// Everything the firmware uses.
@@ -155,8 +192,13 @@ pub enum BoardError {
 impl Board {
     /// Takes the peripherals and sets every pin up; the outputs start in the safe state.
     pub fn new(p: Peripherals) -> Result<Self, BoardError> {
-        // Driver enable first, low: nothing can drive before the state machine says so.
-        let driver_enable = Output::new(p.PB0, Level::Low, Speed::Low);
+        // Driver enable first, low, and the brakes applied: nothing can drive or let go
+        // before the state machine says so.
+        let driver_enable = Output::new(p.PA10, Level::Low, Speed::Low);
+        let brakes = [
+            Output::new(p.PA11, Level::Low, Speed::Low),
+            Output::new(p.PA12, Level::Low, Speed::Low),
+        ];
 
         let qc = qei::Config::default();
         let encoders = Encoders {
@@ -226,6 +268,7 @@ impl Board {
                 Output::new(p.PC9, Level::Low, Speed::Low),
             ],
             driver_enable,
+            brakes,
         };
         // PWM outputs: forced inactive until enabled, channel outputs on.
         force_outputs_safe();
@@ -254,6 +297,9 @@ impl Board {
                 p.PC4.degrade_adc(),
                 p.PC5.degrade_adc(),
             ],
+            supply: p.PB0.degrade_adc(),
+            driver_fault: Input::new(p.PC15, Pull::Up),
+            relay_feedback: Input::new(p.PC14, Pull::Up),
         };
 
         let estop_pull = if ESTOP_ACTIVE_HIGH {
@@ -309,11 +355,17 @@ pub fn estop_asserted_raw() -> bool {
     high == ESTOP_ACTIVE_HIGH
 }
 
-/// Every PWM output forced low and duty 0, the driver enable low: plain register writes,
-/// callable from any context (interrupt, halt path, before the drivers exist).
+/// Every PWM output forced low and duty 0, the driver enable low, the brakes applied:
+/// plain register writes, callable from any context (interrupt, panic and fault handlers,
+/// before the drivers exist).
 pub fn force_outputs_safe() {
     use pac::timer::vals::Ocm;
     DRV_EN_PORT.bsrr().write(|w| w.set_br(DRV_EN_PIN, true));
+    BRAKE_PORT.bsrr().write(|w| {
+        for pin in BRAKE_PINS {
+            w.set_br(pin, true);
+        }
+    });
     pac::TIM9.ccmr_output(0).modify(|w| {
         w.set_ocm(0, Ocm::FORCE_INACTIVE);
         w.set_ocm(1, Ocm::FORCE_INACTIVE);
@@ -351,4 +403,31 @@ fn enable_pwm_channels() {
     for t in [pac::TIM10, pac::TIM11, pac::TIM13, pac::TIM14] {
         t.ccer().modify(|w| w.set_cce(0, true));
     }
+}
+
+/// Why the chip last reset, from the RCC's reset flags (RM0090 7.3.21, `RCC_CSR`), which
+/// are then cleared so that the next reset reads its own. Order matters: an internal reset
+/// also pulls NRST low (the pin flag is set with it), and a power-on sets the brown-out
+/// flag too.
+pub fn take_reset_cause() -> ResetCause {
+    let csr = pac::RCC.csr().read();
+    let cause = if csr.wdgrstf() {
+        ResetCause::Watchdog
+    } else if csr.wwdgrstf() {
+        ResetCause::WindowWatchdog
+    } else if csr.lpwrrstf() {
+        ResetCause::LowPower
+    } else if csr.sftrstf() {
+        ResetCause::Software
+    } else if csr.porrstf() {
+        ResetCause::PowerOn
+    } else if csr.borrstf() {
+        ResetCause::BrownOut
+    } else if csr.padrstf() {
+        ResetCause::Pin
+    } else {
+        ResetCause::PowerOn
+    };
+    pac::RCC.csr().modify(|w| w.set_rmvf(true));
+    cause
 }

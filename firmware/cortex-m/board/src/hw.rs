@@ -1,6 +1,6 @@
 //! The board's peripherals behind the control application's hardware traits (`hal`), the
-//! board around the control tick (`board_tasks::ControlBoard`: cycle counter, e-stop
-//! input, watchdog, status LED, logs) and the master link's serial port
+//! board around the control tick (`board_tasks::ControlBoard`: cycle counter, watchdog,
+//! status LED, the fault log kept across resets, logs) and the master link's serial port
 //! (`board_tasks::{ByteRx, ByteTx}`).
 
 use board_tasks::{ByteRx, ByteTx, ControlBoard};
@@ -14,7 +14,10 @@ use embassy_stm32::mode::Async;
 use embassy_stm32::peripherals::IWDG;
 use embassy_stm32::usart::{RingBufferedUartRx, UartTx};
 use embassy_stm32::wdg::IndependentWatchdog;
-use hal::{CurrentSense, LimitSwitches, MotorOutputs, QuadratureCounter, SafeOutputs};
+use hal::{
+    Brakes, CurrentSense, LimitSwitches, MotorOutputs, PowerStage, QuadratureCounter, SafeOutputs,
+    SafetyChain,
+};
 use kinematics_core::Mechanism;
 
 use crate::board::{self, Encoders, Motors, Sensors};
@@ -28,11 +31,13 @@ impl SafeOutputs for RawKill {
     }
 }
 
-/// Encoders, bridges, switches and current sense as the controller sees them.
+/// Encoders, bridges, brakes, switches, current and supply sense, the drivers' fault line
+/// and the safety chain as the controller sees them.
 pub struct Hardware {
     encoders: Encoders,
     motors: Motors,
     sensors: Sensors,
+    estop_input: Input<'static>,
     estop: &'static EStopLatch,
     max_duty: [u32; 6],
 }
@@ -43,6 +48,7 @@ impl Hardware {
         encoders: Encoders,
         mut motors: Motors,
         sensors: Sensors,
+        estop_input: Input<'static>,
         estop: &'static EStopLatch,
     ) -> Self {
         let max_duty = [
@@ -58,6 +64,7 @@ impl Hardware {
             encoders,
             motors,
             sensors,
+            estop_input,
             estop,
             max_duty,
         }
@@ -161,12 +168,45 @@ impl CurrentSense<f32> for Hardware {
     }
 }
 
+impl Brakes for Hardware {
+    fn set_brakes_released(&mut self, released: bool) {
+        let level = if released { Level::High } else { Level::Low };
+        // Never release over a pending or present emergency stop.
+        critical_section::with(|_| {
+            let allowed = !released || (!self.estop.is_tripped() && !board::estop_asserted_raw());
+            if allowed {
+                for b in self.motors.brakes.iter_mut() {
+                    b.set_level(level);
+                }
+            }
+        });
+    }
+}
+
+impl PowerStage<f32> for Hardware {
+    fn supply_voltage(&mut self) -> f32 {
+        let s = &mut self.sensors;
+        f32::from(s.adc.blocking_read(&mut s.supply, SampleTime::CYCLES15))
+            * board::SUPPLY_V_PER_COUNT
+    }
+    fn driver_fault(&mut self) -> bool {
+        self.sensors.driver_fault.is_low()
+    }
+}
+
+impl SafetyChain for Hardware {
+    fn estop_pressed(&mut self) -> bool {
+        self.estop_input.is_high() == board::ESTOP_ACTIVE_HIGH
+    }
+    fn relay_open(&mut self) -> bool {
+        self.sensors.relay_feedback.is_high()
+    }
+}
+
 /// The board around the control tick.
 pub struct Control {
-    /// Encoders, bridges, switches, currents.
+    /// Encoders, bridges, brakes, switches, currents, power stage, safety chain.
     pub hw: Hardware,
-    /// The e-stop input.
-    pub estop: Input<'static>,
     /// The status LED.
     pub led: Output<'static>,
     /// The independent watchdog (started).
@@ -183,11 +223,11 @@ impl ControlBoard<f32> for Control {
     fn cycles(&mut self) -> u32 {
         DWT::cycle_count()
     }
-    fn estop_asserted(&mut self) -> bool {
-        self.estop.is_high() == board::ESTOP_ACTIVE_HIGH
-    }
     fn feed_watchdog(&mut self) {
         self.iwdg.pet();
+    }
+    fn persist_fault_log(&mut self, log: &control::faults::FaultLog) {
+        crate::safe_halt::persist(log);
     }
     fn after_tick<M: Mechanism<f32> + Clone>(
         &mut self,

@@ -3,7 +3,9 @@
 //! `board`'s, the hardware traits are `hw`'s.
 //!
 //! Interrupts and tasks, highest priority first:
-//! * `EXTI15_10` (P0): the e-stop edge forces every output off and trips the latch;
+//! * `EXTI15_10` (P0): the e-stop edge forces every output safe (PWM off, driver enable
+//!   low, brakes applied) and trips the latch (the button's second channel: its first
+//!   opens the safety relay without the MCU);
 //! * TIM12 time driver (P1);
 //! * `control` on an interrupt executor (`UART4` vector, P2): the 1 kHz control tick;
 //! * USART3 and its DMA (P4);
@@ -13,19 +15,22 @@
 
 mod board;
 mod hw;
+mod safe_halt;
 
 use board_tasks::{firmware_version, run_control, run_link_rx, run_link_tx, Shared};
 use control::estop::emergency_stop_isr;
+use control::faults::FaultLog;
 use control::runtime::{reference_config_for, Runtime};
 use control::service::{ServiceConfig, TickService};
 use defmt::{error, info};
+use defmt_rtt as _;
 use embassy_executor::{InterruptExecutor, Spawner};
 use embassy_stm32::interrupt;
 use embassy_stm32::interrupt::{InterruptExt, Priority};
 use embassy_time::Instant;
 use hal::{QuadratureCounter, SafeOutputs};
 use kinematics_core::{Branch, RsprGeometry};
-use {defmt_rtt as _, panic_probe as _};
+use master_link::ResetCause;
 
 /// Control period, µs (1 kHz).
 const PERIOD_US: u32 = 1000;
@@ -75,6 +80,9 @@ async fn main(spawner: Spawner) {
     };
     cp.DCB.enable_trace();
     cp.DWT.enable_cycle_counter();
+    // Before anything else can reset: why the last reset, and the fault log it kept.
+    let reset = board::take_reset_cause();
+    let kept_log = safe_halt::take();
     let b = match board::Board::new(p) {
         Ok(b) => b,
         Err(e) => {
@@ -95,14 +103,13 @@ async fn main(spawner: Spawner) {
     let mut iwdg = b.iwdg;
     iwdg.unleash();
     let control_board = hw::Control {
-        hw: hw::Hardware::new(b.encoders, b.motors, b.sensors, &SHARED.estop),
-        estop: b.estop,
+        hw: hw::Hardware::new(b.encoders, b.motors, b.sensors, b.estop, &SHARED.estop),
         led: b.led,
         iwdg,
         ticks: 0,
     };
     let control_spawner = EXECUTOR_CONTROL.start(interrupt::UART4);
-    match control(Owned(control_board)) {
+    match control(Owned(control_board), reset, kept_log) {
         Ok(t) => control_spawner.spawn(t),
         Err(_) => halt("spawn control"),
     }
@@ -120,32 +127,43 @@ async fn main(spawner: Spawner) {
     }
 }
 
-/// The reference robot's runtime, booted on the encoders as they read now, in its tick
-/// service. (A plain function: the intermediate values stay off the task's future.)
-fn control_service(board: &mut hw::Control) -> TickService<f32, RsprGeometry<f32>> {
+/// The reference robot's runtime, booted on the encoders as they read now with the reset
+/// cause and the kept fault log, in its tick service. (A plain function: the intermediate
+/// values stay off the task's future.)
+fn control_service(
+    board: &mut hw::Control,
+    reset: ResetCause,
+    log: Option<FaultLog>,
+) -> TickService<f32, RsprGeometry<f32>> {
     let robot = RsprGeometry::<f32>::reference();
-    let Ok(cfg) = reference_config_for(&robot, Branch::OUTER) else {
+    let Ok(cfg) = reference_config_for(&robot, Branch::OUTER, None, None) else {
         halt("central configuration");
     };
     let now = Instant::now().as_micros();
     let Ok(mut rt) = Runtime::new(robot, cfg, now) else {
         halt("runtime configuration");
     };
-    let _ = rt.boot_done(board.hw.counts(), now);
-    info!("boot done: {}", rt.state());
-    TickService::new(rt, ServiceConfig::for_period(PERIOD_US, board::CPU_HZ))
+    let _ = rt.boot_done(board.hw.counts(), now, reset, log);
+    info!(
+        "boot done: {}, reset {}, {} faults kept",
+        rt.state(),
+        reset,
+        rt.fault_log().len()
+    );
+    let cfg = ServiceConfig::for_period(PERIOD_US, board::CPU_HZ, firmware_version!());
+    TickService::new(rt, cfg)
 }
 
 #[embassy_executor::task]
-async fn control(board: Owned<hw::Control>) {
+async fn control(board: Owned<hw::Control>, reset: ResetCause, log: Option<FaultLog>) {
     let mut board = board.0;
-    let mut service = control_service(&mut board);
+    let mut service = control_service(&mut board, reset, log);
     run_control(&SHARED, &mut board, &mut service).await
 }
 
 #[embassy_executor::task]
 async fn link_rx(mut rx: hw::LinkRx) {
-    run_link_rx(&SHARED, &mut rx, &mut hw::RawKill, firmware_version!()).await
+    run_link_rx(&SHARED, &mut rx, &mut hw::RawKill).await
 }
 
 #[embassy_executor::task]

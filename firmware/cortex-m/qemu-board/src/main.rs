@@ -119,9 +119,6 @@ impl ControlBoard<f32> for Emulated {
     fn cycles(&mut self) -> u32 {
         (now_us() as u32).wrapping_mul(CPU_HZ / 1_000_000)
     }
-    fn estop_asserted(&mut self) -> bool {
-        false
-    }
     fn feed_watchdog(&mut self) {}
     fn before_tick(&mut self, now_us: u64) {
         // The plant runs up to now with the duties of the last tick.
@@ -172,22 +169,28 @@ impl ControlBoard<f32> for Emulated {
     }
 }
 
-/// Where the emulated robot is at power-up: legs a few mm above their home switches
-/// (150 mm), links 0.15 .. 0.25 rad above their hard stops (60 deg below the central
-/// angles); the raw counters start at arbitrary values.
+/// Where the emulated robot is at power-up: legs a few mm above their home switches,
+/// links 0.15 .. 0.25 rad above their hard stops (the reference mechanics'); the raw
+/// counters start at arbitrary values.
 fn power_up_plant(central_q: &[f32; 6], now: u64) -> Plant {
-    let stop = |j: usize| central_q.get(j).copied().unwrap_or(0.0) - 60f32.to_radians();
+    let mech = control::runtime::reference_mechanics(
+        central_q,
+        &kinematics_core::guards::Limits::reference(),
+    );
+    let stop =
+        |j: usize| central_q.get(j).copied().unwrap_or(0.0) - mech.link_stop_below_central_rad;
     let stops = [stop(3), stop(4), stop(5)];
+    let sw = mech.leg_switch_m;
     let q0 = [
-        0.156,
-        0.158,
-        0.155,
+        sw + 0.006,
+        sw + 0.008,
+        sw + 0.005,
         stops[0] + 0.20,
         stops[1] + 0.25,
         stops[2] + 0.15,
     ];
     let raw0 = [1234, 40_000, 65_000, 7, 30_000, 52_345];
-    Plant::new(q0, raw0, 0.150, stops, now, 2 * u64::from(PERIOD_US))
+    Plant::new(q0, raw0, sw, stops, now, 2 * u64::from(PERIOD_US))
 }
 
 /// The reference robot's runtime for the emulator, booted on the plant, in its tick
@@ -197,31 +200,48 @@ fn power_up_plant(central_q: &[f32; 6], now: u64) -> Plant {
 /// tens of ms); no backlash compensation (the emulated joints have none); a quick park.
 fn control_service() -> (Emulated, TickService<f32, RsprGeometry<f32>>) {
     let robot = RsprGeometry::<f32>::reference();
-    let Ok(mut cfg) = reference_config_for(&robot, Branch::OUTER) else {
+    let Ok(central) = kinematics_core::inverse(
+        &robot,
+        &kinematics_core::Pose::central(robot.hc),
+        Branch::OUTER,
+    ) else {
         halt("central configuration");
     };
-    let central_q = cfg.homing.park.unwrap_or([0.0; 6]);
+    let central_q = control::drive::to_array(&central.q());
+    let now = now_us();
+    let mut plant = power_up_plant(&central_q, now);
+    let rest = plant.positions();
+    let Ok(mut cfg) = reference_config_for(&robot, Branch::OUTER, None, Some(rest)) else {
+        halt("central configuration");
+    };
     cfg.controller.rate_hz = RATE_HZ as f32;
     cfg.controller.supervisor.stages_per_tick = 5;
     cfg.controller.servo.backlash = servo::backlash::BacklashConfig::off();
     cfg.targets.max_latency_us = 200_000;
-    cfg.homing.park_speed = [0.01, 0.01, 0.01, 0.3, 0.3, 0.3];
-    let now = now_us();
-    let mut plant = power_up_plant(&central_q, now);
+    cfg.park.speed = [0.01, 0.01, 0.01, 0.3, 0.3, 0.3];
     let Ok(mut rt) = Runtime::new(robot, cfg, now) else {
         halt("runtime configuration");
     };
-    let _ = rt.boot_done(plant.counts(), now);
+    let _ = rt.boot_done(plant.counts(), now, master_link::ResetCause::PowerOn, None);
     hprintln!("boot done: {:?}", rt.state());
     let board = Emulated {
         plant,
         ticks: 0,
         path_refused: 0,
     };
-    (
-        board,
-        TickService::new(rt, ServiceConfig::for_period(PERIOD_US, CPU_HZ)),
-    )
+    (board, TickService::new(rt, service_config()))
+}
+
+/// The tick service's settings here: QEMU does not run in real time (the host stalls the
+/// guest by milliseconds to tens of milliseconds), so the deadline policy would fault on
+/// the host's hiccups, not on the firmware's: a tick may start up to 100 ms late and
+/// overruns are only warned about. The policy itself is tested on the host
+/// (`firmware/control/tests/failsafe.rs`) and in the instruction-exact STM32 emulator.
+fn service_config() -> ServiceConfig {
+    let mut cfg = ServiceConfig::for_period(PERIOD_US, CPU_HZ, firmware_version!());
+    cfg.watchdog.max_lateness_us = 100_000;
+    cfg.overruns_to_fault = u32::MAX;
+    cfg
 }
 
 #[embassy_executor::task]
@@ -250,13 +270,7 @@ impl board_tasks::ByteTx for UartTx {
 
 #[embassy_executor::task]
 async fn link_rx() {
-    run_link_rx(
-        &SHARED,
-        &mut UartRx,
-        &mut plant::RawKill,
-        firmware_version!(),
-    )
-    .await
+    run_link_rx(&SHARED, &mut UartRx, &mut plant::RawKill).await
 }
 
 #[embassy_executor::task]

@@ -15,6 +15,12 @@
 //! steps of [`STEP_US`] with the friction sign of the step's start. Positions are kept in
 //! encoder counts (an integer and a fraction), so nothing drifts in f32.
 //!
+//! The brakes are ideal: while applied (and once the bridges' power and the brakes'
+//! coils are what the firmware commands) a joint does not move. The supply reads 24 V,
+//! the drivers never report a fault, and the safety chain is closed (no e-stop button on
+//! this board): the emulator exercises the control path, the fault paths are tested on
+//! the host and in the STM32 emulator.
+//!
 //! Parameters: those of `host-sim/plant/plant.toml` (40 mm motor and 3 mm per motor
 //! revolution on the legs: 0.0015 mm/count; 25 mm motor and 36:1 on the links: 0.005
 //! deg/count), the load-side masses, inertias and frictions referred to the motor. Not
@@ -22,7 +28,10 @@
 
 use core::sync::atomic::{AtomicBool, Ordering};
 
-use hal::{CurrentSense, LimitSwitches, MotorOutputs, QuadratureCounter, SafeOutputs};
+use hal::{
+    Brakes, CurrentSense, LimitSwitches, MotorOutputs, PowerStage, QuadratureCounter, SafeOutputs,
+    SafetyChain,
+};
 
 /// Integration step, µs.
 pub const STEP_US: u64 = 250;
@@ -208,6 +217,8 @@ pub struct Plant {
     max_catch_up_us: u64,
     /// Time not simulated because the emulator stalled, µs.
     pub frozen_us: u64,
+    /// The brakes' coils are powered (released).
+    brakes_released: bool,
     /// Steps computed.
     pub steps: u64,
 }
@@ -244,8 +255,18 @@ impl Plant {
             t_us: now_us,
             max_catch_up_us,
             frozen_us: 0,
+            brakes_released: false,
             steps: 0,
         }
+    }
+
+    /// The joint positions now (m, rad).
+    pub fn positions(&self) -> [f32; 6] {
+        let mut out = [0.0; 6];
+        for (o, j) in out.iter_mut().zip(self.joints.iter()) {
+            *o = j.q();
+        }
+        out
     }
 
     /// Simulates up to `now_us` in steps of [`STEP_US`] with the duties held.
@@ -256,9 +277,15 @@ impl Plant {
             self.t_us = now_us - self.max_catch_up_us;
         }
         let killed = KILLED.load(Ordering::Relaxed);
+        // The brakes hold unless released, and the kill cuts their coils too.
+        let held = killed || !self.brakes_released;
         while self.t_us + STEP_US <= now_us {
             for (joint, d) in self.joints.iter_mut().zip(self.duty) {
-                joint.step(if killed { 0.0 } else { d });
+                if held {
+                    joint.speed = 0.0;
+                } else {
+                    joint.step(if killed { 0.0 } else { d });
+                }
             }
             self.t_us += STEP_US;
             self.steps += 1;
@@ -322,5 +349,29 @@ impl CurrentSense<f32> for Plant {
             *o = j.current(if killed { 0.0 } else { d });
         }
         out
+    }
+}
+
+impl Brakes for Plant {
+    fn set_brakes_released(&mut self, released: bool) {
+        self.brakes_released = released;
+    }
+}
+
+impl PowerStage<f32> for Plant {
+    fn supply_voltage(&mut self) -> f32 {
+        SUPPLY_V
+    }
+    fn driver_fault(&mut self) -> bool {
+        false
+    }
+}
+
+impl SafetyChain for Plant {
+    fn estop_pressed(&mut self) -> bool {
+        false
+    }
+    fn relay_open(&mut self) -> bool {
+        false
     }
 }

@@ -5,17 +5,23 @@ use master_link::*;
 use proptest::array::uniform3;
 use proptest::prelude::*;
 
-/// Encodes one frame into a `Vec`, using a `MAX_FRAME_LEN` buffer.
+/// Encodes one frame of session 0 into a `Vec`, using a `MAX_FRAME_LEN` buffer.
 pub fn enc<M: WireMessage>(msg: &M, seq: Seq) -> Vec<u8> {
+    enc_in(msg, 0, seq)
+}
+
+/// Encodes one frame of session `session` into a `Vec`.
+pub fn enc_in<M: WireMessage>(msg: &M, session: u32, seq: Seq) -> Vec<u8> {
     let mut buf = [0u8; MAX_FRAME_LEN];
-    let n = encode(msg, seq, &mut buf).expect("encode");
+    let n = encode(msg, Header { session, seq }, &mut buf).expect("encode");
     buf[..n].to_vec()
 }
 
-/// Builds a frame by hand: raw = version | seq LE | body | crc LE (the CRC
+/// Builds a frame by hand: raw = version | session 0 LE | seq LE | body | crc LE (the CRC
 /// is computed over the first part unless `crc` is given), COBS + 0x00.
 pub fn raw_frame(version: u8, seq: Seq, body: &[u8], crc: Option<u32>) -> Vec<u8> {
     let mut raw = vec![version];
+    raw.extend_from_slice(&0u32.to_le_bytes());
     raw.extend_from_slice(&seq.to_le_bytes());
     raw.extend_from_slice(body);
     let crc = crc.unwrap_or_else(|| CRC32.checksum(&raw));
@@ -56,7 +62,7 @@ pub fn master_variant(m: &MasterToBoard) -> usize {
         Hello { .. } => 0,
         Enable => 1,
         Disable => 2,
-        Home => 3,
+        Home { .. } => 3,
         PoseTarget { .. } => 4,
         Jog { .. } => 5,
         Clutch { .. } => 6,
@@ -64,9 +70,12 @@ pub fn master_variant(m: &MasterToBoard) -> usize {
         EmergencyStop => 8,
         ClearFault => 9,
         StatusRequest => 10,
+        OperatorPresent { .. } => 11,
+        AcknowledgeReset => 12,
+        FaultLogRequest { .. } => 13,
     }
 }
-pub const MASTER_VARIANTS: usize = 11;
+pub const MASTER_VARIANTS: usize = 14;
 
 pub fn board_variant(m: &BoardToMaster) -> usize {
     use BoardToMaster::*;
@@ -75,11 +84,12 @@ pub fn board_variant(m: &BoardToMaster) -> usize {
         Ack { .. } => 1,
         Nack { .. } => 2,
         Status(_) => 3,
+        FaultLog(_) => 4,
     }
 }
-pub const BOARD_VARIANTS: usize = 4;
+pub const BOARD_VARIANTS: usize = 5;
 
-pub const ALL_NACK_REASONS: [NackReason; 15] = [
+pub const ALL_NACK_REASONS: [NackReason; 20] = [
     NackReason::UnsupportedVersion,
     NackReason::NotConnected,
     NackReason::InvalidState,
@@ -95,6 +105,11 @@ pub const ALL_NACK_REASONS: [NackReason; 15] = [
     NackReason::StaleTarget,
     NackReason::ClutchDisengaged,
     NackReason::Busy,
+    NackReason::AlreadyHomed,
+    NackReason::ResetNotAcknowledged,
+    NackReason::SafetyRelayMismatch,
+    NackReason::BrakeCheckFailed,
+    NackReason::OperatorAbsent,
 ];
 
 pub const ALL_STATES: [RobotState; 6] = [
@@ -125,10 +140,58 @@ pub fn max_status() -> StatusReport {
             wrong_version: u32::MAX,
             out_of_order: u32::MAX,
             dropped: u32::MAX,
+            wrong_session: u32::MAX,
         },
         tick_jitter_max_us: u32::MAX,
         tick_exec_max_us: u32::MAX,
         targets_refused: u32::MAX,
+        stop: StopStatus::SafeStop1Decelerating,
+        fault: FaultRecord {
+            cause: FaultCause::EncoderDead,
+            joint: 5,
+            value: -1.5e-3,
+            time_ms: u32::MAX,
+        },
+        reset: ResetStatus {
+            cause: ResetCause::Watchdog,
+            acknowledged: false,
+        },
+        setpoint_position_m: [0.1, -0.2, 0.3],
+        setpoint_rotation_vector_rad: [1.0, -2.0, 3.0],
+        margins: GuardMargins {
+            nearest: 0.1,
+            serial: 0.2,
+            parallel: 0.3,
+            stroke: 0.4,
+            tilt: 0.5,
+            collision: 0.6,
+            workspace: 0.7,
+        },
+        currents_a: [1.0, -2.0, 3.0, -4.0, 5.0, -6.0],
+        supply_v: 24.0,
+        fault_log_len: u16::MAX,
+        missed_ticks: u32::MAX,
+    }
+}
+
+/// The largest fault-log page.
+pub fn max_fault_log() -> FaultLogPage {
+    let entry = FaultLogEntry {
+        record: FaultRecord {
+            cause: FaultCause::Internal,
+            joint: NO_JOINT,
+            value: f32::MAX,
+            time_ms: u32::MAX,
+        },
+        stop: StopStatus::SafeOperatingStop,
+        count: u16::MAX,
+    };
+    FaultLogPage {
+        len: u16::MAX,
+        total: u32::MAX,
+        first: u16::MAX,
+        count: FAULT_LOG_PAGE as u8,
+        entries: [entry; FAULT_LOG_PAGE],
     }
 }
 
@@ -137,10 +200,12 @@ pub fn master_samples() -> Vec<MasterToBoard> {
     vec![
         MasterToBoard::Hello {
             protocol_version: PROTOCOL_VERSION,
+            nonce: u32::MAX,
         },
         MasterToBoard::Enable,
         MasterToBoard::Disable,
-        MasterToBoard::Home,
+        MasterToBoard::Home { rehome: false },
+        MasterToBoard::Home { rehome: true },
         MasterToBoard::PoseTarget {
             timestamp_us: u64::MAX,
             position_m: [0.01, -0.02, 0.15],
@@ -156,6 +221,9 @@ pub fn master_samples() -> Vec<MasterToBoard> {
         MasterToBoard::EmergencyStop,
         MasterToBoard::ClearFault,
         MasterToBoard::StatusRequest,
+        MasterToBoard::OperatorPresent { present: true },
+        MasterToBoard::AcknowledgeReset,
+        MasterToBoard::FaultLogRequest { first: u16::MAX },
     ]
 }
 
@@ -170,10 +238,17 @@ pub fn board_samples() -> Vec<BoardToMaster> {
                 patch: 255,
             },
             protocol_version: PROTOCOL_VERSION,
+            session: u32::MAX,
+            reset: ResetStatus {
+                cause: ResetCause::BrownOut,
+                acknowledged: false,
+            },
         },
         BoardToMaster::Ack { seq: u16::MAX },
         BoardToMaster::Status(max_status()),
         BoardToMaster::Status(StatusReport::default()),
+        BoardToMaster::FaultLog(max_fault_log()),
+        BoardToMaster::FaultLog(FaultLogPage::default()),
     ];
     v.extend(ALL_NACK_REASONS.iter().map(|&reason| BoardToMaster::Nack {
         seq: 0x1234,
@@ -198,12 +273,13 @@ pub fn arb_f3() -> impl Strategy<Value = [f32; 3]> {
 
 pub fn arb_master() -> impl Strategy<Value = MasterToBoard> {
     prop_oneof![
-        any::<u8>().prop_map(|v| MasterToBoard::Hello {
-            protocol_version: v
+        (any::<u8>(), any::<u32>()).prop_map(|(v, nonce)| MasterToBoard::Hello {
+            protocol_version: v,
+            nonce
         }),
         Just(MasterToBoard::Enable),
         Just(MasterToBoard::Disable),
-        Just(MasterToBoard::Home),
+        any::<bool>().prop_map(|rehome| MasterToBoard::Home { rehome }),
         (any::<u64>(), arb_f3(), arb_f3()).prop_map(|(t, p, r)| MasterToBoard::PoseTarget {
             timestamp_us: t,
             position_m: p,
@@ -216,11 +292,14 @@ pub fn arb_master() -> impl Strategy<Value = MasterToBoard> {
         Just(MasterToBoard::EmergencyStop),
         Just(MasterToBoard::ClearFault),
         Just(MasterToBoard::StatusRequest),
+        any::<bool>().prop_map(|present| MasterToBoard::OperatorPresent { present }),
+        Just(MasterToBoard::AcknowledgeReset),
+        any::<u16>().prop_map(|first| MasterToBoard::FaultLogRequest { first }),
     ]
 }
 
 pub fn arb_counters() -> impl Strategy<Value = LinkCounters> {
-    proptest::array::uniform7(any::<u32>()).prop_map(|c| LinkCounters {
+    proptest::array::uniform8(any::<u32>()).prop_map(|c| LinkCounters {
         frames_ok: c[0],
         bad_checksum: c[1],
         malformed: c[2],
@@ -228,6 +307,7 @@ pub fn arb_counters() -> impl Strategy<Value = LinkCounters> {
         wrong_version: c[4],
         out_of_order: c[5],
         dropped: c[6],
+        wrong_session: c[7],
     })
 }
 
@@ -257,19 +337,24 @@ pub fn arb_status() -> impl Strategy<Value = StatusReport> {
                 tick_jitter_max_us: tj,
                 tick_exec_max_us: te,
                 targets_refused: tr,
+                ..max_status()
             },
         )
 }
 
 pub fn arb_board() -> impl Strategy<Value = BoardToMaster> {
     prop_oneof![
-        (any::<[u8; 3]>(), any::<u8>()).prop_map(|(v, p)| BoardToMaster::HelloReply {
-            firmware_version: FirmwareVersion {
-                major: v[0],
-                minor: v[1],
-                patch: v[2]
-            },
-            protocol_version: p
+        (any::<[u8; 3]>(), any::<u8>(), any::<u32>()).prop_map(|(v, p, session)| {
+            BoardToMaster::HelloReply {
+                firmware_version: FirmwareVersion {
+                    major: v[0],
+                    minor: v[1],
+                    patch: v[2],
+                },
+                protocol_version: p,
+                session,
+                reset: ResetStatus::default(),
+            }
         }),
         any::<u16>().prop_map(|seq| BoardToMaster::Ack { seq }),
         (
@@ -278,5 +363,6 @@ pub fn arb_board() -> impl Strategy<Value = BoardToMaster> {
         )
             .prop_map(|(seq, reason)| BoardToMaster::Nack { seq, reason }),
         arb_status().prop_map(BoardToMaster::Status),
+        Just(BoardToMaster::FaultLog(max_fault_log())),
     ]
 }

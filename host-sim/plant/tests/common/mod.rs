@@ -15,6 +15,16 @@ pub fn plant() -> Result<Plant, Box<dyn std::error::Error>> {
     Ok(p)
 }
 
+/// The shipped plant at `HOME` with the drivers' current regulation off: the motors and
+/// transmissions alone (data-sheet checks).
+pub fn unregulated_plant() -> Result<Plant, Box<dyn std::error::Error>> {
+    let mut p = plant()?;
+    for j in 0..NUM_JOINTS {
+        p.inject(j, plant::Fault::CurrentRegulationLost)?;
+    }
+    Ok(p)
+}
+
 /// Extends the wrapping 16-bit counters to i64, as the controller must (valid while fewer
 /// than 32768 counts pass between two reads).
 #[derive(Debug, Clone)]

@@ -806,7 +806,8 @@ fn start_controller(
     };
     let q0 = [q[0], q[1], q[2], q[3], q[4], q[5]];
     let plant = PlantStub::new(q0.map(f64::from), raw0);
-    let sensing = match Sensing::homed_at(g, Branch::OUTER, &cfg.encoders, cfg.fk, plant.raw(), &q0) {
+    let sensing = match Sensing::homed_at(g, Branch::OUTER, &cfg.encoders, cfg.fk, plant.raw(), &q0)
+    {
         Ok(s) => s,
         Err(e) => panic!("sensing: {}", e),
     };
@@ -838,7 +839,8 @@ fn controller_follows_a_target_with_the_motor_stub(ctx: &mut Ctx) {
         let mut last = None;
         for _ in 0..1500 {
             let m = sensing.update(&mut plant);
-            let r = ctl.tick(m, &mut plant);
+            let r = ctl.tick(m);
+            r.apply(&mut plant);
             plant.step(1e-3);
             let fk = sensing.measured().status;
             if matches!(fk, PoseStatus::Failed(_)) || r.servo.fault.is_some() {
@@ -956,7 +958,8 @@ fn controller_disables_the_outputs_on_a_stuck_encoder(ctx: &mut Ctx) {
     for k in 0..1000 {
         let mut hw = Stuck(&mut plant, stuck);
         let m = sensing.update(&mut hw);
-        let r = ctl.tick(m, &mut hw);
+        let r = ctl.tick(m);
+        r.apply(&mut hw);
         plant.step(1e-3);
         if r.servo.fault.is_some() {
             tripped = Some(k);

@@ -123,7 +123,8 @@ fn full_tick() {
     let cfg = ControllerConfig::<f32>::default();
     // The sensing as the runtime has it after homing: the counters read q0, the pose
     // solved once.
-    let Ok(mut sensing) = Sensing::homed_at(g, Branch::OUTER, &cfg.encoders, cfg.fk, plant.raw(), &q0)
+    let Ok(mut sensing) =
+        Sensing::homed_at(g, Branch::OUTER, &cfg.encoders, cfg.fk, plant.raw(), &q0)
     else {
         panic!("sensing setup");
     };
@@ -187,7 +188,9 @@ fn full_tick() {
         // The full tick: the sensing (counters, FK tracker), then the planner and the drive.
         measure(&mut || {
             let measured = sensing.update(&mut plant);
-            report = Some(ctl.tick(measured, &mut plant));
+            let r = ctl.tick(measured);
+            r.apply(&mut plant);
+            report = Some(r);
         });
         ticks_run = k + 1;
         let Some(r) = report else { break };

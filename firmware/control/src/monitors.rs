@@ -1,0 +1,439 @@
+//! The plausibility monitors that run on every tick, in every state, on what the tick
+//! measured: the encoders (a jump beyond the joint's top speed; a dead encoder while the
+//! motor's back-EMF says it turns), the joint ranges and the limit switches, the power stage
+//! (supply voltage, driver fault output), the safety chain (the e-stop button against the
+//! safety relay's feedback) and the standstill of a safe operating stop. Each finding names
+//! its cause, the joint and the value ([`Finding`]).
+
+use master_link::{FaultCause, FaultRecord, NO_JOINT};
+use num_traits::Float;
+use servo::NUM_JOINTS;
+
+use crate::current::MotorModel;
+
+/// A fault a monitor found: cause, joint (None: not a joint's) and value.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Finding {
+    /// The cause.
+    pub cause: FaultCause,
+    /// The joint.
+    pub joint: Option<usize>,
+    /// The value (units: see [`FaultCause`]).
+    pub value: f32,
+}
+
+impl Finding {
+    /// A finding about joint `joint`.
+    pub fn joint<S: Float>(cause: FaultCause, joint: usize, value: S) -> Self {
+        Finding {
+            cause,
+            joint: Some(joint),
+            value: value.to_f32().unwrap_or(f32::NAN),
+        }
+    }
+    /// A finding about the board.
+    pub fn board<S: Float>(cause: FaultCause, value: S) -> Self {
+        Finding {
+            cause,
+            joint: None,
+            value: value.to_f32().unwrap_or(f32::NAN),
+        }
+    }
+    /// The record for the status and the log, at `now_us`.
+    pub fn record(&self, now_us: u64) -> FaultRecord {
+        FaultRecord {
+            cause: self.cause,
+            joint: self
+                .joint
+                .and_then(|j| u8::try_from(j).ok())
+                .unwrap_or(NO_JOINT),
+            value: self.value,
+            time_ms: u32::try_from(now_us / 1000).unwrap_or(u32::MAX),
+        }
+    }
+}
+
+fn lit<S: Float>(x: f64) -> S {
+    S::from(x).unwrap_or_else(S::zero)
+}
+
+/// Encoder plausibility settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EncoderCheckConfig<S> {
+    /// Counts per joint unit (m or rad), joint order.
+    pub counts_per_unit: [S; NUM_JOINTS],
+    /// Top speed of each joint (its motor's no-load speed at the supply), m/s or rad/s.
+    pub top_speed: [S; NUM_JOINTS],
+    /// Margin on the top speed for the jump check (default 1.5).
+    pub jump_margin: S,
+    /// Motor speed below which the back-EMF estimate is not trusted, rad/s of the motor
+    /// (the current sensing's noise times R over Ke; default 30 rad/s, 4 % of the legs'
+    /// no-load speed).
+    pub emf_floor_rad_s: S,
+    /// Consecutive ticks the back-EMF and the encoder must disagree (default 5).
+    pub dead_ticks: u16,
+}
+
+impl<S: Float> EncoderCheckConfig<S> {
+    /// The reference robot's: the motors of [`MotorModel::leg`] / [`MotorModel::link`] at
+    /// 24 V, the encoders of `servo::encoder`.
+    pub fn reference(counts_per_unit: [S; NUM_JOINTS]) -> Self {
+        let (leg, link) = (MotorModel::<S>::leg(), MotorModel::<S>::link());
+        let top =
+            |m: &MotorModel<S>| lit::<S>(24.0) / m.back_emf_v_s_per_rad / m.motor_rad_per_unit;
+        EncoderCheckConfig {
+            counts_per_unit,
+            top_speed: [
+                top(&leg),
+                top(&leg),
+                top(&leg),
+                top(&link),
+                top(&link),
+                top(&link),
+            ],
+            jump_margin: lit(1.5),
+            emf_floor_rad_s: lit(30.0),
+            dead_ticks: 5,
+        }
+    }
+}
+
+/// What drove the motors over the last tick, for the back-EMF check.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DriveSample<S> {
+    /// The duties applied over the tick.
+    pub duty: [S; NUM_JOINTS],
+    /// The currents measured at its end, A.
+    pub current: [S; NUM_JOINTS],
+    /// The supply, V.
+    pub supply_v: S,
+    /// The drives produced torque.
+    pub torque: bool,
+}
+
+/// The encoder plausibility monitor.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EncoderCheck<S> {
+    cfg: EncoderCheckConfig<S>,
+    last_counts: Option<[i64; NUM_JOINTS]>,
+    disagree: [u16; NUM_JOINTS],
+    /// Joint speeds from the last two readings, m/s or rad/s.
+    qdot: [S; NUM_JOINTS],
+}
+
+impl<S: Float> EncoderCheck<S> {
+    /// No reading yet.
+    pub fn new(cfg: EncoderCheckConfig<S>) -> Self {
+        EncoderCheck {
+            cfg,
+            last_counts: None,
+            disagree: [0; NUM_JOINTS],
+            qdot: [S::zero(); NUM_JOINTS],
+        }
+    }
+
+    /// The joint speeds of the last two readings (m/s, rad/s).
+    pub fn qdot(&self) -> &[S; NUM_JOINTS] {
+        &self.qdot
+    }
+
+    /// Checks this tick's extended counts `counts`, `dt` s after the last ones, against
+    /// the motor model: a jump (more counts than the top speed allows, with margin), and,
+    /// while the drives produce torque, a dead encoder (the back-EMF `Ke·ω = V·d − R·i` of
+    /// the last tick's duty and the measured current says the motor turns by more than its
+    /// floor, and the encoder says it turns at less than half of that, or the other way,
+    /// for `dead_ticks` ticks).
+    pub fn check(
+        &mut self,
+        counts: &[i64; NUM_JOINTS],
+        dt: S,
+        motors: &[MotorModel<S>; NUM_JOINTS],
+        drive: &DriveSample<S>,
+    ) -> Option<Finding> {
+        let last = self.last_counts.replace(*counts)?;
+        let (duty, current, supply_v, torque) =
+            (&drive.duty, &drive.current, drive.supply_v, drive.torque);
+        let mut found = None;
+        for j in 0..NUM_JOINTS {
+            let (Some(c), Some(l), Some(cpu), Some(top), Some(m)) = (
+                counts.get(j),
+                last.get(j),
+                self.cfg.counts_per_unit.get(j),
+                self.cfg.top_speed.get(j),
+                motors.get(j),
+            ) else {
+                continue;
+            };
+            let delta = c.wrapping_sub(*l);
+            let dq = S::from(delta).unwrap_or_else(S::zero) / *cpu;
+            let speed = if dt > S::zero() { dq / dt } else { S::zero() };
+            if let Some(q) = self.qdot.get_mut(j) {
+                *q = speed;
+            }
+            // Jump: more counts in one tick than the top speed allows.
+            let max_counts = *top * self.cfg.jump_margin * dt * *cpu + lit(2.0);
+            let counts_abs = S::from(delta.unsigned_abs()).unwrap_or_else(S::infinity);
+            if counts_abs > max_counts && found.is_none() {
+                found = Some(Finding::joint(FaultCause::EncoderJump, j, counts_abs));
+            }
+            // Dead: the back-EMF says the motor turns, the encoder does not.
+            let n = self.disagree.get_mut(j);
+            let (Some(n), Some(d), Some(i)) = (n, duty.get(j), current.get(j)) else {
+                continue;
+            };
+            let emf_speed = (supply_v * *d - m.resistance_ohm * *i) / m.back_emf_v_s_per_rad;
+            let enc_speed = speed * m.motor_rad_per_unit;
+            let disagrees = torque
+                && emf_speed.is_finite()
+                && emf_speed.abs() > self.cfg.emf_floor_rad_s
+                && (enc_speed.abs() < emf_speed.abs() * lit(0.5)
+                    || enc_speed.signum() != emf_speed.signum());
+            *n = if disagrees { n.saturating_add(1) } else { 0 };
+            if *n >= self.cfg.dead_ticks && found.is_none() {
+                // The motion the model expects over the window, counts.
+                let expected = emf_speed / m.motor_rad_per_unit
+                    * dt
+                    * *cpu
+                    * S::from(self.cfg.dead_ticks).unwrap_or_else(S::one);
+                found = Some(Finding::joint(FaultCause::EncoderDead, j, expected));
+            }
+        }
+        found
+    }
+
+    /// Forgets the last reading (a new reference after homing keeps the counts, so this is
+    /// only for a restart of the counters).
+    pub fn restart(&mut self) {
+        self.last_counts = None;
+        self.disagree = [0; NUM_JOINTS];
+    }
+}
+
+/// The motor circuits' plausibility: with the drives on, the current the motor model
+/// expects for the last tick's duty at the measured speed, `i = (V·d − Ke·ω)/R` (capped at
+/// the drivers' regulation limit), must flow. A current below a fifth of that, while the
+/// model expects more than the floor, for `open_ticks` ticks in a row is an open motor
+/// circuit (a broken lead or connector): the joint is held by nothing but its brake.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MotorCheck<S> {
+    /// Expected currents below this are not judged, A per joint (default a tenth of each
+    /// motor's continuous current: above the current sensing's noise).
+    pub floor_a: [S; NUM_JOINTS],
+    /// Consecutive ticks (default 5).
+    pub open_ticks: u16,
+    low: [u16; NUM_JOINTS],
+}
+
+impl<S: Float> MotorCheck<S> {
+    /// Floors of a tenth of each motor's continuous current, 5 ticks.
+    pub fn new(motors: &[MotorModel<S>; NUM_JOINTS]) -> Self {
+        MotorCheck {
+            floor_a: motors.map(|m| m.continuous_a * lit(0.1)),
+            open_ticks: 5,
+            low: [0; NUM_JOINTS],
+        }
+    }
+
+    /// Checks the last tick's drive `drive` against the joint speeds `qdot` (m/s, rad/s)
+    /// and each joint's regulation limit `limit_a` (A).
+    pub fn check(
+        &mut self,
+        drive: &DriveSample<S>,
+        qdot: &[S; NUM_JOINTS],
+        motors: &[MotorModel<S>; NUM_JOINTS],
+        limit_a: &[S; NUM_JOINTS],
+    ) -> Option<Finding> {
+        let mut found = None;
+        for j in 0..NUM_JOINTS {
+            let (Some(n), Some(d), Some(i), Some(w), Some(m), Some(lim), Some(floor)) = (
+                self.low.get_mut(j),
+                drive.duty.get(j),
+                drive.current.get(j),
+                qdot.get(j),
+                motors.get(j),
+                limit_a.get(j),
+                self.floor_a.get(j),
+            ) else {
+                continue;
+            };
+            let omega = *w * m.motor_rad_per_unit;
+            let expected = ((drive.supply_v * *d - m.back_emf_v_s_per_rad * omega)
+                / m.resistance_ohm)
+                .abs()
+                .min(*lim);
+            let open = drive.torque
+                && expected.is_finite()
+                && expected > *floor
+                && !(i.abs() >= expected * lit(0.2));
+            *n = if open { n.saturating_add(1) } else { 0 };
+            if *n >= self.open_ticks && found.is_none() {
+                found = Some(Finding::joint(FaultCause::MotorOpen, j, *d));
+            }
+        }
+        found
+    }
+}
+
+/// The measured joints against their ranges (homed only) and the limit switches outside
+/// homing.
+pub fn check_ranges<S: Float>(
+    q: &[S; NUM_JOINTS],
+    range: &[[S; 2]; NUM_JOINTS],
+    switches: &[bool; NUM_JOINTS],
+    homed: bool,
+    homing: bool,
+) -> Option<Finding> {
+    if !homing {
+        if let Some(j) = switches.iter().position(|s| *s) {
+            let v = q.get(j).copied().unwrap_or_else(S::zero);
+            return Some(Finding::joint(FaultCause::LimitSwitch, j, v));
+        }
+    }
+    if homed {
+        for (j, (x, [lo, hi])) in q.iter().zip(range.iter()).enumerate() {
+            if !(*x >= *lo && *x <= *hi) {
+                return Some(Finding::joint(FaultCause::JointLimit, j, *x));
+            }
+        }
+    }
+    None
+}
+
+/// Power-stage settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PowerConfig<S> {
+    /// Supply range, V (default 20 .. 28 V for the 24 V bridges).
+    pub supply_v: [S; 2],
+    /// Consecutive ticks out of range that fault (default 3: rides through a sample's
+    /// noise, not a sag).
+    pub supply_ticks: u16,
+}
+
+impl<S: Float> Default for PowerConfig<S> {
+    fn default() -> Self {
+        PowerConfig {
+            supply_v: [lit(20.0), lit(28.0)],
+            supply_ticks: 3,
+        }
+    }
+}
+
+/// The supply voltage and the drivers' fault output.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PowerCheck<S> {
+    cfg: PowerConfig<S>,
+    out_of_range: u16,
+}
+
+impl<S: Float> PowerCheck<S> {
+    /// Nothing seen yet.
+    pub fn new(cfg: PowerConfig<S>) -> Self {
+        PowerCheck {
+            cfg,
+            out_of_range: 0,
+        }
+    }
+    /// Checks the supply `supply_v` and the driver fault output `driver_fault` (only while
+    /// the drivers are powered: `powered`).
+    pub fn check(&mut self, supply_v: S, driver_fault: bool, powered: bool) -> Option<Finding> {
+        let [lo, hi] = self.cfg.supply_v;
+        let bad = !(supply_v >= lo && supply_v <= hi);
+        self.out_of_range = if bad && powered {
+            self.out_of_range.saturating_add(1)
+        } else {
+            0
+        };
+        if powered && driver_fault {
+            return Some(Finding::board(FaultCause::DriverFault, S::one()));
+        }
+        if self.out_of_range >= self.cfg.supply_ticks {
+            return Some(Finding::board(FaultCause::SupplyVoltage, supply_v));
+        }
+        None
+    }
+}
+
+/// The safety chain: the e-stop button and the relay's feedback must agree (pressed =
+/// relay open) within `debounce_ticks` (the relay's switching time); a disagreement that
+/// lasts is a fault, and the board refuses to enable while they disagree.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SafetyChainCheck {
+    debounce_ticks: u16,
+    disagree: u16,
+}
+
+impl SafetyChainCheck {
+    /// A relay that switches within `debounce_ticks` control periods (default 20 ms).
+    pub const fn new(debounce_ticks: u16) -> Self {
+        SafetyChainCheck {
+            debounce_ticks,
+            disagree: 0,
+        }
+    }
+    /// The button and the relay agree now.
+    pub fn agrees(pressed: bool, relay_open: bool) -> bool {
+        pressed == relay_open
+    }
+    /// Checks the chain.
+    pub fn check(&mut self, pressed: bool, relay_open: bool) -> Option<Finding> {
+        if Self::agrees(pressed, relay_open) {
+            self.disagree = 0;
+            return None;
+        }
+        self.disagree = self.disagree.saturating_add(1);
+        (self.disagree > self.debounce_ticks).then(|| {
+            let v = if pressed { 1.0f32 } else { 2.0 };
+            Finding::board(FaultCause::SafetyRelayMismatch, v)
+        })
+    }
+}
+
+/// Standstill monitoring of a hold: every measured joint within its window of where the
+/// hold began.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Standstill<S> {
+    window: [S; NUM_JOINTS],
+    hold: Option<[S; NUM_JOINTS]>,
+}
+
+impl<S: Float> Standstill<S> {
+    /// Windows per joint (m, rad).
+    pub fn new(window: [S; NUM_JOINTS]) -> Self {
+        Standstill { window, hold: None }
+    }
+    /// The reference robot's windows: 0.25 mm on the legs, 0.005 rad on the links (about
+    /// twice the backlash and the encoder's resolution; a quarter of the following-error
+    /// windows).
+    pub fn reference() -> Self {
+        let (l, r) = (lit::<S>(0.25e-3), lit::<S>(0.005));
+        Self::new([l, l, l, r, r, r])
+    }
+    /// Starts monitoring at the joints `q`.
+    pub fn start(&mut self, q: &[S; NUM_JOINTS]) {
+        self.hold = Some(*q);
+    }
+    /// Stops monitoring.
+    pub fn stop(&mut self) {
+        self.hold = None;
+    }
+    /// Whether it monitors.
+    pub fn active(&self) -> bool {
+        self.hold.is_some()
+    }
+    /// Checks the joints `q`.
+    pub fn check(&self, q: &[S; NUM_JOINTS]) -> Option<Finding> {
+        let hold = self.hold?;
+        for (j, ((x, h), w)) in q
+            .iter()
+            .zip(hold.iter())
+            .zip(self.window.iter())
+            .enumerate()
+        {
+            let d = (*x - *h).abs();
+            if !(d <= *w) {
+                return Some(Finding::joint(FaultCause::StandstillLost, j, *x - *h));
+            }
+        }
+        None
+    }
+}
