@@ -50,6 +50,49 @@ proptest! {
         }
         prop_assert!(wraps >= 3);
     }
+
+    /// Property: the board's two counter widths. Four encoders are on 16-bit timers (TIM1,
+    /// TIM3, TIM4, TIM8: the counter wraps at ARR = 0xFFFF), two on 32-bit timers (TIM2,
+    /// TIM5: ARR stays at its reset value 0xFFFF_FFFF, the counter wraps at 2^32), and
+    /// the firmware reads the low 16 bits of both. For any 32-bit hardware counter (start
+    /// anywhere, wrapping through 2^32 included) and any increments below 2^15 per read,
+    /// the extension of the low 16 bits reproduces the true count: 2^16 divides 2^32, so
+    /// the low 16 bits of a 32-bit wrap are a 16-bit wrap.
+    #[test]
+    fn extension_is_exact_for_16_and_32_bit_counters(
+        start in any::<u32>(),
+        wide in any::<bool>(),
+        deltas in prop::collection::vec(-32767i64..=32767, 1..2000),
+    ) {
+        let width: u32 = if wide { 32 } else { 16 };
+        let modulus = 1i128 << width;
+        let hw = |truth: i64| -> u16 {
+            // The hardware counter of this width, then the 16 bits the firmware reads.
+            let c = (i128::from(truth)).rem_euclid(modulus);
+            (c & 0xFFFF) as u16
+        };
+        let mut truth = if wide { i64::from(start) } else { i64::from(start & 0xFFFF) };
+        let mut ext = CountExtender::starting_at(hw(truth), truth);
+        for d in deltas {
+            truth += d;
+            prop_assert_eq!(ext.update(hw(truth)), truth);
+        }
+    }
+}
+
+/// The fastest joint moves far fewer counts per control period than the extension's
+/// limit (2^15 per read): the legs' no-load speed, 378 mm/s, is 252 counts per ms at
+/// 0.0015 mm/count; the links' 28 rad/s, 1 605 counts per ms at 0.005 deg/count.
+#[test]
+fn the_top_speeds_stay_far_below_the_extension_limit() {
+    let per_ms = |speed: f64, counts_per_unit: f64| speed * counts_per_unit * 1e-3;
+    let leg = per_ms(0.378, LEG_COUNTS_PER_M);
+    let link = per_ms(28.0, LINK_COUNTS_PER_RAD);
+    assert!(leg < 300.0 && link < 1700.0, "{leg} {link}");
+    assert!(
+        leg.max(link) * 10.0 < 32_768.0,
+        "ten missed ticks still extend exactly"
+    );
 }
 
 #[test]
