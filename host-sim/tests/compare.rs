@@ -15,9 +15,9 @@
 
 mod common;
 use common::{ok, Table};
+use design::rrps::{rrps_inverse, RrpsGeometry};
 use host_sim::design::compare::{compare_along, Pair};
 use host_sim::design::forces_path::PathSpec;
-use kinematics_core::rrps::{rrps_inverse, RrpsGeometry};
 use kinematics_core::scalar::wrap_angle;
 use kinematics_core::{actuator_forces, inverse, jacobian, Branch, Pose, RsprGeometry};
 use nalgebra::{Matrix6, Rotation3, Vector3, Vector6};

@@ -4,15 +4,15 @@
 //! about [1,1,1], wrench [7,7,7 N, 0.7,0.7,0.7 N m].
 //!
 //! Both robots get the selected RSPR's rb, rp and hc with e = 0 (by default the prototype's
-//! 90, 50 and 160 mm). The RRPS geometry is documented in `kinematics_core::rrps`.
+//! 90, 50 and 160 mm). The RRPS geometry is documented in `design::rrps`.
 
 use super::forces_path::{forces_along, peaks, PathSample, PathSpec, THESIS_WRENCH};
 use super::{out_dir, perr, register_font, span, write_csv};
 use crate::columns::{parse_branch, pose_from_edge, POSE};
 use crate::task_box::numbers;
 use crate::units::{fixed, m_to_mm, significant};
+use ::design::rrps::{rrps_actuator_forces, rrps_inverse, rrps_jacobian, RrpsGeometry};
 use clap::Args;
-use kinematics_core::rrps::{rrps_actuator_forces, rrps_inverse, rrps_jacobian, RrpsGeometry};
 use kinematics_core::{Branch, Robot, RsprGeometry, Wrench};
 use plotters::prelude::*;
 use std::path::{Path, PathBuf};

@@ -1,6 +1,8 @@
 //! The RRPS robot of Alizade, Tagiyev and Duffy (1994), which the thesis compares with the
 //! RSPR (section 5.5.2; Appendix A section 4, Fig. 4.4): inverse kinematics, Jacobians and
-//! statics, in the same conventions as the RSPR (CONVENTIONS.md).
+//! statics, in the same conventions as the RSPR (CONVENTIONS.md). Only `host-sim compare`
+//! needs it, so it lives here rather than in the controller's `kinematics-core`; it is
+//! generic over the core's scalar like the core (its tests compare f32 with f64).
 //!
 //! # Geometry of chain i
 //!
@@ -42,18 +44,17 @@
 //! [[1, ŝ_i · (z0 × (p_i - e_i))], [0, â_i · (z0 × (p_i - e_i))]] = [[1, 0], [0, ρ_i]].
 //! The chain is serially singular when ρ_i = 0 (p_i on the first axis).
 
-use crate::branch::Branch;
-use crate::chain::{Chain, PerChain};
-use crate::geometry::to_f64;
-use crate::jacobian::plucker;
-use crate::mechanism::{radial, SerialBlock};
-use crate::pose::Pose;
-use crate::rspr::{yaw_from, z_cross};
-use crate::scalar::{lit, Real};
-use crate::statics::ForceError;
-use crate::{Joints, Wrench};
-use core::fmt;
-use nalgebra::Vector3;
+// `!(x > limit)` is deliberate, as in `kinematics-core`: unlike `x <= limit` it is also
+// true for NaN, so a NaN can never pass a check.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+use kinematics_core::jacobian::{serial_singular_tolerance, JacobianError, Jacobians};
+use kinematics_core::mechanism::{radial, SerialBlock};
+use kinematics_core::scalar::{cross3, lit, Real};
+use kinematics_core::statics::{actuator_forces, Statics};
+use kinematics_core::{Branch, Chain, ForceError, Joints, PerChain, Pose, Wrench};
+use nalgebra::{Matrix6, Vector3};
+use thiserror::Error;
 
 /// RRPS dimensions, metres.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -79,8 +80,20 @@ pub enum RrpsFailure {
     ZeroLengthLeg,
 }
 
+impl RrpsFailure {
+    /// The reason for people.
+    fn describe(self) -> &'static str {
+        match self {
+            RrpsFailure::NonFinite => "non-finite pose or result",
+            RrpsFailure::OnPivotAxis => "spherical joint on the first revolute axis",
+            RrpsFailure::ZeroLengthLeg => "zero-length leg",
+        }
+    }
+}
+
 /// An RRPS inverse-kinematics failure, naming the chain.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Error)]
+#[error("{chain}: {}", reason.describe())]
 pub struct RrpsIkError {
     /// The chain that failed (chain 1 for a non-finite pose).
     pub chain: Chain,
@@ -88,41 +101,18 @@ pub struct RrpsIkError {
     pub reason: RrpsFailure,
 }
 
-impl fmt::Display for RrpsIkError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let why = match self.reason {
-            RrpsFailure::NonFinite => "non-finite pose or result",
-            RrpsFailure::OnPivotAxis => "spherical joint on the first revolute axis",
-            RrpsFailure::ZeroLengthLeg => "zero-length leg",
-        };
-        write!(f, "{}: {why}", self.chain)
-    }
-}
-
 /// An RRPS geometry that cannot be built.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Error)]
 pub enum RrpsGeometryError {
     /// A dimension is NaN or infinite.
+    #[error("{field} is not finite")]
     NonFinite { field: &'static str },
     /// A dimension is not positive (e: negative).
+    #[error("{field} must be positive, got {} mm", value_m * 1e3)]
     NotPositive { field: &'static str, value_m: f64 },
     /// The central configuration cannot be solved on some branch.
+    #[error("cannot be assembled in the central configuration on branch {branch}: {error}")]
     NotAssemblable { branch: Branch, error: RrpsIkError },
-}
-
-impl fmt::Display for RrpsGeometryError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            RrpsGeometryError::NonFinite { field } => write!(f, "{field} is not finite"),
-            RrpsGeometryError::NotPositive { field, value_m } => {
-                write!(f, "{field} must be positive, got {} mm", value_m * 1e3)
-            }
-            RrpsGeometryError::NotAssemblable { branch, error } => write!(
-                f,
-                "cannot be assembled in the central configuration on branch {branch}: {error}"
-            ),
-        }
-    }
 }
 
 impl<T: Real> RrpsGeometry<T> {
@@ -284,11 +274,11 @@ pub fn rrps_inverse<T: Real>(
 
 /// Why the RRPS J = Js⁻¹ Jtilde does not exist: the class's error (serially singular when
 /// ρ_i ≈ 0, p_i on the chain's first revolute axis; `relative_det` is |ρ_i|/rb).
-pub type RrpsJacobianError = crate::jacobian::JacobianError;
+pub type RrpsJacobianError = JacobianError;
 
 /// The RRPS Jacobians have the shape of the class's: Jtilde (rows ŝ_i and â_i through
 /// p_i), per-chain serial blocks [[1, ŝ·(z0×(p-e))], [0, â·(z0×(p-e))]] and J = Js⁻¹ Jtilde.
-pub type RrpsJacobians<T> = crate::jacobian::Jacobians<T>;
+pub type RrpsJacobians<T> = Jacobians<T>;
 
 /// The RRPS Jacobians (module docs, R1' and R2').
 pub fn rrps_jacobian<T: Real>(
@@ -310,17 +300,85 @@ pub fn rrps_jacobian<T: Real>(
         }
     });
     let relative = serial.map(|_, b| b.det().abs() / g.rb);
-    crate::jacobian::compose(lines, serial, relative)
+    compose(&lines, &serial, &relative)
 }
 
 /// τ = J⁻ᵀ s_e (Eq. 7.10) for the RRPS: the same factorisation as the class's statics
-/// ([`crate::statics::actuator_forces`]: Jtildeᵀ f = s_e by LU, τ = Jsᵀ f); `f1` are the
-/// leg forces along ŝ_i, `f2` the forces along â_i.
+/// ([`kinematics_core::statics::actuator_forces`]: Jtildeᵀ f = s_e by LU, τ = Jsᵀ f);
+/// `f1` are the leg forces along ŝ_i, `f2` the forces along â_i.
 pub fn rrps_actuator_forces<T: Real>(
     jac: &RrpsJacobians<T>,
     rp: T,
     se: &Wrench<T>,
     min_inv_cond: T,
-) -> Result<crate::statics::Statics<T>, ForceError> {
-    crate::statics::actuator_forces(jac, rp, se, min_inv_cond)
+) -> Result<Statics<T>, ForceError> {
+    actuator_forces(jac, rp, se, min_inv_cond)
+}
+
+/// A Plücker line [ŝ; m] as a row of Jtilde.
+type Line<T> = [T; 6];
+
+/// One Plücker line [ŝ; (x - o_p) × ŝ] with the moment taken about o_p (Eq. 7.13).
+fn plucker<T: Real>(s: &Vector3<T>, through_minus_op: &Vector3<T>) -> Line<T> {
+    let mo = cross3(through_minus_op, s);
+    [s.x, s.y, s.z, mo.x, mo.y, mo.z]
+}
+
+/// z0 × v.
+fn z_cross<T: Real>(v: &Vector3<T>) -> Vector3<T> {
+    Vector3::new(-v.y, v.x, T::zero())
+}
+
+/// The angle from `from` to `to` about +z0 (their horizontal parts), in (-π, π].
+fn yaw_from<T: Real>(from: &Vector3<T>, to: &Vector3<T>) -> T {
+    let cross = from.x * to.y - from.y * to.x;
+    let dot = from.x * to.x + from.y * to.y;
+    cross.atan2(dot)
+}
+
+/// Best-effort conversion to f64 for error messages.
+fn to_f64<T: Real>(v: T) -> f64 {
+    v.to_subset().unwrap_or(f64::NAN)
+}
+
+/// J = Js⁻¹ Jtilde from the Plücker lines of each chain's two directions (rows i and 3+i of
+/// Jtilde, Eq. 7.14) and the serial blocks B_i, refusing a serial singularity (a chain
+/// whose dimensionless measure `relative` is at or below the core's tolerance) as the
+/// core's Jacobian does.
+fn compose<T: Real>(
+    lines: &PerChain<(Line<T>, Line<T>)>,
+    serial: &PerChain<SerialBlock<T>>,
+    relative: &PerChain<T>,
+) -> Result<Jacobians<T>, JacobianError> {
+    let tol = serial_singular_tolerance::<T>();
+    let inv = PerChain::try_from_fn(|chain| {
+        let blk = &serial[chain];
+        let det = blk.det();
+        if !(relative[chain] > tol) || !det.is_finite() {
+            return Err(JacobianError::SerialSingular {
+                chain,
+                relative_det: to_f64(relative[chain]),
+            });
+        }
+        let inv = T::one() / det;
+        Ok([blk.a22 * inv, -blk.a12 * inv, -blk.a21 * inv, blk.a11 * inv])
+    })?;
+    // Row i: [J_qa_i; J_qb_i] = B_i⁻¹ [Jt_i; Jt_{3+i}].
+    let mut jtilde = Matrix6::zeros();
+    let mut j = Matrix6::zeros();
+    for (chain, (a, b)) in lines.iter() {
+        let k = &inv[chain];
+        let i = chain.index();
+        for col in 0..6 {
+            jtilde[(i, col)] = a[col];
+            jtilde[(3 + i, col)] = b[col];
+            j[(i, col)] = k[0] * a[col] + k[1] * b[col];
+            j[(3 + i, col)] = k[2] * a[col] + k[3] * b[col];
+        }
+    }
+    Ok(Jacobians {
+        jtilde,
+        serial: *serial,
+        j,
+    })
 }

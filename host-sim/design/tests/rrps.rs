@@ -2,7 +2,7 @@
 //! The RRPS robot (Alizade, Tagiyev and Duffy): inverse kinematics, the Jacobian against
 //! finite differences of the inverse kinematics, and the statics by virtual work.
 
-use kinematics_core::rrps::{
+use design::rrps::{
     rrps_actuator_forces, rrps_inverse, rrps_jacobian, RrpsFailure, RrpsGeometry, RrpsGeometryError,
 };
 use kinematics_core::scalar::wrap_angle;
