@@ -6,8 +6,9 @@
 //! The single-pose form of a command goes through the same row code: its flags become a
 //! one-row table with the same column names, so both forms print identical lines.
 
-use crate::columns::check_field;
+use crate::columns::{check_field, parse_number, FieldError};
 use std::io::{Read, Write};
+use thiserror::Error;
 
 /// The name of the column that carries a row's error message (empty when fine).
 pub const ERROR_COLUMN: &str = "error";
@@ -17,6 +18,8 @@ pub const ECHO_PREFIX: &str = "in_";
 
 /// One row-wise calculation: what it reads, what it writes, and how.
 pub trait Calculation {
+    /// What a row's calculation fails with (its message goes to the `error` column).
+    type Error: std::error::Error + From<FieldError>;
     /// The command name, for messages.
     fn name(&self) -> &'static str;
     /// Columns every input must have.
@@ -28,7 +31,96 @@ pub trait Calculation {
     /// Result columns, written after the echoed input and before `error`.
     fn result_columns(&self) -> Vec<&'static str>;
     /// The result fields of one row (one per result column), or what was wrong.
-    fn compute(&self, row: &Row<'_>) -> Result<Vec<String>, String>;
+    fn compute(&self, row: &Row<'_>) -> Result<Vec<String>, Self::Error>;
+}
+
+/// Why a batch (or single-form) run failed as a whole; `E` is the calculation's row error.
+#[derive(Debug, Error)]
+pub enum BatchError<E: std::error::Error> {
+    #[error("{name}: the input is empty; expected a CSV header with the columns {}", required.join(","))]
+    EmptyInput {
+        name: &'static str,
+        required: Vec<&'static str>,
+    },
+    #[error("{name}: the input has no column \"{column}\" (required: {})", required.join(","))]
+    MissingColumn {
+        name: &'static str,
+        column: &'static str,
+        required: Vec<&'static str>,
+    },
+    #[error("{name}: the input has the column \"{column}\" more than once")]
+    RepeatedColumn {
+        name: &'static str,
+        column: &'static str,
+    },
+    #[error("{name}: cannot read the CSV header: {source}")]
+    Header {
+        name: &'static str,
+        source: csv::Error,
+    },
+    #[error("{name}: cannot read row {row}: {source}")]
+    Read {
+        name: &'static str,
+        row: usize,
+        source: csv::Error,
+    },
+    #[error("{name}: cannot write the output: {source}")]
+    Write {
+        name: &'static str,
+        source: csv::Error,
+    },
+    #[error("{name}: cannot write the output: {source}")]
+    Flush {
+        name: &'static str,
+        source: std::io::Error,
+    },
+    /// The single form: a flag's values.
+    #[error(transparent)]
+    Flag(#[from] FlagValueError),
+    /// The single form: the calculation failed.
+    #[error(transparent)]
+    Row(E),
+    /// A calculation that broke its contract of one field per result column.
+    #[error("{name}: internal error: {given} result fields for {width} columns")]
+    Width {
+        name: &'static str,
+        given: usize,
+        width: usize,
+    },
+}
+
+/// A flag of the single form whose value does not fill its columns.
+#[derive(Clone, Debug, PartialEq, Eq, Error)]
+pub enum FlagValueError {
+    #[error("{flag}: expected {what} ({}), got {given}", columns.join(","))]
+    Count {
+        flag: &'static str,
+        what: String,
+        columns: Vec<&'static str>,
+        given: usize,
+    },
+    #[error("{flag}: {error}")]
+    Field {
+        flag: &'static str,
+        error: FieldError,
+    },
+}
+
+/// What is wrong with one row of a batch, for its `error` column.
+#[derive(Debug, Error)]
+enum RowProblem<E: std::error::Error> {
+    #[error("has {fields} fields, the header has {header}")]
+    FieldCount { fields: usize, header: usize },
+    #[error("unreadable: {0}")]
+    Unreadable(csv::Error),
+    #[error(transparent)]
+    Calculation(E),
+    #[error("{name}: internal error: {given} result fields for {width} columns")]
+    Width {
+        name: &'static str,
+        given: usize,
+        width: usize,
+    },
 }
 
 /// One input row, its fields found by column name.
@@ -51,15 +143,17 @@ impl<'a> Row<'a> {
     }
 
     /// A required numeric field.
-    pub fn number(&self, column: &str) -> Result<f64, String> {
+    pub fn number(&self, column: &str) -> Result<f64, FieldError> {
         match self.get(column) {
-            Some(text) => crate::columns::parse_number(column, text),
-            None => Err(format!("{column}: missing")),
+            Some(text) => parse_number(column, text),
+            None => Err(FieldError::Missing {
+                column: column.into(),
+            }),
         }
     }
 
     /// Several required numeric fields; the first bad one is reported.
-    pub fn numbers<const N: usize>(&self, columns: &[&str; N]) -> Result<[f64; N], String> {
+    pub fn numbers<const N: usize>(&self, columns: &[&str; N]) -> Result<[f64; N], FieldError> {
         let mut out = [0.0; N];
         for (o, c) in out.iter_mut().zip(columns.iter()) {
             *o = self.number(c)?;
@@ -79,7 +173,7 @@ pub struct BatchSummary {
 
 /// The output header: the input columns (renamed with [`ECHO_PREFIX`] where they collide
 /// with a result column), the result columns and `error`.
-fn output_header(calc: &dyn Calculation, input: &[String]) -> Vec<String> {
+fn output_header<C: Calculation + ?Sized>(calc: &C, input: &[String]) -> Vec<String> {
     let results = calc.result_columns();
     let collides = |name: &str| name == ERROR_COLUMN || results.contains(&name);
     let mut header: Vec<String> = input
@@ -98,30 +192,27 @@ fn output_header(calc: &dyn Calculation, input: &[String]) -> Vec<String> {
 }
 
 /// Checks that the required columns are present and no read column is ambiguous.
-fn check_header(calc: &dyn Calculation, header: &[String]) -> Result<(), String> {
+fn check_header<C: Calculation + ?Sized>(
+    calc: &C,
+    header: &[String],
+) -> Result<(), BatchError<C::Error>> {
+    let name = calc.name();
     let required = calc.required_columns();
     if header.iter().all(|h| h.is_empty()) {
-        return Err(format!(
-            "{}: the input is empty; expected a CSV header with the columns {}",
-            calc.name(),
-            required.join(",")
-        ));
+        return Err(BatchError::EmptyInput { name, required });
     }
-    for column in &required {
+    for &column in &required {
         if !header.iter().any(|h| h == column) {
-            return Err(format!(
-                "{}: the input has no column \"{column}\" (required: {})",
-                calc.name(),
-                required.join(",")
-            ));
+            return Err(BatchError::MissingColumn {
+                name,
+                column,
+                required,
+            });
         }
     }
-    for column in required.iter().chain(calc.optional_columns().iter()) {
-        if header.iter().filter(|h| h == column).count() > 1 {
-            return Err(format!(
-                "{}: the input has the column \"{column}\" more than once",
-                calc.name()
-            ));
+    for &column in required.iter().chain(calc.optional_columns().iter()) {
+        if header.iter().filter(|h| *h == column).count() > 1 {
+            return Err(BatchError::RepeatedColumn { name, column });
         }
     }
     Ok(())
@@ -129,19 +220,26 @@ fn check_header(calc: &dyn Calculation, header: &[String]) -> Result<(), String>
 
 /// The output fields of one row: the echo padded or cut to the header's width, the
 /// results (empty on error) and the error message (`row N: ...`, empty when fine).
-fn output_row(
-    calc: &dyn Calculation,
+fn output_row<C: Calculation + ?Sized>(
+    calc: &C,
     header: &[String],
     fields: &[String],
     row_number: usize,
-    pre_error: Option<String>,
+    pre_error: Option<RowProblem<C::Error>>,
 ) -> (Vec<String>, bool) {
     let width = calc.result_columns().len();
     let result = match pre_error {
         Some(e) => Err(e),
         None => calc
             .compute(&Row::new(header, fields))
-            .and_then(|r| check_width(calc, r, width)),
+            .map_err(RowProblem::Calculation)
+            .and_then(|r| {
+                check_width(r, width).map_err(|(given, width)| RowProblem::Width {
+                    name: calc.name(),
+                    given,
+                    width,
+                })
+            }),
     };
     let mut out: Vec<String> = (0..header.len())
         .map(|i| fields.get(i).cloned().unwrap_or_default())
@@ -160,31 +258,24 @@ fn output_row(
     }
 }
 
-/// Guards the contract that a calculation returns one field per result column.
-fn check_width(
-    calc: &dyn Calculation,
-    values: Vec<String>,
-    width: usize,
-) -> Result<Vec<String>, String> {
+/// Guards the contract that a calculation returns one field per result column; the
+/// error is (fields given, columns).
+fn check_width(values: Vec<String>, width: usize) -> Result<Vec<String>, (usize, usize)> {
     if values.len() == width {
         Ok(values)
     } else {
-        Err(format!(
-            "{}: internal error: {} result fields for {width} columns",
-            calc.name(),
-            values.len()
-        ))
+        Err((values.len(), width))
     }
 }
 
 /// Runs a calculation over a CSV table: header and rows from `input`, the result table to
 /// `output`. Returns the counts; fails only for whole-run problems (unreadable input, a
 /// missing column, an output error). Rows are numbered from 1, the header not counted.
-pub fn run_csv(
-    calc: &dyn Calculation,
+pub fn run_csv<C: Calculation + ?Sized>(
+    calc: &C,
     input: impl Read,
     output: impl Write,
-) -> Result<BatchSummary, String> {
+) -> Result<BatchSummary, BatchError<C::Error>> {
     let name = calc.name();
     let mut reader = csv::ReaderBuilder::new()
         .has_headers(true)
@@ -193,13 +284,13 @@ pub fn run_csv(
         .from_reader(input);
     let header: Vec<String> = reader
         .headers()
-        .map_err(|e| format!("{name}: cannot read the CSV header: {e}"))?
+        .map_err(|source| BatchError::Header { name, source })?
         .iter()
         .map(str::to_string)
         .collect();
     check_header(calc, &header)?;
     let mut writer = csv::Writer::from_writer(output);
-    let write_error = |e: csv::Error| format!("{name}: cannot write the output: {e}");
+    let write_error = |source: csv::Error| BatchError::Write { name, source };
     writer
         .write_record(output_header(calc, &header))
         .map_err(write_error)?;
@@ -212,19 +303,20 @@ pub fn run_csv(
         let (fields, pre_error) = match record {
             Ok(r) => {
                 let fields: Vec<String> = r.iter().map(str::to_string).collect();
-                let pre_error = (fields.len() != header.len()).then(|| {
-                    format!(
-                        "has {} fields, the header has {}",
-                        fields.len(),
-                        header.len()
-                    )
+                let pre_error = (fields.len() != header.len()).then(|| RowProblem::FieldCount {
+                    fields: fields.len(),
+                    header: header.len(),
                 });
                 (fields, pre_error)
             }
-            Err(e) if e.is_io_error() => {
-                return Err(format!("{name}: cannot read row {row_number}: {e}"));
+            Err(source) if source.is_io_error() => {
+                return Err(BatchError::Read {
+                    name,
+                    row: row_number,
+                    source,
+                });
             }
-            Err(e) => (Vec::new(), Some(format!("unreadable: {e}"))),
+            Err(e) => (Vec::new(), Some(RowProblem::Unreadable(e))),
         };
         let (out, bad) = output_row(calc, &header, &fields, row_number, pre_error);
         writer.write_record(&out).map_err(write_error)?;
@@ -233,7 +325,7 @@ pub fn run_csv(
     }
     writer
         .flush()
-        .map_err(|e| format!("{name}: cannot write the output: {e}"))?;
+        .map_err(|source| BatchError::Flush { name, source })?;
     Ok(summary)
 }
 
@@ -259,7 +351,7 @@ impl FlagValue {
     }
 
     /// The values, checked: their count and each one's syntax.
-    fn values(&self) -> Result<Vec<String>, String> {
+    fn values(&self) -> Result<Vec<String>, FlagValueError> {
         let values: Vec<String> = self.text.split(',').map(|v| v.trim().to_string()).collect();
         if values.len() != self.columns.len() {
             let what = if self.columns.len() == 1 {
@@ -267,15 +359,18 @@ impl FlagValue {
             } else {
                 format!("{} comma-separated numbers", self.columns.len())
             };
-            return Err(format!(
-                "{}: expected {what} ({}), got {}",
-                self.flag,
-                self.columns.join(","),
-                values.len()
-            ));
+            return Err(FlagValueError::Count {
+                flag: self.flag,
+                what,
+                columns: self.columns.clone(),
+                given: values.len(),
+            });
         }
         for (column, value) in self.columns.iter().zip(values.iter()) {
-            check_field(column, value).map_err(|e| format!("{}: {e}", self.flag))?;
+            check_field(column, value).map_err(|error| FlagValueError::Field {
+                flag: self.flag,
+                error,
+            })?;
         }
         Ok(values)
     }
@@ -283,30 +378,34 @@ impl FlagValue {
 
 /// Runs a calculation on the one row the flags describe and writes the same header and
 /// row the batch form would. Fails, writing nothing, if a flag or the calculation fails.
-pub fn run_single(
-    calc: &dyn Calculation,
+pub fn run_single<C: Calculation + ?Sized>(
+    calc: &C,
     flags: &[FlagValue],
     output: impl Write,
-) -> Result<(), String> {
+) -> Result<(), BatchError<C::Error>> {
+    let name = calc.name();
     let mut header = Vec::new();
     let mut fields = Vec::new();
     for flag in flags {
         header.extend(flag.columns.iter().map(|c| c.to_string()));
         fields.extend(flag.values()?);
     }
-    let values = calc.compute(&Row::new(&header, &fields))?;
-    let values = check_width(calc, values, calc.result_columns().len())?;
+    let values = calc
+        .compute(&Row::new(&header, &fields))
+        .map_err(BatchError::Row)?;
+    let values = check_width(values, calc.result_columns().len())
+        .map_err(|(given, width)| BatchError::Width { name, given, width })?;
     fields.extend(values);
     fields.push(String::new());
     let mut writer = csv::Writer::from_writer(output);
-    let write_error = |e: csv::Error| format!("{}: cannot write the output: {e}", calc.name());
+    let write_error = |source: csv::Error| BatchError::Write { name, source };
     writer
         .write_record(output_header(calc, &header))
         .map_err(write_error)?;
     writer.write_record(&fields).map_err(write_error)?;
     writer
         .flush()
-        .map_err(|e| format!("{}: cannot write the output: {e}", calc.name()))
+        .map_err(|source| BatchError::Flush { name, source })
 }
 
 #[cfg(test)]
@@ -314,9 +413,19 @@ mod tests {
     #![allow(clippy::unwrap_used, clippy::expect_used)]
     use super::*;
 
+    /// Why `Double` fails.
+    #[derive(Debug, Error)]
+    enum DoubleError {
+        #[error(transparent)]
+        Field(#[from] FieldError),
+        #[error("double: negative")]
+        Negative,
+    }
+
     /// Doubles `a`; fails on negative values.
     struct Double;
     impl Calculation for Double {
+        type Error = DoubleError;
         fn name(&self) -> &'static str {
             "double"
         }
@@ -326,10 +435,10 @@ mod tests {
         fn result_columns(&self) -> Vec<&'static str> {
             vec!["b"]
         }
-        fn compute(&self, row: &Row<'_>) -> Result<Vec<String>, String> {
+        fn compute(&self, row: &Row<'_>) -> Result<Vec<String>, DoubleError> {
             let a = row.number("a")?;
             if a < 0.0 {
-                return Err("double: negative".into());
+                return Err(DoubleError::Negative);
             }
             Ok(vec![format!("{}", 2.0 * a)])
         }
@@ -337,7 +446,7 @@ mod tests {
 
     fn run(input: &str) -> Result<(String, BatchSummary), String> {
         let mut out = Vec::new();
-        let s = run_csv(&Double, input.as_bytes(), &mut out)?;
+        let s = run_csv(&Double, input.as_bytes(), &mut out).map_err(|e| e.to_string())?;
         Ok((String::from_utf8(out).unwrap(), s))
     }
 
@@ -376,8 +485,9 @@ mod tests {
         let mut out = Vec::new();
         run_single(&Double, &[FlagValue::new("--a", &["a"], "2")], &mut out).unwrap();
         assert_eq!(String::from_utf8(out).unwrap(), "a,b,error\n2,4,\n");
-        let e =
-            run_single(&Double, &[FlagValue::new("--a", &["a"], "2,3")], Vec::new()).unwrap_err();
+        let e = run_single(&Double, &[FlagValue::new("--a", &["a"], "2,3")], Vec::new())
+            .unwrap_err()
+            .to_string();
         assert_eq!(e, "--a: expected one value (a), got 2");
     }
 }

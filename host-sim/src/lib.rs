@@ -1,35 +1,30 @@
-//! `host-sim`: the host-side command-line tool of the RSPR/USR surgical robots.
+//! `host-sim`: the command line of the RSPR/USR host tools. This library is the binary's
+//! code and nothing else (its only public items are [`Cli`], [`run`] and [`CliError`]);
+//! the work is done by the library crates it drives.
 //!
-//! The core (`kinematics-core`) is SI; this crate is the edge in millimetres and degrees
-//! (shared/CONVENTIONS.md). Modules:
-//! - [`cli`]: the clap command line and the robot selection;
-//! - [`geometry_file`]: TOML geometry files;
-//! - [`limits_file`]: TOML limits files for the guards;
-//! - [`units`]: mm/deg <-> SI and the output number formats;
-//! - [`columns`]: CSV column names and the readers of poses, joints, wrenches, branches;
-//! - [`batch`]: the one CSV loop (and single-pose form) all row-wise commands share;
-//! - [`commands`]: the row-wise commands `ik`, `fk`, `jacobian`, `forces`, `singularity`,
+//! The core (`kinematics-core`) is SI; the edge in millimetres and degrees
+//! (shared/CONVENTIONS.md) is `robot-config`'s. Modules:
+//! - `cli`: the clap command line, the robot and limits selection, and the commands that
+//!   drive the libraries (`design`, `simulation`, `teleop`);
+//! - `commands`: the row-wise commands `ik`, `fk`, `jacobian`, `forces`, `singularity`,
 //!   `check` (whose `--task-box` form sweeps the task);
-//! - [`task_box`]: the thesis's task box and its grid;
-//! - [`report`]: the text report over the task box;
-//! - [`sim`]: the closed-loop simulation (`host-sim sim`);
-//! - [`design`]: the design tools `forces --path`, `ranges` and `workspace` (thesis ch. 8).
+//! - `batch`: the one CSV loop (and single-pose form) all row-wise commands share;
+//! - `columns`: CSV column names and the readers of poses, joints, wrenches, branches;
+//! - `flags`: the values of the flags (number lists, grids, scan ranges, the task box);
+//! - `error`: what a failed command reports.
 
-pub mod batch;
-pub mod cli;
-pub mod columns;
-pub mod commands;
-pub mod design;
-pub mod geometry_file;
-pub mod limits_file;
-pub mod report;
-pub mod sim;
-pub mod task_box;
-pub mod teleop;
-pub mod units;
+mod batch;
+mod cli;
+mod columns;
+mod commands;
+mod error;
+mod flags;
+
+pub use cli::Cli;
+pub use error::CliError;
 
 /// Runs a parsed command line.
-pub fn run(cli: &cli::Cli) -> Result<(), String> {
+pub fn run(cli: &Cli) -> Result<(), CliError> {
     let selected = cli.robot.select()?;
     let limits = cli.limits.select()?;
     cli.command.run(&selected, &limits)

@@ -570,9 +570,12 @@ fn task_box_within_relaxed_limits() {
 /// The shipped reference file equals `Limits::reference()` and gives the default output.
 #[test]
 fn shipped_limits_file_is_the_reference() {
-    let path = format!("{}/limits/reference.toml", env!("CARGO_MANIFEST_DIR"));
+    let path = format!(
+        "{}/robot-config/limits/reference.toml",
+        env!("CARGO_MANIFEST_DIR")
+    );
     assert_eq!(
-        host_sim::limits_file::load(std::path::Path::new(&path)).unwrap(),
+        robot_config::limits_file::load(std::path::Path::new(&path)).unwrap(),
         Limits::reference()
     );
     let input = pose_csv(&[

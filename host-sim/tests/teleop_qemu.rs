@@ -244,7 +244,8 @@ fn ci_scenario_against_a_fake_board() {
 #[test]
 #[ignore = "needs qemu-system-arm and the thumbv7em target; about two minutes"]
 fn ci_scenario_in_the_emulator() {
-    let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../firmware/qemu-board/run.sh");
+    let script =
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../firmware/cortex-m/qemu-board/run.sh");
     let status = Process::new("bash")
         .arg(script)
         .env("TELEOP_PATH", "line")

@@ -126,18 +126,8 @@ pub fn jacobian_into<T: Real, M: Mechanism<T> + ?Sized>(
 }
 
 /// J from the Plücker lines of each chain's two actuated directions (rows i and 3+i of
-/// Jtilde, Eq. 7.14) and the serial blocks B_i (Eq. 7.21 / 7.31); shared by every
-/// mechanism of the class (RSPR, USR, RRPS).
-pub(crate) fn compose<T: Real>(
-    lines: PerChain<(Line<T>, Line<T>)>,
-    serial: PerChain<SerialBlock<T>>,
-    relative: PerChain<T>,
-) -> Result<Jacobians<T>, JacobianError> {
-    let mut out = Jacobians::zeroed();
-    compose_into(&lines, &serial, &relative, &mut out)?;
-    Ok(out)
-}
-
+/// Jtilde, Eq. 7.14) and the serial blocks B_i (Eq. 7.21 / 7.31); shared by the RSPR and
+/// the USR.
 fn compose_into<T: Real>(
     lines: &PerChain<(Line<T>, Line<T>)>,
     serial: &PerChain<SerialBlock<T>>,

@@ -39,7 +39,6 @@ pub mod jacobian;
 pub mod lu;
 pub mod mechanism;
 pub mod pose;
-pub mod rrps;
 pub mod rspr;
 pub mod scalar;
 pub mod singularity;

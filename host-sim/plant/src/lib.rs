@@ -1,4 +1,4 @@
-//! # rspr-plant: the six actuated joints of the RSPR prototype, as a physical plant
+//! # plant: the six actuated joints of the RSPR prototype, as a physical plant
 //!
 //! The host simulator closes the loop around the controller with this model: it sets the
 //! H-bridge duties and the external loads, steps the plant at a fixed step (10..100 kHz,
@@ -34,7 +34,7 @@
 //! 1 ms. Use 10..100 us (10..100 kHz). The parts of a step that depend only on the
 //! parameters and `dt` (the electrical exponentials, the implicit steps' denominators) are
 //! computed once per `dt`, so a fixed `dt` is cheapest: one step of all six joints costs
-//! about 0.3 us (`cargo bench -p host-sim --bench sim`, `sim/plant_1ms`: 10 steps).
+//! about 0.3 us (`cargo bench -p simulation --bench sim`, `sim/plant_1ms`: 10 steps).
 //!
 //! ## Parameters (shipped `plant.toml`, see its comments for the sources)
 //! The resolutions fix the gearing: 2000 counts per motor revolution (500 lines, x4) and

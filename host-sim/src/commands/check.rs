@@ -9,19 +9,34 @@
 //!
 //! A computed verdict or report exits 0 whatever it says; only bad input fails.
 
-use super::{execute, pose_columns, pose_flags};
+use super::{execute, pose_columns, pose_flags, RowError};
 use crate::batch::{Calculation, Row};
-use crate::cli::SelectedRobot;
-use crate::columns::{parse_branch, pose_from_edge, read_branch, read_pose, POSE};
-use crate::limits_file::SelectedLimits;
-use crate::report::kind_name;
-use crate::task_box::{parse_grid, TaskBox, TaskPose};
-use crate::units::{fixed, m_to_mm};
+use crate::columns::{parse_branch, pose_from_edge, read_branch, read_pose, EdgeError, POSE};
+use crate::error::CliError;
+use crate::flags::{self, FlagError};
 use clap::Args;
-use kinematics_core::guards::{Guard, Guards, Limits, Reading, Severity, Subject};
+use kinematics_core::guards::{Guard, GuardSetupError, Guards, Limits, Reading, Severity, Subject};
 use kinematics_core::{Branch, Mechanism, Pose, Robot, RobotKind, RsprGeometry, UsrGeometry};
+use robot_config::selection::{kind_name, SelectedLimits, SelectedRobot};
+use robot_config::task_box::{TaskBox, TaskPose};
+use robot_config::units::{fixed, m_to_mm};
 use std::fmt::Write as _;
 use std::io::Write as _;
+use thiserror::Error;
+
+/// Why `check --task-box` cannot run or print.
+#[derive(Debug, Error)]
+pub enum CheckError {
+    /// The guards cannot be set up for the robot, branch and limits.
+    #[error("{0}")]
+    Guards(GuardSetupError),
+    #[error(transparent)]
+    Pose(#[from] EdgeError),
+    #[error("check: cannot write the output: {0}")]
+    Write(csv::Error),
+    #[error("check: cannot write the output: {0}")]
+    Flush(std::io::Error),
+}
 
 /// The default grid of `--task-box`, per orientation.
 pub const DEFAULT_GRID: [usize; 3] = [9, 9, 5];
@@ -101,7 +116,7 @@ pub fn violation_text(r: &Reading<f64>) -> String {
 /// The guards prepared for a robot and limits on every branch.
 pub struct Check {
     /// Index = branch bits; a branch whose guards cannot be set up keeps the reason.
-    guards: Vec<Result<Guards<f64, Robot<f64>>, String>>,
+    guards: Vec<Result<Guards<f64, Robot<f64>>, GuardSetupError>>,
 }
 
 impl Check {
@@ -109,20 +124,20 @@ impl Check {
     pub fn new(robot: &Robot<f64>, limits: &Limits<f64>) -> Check {
         let guards = Branch::ALL
             .iter()
-            .map(|&b| {
-                Guards::new(*robot, b, *limits)
-                    .map_err(|e| format!("guards on branch {}: {e}", b.bits()))
-            })
+            .map(|&b| Guards::new(*robot, b, *limits))
             .collect();
         Check { guards }
     }
 
     /// The guards of a branch.
-    fn guards(&self, branch: Branch) -> Result<&Guards<f64, Robot<f64>>, String> {
+    fn guards(&self, branch: Branch) -> Result<&Guards<f64, Robot<f64>>, RowError> {
         match self.guards.get(usize::from(branch.bits())) {
             Some(Ok(g)) => Ok(g),
-            Some(Err(e)) => Err(e.clone()),
-            None => Err(format!("branch {}: no guards", branch.bits())),
+            Some(Err(e)) => Err(RowError::Guards {
+                branch: branch.bits(),
+                error: *e,
+            }),
+            None => Err(RowError::NoGuards(branch.bits())),
         }
     }
 
@@ -131,7 +146,7 @@ impl Check {
         &self,
         pose: &Pose<f64>,
         branch: Branch,
-    ) -> Result<Vec<Reading<f64>>, String> {
+    ) -> Result<Vec<Reading<f64>>, RowError> {
         let guards = self.guards(branch)?;
         let mut out = Vec::new();
         guards.evaluate_pose(pose, &mut |r| {
@@ -144,6 +159,7 @@ impl Check {
 }
 
 impl Calculation for Check {
+    type Error = RowError;
     fn name(&self) -> &'static str {
         "check"
     }
@@ -153,7 +169,7 @@ impl Calculation for Check {
     fn result_columns(&self) -> Vec<&'static str> {
         vec!["ok", "severity", "violations"]
     }
-    fn compute(&self, row: &Row<'_>) -> Result<Vec<String>, String> {
+    fn compute(&self, row: &Row<'_>) -> Result<Vec<String>, RowError> {
         let pose = read_pose(row)?;
         let branch = read_branch(row)?;
         let violations = self.violations(&pose, branch)?;
@@ -172,22 +188,30 @@ pub fn run(
     args: &CheckArgs,
     selected: &SelectedRobot,
     limits: &SelectedLimits,
-) -> Result<(), String> {
+) -> Result<(), CliError> {
     if args.task_box {
         return run_task_box(args, selected, limits);
     }
     if args.grid.is_some() {
-        return Err("--grid: only with --task-box".into());
+        return Err(FlagError::Invalid {
+            flag: "--grid",
+            reason: "only with --task-box".into(),
+        }
+        .into());
     }
     if args.csv && args.branch.is_some() {
-        return Err("--branch: not with --csv (the branch is a column of the input)".into());
+        return Err(FlagError::Invalid {
+            flag: "--branch",
+            reason: "not with --csv (the branch is a column of the input)".into(),
+        }
+        .into());
     }
     let flags = pose_flags(args.pose.as_deref(), args.branch.as_deref().unwrap_or("0"));
-    execute(
+    Ok(execute(
         &Check::new(&selected.robot, &limits.limits),
         args.csv,
         &flags,
-    )
+    )?)
 }
 
 /// A reading and the task point where it occurred.
@@ -260,8 +284,8 @@ pub fn check_task(
     limits: &Limits<f64>,
     branch: Branch,
     task: &TaskBox,
-) -> Result<TaskCheck, String> {
-    let guards = Guards::new(*robot, branch, *limits).map_err(|e| e.to_string())?;
+) -> Result<TaskCheck, CheckError> {
+    let guards = Guards::new(*robot, branch, *limits).map_err(CheckError::Guards)?;
     let mut summaries: Vec<GuardSummary> = static_guards(robot)
         .into_iter()
         .map(|guard| GuardSummary {
@@ -454,18 +478,17 @@ fn row_fields(check: &TaskCheck, s: &GuardSummary) -> Vec<String> {
 }
 
 /// The task table as CSV ([`TASK_COLUMNS`]).
-pub fn task_csv(check: &TaskCheck, output: impl std::io::Write) -> Result<(), String> {
-    let write_error = |e: csv::Error| format!("check: cannot write the output: {e}");
+pub fn task_csv(check: &TaskCheck, output: impl std::io::Write) -> Result<(), CheckError> {
     let mut writer = csv::Writer::from_writer(output);
-    writer.write_record(TASK_COLUMNS).map_err(write_error)?;
+    writer
+        .write_record(TASK_COLUMNS)
+        .map_err(CheckError::Write)?;
     for s in &check.guards {
         writer
             .write_record(row_fields(check, s))
-            .map_err(write_error)?;
+            .map_err(CheckError::Write)?;
     }
-    writer
-        .flush()
-        .map_err(|e| format!("check: cannot write the output: {e}"))
+    writer.flush().map_err(CheckError::Flush)
 }
 
 /// The readable task report.
@@ -548,13 +571,16 @@ fn run_task_box(
     args: &CheckArgs,
     selected: &SelectedRobot,
     limits: &SelectedLimits,
-) -> Result<(), String> {
+) -> Result<(), CliError> {
     let grid = match &args.grid {
-        Some(g) => parse_grid("--grid", g)?,
+        Some(g) => flags::grid("--grid", g)?,
         None => DEFAULT_GRID,
     };
     let branch = match &args.branch {
-        Some(b) => parse_branch(b).map_err(|e| format!("--branch: {e}"))?,
+        Some(b) => parse_branch(b).map_err(|error| FlagError::Field {
+            flag: "--branch",
+            error,
+        })?,
         None => Branch::OUTER,
     };
     let check = check_task(
@@ -572,6 +598,6 @@ fn run_task_box(
         let mut lock = stdout.lock();
         lock.write_all(task_text(&check, selected, limits).as_bytes())
             .and_then(|()| lock.flush())
-            .map_err(|e| format!("check: cannot write the output: {e}"))
+            .map_err(|e| CheckError::Flush(e).into())
     }
 }

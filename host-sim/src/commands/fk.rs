@@ -1,14 +1,14 @@
 //! `fk`: the pose of joints on a branch, by the core's Newton iteration.
 
-use super::execute;
-use crate::batch::{Calculation, FlagValue, Row};
+use super::{execute, RowError};
+use crate::batch::{BatchError, Calculation, FlagValue, Row};
 use crate::columns::{
     joint_columns, pose_to_edge, read_branch, read_initial_pose, read_joints, BRANCH, INITIAL_POSE,
     POSE,
 };
-use crate::units::fixed9;
 use clap::Args;
 use kinematics_core::{forward, FkConfig, Mechanism, Pose, Robot};
+use robot_config::units::fixed9;
 
 /// `host-sim fk`: in branch, the joints (the column names `ik` writes) and optionally an
 /// initial pose x0_mm..rz0_deg; out the input, then x_mm..rz_deg, iterations and `error`.
@@ -42,6 +42,7 @@ pub struct Fk<'a> {
 }
 
 impl Calculation for Fk<'_> {
+    type Error = RowError;
     fn name(&self) -> &'static str {
         "fk"
     }
@@ -58,12 +59,12 @@ impl Calculation for Fk<'_> {
         c.push("iterations");
         c
     }
-    fn compute(&self, row: &Row<'_>) -> Result<Vec<String>, String> {
+    fn compute(&self, row: &Row<'_>) -> Result<Vec<String>, RowError> {
         let branch = read_branch(row)?;
         let q = read_joints(row, self.robot)?;
         let guess = read_initial_pose(row)?.unwrap_or_else(|| Pose::central(self.robot.hc()));
-        let fk = forward(self.robot, &q, branch, &guess, &FkConfig::default())
-            .map_err(|e| format!("fk: {e}"))?;
+        let fk =
+            forward(self.robot, &q, branch, &guess, &FkConfig::default()).map_err(RowError::Fk)?;
         let mut out: Vec<String> = pose_to_edge(&fk.pose).map(fixed9).to_vec();
         out.push(fk.iterations.to_string());
         Ok(out)
@@ -71,7 +72,7 @@ impl Calculation for Fk<'_> {
 }
 
 /// Runs `fk`.
-pub fn run(args: &FkArgs, robot: &Robot<f64>) -> Result<(), String> {
+pub fn run(args: &FkArgs, robot: &Robot<f64>) -> Result<(), BatchError<RowError>> {
     let mut flags = vec![
         FlagValue::new("--branch", &[BRANCH], &args.branch),
         FlagValue::new(

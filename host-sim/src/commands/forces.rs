@@ -1,11 +1,13 @@
 //! `forces`: the actuator forces and torques that hold a wrench, tau = J^-T s_e.
 
-use super::{execute, pose_columns, solve_row, PoseInput};
+use super::{execute, pose_columns, solve_row, PoseInput, RowError};
 use crate::batch::{Calculation, FlagValue, Row};
 use crate::columns::{read_wrench, WRENCH};
-use crate::units::significant;
+use crate::error::CliError;
+use crate::flags::min_inv_cond;
 use clap::Args;
 use kinematics_core::{actuator_forces, jacobian, Mechanism, Robot};
+use robot_config::units::significant;
 
 /// `host-sim forces`: in x_mm..rz_deg, branch, fx_n..tz_nm; out the input, then tau1..tau6
 /// (RSPR: N on the prismatic joints, N m on the rotating links; USR: all N m) and `error`.
@@ -37,6 +39,7 @@ pub struct Forces<'a> {
 }
 
 impl Calculation for Forces<'_> {
+    type Error = RowError;
     fn name(&self) -> &'static str {
         "forces"
     }
@@ -48,24 +51,19 @@ impl Calculation for Forces<'_> {
     fn result_columns(&self) -> Vec<&'static str> {
         vec!["tau1", "tau2", "tau3", "tau4", "tau5", "tau6"]
     }
-    fn compute(&self, row: &Row<'_>) -> Result<Vec<String>, String> {
+    fn compute(&self, row: &Row<'_>) -> Result<Vec<String>, RowError> {
         let wrench = read_wrench(row)?;
         let sol = solve_row(self.robot, row)?;
-        let jac = jacobian(self.robot, &sol).map_err(|e| format!("jacobian: {e}"))?;
+        let jac = jacobian(self.robot, &sol).map_err(RowError::Jacobian)?;
         let statics = actuator_forces(&jac, self.robot.rp(), &wrench, self.min_inv_cond)
-            .map_err(|e| format!("forces: {e}"))?;
+            .map_err(RowError::Forces)?;
         Ok(statics.tau.iter().map(|&x| significant(x)).collect())
     }
 }
 
 /// Runs `forces`.
-pub fn run(args: &ForcesArgs, robot: &Robot<f64>) -> Result<(), String> {
-    if !(args.min_inv_cond.is_finite() && args.min_inv_cond >= 0.0) {
-        return Err(format!(
-            "--min-inv-cond: {} is not a number >= 0",
-            args.min_inv_cond
-        ));
-    }
+pub fn run(args: &ForcesArgs, robot: &Robot<f64>) -> Result<(), CliError> {
+    min_inv_cond(args.min_inv_cond)?;
     let mut flags = args.input.flags();
     flags.push(FlagValue::new(
         "--wrench",
@@ -76,5 +74,5 @@ pub fn run(args: &ForcesArgs, robot: &Robot<f64>) -> Result<(), String> {
         robot,
         min_inv_cond: args.min_inv_cond,
     };
-    execute(&calc, args.input.csv, &flags)
+    Ok(execute(&calc, args.input.csv, &flags)?)
 }

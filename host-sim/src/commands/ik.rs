@@ -1,11 +1,11 @@
 //! `ik`: the joints of a pose on a branch.
 
-use super::{execute, pose_columns, solve_row, PoseInput};
-use crate::batch::{Calculation, Row};
+use super::{execute, pose_columns, solve_row, PoseInput, RowError};
+use crate::batch::{BatchError, Calculation, Row};
 use crate::columns::{joint_columns, joints_to_edge};
-use crate::units::fixed9;
 use clap::Args;
 use kinematics_core::Robot;
+use robot_config::units::fixed9;
 
 /// `host-sim ik`: in x_mm..rz_deg,branch; out the same, then the joints and `error`.
 #[derive(Debug, Args)]
@@ -20,6 +20,7 @@ pub struct Ik<'a> {
 }
 
 impl Calculation for Ik<'_> {
+    type Error = RowError;
     fn name(&self) -> &'static str {
         "ik"
     }
@@ -29,13 +30,13 @@ impl Calculation for Ik<'_> {
     fn result_columns(&self) -> Vec<&'static str> {
         joint_columns(self.robot.kind()).to_vec()
     }
-    fn compute(&self, row: &Row<'_>) -> Result<Vec<String>, String> {
+    fn compute(&self, row: &Row<'_>) -> Result<Vec<String>, RowError> {
         let sol = solve_row(self.robot, row)?;
         Ok(joints_to_edge(self.robot, &sol.q()).map(fixed9).to_vec())
     }
 }
 
 /// Runs `ik`.
-pub fn run(args: &IkArgs, robot: &Robot<f64>) -> Result<(), String> {
+pub fn run(args: &IkArgs, robot: &Robot<f64>) -> Result<(), BatchError<RowError>> {
     execute(&Ik { robot }, args.input.csv, &args.input.flags())
 }

@@ -1,11 +1,11 @@
 //! `jacobian`: J = dq/dx at a pose, and the conditioning of the tripod Jacobian.
 
-use super::{execute, pose_columns, solve_row, PoseInput};
-use crate::batch::{Calculation, Row};
-use crate::units::significant;
+use super::{execute, pose_columns, solve_row, PoseInput, RowError};
+use crate::batch::{BatchError, Calculation, Row};
 use clap::Args;
 use kinematics_core::singularity::parallel_inv_cond;
 use kinematics_core::{jacobian, Mechanism, Robot};
+use robot_config::units::significant;
 
 /// `host-sim jacobian`: in x_mm..rz_deg,branch; out the input, then j11..j66 (SI, row-major,
 /// rows in q order, columns [v; w]), inv_cond and `error`.
@@ -28,6 +28,7 @@ pub struct JacobianCalc<'a> {
 }
 
 impl Calculation for JacobianCalc<'_> {
+    type Error = RowError;
     fn name(&self) -> &'static str {
         "jacobian"
     }
@@ -39,11 +40,11 @@ impl Calculation for JacobianCalc<'_> {
         c.push("inv_cond");
         c
     }
-    fn compute(&self, row: &Row<'_>) -> Result<Vec<String>, String> {
+    fn compute(&self, row: &Row<'_>) -> Result<Vec<String>, RowError> {
         let sol = solve_row(self.robot, row)?;
-        let jac = jacobian(self.robot, &sol).map_err(|e| format!("jacobian: {e}"))?;
-        let inv_cond = parallel_inv_cond(&jac.jtilde, self.robot.rp())
-            .map_err(|e| format!("jacobian: {e}"))?;
+        let jac = jacobian(self.robot, &sol).map_err(RowError::Jacobian)?;
+        let inv_cond =
+            parallel_inv_cond(&jac.jtilde, self.robot.rp()).map_err(RowError::Conditioning)?;
         // nalgebra stores column-major; the output is row-major.
         let mut out: Vec<String> = jac.j.transpose().iter().map(|&x| significant(x)).collect();
         out.push(significant(inv_cond));
@@ -52,6 +53,6 @@ impl Calculation for JacobianCalc<'_> {
 }
 
 /// Runs `jacobian`.
-pub fn run(args: &JacobianArgs, robot: &Robot<f64>) -> Result<(), String> {
+pub fn run(args: &JacobianArgs, robot: &Robot<f64>) -> Result<(), BatchError<RowError>> {
     execute(&JacobianCalc { robot }, args.input.csv, &args.input.flags())
 }

@@ -8,11 +8,41 @@ pub mod ik;
 pub mod jacobian;
 pub mod singularity;
 
-use crate::batch::{self, Calculation, FlagValue, Row};
-use crate::columns::{self, BRANCH, POSE};
+use crate::batch::{self, BatchError, Calculation, FlagValue, Row};
+use crate::columns::{self, FieldError, BRANCH, POSE};
 use clap::Args;
-use kinematics_core::{inverse, Robot, Solution};
+use kinematics_core::guards::GuardSetupError;
+use kinematics_core::singularity::SvdDidNotConverge;
+use kinematics_core::{inverse, FkError, ForceError, IkError, JacobianError, Robot, Solution};
 use std::io::Write;
+use thiserror::Error;
+
+/// Why a row of a row-wise command has no result: a field, or the step that failed with
+/// the core's reason.
+#[derive(Debug, Error)]
+pub enum RowError {
+    #[error(transparent)]
+    Field(#[from] FieldError),
+    #[error("ik: {0}")]
+    Ik(IkError),
+    #[error("fk: {0}")]
+    Fk(FkError),
+    #[error("jacobian: {0}")]
+    Jacobian(JacobianError),
+    /// The conditioning of the tripod Jacobian.
+    #[error("jacobian: {0}")]
+    Conditioning(SvdDidNotConverge),
+    #[error("forces: {0}")]
+    Forces(ForceError),
+    #[error("singularity: {0}")]
+    Singularity(SvdDidNotConverge),
+    /// The guards of a branch cannot be set up for the robot and limits.
+    #[error("guards on branch {branch}: {error}")]
+    Guards { branch: u8, error: GuardSetupError },
+    /// A branch without guards (there are eight, one per branch).
+    #[error("branch {0}: no guards")]
+    NoGuards(u8),
+}
 
 /// Input of the commands that work on a pose and a branch.
 #[derive(Debug, Args)]
@@ -60,15 +90,19 @@ pub fn pose_columns() -> Vec<&'static str> {
 }
 
 /// Shared first step: the inverse kinematics of a row's pose on its branch.
-pub fn solve_row(robot: &Robot<f64>, row: &Row<'_>) -> Result<Solution<f64>, String> {
+pub fn solve_row(robot: &Robot<f64>, row: &Row<'_>) -> Result<Solution<f64>, RowError> {
     let pose = columns::read_pose(row)?;
     let branch = columns::read_branch(row)?;
-    inverse(robot, &pose, branch).map_err(|e| format!("ik: {e}"))
+    inverse(robot, &pose, branch).map_err(RowError::Ik)
 }
 
 /// Runs a calculation in the batch form (stdin to stdout, a count of bad rows on stderr)
 /// or the single form (the flags' one row).
-pub fn execute(calc: &dyn Calculation, csv: bool, flags: &[FlagValue]) -> Result<(), String> {
+pub fn execute<C: Calculation<Error = RowError>>(
+    calc: &C,
+    csv: bool,
+    flags: &[FlagValue],
+) -> Result<(), BatchError<RowError>> {
     let stdout = std::io::stdout();
     if csv {
         let summary = batch::run_csv(calc, std::io::stdin().lock(), stdout.lock())?;
@@ -81,9 +115,9 @@ pub fn execute(calc: &dyn Calculation, csv: bool, flags: &[FlagValue]) -> Result
         Ok(())
     } else {
         batch::run_single(calc, flags, stdout.lock())?;
-        stdout
-            .lock()
-            .flush()
-            .map_err(|e| format!("{}: cannot write the output: {e}", calc.name()))
+        stdout.lock().flush().map_err(|source| BatchError::Flush {
+            name: calc.name(),
+            source,
+        })
     }
 }

@@ -1,11 +1,11 @@
 //! `singularity`: the serial measure of each chain, the parallel measure and the nearest
 //! singularity (CONVENTIONS.md, "Measures").
 
-use super::{execute, pose_columns, solve_row, PoseInput};
-use crate::batch::{Calculation, Row};
-use crate::units::significant;
+use super::{execute, pose_columns, solve_row, PoseInput, RowError};
+use crate::batch::{BatchError, Calculation, Row};
 use clap::Args;
 use kinematics_core::{measures, Robot, RobotKind};
+use robot_config::units::significant;
 
 /// `host-sim singularity`: in x_mm..rz_deg,branch; out the input, then the serial measures
 /// (RSPR serial1_mm.. = |Cn2_i| and serial1_frac.. = over rb; USR serial1_mm2.. =
@@ -33,6 +33,7 @@ impl Singularity<'_> {
 }
 
 impl Calculation for Singularity<'_> {
+    type Error = RowError;
     fn name(&self) -> &'static str {
         "singularity"
     }
@@ -45,9 +46,9 @@ impl Calculation for Singularity<'_> {
         c.extend(["parallel_inv_cond", "det_sign", "nearest"]);
         c
     }
-    fn compute(&self, row: &Row<'_>) -> Result<Vec<String>, String> {
+    fn compute(&self, row: &Row<'_>) -> Result<Vec<String>, RowError> {
         let sol = solve_row(self.robot, row)?;
-        let m = measures(self.robot, &sol).map_err(|e| format!("singularity: {e}"))?;
+        let m = measures(self.robot, &sol).map_err(RowError::Singularity)?;
         let scale = self.serial_columns().1;
         let mut out: Vec<String> = m.serial.0.iter().map(|&x| significant(x * scale)).collect();
         out.extend(m.serial_relative.0.iter().map(|&x| significant(x)));
@@ -59,6 +60,6 @@ impl Calculation for Singularity<'_> {
 }
 
 /// Runs `singularity`.
-pub fn run(args: &SingularityArgs, robot: &Robot<f64>) -> Result<(), String> {
+pub fn run(args: &SingularityArgs, robot: &Robot<f64>) -> Result<(), BatchError<RowError>> {
     execute(&Singularity { robot }, args.input.csv, &args.input.flags())
 }

@@ -88,7 +88,7 @@ impl Table {
 
 // The column names are the library's own (one source of truth).
 #[allow(unused_imports)] // not every test binary uses every name
-pub use host_sim::columns::{POSE, RSPR_JOINTS, USR_JOINTS};
+pub use robot_config::edge::{POSE, RSPR_JOINTS, USR_JOINTS};
 
 /// A pose table: header then `x,y,z,rx,ry,rz,branch` rows.
 pub fn pose_csv(rows: &[([f64; 6], u32)]) -> String {
@@ -102,5 +102,8 @@ pub fn pose_csv(rows: &[([f64; 6], u32)]) -> String {
 
 /// The path of a shipped geometry file.
 pub fn geometry(name: &str) -> String {
-    format!("{}/geometry/{name}", env!("CARGO_MANIFEST_DIR"))
+    format!(
+        "{}/robot-config/geometry/{name}",
+        env!("CARGO_MANIFEST_DIR")
+    )
 }

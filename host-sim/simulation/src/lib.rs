@@ -1,0 +1,215 @@
+//! `simulation`: the closed-loop simulation behind `host-sim sim`, the project's main job.
+//!
+//! The board's control application (`firmware/control`: encoders -> FK -> supervisor ->
+//! IK -> PID -> PWM, in f64) runs against the plant model of the six actuated joints
+//! (`host-sim/plant`) through the hardware traits of `firmware/servo`. The controller
+//! ticks at `control.rate_hz` (1 kHz default, up to 10 kHz); the plant is integrated
+//! `control.plant_steps_per_tick` (>= 10) times per tick. A master streams timestamped
+//! target poses (or single targets); the tool's weight (1.2 kg on a 0.1 m lever) is mapped
+//! to joint loads through tau = J^-T s_e at the true pose. Each run writes a JSON summary,
+//! a CSV trace and PNG plots.
+//!
+//! Modules: [`config`] (the TOML settings, `default.toml`), [`scenario`] (what the master
+//! sends, faults; the paths are the `trajectory` crate's), [`engine`] (the loop),
+//! [`metrics`] (errors, efforts, faults), [`run`] (one scenario), [`output`] (files);
+//! [`report_text`] is the summary `host-sim sim` prints.
+
+pub mod config;
+pub mod engine;
+pub mod metrics;
+pub mod output;
+pub mod run;
+pub mod scenario;
+
+pub use config::{ConfigError, SimConfig};
+pub use engine::EngineError;
+pub use output::OutputError;
+pub use run::RunError;
+pub use scenario::UnknownScenario;
+
+use kinematics_core::{Robot, RsprGeometry};
+use thiserror::Error;
+
+/// Why `host-sim sim` stopped.
+#[derive(Debug, Error)]
+pub enum SimError {
+    /// The plant models the RSPR prototype only.
+    #[error("sim: the plant models the RSPR prototype's joints; choose an RSPR robot")]
+    NotRspr,
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    #[error(transparent)]
+    Scenario(#[from] UnknownScenario),
+    #[error(transparent)]
+    Run(#[from] RunError),
+    #[error(transparent)]
+    Output(#[from] OutputError),
+}
+
+/// The threads a run uses by default: 2 when the machine has at least 2 cores.
+pub fn default_threads() -> usize {
+    std::thread::available_parallelism()
+        .map(|n| n.get())
+        .unwrap_or(1)
+        .min(2)
+}
+
+/// The RSPR geometry of a robot (the plant models the RSPR prototype only).
+pub fn rspr(robot: &Robot<f64>) -> Result<RsprGeometry<f64>, SimError> {
+    match robot {
+        Robot::Rspr(g) => Ok(*g),
+        Robot::Usr(_) => Err(SimError::NotRspr),
+    }
+}
+
+/// The readable summary printed after a run.
+pub fn report_text(s: &run::Summary) -> String {
+    use std::fmt::Write;
+    let mut o = String::new();
+    let st = &s.settings;
+    let _ = writeln!(o, "sim {}: {}", s.scenario, s.description);
+    let _ = writeln!(
+        o,
+        "  control {} Hz, plant step {:.0} us, leg backlash {:.3} mm, compensation {}, tool {}",
+        st.control_rate_hz,
+        st.plant_step_us,
+        st.leg_backlash_mm,
+        if st.backlash_compensation {
+            "on"
+        } else {
+            "off"
+        },
+        match st.payload_attached_at_s {
+            Some(t) => format!(
+                "{} kg on {:?} mm from {} s",
+                st.payload_mass_kg, st.payload_lever_mm, t
+            ),
+            None => "none".into(),
+        }
+    );
+    let tm = &s.timing;
+    let parts = format!(
+        "controller servo half {:.1}, plant {:.1}, truth+payload {:.1} (payload {:.1}), \
+         other {:.1}",
+        tm.controller_us, tm.plant_us, tm.truth_and_payload_us, tm.payload_us, tm.other_us
+    );
+    let _ = if tm.threads >= 2 {
+        writeln!(
+            o,
+            "  simulated {:.2} s in {:.2} s: {:.0}x real time on 2 threads ({:.1} us per tick; \
+             master side: supervisor {:.1}; drive side: {parts})",
+            s.simulated_s, s.wall_s, s.speed_up, tm.per_tick_us, tm.planner_us
+        )
+    } else {
+        writeln!(
+            o,
+            "  simulated {:.2} s in {:.2} s: {:.0}x real time on 1 thread ({:.1} us per tick: \
+             supervisor {:.1}, {parts})",
+            s.simulated_s, s.wall_s, s.speed_up, tm.per_tick_us, tm.planner_us
+        )
+    };
+    let e = |p: &metrics::PoseErrorSummary| {
+        format!(
+            "tip RMS {:.4} mm, max {:.4} mm; orientation RMS {:.4} deg, max {:.4} deg",
+            p.tip_rms_mm, p.tip_max_mm, p.orientation_rms_deg, p.orientation_max_deg
+        )
+    };
+    let _ = writeln!(o, "  tracking error (true vs setpoint): {}", e(&s.tracking));
+    let _ = writeln!(o, "  target error (true vs master):     {}", e(&s.target));
+    for p in &s.phases {
+        let _ = writeln!(
+            o,
+            "  {}: tracking tip RMS {:.4} / max {:.4} mm; vs target RMS {:.4} / max {:.4} mm",
+            p.name,
+            p.tracking.tip_rms_mm,
+            p.tracking.tip_max_mm,
+            p.target.tip_rms_mm,
+            p.target.tip_max_mm
+        );
+    }
+    if let Some(a) = &s.accuracy {
+        let _ = writeln!(
+            o,
+            "  accuracy target ({}): tip RMS {:.4} mm (<= {}), max {:.4} mm (<= {}): {}",
+            a.judged_on,
+            a.tip_rms_mm,
+            a.limit_tip_rms_mm,
+            a.tip_max_mm,
+            a.limit_tip_max_mm,
+            if a.met { "MET" } else { "NOT MET" }
+        );
+    }
+    for st in &s.steps {
+        let _ = writeln!(
+            o,
+            "  step at {:.2} s ({:.2} mm, {:.2} deg): rise {} s, overshoot {:.4} mm / {:.4} \
+             deg, settled within {} mm / {} deg after {} s, final error {:.4} mm",
+            st.at_s,
+            st.step_mm,
+            st.step_deg,
+            st.rise_s.map_or("-".into(), |v| format!("{v:.3}")),
+            st.overshoot_mm,
+            st.overshoot_deg,
+            st.settle_band_mm,
+            st.settle_band_deg,
+            st.settle_s.map_or("never".into(), |v| format!("{v:.3}")),
+            st.final_error_mm
+        );
+    }
+    let cur: Vec<String> = s
+        .actuators
+        .iter()
+        .map(|a| {
+            format!(
+                "{} {:.2}/{:.2}",
+                a.joint, a.peak_current_a, a.nominal_current_a
+            )
+        })
+        .collect();
+    let _ = writeln!(o, "  peak/nominal current A: {}", cur.join(", "));
+    let duty: Vec<String> = s
+        .actuators
+        .iter()
+        .map(|a| format!("{} {:.2}", a.joint, a.peak_duty))
+        .collect();
+    let _ = writeln!(o, "  peak duty: {}", duty.join(", "));
+    let sv = &s.supervisor;
+    let _ = writeln!(
+        o,
+        "  supervisor: {} targets sent, {} refused (path {}, too far {}, stale {}), warn {:.2} s, \
+         stopped {:.2} s, stops {}{}",
+        sv.targets_sent,
+        sv.refused.total,
+        sv.refused.path,
+        sv.refused.too_far,
+        sv.refused.stale,
+        sv.warn_s,
+        sv.stopped_s,
+        sv.stops,
+        sv.refused
+            .first_reason
+            .as_ref()
+            .map(|r| format!("; first refusal: {r}"))
+            .unwrap_or_default()
+    );
+    match &s.faults.servo {
+        None => {
+            let _ = writeln!(o, "  servo faults: none");
+        }
+        Some(f) => {
+            let _ = writeln!(
+                o,
+                "  servo fault at {:.3} s: {} on {} (error {})",
+                f.at_s,
+                f.kind,
+                f.joint.unwrap_or("-"),
+                match (f.error_mm, f.error_deg) {
+                    (Some(e), _) => format!("{e:.4} mm"),
+                    (_, Some(e)) => format!("{e:.4} deg"),
+                    _ => "-".into(),
+                }
+            );
+        }
+    }
+    o
+}

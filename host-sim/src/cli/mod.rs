@@ -1,0 +1,232 @@
+//! The command line: the robot and limits selection shared by every subcommand, and the
+//! subcommands. New subcommands are new variants of [`Command`] with their own `Args`
+//! struct; the row-wise ones live in [`crate::commands`], the others here: [`design`]
+//! (`forces --path`, `report`, `ranges`, `workspace`, `synth`, `compare`), [`sim`] and
+//! [`teleop`], each turning its flags into the library's settings and printing what the
+//! library returns.
+
+pub mod design;
+pub mod sim;
+pub mod teleop;
+
+use crate::commands::{check, fk, ik, jacobian, singularity};
+use crate::error::CliError;
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use robot_config::selection::{BuiltinRobot, SelectedLimits, SelectedRobot};
+use std::path::PathBuf;
+
+/// Host tool of the RSPR/USR surgical robots: kinematics, statics and design reports.
+///
+/// Lengths are millimetres and angles degrees at this edge; poses are
+/// x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg with (rx, ry, rz) the rotation vector (axis * angle).
+/// Every row-wise command has a single-pose form (flags) and a batch form (--csv: CSV with a
+/// header on stdin, CSV on stdout, one output row per input row).
+#[derive(Debug, Parser)]
+#[command(name = "host-sim", version)]
+pub struct Cli {
+    #[command(flatten)]
+    pub robot: RobotArgs,
+    #[command(flatten)]
+    pub limits: LimitsArgs,
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// A built-in robot.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum RobotChoice {
+    /// The RSPR prototype of thesis chapter 11 (Table 11.1): e 20, rb 90, rp 50, hc 160 mm.
+    Rspr,
+    /// The USR of thesis Appendix A (Table 4.1): e 30, rp 30, l1 60, l2 80, hc 80 mm.
+    Usr,
+}
+
+/// Which robot the command works on.
+#[derive(Debug, Args)]
+pub struct RobotArgs {
+    /// Built-in reference robot [default: rspr].
+    #[arg(long, global = true, value_enum, conflicts_with = "geometry")]
+    pub robot: Option<RobotChoice>,
+    /// Geometry file (TOML, mm): robot = "rspr" with e_mm, rb_mm, rp_mm, hc_mm, or
+    /// robot = "usr" with e_mm, rp_mm, l1_mm, l2_mm, hc_mm.
+    #[arg(long, global = true, value_name = "FILE.toml")]
+    pub geometry: Option<PathBuf>,
+}
+
+/// Which limits the guards use (`check`, `workspace`, `sim`).
+#[derive(Debug, Args)]
+pub struct LimitsArgs {
+    /// Limits file (TOML; mm, deg, N, N m; unit-suffixed keys, each optional, defaulting
+    /// to the reference limits; see host-sim/robot-config/limits/reference.toml)
+    /// [default: the reference limits]. Loaded and validated whenever given.
+    #[arg(long, global = true, value_name = "FILE.toml")]
+    pub limits: Option<PathBuf>,
+}
+
+impl LimitsArgs {
+    /// The limits: the file if given, else the reference limits.
+    pub fn select(&self) -> Result<SelectedLimits, CliError> {
+        Ok(match &self.limits {
+            Some(path) => SelectedLimits::from_file(path)?,
+            None => SelectedLimits::reference(),
+        })
+    }
+}
+
+impl RobotArgs {
+    /// The robot: the geometry file if given, else the chosen or default reference robot.
+    pub fn select(&self) -> Result<SelectedRobot, CliError> {
+        if let Some(path) = &self.geometry {
+            return Ok(SelectedRobot::from_file(path)?);
+        }
+        Ok(SelectedRobot::builtin(
+            match self.robot.unwrap_or(RobotChoice::Rspr) {
+                RobotChoice::Rspr => BuiltinRobot::Rspr,
+                RobotChoice::Usr => BuiltinRobot::Usr,
+            },
+        ))
+    }
+}
+
+/// The subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Inverse kinematics: the joints q1..q6 of a pose on a branch.
+    ///
+    /// In: x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg,branch. Out: the input, then RSPR
+    /// l1_mm,l2_mm,l3_mm,theta1_deg,theta2_deg,theta3_deg or USR
+    /// alpha1_deg,alpha2_deg,alpha3_deg,beta1_deg,beta2_deg,beta3_deg, then error.
+    Ik(ik::IkArgs),
+    /// Forward kinematics: the pose of joints q1..q6 on a branch (Newton iteration).
+    ///
+    /// In: branch, the joints (the names ik writes), optionally the initial pose
+    /// x0_mm..rz0_deg (absent or empty = [0, 0, hc], R = I). Out: the
+    /// input, then x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg,iterations,error. Input columns
+    /// named like an output column are echoed as in_<name>.
+    Fk(fk::FkArgs),
+    /// The Jacobian J = dq/dx (SI, rows in q order, columns [v; w]) and its conditioning.
+    ///
+    /// In: x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg,branch. Out: the input, then j11..j66
+    /// (row-major; m/m, m/rad, rad/m, rad/rad), inv_cond (of the tripod Jacobian with its
+    /// moment columns divided by rp), error.
+    Jacobian(jacobian::JacobianArgs),
+    /// Actuator forces tau = J^-T s_e for a wrench the platform exerts on its environment.
+    ///
+    /// In: x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg,branch,fx_n,fy_n,fz_n,tx_nm,ty_nm,tz_nm.
+    /// Out: the input, then tau1..tau6 in q order (RSPR: N on l1..l3, N m on theta1..3;
+    /// USR: N m), error.
+    ///
+    /// --path diagonal: the forces along a straight path at a fixed orientation (default
+    /// the thesis's diagonal [-20,-20,-10] -> [20,20,10] mm about [0, 0, hc], 20 deg about
+    /// [1,1,1], wrench 7,7,7,0.7,0.7,0.7); writes forces_path.csv (s, x_mm..rz_deg, RSPR
+    /// f1_n..f3_n,t1_nm..t3_nm or USR t_alpha1_nm..t_beta3_nm, error) and forces_path.png
+    /// to --out (default target/design/forces/).
+    Forces(design::ForcesCommandArgs),
+    /// Serial and parallel singularity measures and the nearest singularity.
+    ///
+    /// In: x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg,branch. Out: the input, then RSPR
+    /// serial1_mm..serial3_mm (|Cn2_i|) or USR serial1_mm2..serial3_mm2
+    /// (|Cn1 Cr2 - Cr1 Cn2|), serial1_frac..serial3_frac (over rb, or l1^2),
+    /// parallel_inv_cond, det_sign, nearest (parallel or serial:N), error.
+    Singularity(singularity::SingularityArgs),
+    /// A readable report of the robot over the thesis's task box.
+    ///
+    /// Dimensions, the inverse kinematics of the central pose on all 8 branches, the
+    /// measures and forces at the central pose, and over the task box (branch 0, platform
+    /// parallel and tilted) the joint ranges, Jacobian conditioning, serial margins,
+    /// spherical-joint tilt, actuator force ranges and every pose that failed.
+    Report(design::ReportArgs),
+    /// The guards' verdict at a pose, or the worst margins over the thesis's task box.
+    ///
+    /// Single pose or batch: in x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg,branch; out the input,
+    /// then ok (true unless a stop-level guard is violated), severity (empty, warn or
+    /// stop), violations (guard:subject:value:limit;... in mm, deg, N, N m or as is for
+    /// dimensionless measures) and error. A computed verdict exits 0 whatever it says;
+    /// only bad input fails.
+    ///
+    /// --task-box: every static guard's worst margin over the task box (40 x 40 x 20 mm
+    /// at [0, 0, hc], platform parallel and rotated +20 deg about [1,1,0]), where it
+    /// occurs, the counts of grid points with stop and warn violations, and a conclusion.
+    /// The limits come from --limits FILE or the reference limits.
+    Check(check::CheckArgs),
+    /// The closed-loop simulation: the board's controller against the plant model.
+    ///
+    /// Runs a scenario (laparoscope, step, box-sweep, payload, backlash-off, or all) with
+    /// the controller at control.rate_hz and the plant at least 10x faster, the tool's
+    /// weight mapped to the joints, and writes summary.json, trace.csv, path.png and
+    /// errors.png (default target/sim/<scenario>/). Settings:
+    /// host-sim/simulation/default.toml.
+    Sim(sim::SimArgs),
+    /// The columns of thesis Tables 8.2/8.3 over the task box: joint min, max and span,
+    /// spherical-joint tilt, USR gamma_i and delta_i, actuator force and torque ranges.
+    ///
+    /// The task: the 40 x 40 x 20 mm box at [0, 0, hc], platform parallel and rotated
+    /// +20 deg about [1,1,0], wrench 7,7,7,0.7,0.7,0.7. A table per quantity (parallel,
+    /// rotated and both); --csv for quantity,orientation,min,max,span,poses.
+    Ranges(design::RangesArgs),
+    /// Constant-height sections of the reachable workspace at the task orientations.
+    ///
+    /// Thesis section 8.4: for each height z and direction phi, the largest radius rho_max
+    /// with a guard-admissible solution (no stop-level violation, the workspace guard
+    /// excluded). Writes workspace.csv (orientation, rx_deg..rz_deg, z_mm, phi_deg,
+    /// rho_max_mm), sections_parallel.png / sections_rotated.png and the 3-D views of the
+    /// boundary boundary_parallel.png / boundary_rotated.png to --out (default
+    /// target/design/workspace/), states whether the task box footprint lies inside each
+    /// section, and whether the whole task box (a 2 mm grid at both orientations) lies
+    /// inside the workspace.
+    Workspace(design::WorkspaceArgs),
+    /// Dimensional synthesis scan (thesis section 8.2) for the selected robot's kind.
+    ///
+    /// The task, the scan ranges and the bounds come from a TOML task file (--task FILE;
+    /// default host-sim/design/tasks/thesis.toml, embedded; absent keys keep its values); the
+    /// scan ranges may be overridden (RSPR --e-mm --rb-mm --rp-mm --hc-mm; USR --e-mm
+    /// --rp-mm --l1-mm --l2-mm --hc-mm, each FROM,TO,STEP). Every robot of the grid is
+    /// evaluated over the task on every core (--jobs N) and kept when it meets the
+    /// requirements (task solved, no singularity measure below its level, forces, torques,
+    /// tilt, RSPR actuator length and stroke; USR alpha, gamma, delta ranges). Writes
+    /// synth.csv (every robot in scan order: dimensions, size, verdict, first unmet bound,
+    /// each quantity's min and max), admissible.csv and admissible.md (the admissible
+    /// robots ranked by size with the columns of Tables 8.2/8.3) to --out (default
+    /// target/design/synth/), and says whether the reference robot is admissible or which
+    /// bound it misses; progress bar on a terminal.
+    Synth(design::SynthArgs),
+    /// The RSPR with zero eccentricity against the RRPS robot (thesis Appendix A, Fig. 4.4).
+    ///
+    /// Both robots with the selected RSPR's rb, rp, hc and e = 0, along the thesis's
+    /// diagonal [-20,-20,-10] -> [20,20,10] mm about [0, 0, hc], 20 deg about [1,1,1],
+    /// wrench 7,7,7,0.7,0.7,0.7: prints the peak leg forces and rotary torques side by side
+    /// and the ratio of the peak rotary torques; writes compare.csv (s, x_mm..rz_deg,
+    /// rspr_f1_n..rspr_t3_nm, rrps_f1_n..rrps_t3_nm, error) and compare.png to --out
+    /// (default target/design/compare/).
+    Compare(design::CompareArgs),
+    /// The host master of the board: hello, home, enable, stream a path with heartbeats,
+    /// record the status telemetry and print a summary (tracking, refusals, link counters).
+    ///
+    /// --connect: a Unix socket (QEMU `-serial unix:PATH,server=on,wait=off`, see
+    /// firmware/cortex-m/qemu-board) or a serial device. --scenario ci adds the checks of the CI run
+    /// (refused target, garbage on the link, heartbeat loss) and exits non-zero when one
+    /// fails. Writes status.csv to --out (default target/teleop/<scenario>/).
+    Teleop(teleop::TeleopArgs),
+}
+
+impl Command {
+    /// Runs the subcommand on the selected robot with the selected limits.
+    pub fn run(&self, selected: &SelectedRobot, limits: &SelectedLimits) -> Result<(), CliError> {
+        let robot = &selected.robot;
+        match self {
+            Command::Ik(args) => Ok(ik::run(args, robot)?),
+            Command::Fk(args) => Ok(fk::run(args, robot)?),
+            Command::Jacobian(args) => Ok(jacobian::run(args, robot)?),
+            Command::Forces(args) => design::forces(args, robot),
+            Command::Singularity(args) => Ok(singularity::run(args, robot)?),
+            Command::Report(args) => design::report(args, selected),
+            Command::Check(args) => check::run(args, selected, limits),
+            Command::Sim(args) => sim::run(args, selected, limits),
+            Command::Ranges(args) => design::ranges(args, selected),
+            Command::Workspace(args) => design::workspace(args, robot, limits),
+            Command::Synth(args) => design::synth(args, robot.kind()),
+            Command::Compare(args) => design::compare(args, robot),
+            Command::Teleop(args) => teleop::run(args),
+        }
+    }
+}

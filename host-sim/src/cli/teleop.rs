@@ -1,0 +1,71 @@
+//! `host-sim teleop` on the command line: the flags of the host master (the `teleop`
+//! crate), with the laparoscope path and the master's limits of the simulation's default
+//! settings.
+
+use crate::error::CliError;
+use clap::Args;
+use simulation::config::{default_target_dir, SimConfig};
+use std::path::PathBuf;
+use teleop::{ClockChoice, PathChoice, Settings, TeleopScenario};
+
+/// `host-sim teleop` options.
+#[derive(Debug, Args)]
+pub struct TeleopArgs {
+    /// The board: a Unix socket (QEMU `-serial unix:PATH,server=on,wait=off`) or a serial
+    /// device (/dev/ttyUSB0, a pty).
+    #[arg(long, value_name = "PATH")]
+    pub connect: PathBuf,
+    /// What to run.
+    #[arg(long, value_enum, default_value = "path")]
+    pub scenario: TeleopScenario,
+    /// The path to stream.
+    #[arg(long, value_enum, default_value = "laparoscope")]
+    pub path: PathChoice,
+    /// The master's clock.
+    #[arg(long, value_enum, default_value = "board")]
+    pub clock: ClockChoice,
+    /// Target stream rate, Hz.
+    #[arg(long, default_value_t = 100.0)]
+    pub stream_rate_hz: f64,
+    /// Serial devices: the baud rate (set with stty).
+    #[arg(long, default_value_t = 1_000_000)]
+    pub baud: u32,
+    /// How long to wait for the socket or device and for the board's HelloReply, s.
+    #[arg(long, default_value_t = 15.0)]
+    pub connect_timeout_s: f64,
+    /// Longest homing, s.
+    #[arg(long, default_value_t = 60.0)]
+    pub home_timeout_s: f64,
+    /// Tracking limit: the largest distance of the measured tip position from the
+    /// streamed path, mm (default: the legs' following-error window of the servo, 1 mm).
+    #[arg(long, default_value_t = 1.0)]
+    pub max_deviation_mm: f64,
+    /// Output directory [default: target/teleop/<scenario> in the binary's target dir].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+/// Runs the master.
+pub fn run(args: &TeleopArgs) -> Result<(), CliError> {
+    let cfg = SimConfig::builtin()?;
+    let out = args.out.clone().unwrap_or_else(|| {
+        default_target_dir()
+            .join("teleop")
+            .join(teleop::scenario_name(args.scenario))
+    });
+    let settings = Settings {
+        connect: args.connect.clone(),
+        scenario: args.scenario,
+        path: args.path,
+        clock: args.clock,
+        stream_rate_hz: args.stream_rate_hz,
+        baud: args.baud,
+        connect_timeout_s: args.connect_timeout_s,
+        home_timeout_s: args.home_timeout_s,
+        max_deviation_mm: args.max_deviation_mm,
+        out,
+        laparoscope: cfg.scenario.laparoscope.clone(),
+        master: cfg.master.limits(),
+    };
+    Ok(teleop::run(&settings)?)
+}

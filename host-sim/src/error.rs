@@ -1,0 +1,64 @@
+//! What the command line reports on failure: one line, `error: <message>`, the message of
+//! the library error that stopped the command.
+
+use crate::batch::BatchError;
+use crate::commands::check::CheckError;
+use crate::commands::RowError;
+use crate::flags::FlagError;
+use design::compare::PairError;
+use design::ranges::RangesError;
+use design::synth::SynthTaskError;
+use design::{DesignError, FileError};
+use robot_config::{GeometryFileError, LimitsFileError};
+use simulation::{ConfigError, OutputError, RunError, SimError, UnknownScenario};
+use teleop::TeleopError;
+use thiserror::Error;
+
+/// Why a command failed.
+#[derive(Debug, Error)]
+pub enum CliError {
+    #[error(transparent)]
+    Flag(#[from] FlagError),
+    /// A row-wise command: the input as a whole, or the single form's row.
+    #[error(transparent)]
+    Batch(#[from] BatchError<RowError>),
+    #[error(transparent)]
+    Check(#[from] CheckError),
+    #[error(transparent)]
+    Geometry(#[from] GeometryFileError),
+    #[error(transparent)]
+    Limits(#[from] LimitsFileError),
+    #[error(transparent)]
+    Design(#[from] DesignError),
+    #[error(transparent)]
+    SynthTask(#[from] SynthTaskError),
+    #[error(transparent)]
+    Sim(#[from] SimError),
+    #[error(transparent)]
+    Teleop(#[from] TeleopError),
+    #[error("compare needs an RSPR geometry (its rb, rp and hc are used with e = 0)")]
+    CompareNeedsRspr,
+    #[error("{0} robots: narrow the ranges (at most 200000)")]
+    TooManyRobots(usize),
+}
+
+/// Library errors that reach the command line through their crate's error.
+macro_rules! through {
+    ($($error:ty => $via:ident),* $(,)?) => {
+        $(impl From<$error> for CliError {
+            fn from(e: $error) -> Self {
+                CliError::$via(e.into())
+            }
+        })*
+    };
+}
+
+through!(
+    FileError => Design,
+    PairError => Design,
+    RangesError => Design,
+    ConfigError => Sim,
+    UnknownScenario => Sim,
+    RunError => Sim,
+    OutputError => Sim,
+);

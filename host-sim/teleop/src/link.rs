@@ -1,0 +1,253 @@
+//! The master's side of the link: a Unix socket (QEMU's `-serial unix:PATH,server=on`) or a
+//! serial device, a reader thread that decodes the board's frames (`MasterDecoder`: COBS,
+//! CRC, version, sequence) and hands them over with their arrival time, and the writer
+//! with the master's sequence numbers.
+
+use crate::error::TeleopError;
+use master_link::{
+    encode, BoardToMaster, Header, LinkCounters, MasterDecoder, MasterToBoard, Seq, SeqCounter,
+    MAX_FRAME_LEN,
+};
+use std::fs::{File, OpenOptions};
+use std::io::{Read, Write};
+use std::os::unix::fs::FileTypeExt;
+use std::os::unix::net::UnixStream;
+use std::path::Path;
+use std::process::Command;
+use std::sync::mpsc::{self, Receiver, RecvTimeoutError};
+use std::sync::{Arc, Mutex};
+use std::thread;
+use std::time::{Duration, Instant};
+
+/// One decoded board message.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Received {
+    /// Arrival, s since the link was opened.
+    pub t_s: f64,
+    /// The board's sequence number.
+    pub seq: Seq,
+    /// The message.
+    pub msg: BoardToMaster,
+}
+
+/// What the reader thread reports.
+enum FromReader {
+    Message(Received),
+    Closed(String),
+}
+
+/// An open link to the board.
+pub struct Link {
+    writer: Box<dyn Write + Send>,
+    rx: Receiver<FromReader>,
+    seq: SeqCounter,
+    /// The session nonce of this connection (sent in `Hello`, carried by every frame).
+    session: u32,
+    t0: Instant,
+    counters: Arc<Mutex<LinkCounters>>,
+    closed: Option<String>,
+    /// Frames and bytes written.
+    pub frames_sent: u64,
+    pub bytes_sent: u64,
+}
+
+/// Opens `path`: a Unix socket (retried until `timeout`: the emulator may still be
+/// starting) or a serial device (set to raw mode at `baud` with `stty`).
+pub fn open(path: &Path, baud: u32, timeout: Duration) -> Result<Link, TeleopError> {
+    let open_error = |source| TeleopError::Open {
+        path: path.to_path_buf(),
+        source,
+    };
+    let start = Instant::now();
+    let is_socket = loop {
+        match std::fs::metadata(path) {
+            Ok(m) => break m.file_type().is_socket(),
+            Err(e) if start.elapsed() >= timeout => {
+                return Err(open_error(e));
+            }
+            Err(_) => thread::sleep(Duration::from_millis(100)),
+        }
+    };
+    let (reader, writer): (Box<dyn Read + Send>, Box<dyn Write + Send>) = if is_socket {
+        let stream = loop {
+            match UnixStream::connect(path) {
+                Ok(s) => break s,
+                Err(source) if start.elapsed() >= timeout => {
+                    return Err(TeleopError::Connect {
+                        path: path.to_path_buf(),
+                        source,
+                    });
+                }
+                Err(_) => thread::sleep(Duration::from_millis(100)),
+            }
+        };
+        let r = stream.try_clone().map_err(open_error)?;
+        (Box::new(r), Box::new(stream))
+    } else {
+        let status = Command::new("stty")
+            .arg("-F")
+            .arg(path)
+            .args(["raw", "-echo", &baud.to_string()])
+            .status();
+        if !status.is_ok_and(|s| s.success()) {
+            eprintln!(
+                "warning: could not set {} to raw mode at {baud} baud with stty",
+                path.display()
+            );
+        }
+        let f: File = OpenOptions::new()
+            .read(true)
+            .write(true)
+            .open(path)
+            .map_err(open_error)?;
+        let r = f.try_clone().map_err(open_error)?;
+        (Box::new(r), Box::new(f))
+    };
+    Ok(Link::start(reader, writer))
+}
+
+impl Link {
+    fn start(mut reader: Box<dyn Read + Send>, writer: Box<dyn Write + Send>) -> Self {
+        let (tx, rx) = mpsc::channel();
+        let t0 = Instant::now();
+        let counters = Arc::new(Mutex::new(LinkCounters::default()));
+        let shared = Arc::clone(&counters);
+        thread::spawn(move || {
+            let mut decoder = MasterDecoder::new();
+            let mut buf = [0u8; 4096];
+            loop {
+                let n = match reader.read(&mut buf) {
+                    Ok(0) => {
+                        let _ = tx.send(FromReader::Closed("end of stream".into()));
+                        return;
+                    }
+                    Ok(n) => n,
+                    Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+                    Err(e) => {
+                        let _ = tx.send(FromReader::Closed(e.to_string()));
+                        return;
+                    }
+                };
+                let t_s = t0.elapsed().as_secs_f64();
+                for b in buf.iter().take(n) {
+                    if let Some(Ok((seq, msg))) = decoder.push(*b) {
+                        let _ = tx.send(FromReader::Message(Received { t_s, seq, msg }));
+                    }
+                }
+                if let Ok(mut c) = shared.lock() {
+                    *c = *decoder.counters();
+                }
+            }
+        });
+        Link {
+            writer,
+            rx,
+            seq: SeqCounter::new(0),
+            session: session_nonce(),
+            t0,
+            counters,
+            closed: None,
+            frames_sent: 0,
+            bytes_sent: 0,
+        }
+    }
+
+    /// Seconds since the link was opened (the master's clock).
+    pub fn now_s(&self) -> f64 {
+        self.t0.elapsed().as_secs_f64()
+    }
+
+    /// Microseconds since the link was opened (target timestamps).
+    pub fn now_us(&self) -> u64 {
+        u64::try_from(self.t0.elapsed().as_micros()).unwrap_or(u64::MAX)
+    }
+
+    /// The session nonce of this connection.
+    pub fn session(&self) -> u32 {
+        self.session
+    }
+
+    /// Sends `msg` as the next frame; returns its sequence number.
+    pub fn send(&mut self, msg: &MasterToBoard) -> Result<Seq, TeleopError> {
+        let seq = self.seq.next();
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        let header = Header {
+            session: self.session,
+            seq,
+        };
+        let n = encode(msg, header, &mut buf).map_err(|e| encode_error(msg, e))?;
+        self.write_raw(buf.get(..n).unwrap_or_default())?;
+        self.frames_sent += 1;
+        Ok(seq)
+    }
+
+    /// Sends `msg` with sequence number `seq` without advancing the counter (a replay).
+    pub fn send_with_seq(&mut self, msg: &MasterToBoard, seq: Seq) -> Result<(), TeleopError> {
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        let header = Header {
+            session: self.session,
+            seq,
+        };
+        let n = encode(msg, header, &mut buf).map_err(|e| encode_error(msg, e))?;
+        self.write_raw(buf.get(..n).unwrap_or_default())
+    }
+
+    /// The sequence number the next frame gets.
+    pub fn next_seq(&self) -> Seq {
+        self.seq.peek()
+    }
+
+    /// Writes bytes as they are (garbage tests).
+    pub fn write_raw(&mut self, bytes: &[u8]) -> Result<(), TeleopError> {
+        self.writer
+            .write_all(bytes)
+            .and_then(|()| self.writer.flush())
+            .map_err(TeleopError::Write)?;
+        self.bytes_sent += bytes.len() as u64;
+        Ok(())
+    }
+
+    /// The next board message, waiting at most `timeout`; `Ok(None)` on timeout, `Err`
+    /// once the link is closed.
+    pub fn recv(&mut self, timeout: Duration) -> Result<Option<Received>, TeleopError> {
+        if let Some(why) = &self.closed {
+            return Err(TeleopError::Closed(why.clone()));
+        }
+        match self.rx.recv_timeout(timeout) {
+            Ok(FromReader::Message(m)) => Ok(Some(m)),
+            Ok(FromReader::Closed(why)) => {
+                self.closed = Some(why.clone());
+                Err(TeleopError::Closed(why))
+            }
+            Err(RecvTimeoutError::Timeout) => Ok(None),
+            Err(RecvTimeoutError::Disconnected) => Err(TeleopError::ReaderStopped),
+        }
+    }
+
+    /// The counters of the board -> master direction (this side's decoder).
+    pub fn counters(&self) -> LinkCounters {
+        self.counters.lock().map(|c| *c).unwrap_or_default()
+    }
+}
+
+/// A fresh session nonce: the clock's nanoseconds mixed with the process id (distinct per
+/// connection; not a secret).
+fn session_nonce() -> u32 {
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_nanos());
+    let x = (nanos as u64) ^ (u64::from(std::process::id()) << 32);
+    // splitmix64's finaliser.
+    let mut z = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    ((z ^ (z >> 31)) as u32).max(1)
+}
+
+/// A message that cannot be encoded, with its debug text.
+pub(crate) fn encode_error(msg: &MasterToBoard, e: impl std::fmt::Debug) -> TeleopError {
+    TeleopError::Encode {
+        message: format!("{msg:?}"),
+        reason: format!("{e:?}"),
+    }
+}

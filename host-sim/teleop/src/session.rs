@@ -1,0 +1,338 @@
+//! A master session on an open [`Link`]: heartbeats at 50 Hz (unless paused), requests and
+//! their replies (matched by sequence number), the status telemetry recorded with the
+//! phase it arrived in, the targets sent (for the tracking figures) and the refusals.
+//!
+//! The session's clock: the host's (`paced = false`), or paced by the board (the default):
+//! once the telemetry flows, it advances by the board's status period (20 ms) per status
+//! received, and at most three periods beyond the last status (never backwards). The stream, the heartbeats, the
+//! target stamps and every figure then follow the board's own time: an emulated board
+//! that its host stalls (QEMU without -icount on a loaded machine) sees the master stall
+//! with it instead of a backlog of late targets and heartbeats. On a real board the two
+//! clocks agree.
+//! (A `Status` answering a `StatusRequest` would count too; the session sends none.)
+
+use crate::error::TeleopError;
+use crate::link::{Link, Received};
+use kinematics_core::Pose;
+use master_link::{
+    BoardToMaster, FirmwareVersion, MasterToBoard, NackReason, Seq, StatusReport, PROTOCOL_VERSION,
+};
+use std::collections::HashMap;
+use std::time::Duration;
+
+/// The board's telemetry period, s (`Status` every 20 ms once connected).
+pub const STATUS_PERIOD_S: f64 = 0.02;
+/// How far the paced clock runs on beyond the last status, s (heartbeats keep flowing
+/// through short gaps of the telemetry).
+const CLOCK_LEAD_S: f64 = 3.0 * STATUS_PERIOD_S;
+/// The session gives up when the board has sent nothing for this long (host time), s.
+const SILENCE_LIMIT_S: f64 = 5.0;
+
+/// Heartbeat period, s (the board holds after 100 ms of silence; 20 ms leaves room for
+/// the delays of a loaded host).
+pub const HEARTBEAT_PERIOD_S: f64 = 0.02;
+
+/// A status as received.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StatusRow {
+    /// Arrival, s (master clock).
+    pub t_s: f64,
+    /// Index of the phase it arrived in.
+    pub phase: usize,
+    /// The report.
+    pub status: StatusReport,
+}
+
+/// A refused request.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Refused {
+    /// When the Nack arrived, s.
+    pub t_s: f64,
+    /// Phase index.
+    pub phase: usize,
+    /// What was refused.
+    pub request: MasterToBoard,
+    /// Why.
+    pub reason: NackReason,
+}
+
+/// The master.
+pub struct Session {
+    /// The link.
+    pub link: Link,
+    /// Heartbeats are sent.
+    pub heartbeat: bool,
+    /// Time of the last heartbeat sent, s.
+    pub last_beat_s: f64,
+    /// Phase names; the current phase is the last.
+    pub phases: Vec<String>,
+    /// Every status received.
+    pub statuses: Vec<StatusRow>,
+    /// Targets sent: (time, pose).
+    pub targets: Vec<(f64, Pose<f64>)>,
+    /// Requests refused.
+    pub refused: Vec<Refused>,
+    /// Fault-log pages received.
+    pub fault_log: Vec<master_link::FaultLogPage>,
+    /// The board's `HelloReply`.
+    pub hello: Option<(FirmwareVersion, u8)>,
+    /// Requests in flight and answered: seq -> (request, reply and its time).
+    requests: HashMap<Seq, (MasterToBoard, Option<(f64, BoardToMaster)>)>,
+    /// Acks received.
+    pub acks: u64,
+    /// The clock is paced by the board's telemetry.
+    pub paced: bool,
+    /// The paced clock: (its value at the last status, host time of that status).
+    clock: Option<(f64, f64)>,
+    /// Host time of the last message received.
+    last_rx_host_s: f64,
+    /// The last target stamp sent, µs.
+    last_stamp_us: u64,
+    /// The clock's last reading (it never goes back).
+    last_now_s: std::cell::Cell<f64>,
+}
+
+impl Session {
+    /// A session on `link`, phase "connect", heartbeats on.
+    pub fn new(link: Link) -> Self {
+        Session {
+            link,
+            heartbeat: true,
+            last_beat_s: f64::NEG_INFINITY,
+            phases: vec!["connect".into()],
+            statuses: Vec::new(),
+            targets: Vec::new(),
+            refused: Vec::new(),
+            fault_log: Vec::new(),
+            hello: None,
+            requests: HashMap::new(),
+            acks: 0,
+            paced: true,
+            clock: None,
+            last_rx_host_s: 0.0,
+            last_stamp_us: 0,
+            last_now_s: std::cell::Cell::new(f64::NEG_INFINITY),
+        }
+    }
+
+    /// Starts a new phase; returns its index.
+    pub fn phase(&mut self, name: &str) -> usize {
+        self.phases.push(name.into());
+        self.phases.len() - 1
+    }
+
+    fn current_phase(&self) -> usize {
+        self.phases.len().saturating_sub(1)
+    }
+
+    /// The session's clock, s (see the module documentation).
+    pub fn now_s(&self) -> f64 {
+        let host = self.link.now_s();
+        let t = match (self.paced, self.clock) {
+            (true, Some((board, at))) => board + (host - at).clamp(0.0, CLOCK_LEAD_S),
+            _ => host,
+        };
+        let t = t.max(self.last_now_s.get());
+        self.last_now_s.set(t);
+        t
+    }
+
+    /// The latest status.
+    pub fn last_status(&self) -> Option<&StatusRow> {
+        self.statuses.last()
+    }
+
+    /// The statuses received during phase `phase`.
+    pub fn phase_rows(&self, phase: usize) -> Vec<StatusRow> {
+        self.statuses
+            .iter()
+            .filter(|r| r.phase == phase)
+            .copied()
+            .collect()
+    }
+
+    /// Sends a request and remembers it; returns its sequence number.
+    pub fn send(&mut self, msg: MasterToBoard) -> Result<Seq, TeleopError> {
+        let seq = self.link.send(&msg)?;
+        self.requests.insert(seq, (msg, None));
+        Ok(seq)
+    }
+
+    /// Sends a target pose stamped with the master clock and records it.
+    pub fn send_target(&mut self, pose: &Pose<f64>) -> Result<Seq, TeleopError> {
+        let r = pose.rotation_vector();
+        let stamp = ((self.now_s() * 1e6) as u64).max(self.last_stamp_us + 1);
+        self.last_stamp_us = stamp;
+        let msg = MasterToBoard::PoseTarget {
+            timestamp_us: stamp,
+            position_m: [pose.t.x as f32, pose.t.y as f32, pose.t.z as f32],
+            rotation_vector_rad: [r.x as f32, r.y as f32, r.z as f32],
+        };
+        let t = self.now_s();
+        self.targets.push((t, *pose));
+        self.send(msg)
+    }
+
+    /// Sends a target and waits for its Ack (`None`) or Nack (the reason).
+    pub fn request_target(&mut self, pose: &Pose<f64>) -> Result<Option<NackReason>, TeleopError> {
+        let seq = self.send_target(pose)?;
+        match self.reply(seq, 1.0)? {
+            BoardToMaster::Nack { reason, .. } => Ok(Some(reason)),
+            _ => Ok(None),
+        }
+    }
+
+    fn handle(&mut self, mut r: Received) {
+        let phase = self.current_phase();
+        self.last_rx_host_s = r.t_s;
+        if let BoardToMaster::Status(_) = r.msg {
+            self.clock = Some(match self.clock {
+                Some((board, _)) => (board + STATUS_PERIOD_S, r.t_s),
+                None => (r.t_s, r.t_s),
+            });
+        }
+        if self.paced {
+            r.t_s = self.now_s();
+        }
+        match r.msg {
+            BoardToMaster::Status(status) => self.statuses.push(StatusRow {
+                t_s: r.t_s,
+                phase,
+                status,
+            }),
+            BoardToMaster::HelloReply {
+                firmware_version,
+                protocol_version,
+                ..
+            } => self.hello = Some((firmware_version, protocol_version)),
+            BoardToMaster::Ack { seq } => {
+                self.acks += 1;
+                if let Some((_, reply)) = self.requests.get_mut(&seq) {
+                    *reply = Some((r.t_s, r.msg));
+                }
+            }
+            BoardToMaster::Nack { seq, reason } => {
+                if let Some((request, reply)) = self.requests.get_mut(&seq) {
+                    *reply = Some((r.t_s, r.msg));
+                    self.refused.push(Refused {
+                        t_s: r.t_s,
+                        phase,
+                        request: *request,
+                        reason,
+                    });
+                }
+            }
+            BoardToMaster::FaultLog(page) => self.fault_log.push(page),
+        }
+    }
+
+    /// Receives and records until the master clock reaches `t_end_s`, sending the
+    /// heartbeats that fall due.
+    pub fn poll_until(&mut self, t_end_s: f64) -> Result<(), TeleopError> {
+        loop {
+            let now = self.now_s();
+            if self.heartbeat && now - self.last_beat_s >= HEARTBEAT_PERIOD_S {
+                self.link.send(&MasterToBoard::Heartbeat)?;
+                self.last_beat_s = now;
+            }
+            if now >= t_end_s {
+                return Ok(());
+            }
+            if !self.statuses.is_empty()
+                && self.link.now_s() - self.last_rx_host_s > SILENCE_LIMIT_S
+            {
+                return Err(TeleopError::Silent(SILENCE_LIMIT_S));
+            }
+            let mut wait = t_end_s - now;
+            if self.heartbeat {
+                wait = wait.min(self.last_beat_s + HEARTBEAT_PERIOD_S - now);
+            }
+            let wait = Duration::from_secs_f64(wait.clamp(0.0, 0.005));
+            if let Some(r) = self.link.recv(wait)? {
+                self.handle(r);
+            }
+        }
+    }
+
+    /// Polls for `seconds`.
+    pub fn wait(&mut self, seconds: f64) -> Result<(), TeleopError> {
+        let end = self.now_s() + seconds;
+        self.poll_until(end)
+    }
+
+    /// The reply to request `seq`, waiting at most `timeout_s`.
+    pub fn reply(&mut self, seq: Seq, timeout_s: f64) -> Result<BoardToMaster, TeleopError> {
+        let end = self.now_s() + timeout_s;
+        loop {
+            if let Some((_, Some((_, reply)))) = self.requests.get(&seq) {
+                return Ok(*reply);
+            }
+            if self.now_s() >= end {
+                return Err(TeleopError::NoReply { seq, timeout_s });
+            }
+            let step = (self.now_s() + 0.005).min(end);
+            self.poll_until(step)?;
+        }
+    }
+
+    /// Sends `msg` and waits for its Ack (`Ok(None)`) or Nack (`Ok(Some(reason))`).
+    pub fn request(
+        &mut self,
+        msg: MasterToBoard,
+        timeout_s: f64,
+    ) -> Result<Option<NackReason>, TeleopError> {
+        let seq = self.send(msg)?;
+        match self.reply(seq, timeout_s)? {
+            BoardToMaster::Nack { reason, .. } => Ok(Some(reason)),
+            _ => Ok(None),
+        }
+    }
+
+    /// Hello until the board answers (it may still be booting); the firmware version.
+    pub fn hello(&mut self, timeout_s: f64) -> Result<(FirmwareVersion, u8), TeleopError> {
+        let end = self.now_s() + timeout_s;
+        while self.now_s() < end {
+            let nonce = self.link.session();
+            self.link.send(&MasterToBoard::Hello {
+                protocol_version: PROTOCOL_VERSION,
+                nonce,
+            })?;
+            let t = (self.now_s() + 0.5).min(end);
+            while self.now_s() < t {
+                if let Some(h) = self.hello {
+                    return Ok(h);
+                }
+                let step = (self.now_s() + 0.01).min(t);
+                self.poll_until(step)?;
+            }
+        }
+        self.hello.ok_or(TeleopError::NoHello(timeout_s))
+    }
+
+    /// Waits (at most `timeout_s`) for a status, from the `since`-th recorded on, that
+    /// satisfies `pred`.
+    pub fn wait_for(
+        &mut self,
+        since: usize,
+        timeout_s: f64,
+        pred: impl Fn(&StatusReport) -> bool,
+    ) -> Result<Option<StatusRow>, TeleopError> {
+        let mut seen = since;
+        let end = self.now_s() + timeout_s;
+        loop {
+            if let Some(row) = self
+                .statuses
+                .get(seen..)
+                .and_then(|new| new.iter().find(|r| pred(&r.status)).copied())
+            {
+                return Ok(Some(row));
+            }
+            seen = self.statuses.len();
+            if self.now_s() >= end {
+                return Ok(None);
+            }
+            let step = (self.now_s() + 0.01).min(end);
+            self.poll_until(step)?;
+        }
+    }
+}
