@@ -5,7 +5,7 @@
 //!   --path line`) over a Unix socket against a small fake board in this process: the
 //!   board side of the real link (`control::link::LinkRx` / `LinkTx`: COBS, CRC,
 //!   version, sequence numbers, link counters), a toy state machine (homing takes 0.3 s,
-//!   the heartbeat holds after 100 ms and turns the drives off after 500 ms), targets
+//!   the heartbeat holds after 100 ms and faults after 500 ms), targets
 //!   followed at once unless outside |x| <= 25 mm (acknowledged, then ignored: the robot
 //!   holds). Every check must pass.
 //! * `ci_scenario_in_the_emulator` (ignored: needs qemu-system-arm, the thumbv7em target
@@ -13,7 +13,8 @@
 
 use control::link::{Answer, Command, Inbound, LinkRx, LinkTx};
 use master_link::{
-    BoardToMaster, FirmwareVersion, ResetStatus, RobotState, StatusReport, Warnings, MAX_FRAME_LEN,
+    BoardToMaster, FaultCause, FaultRecord, FirmwareVersion, ResetStatus, RobotState,
+    StatusReport, StopStatus, Warnings, MAX_FRAME_LEN,
 };
 use std::io::{Read, Write};
 use std::os::unix::net::{UnixListener, UnixStream};
@@ -32,6 +33,8 @@ struct Board {
     rotation: [f32; 3],
     /// Targets refused (StatusReport::targets_refused).
     refused: u32,
+    /// The latched fault.
+    fault: FaultCause,
 }
 
 impl Board {
@@ -48,6 +51,7 @@ impl Board {
                 self.last_beat = now;
                 Ok(())
             }
+            Command::Enable if self.state == RobotState::Fault => Err(N::Faulted),
             Command::Enable if self.homed => {
                 self.state = RobotState::Enabled;
                 self.last_beat = now;
@@ -57,6 +61,13 @@ impl Board {
             Command::Disable => {
                 if self.state == RobotState::Enabled {
                     self.state = RobotState::Ready;
+                }
+                Ok(())
+            }
+            Command::ClearFault => {
+                if self.state == RobotState::Fault {
+                    self.state = RobotState::Ready;
+                    self.fault = FaultCause::None;
                 }
                 Ok(())
             }
@@ -97,7 +108,9 @@ impl Board {
         if self.state == RobotState::Enabled
             && now.duration_since(self.last_beat) > Duration::from_millis(500)
         {
-            self.state = RobotState::Ready;
+            // The heartbeat lost: a fault, stopped as SS1 (brakes, torque off).
+            self.state = RobotState::Fault;
+            self.fault = FaultCause::HeartbeatTimeout;
         }
     }
 
@@ -108,12 +121,22 @@ impl Board {
             Warnings::HEARTBEAT_LATE,
             self.state == RobotState::Enabled && self.late(now),
         );
+        let stop = if self.state == RobotState::Fault {
+            StopStatus::SafeStop1Done
+        } else {
+            StopStatus::None
+        };
         StatusReport {
             state: self.state,
             position_m: self.position,
             rotation_vector_rad: self.rotation,
             warnings,
             targets_refused: self.refused,
+            stop,
+            fault: FaultRecord {
+                cause: self.fault,
+                ..FaultRecord::NONE
+            },
             ..Default::default()
         }
     }
@@ -137,6 +160,7 @@ fn fake_board(mut stream: UnixStream) {
         position: [0.0, 0.0, 0.15],
         rotation: [0.0; 3],
         refused: 0,
+        fault: FaultCause::None,
     };
     let _ = stream.set_read_timeout(Some(Duration::from_millis(2)));
     let mut next_status = start;
@@ -225,7 +249,7 @@ fn ci_scenario_against_a_fake_board() {
         "check follows the path within the tracking limits: ok",
         "check a target outside the workspace is refused and the robot holds: ok",
         "check garbage on the link is counted and ignored: ok",
-        "check when the heartbeat stops the firmware holds, then disables: ok",
+        "check when the heartbeat stops the firmware holds, then stops with brakes: ok",
         "check disables: ok",
     ] {
         assert!(stdout.contains(check), "missing `{check}` in:\n{stdout}");
