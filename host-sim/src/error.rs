@@ -36,6 +36,23 @@ pub enum CliError {
     Sim(#[from] SimError),
     #[error(transparent)]
     Teleop(#[from] TeleopError),
+    #[error(transparent)]
+    Campaign(#[from] faults::CampaignError),
+    #[error(transparent)]
+    Report(#[from] faults::report::ReportError),
+    #[error(transparent)]
+    BoardSim(#[from] simulation::board::BoardSimError),
+    #[error(transparent)]
+    Serve(#[from] simulation::serve::ServeError),
+    #[error("unknown {what} `{name}`")]
+    UnknownName { what: &'static str, name: String },
+    #[error("cannot create {path}: {source}")]
+    CreateDir {
+        path: String,
+        source: std::io::Error,
+    },
+    #[error("{0} cells of the campaign failed")]
+    CampaignFailed(usize),
     #[error("compare needs an RSPR geometry (its rb, rp and hc are used with e = 0)")]
     CompareNeedsRspr,
     #[error("{0} robots: narrow the ranges (at most 200000)")]

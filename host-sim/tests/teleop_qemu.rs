@@ -13,8 +13,8 @@
 
 use control::link::{Answer, Command, Inbound, LinkRx, LinkTx};
 use master_link::{
-    BoardToMaster, FaultCause, FaultRecord, FirmwareVersion, ResetStatus, RobotState,
-    StatusReport, StopStatus, Warnings, MAX_FRAME_LEN,
+    BoardToMaster, FaultCause, FaultRecord, FirmwareVersion, ResetStatus, RobotState, StatusReport,
+    StopStatus, Warnings, MAX_FRAME_LEN,
 };
 use std::io::{Read, Write};
 use std::os::unix::net::{UnixListener, UnixStream};

@@ -80,7 +80,9 @@ pub struct CurrentLimits<S> {
     /// Measured current above which the overcurrent trip counts, A (default 1.5 × the peak
     /// current: the limit cannot cause it, a short or a driver failure can).
     pub trip_a: S,
-    /// Consecutive ticks above `trip_a` that trip (default 2).
+    /// Consecutive ticks above `trip_a` that trip (default 1: the limit and its
+    /// correction cannot produce such a current, so one sample is a short or a failed
+    /// driver; a second sample would come after the correction has already cut the duty).
     pub trip_ticks: u16,
     /// How long the current may stay at the limit (90 % of the peak or more) before it is
     /// an overload fault, µs (default 8 ms).
@@ -104,7 +106,7 @@ impl<S: Float> Default for CurrentConfig<S> {
             CurrentLimits {
                 effort_limit: lit(effort),
                 trip_a: peak * lit(1.5),
-                trip_ticks: 2,
+                trip_ticks: 1,
                 overload_us: 8_000,
             }
         };

@@ -66,12 +66,27 @@ pub struct EncoderCheckConfig<S> {
     pub top_speed: [S; NUM_JOINTS],
     /// Margin on the top speed for the jump check (default 1.5).
     pub jump_margin: S,
-    /// Motor speed below which the back-EMF estimate is not trusted, rad/s of the motor
-    /// (the current sensing's noise times R over Ke; default 30 rad/s, 4 % of the legs'
-    /// no-load speed).
+    /// Motor speed below which the back-EMF estimate is never trusted, rad/s of the motor
+    /// (default 3 rad/s).
     pub emf_floor_rad_s: S,
+    /// The winding's resistance may differ from the model by this fraction (a warm
+    /// winding, the brushes; default 0.3): the back-EMF estimate `V·d − R·i` is trusted
+    /// only above `(this·R·|i| + emf_noise_v) / Ke`, so that a current the model's
+    /// resistance gets wrong cannot fake motion.
+    pub resistance_uncertainty: S,
+    /// Voltage error of the estimate besides the resistance (the duty's resolution, the
+    /// supply's sensing, the current's; default 0.05 V).
+    pub emf_noise_v: S,
     /// Consecutive ticks the back-EMF and the encoder must disagree (default 5).
     pub dead_ticks: u16,
+    /// Current below which a motor counts as drawing none, A (default 0.05 A, ten ADC
+    /// counts): with no current flowing, `V·d` across the terminals reads as back-EMF
+    /// whether the motor spins or its circuit is open. A motor that drew current within
+    /// `current_memory_ticks` has a closed circuit, so its back-EMF is believed; one that
+    /// has drawn none for longer is the motor check's to judge (`MotorCheck`: open).
+    pub current_floor_a: S,
+    /// See `current_floor_a` (default 100 ticks).
+    pub current_memory_ticks: u16,
 }
 
 impl<S: Float> EncoderCheckConfig<S> {
@@ -92,8 +107,12 @@ impl<S: Float> EncoderCheckConfig<S> {
                 top(&link),
             ],
             jump_margin: lit(1.5),
-            emf_floor_rad_s: lit(30.0),
+            emf_floor_rad_s: lit(3.0),
+            resistance_uncertainty: lit(0.3),
+            emf_noise_v: lit(0.05),
             dead_ticks: 5,
+            current_floor_a: lit(0.05),
+            current_memory_ticks: 100,
         }
     }
 }
@@ -117,6 +136,8 @@ pub struct EncoderCheck<S> {
     cfg: EncoderCheckConfig<S>,
     last_counts: Option<[i64; NUM_JOINTS]>,
     disagree: [u16; NUM_JOINTS],
+    /// Ticks since each motor last drew current above the floor.
+    no_current: [u16; NUM_JOINTS],
     /// Joint speeds from the last two readings, m/s or rad/s.
     qdot: [S; NUM_JOINTS],
 }
@@ -128,6 +149,7 @@ impl<S: Float> EncoderCheck<S> {
             cfg,
             last_counts: None,
             disagree: [0; NUM_JOINTS],
+            no_current: [u16::MAX; NUM_JOINTS],
             qdot: [S::zero(); NUM_JOINTS],
         }
     }
@@ -139,10 +161,11 @@ impl<S: Float> EncoderCheck<S> {
 
     /// Checks this tick's extended counts `counts`, `dt` s after the last ones, against
     /// the motor model: a jump (more counts than the top speed allows, with margin), and,
-    /// while the drives produce torque, a dead encoder (the back-EMF `Ke·ω = V·d − R·i` of
-    /// the last tick's duty and the measured current says the motor turns by more than its
-    /// floor, and the encoder says it turns at less than half of that, or the other way,
-    /// for `dead_ticks` ticks).
+    /// while the drives produce torque, a dead or failing encoder: the back-EMF
+    /// `Ke·ω = V·d − R·i` of the last tick's duty and the measured current says the motor
+    /// turns faster than the estimate's own uncertainty at that current
+    /// (`(k_R·R·|i| + e_V)/Ke`, at least the floor), and the encoder says it turns at less
+    /// than half of that, or the other way, for `dead_ticks` ticks.
     pub fn check(
         &mut self,
         counts: &[i64; NUM_JOINTS],
@@ -178,14 +201,38 @@ impl<S: Float> EncoderCheck<S> {
             }
             // Dead: the back-EMF says the motor turns, the encoder does not.
             let n = self.disagree.get_mut(j);
-            let (Some(n), Some(d), Some(i)) = (n, duty.get(j), current.get(j)) else {
+            let (Some(n), Some(d), Some(i), Some(quiet)) =
+                (n, duty.get(j), current.get(j), self.no_current.get_mut(j))
+            else {
                 continue;
             };
+            *quiet = if i.abs() >= self.cfg.current_floor_a {
+                0
+            } else {
+                quiet.saturating_add(1)
+            };
+            let circuit_closed = *quiet <= self.cfg.current_memory_ticks;
             let emf_speed = (supply_v * *d - m.resistance_ohm * *i) / m.back_emf_v_s_per_rad;
             let enc_speed = speed * m.motor_rad_per_unit;
+            let trusted = ((self.cfg.resistance_uncertainty * m.resistance_ohm * i.abs()
+                + self.cfg.emf_noise_v)
+                / m.back_emf_v_s_per_rad)
+                .max(self.cfg.emf_floor_rad_s);
+            // The model must explain the current: three times what the duty drives at the
+            // encoder's speed is a winding short or a failed stage (the motor check's), and
+            // then `V·d − R·i` says nothing about the speed.
+            let explained = (*i
+                - (supply_v * *d - m.back_emf_v_s_per_rad * enc_speed) / m.resistance_ohm)
+                .abs()
+                <= lit::<S>(2.0)
+                    * ((supply_v * *d - m.back_emf_v_s_per_rad * enc_speed) / m.resistance_ohm)
+                        .abs()
+                        .max(self.cfg.current_floor_a);
             let disagrees = torque
                 && emf_speed.is_finite()
-                && emf_speed.abs() > self.cfg.emf_floor_rad_s
+                && circuit_closed
+                && explained
+                && emf_speed.abs() > trusted
                 && (enc_speed.abs() < emf_speed.abs() * lit(0.5)
                     || enc_speed.signum() != emf_speed.signum());
             *n = if disagrees { n.saturating_add(1) } else { 0 };
@@ -211,26 +258,37 @@ impl<S: Float> EncoderCheck<S> {
 
 /// The motor circuits' plausibility: with the drives on, the current the motor model
 /// expects for the last tick's duty at the measured speed, `i = (V·d − Ke·ω)/R` (capped at
-/// the drivers' regulation limit), must flow. A current below a fifth of that, while the
-/// model expects more than the floor, for `open_ticks` ticks in a row is an open motor
-/// circuit (a broken lead or connector): the joint is held by nothing but its brake.
+/// the drivers' regulation limit), must flow.
+/// * A current below a fifth of that, while the model expects more than the floor, is an
+///   open motor circuit (a broken lead or connector): the joint is held by nothing but
+///   its brake.
+/// * A current above three times that (and above a fifth of the regulation limit) is a
+///   shorted winding or a failed driver stage: the model's resistance may be 30 % off (a
+///   warm winding), a short takes most of it away.
+///
+/// Each is counted per joint, two up on a sample that shows it and one down on one that
+/// does not; `2 × open_ticks` counts are a fault (`open_ticks` samples in a row, or a third
+/// of the samples for longer).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MotorCheck<S> {
-    /// Expected currents below this are not judged, A per joint (default a tenth of each
-    /// motor's continuous current: above the current sensing's noise).
+    /// Expected currents below this are not judged, A per joint (default 3 % of each
+    /// motor's continuous current, at least 0.05 A: ten times the current sensing's
+    /// resolution of 4 mA per ADC count).
     pub floor_a: [S; NUM_JOINTS],
     /// Consecutive ticks (default 5).
     pub open_ticks: u16,
     low: [u16; NUM_JOINTS],
+    high: [u16; NUM_JOINTS],
 }
 
 impl<S: Float> MotorCheck<S> {
-    /// Floors of a tenth of each motor's continuous current, 5 ticks.
+    /// Floors of 3 % of each motor's continuous current (at least 0.05 A), 5 ticks.
     pub fn new(motors: &[MotorModel<S>; NUM_JOINTS]) -> Self {
         MotorCheck {
-            floor_a: motors.map(|m| m.continuous_a * lit(0.1)),
+            floor_a: motors.map(|m| (m.continuous_a * lit(0.03)).max(lit(0.05))),
             open_ticks: 5,
             low: [0; NUM_JOINTS],
+            high: [0; NUM_JOINTS],
         }
     }
 
@@ -245,8 +303,9 @@ impl<S: Float> MotorCheck<S> {
     ) -> Option<Finding> {
         let mut found = None;
         for j in 0..NUM_JOINTS {
-            let (Some(n), Some(d), Some(i), Some(w), Some(m), Some(lim), Some(floor)) = (
+            let (Some(n), Some(h), Some(d), Some(i), Some(w), Some(m), Some(lim), Some(floor)) = (
                 self.low.get_mut(j),
+                self.high.get_mut(j),
                 drive.duty.get(j),
                 drive.current.get(j),
                 qdot.get(j),
@@ -265,9 +324,28 @@ impl<S: Float> MotorCheck<S> {
                 && expected.is_finite()
                 && expected > *floor
                 && !(i.abs() >= expected * lit(0.2));
-            *n = if open { n.saturating_add(1) } else { 0 };
-            if *n >= self.open_ticks && found.is_none() {
+            // Leaky counts: two up for a sample that shows it, one down for one that does
+            // not (a servo hunting through zero on a shorted winding must not reset the
+            // count each time): `open_ticks` samples in a row, or a third of the samples
+            // for longer.
+            *n = if open {
+                n.saturating_add(2)
+            } else {
+                n.saturating_sub(1)
+            };
+            if *n >= self.open_ticks * 2 && found.is_none() {
                 found = Some(Finding::joint(FaultCause::MotorOpen, j, *d));
+            }
+            let short = drive.torque
+                && (!i.is_finite()
+                    || (i.abs() > expected.max(*floor) * lit(3.0) && i.abs() > *lim * lit(0.2)));
+            *h = if short {
+                h.saturating_add(2)
+            } else {
+                h.saturating_sub(1)
+            };
+            if *h >= self.open_ticks * 2 && found.is_none() {
+                found = Some(Finding::joint(FaultCause::CurrentImplausible, j, i.abs()));
             }
         }
         found

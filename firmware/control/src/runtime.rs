@@ -675,8 +675,11 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
                     S::from(n).unwrap_or_else(S::zero),
                 )
             });
+        // The motor check before the encoder check: an open circuit also looks like a dead
+        // encoder to the back-EMF (both count from the fault's first tick; the motor check
+        // names it right).
         for f in [
-            chain, power, current, encoder, motor, ranges, standstill, fk,
+            chain, power, current, motor, encoder, ranges, standstill, fk,
         ] {
             finding = finding.or(f);
         }

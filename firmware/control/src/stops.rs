@@ -107,6 +107,7 @@ pub const fn reaction(event: StopEvent) -> Reaction {
             F::EncoderJump => sto("the encoder reading cannot be trusted"),
             F::EncoderDead => sto("the encoder stopped counting while the motor turns"),
             F::MotorOpen => sto("the motor cannot hold its joint: only the brakes can"),
+            F::CurrentImplausible => sto("the motor circuit or its driver cannot be trusted"),
             F::Overcurrent => sto("the power stage cannot be trusted"),
             F::Overload => {
                 sto("pushing against something with the rated force: take the force away")
@@ -142,7 +143,7 @@ pub const fn reaction(event: StopEvent) -> Reaction {
 
 /// Every row of the table, in the README's order: every fault cause, then the commands
 /// and conditions that stop without a fault.
-pub const TABLE: [StopEvent; 29] = [
+pub const TABLE: [StopEvent; 30] = [
     StopEvent::Fault(FaultCause::EmergencyStopButton),
     StopEvent::Fault(FaultCause::EmergencyStopMessage),
     StopEvent::Fault(FaultCause::SafetyRelayMismatch),
@@ -154,6 +155,7 @@ pub const TABLE: [StopEvent; 29] = [
     StopEvent::Fault(FaultCause::EncoderJump),
     StopEvent::Fault(FaultCause::EncoderDead),
     StopEvent::Fault(FaultCause::MotorOpen),
+    StopEvent::Fault(FaultCause::CurrentImplausible),
     StopEvent::Fault(FaultCause::Overcurrent),
     StopEvent::Fault(FaultCause::Overload),
     StopEvent::Fault(FaultCause::OverTemperature),

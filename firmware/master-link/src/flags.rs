@@ -133,7 +133,8 @@ bit_flags! {
         const STANDSTILL = 16;
         /// The holding brakes failed their check.
         const BRAKE = 17;
-        /// A motor circuit is open (current commanded, none flows).
+        /// A motor circuit is open (current commanded, none flows) or draws far more than
+        /// its model (a shorted winding).
         const MOTOR = 18;
     }
 }

@@ -352,6 +352,10 @@ pub enum FaultCause {
     /// Voltage applied and no current flows: the motor circuit is open (a broken lead or
     /// connector; value: the duty).
     MotorOpen,
+    /// The measured current is far above what the motor model expects for the duty at
+    /// the measured speed: a shorted winding, a failed driver stage (value: the current,
+    /// A).
+    CurrentImplausible,
     /// Motor current above the trip level (value: A).
     Overcurrent,
     /// The current limit held the command for longer than the overload time: the joint
@@ -400,7 +404,7 @@ impl FaultCause {
             FaultCause::NoMotion | FaultCause::EncoderJump | FaultCause::EncoderDead => {
                 Faults::ENCODER
             }
-            FaultCause::MotorOpen => Faults::MOTOR,
+            FaultCause::MotorOpen | FaultCause::CurrentImplausible => Faults::MOTOR,
             FaultCause::Overcurrent | FaultCause::Overload => Faults::OVERCURRENT,
             FaultCause::OverTemperature => Faults::OVER_TEMPERATURE,
             FaultCause::DriverFault => Faults::DRIVER,
@@ -417,7 +421,7 @@ impl FaultCause {
     }
 
     /// Every cause but `None`, in declaration order.
-    pub const ALL: [FaultCause; 25] = [
+    pub const ALL: [FaultCause; 26] = [
         FaultCause::EmergencyStopButton,
         FaultCause::EmergencyStopMessage,
         FaultCause::SafetyRelayMismatch,
@@ -429,6 +433,7 @@ impl FaultCause {
         FaultCause::EncoderJump,
         FaultCause::EncoderDead,
         FaultCause::MotorOpen,
+        FaultCause::CurrentImplausible,
         FaultCause::Overcurrent,
         FaultCause::Overload,
         FaultCause::OverTemperature,

@@ -96,9 +96,11 @@ pub struct TrackingLimits<S> {
     /// How long the error must stay outside the window to fault, s, finite and >= 0.
     /// Default 0.05 s (50 samples at 1 kHz): rides through a short disturbance.
     pub time_to_fault: S,
-    /// |duty| at or above which the no-motion check runs, in (0, 1]. Default 0.15: well
-    /// above the steady load duty (< 0.11) and the friction + slow-speed feed-forward,
-    /// at which a healthy joint moves at >= 15 % of its no-load speed.
+    /// |duty| at or above which the no-motion check runs, in (0, 1]. Default 0.05: below
+    /// the largest duty the current limit allows at stall (0.076 on the legs, 0.06 on the
+    /// links: the rated efforts), at 66 % and 83 % of the rated efforts at stall, above the
+    /// tool's holding duty (< 0.04); a healthy joint at 0.05 duty from rest runs at 19 mm/s
+    /// or 1.4 rad/s free, and makes `stuck_motion` of progress within a few ms.
     pub stuck_duty: S,
     /// |desired velocity| at or above which the no-motion check runs, u/s, finite and
     /// > 0. Default legs 2e-3 m/s, links 0.02 rad/s.
@@ -122,7 +124,7 @@ impl<S: Float> TrackingLimits<S> {
         TrackingLimits {
             window: lit(1e-3),
             time_to_fault: lit(0.05),
-            stuck_duty: lit(0.15),
+            stuck_duty: lit(0.05),
             stuck_min_speed: lit(2e-3),
             stuck_motion: lit(15e-6),
             stuck_time: lit(0.02),
@@ -134,7 +136,7 @@ impl<S: Float> TrackingLimits<S> {
         TrackingLimits {
             window: lit(0.02),
             time_to_fault: lit(0.05),
-            stuck_duty: lit(0.15),
+            stuck_duty: lit(0.05),
             stuck_min_speed: lit(0.02),
             stuck_motion: lit(1e-3),
             stuck_time: lit(0.02),

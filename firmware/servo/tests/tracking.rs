@@ -143,7 +143,7 @@ fn braking_or_low_duty_or_slow_commands_never_count_as_no_motion() {
     // Measured constant and within the window for 1 s in each case.
     let cases = [
         (0.01, -0.5), // duty opposes the commanded motion (braking)
-        (0.01, 0.1),  // duty below stuck_duty
+        (0.01, 0.04), // duty below stuck_duty
         (0.001, 0.9), // commanded speed below stuck_min_speed
     ];
     for (v, duty) in cases {

@@ -218,6 +218,10 @@ param_struct! {
         /// The driver's current regulation (cycle-by-cycle chopping): the largest
         /// |current| the H-bridge lets flow, A.
         current_limit_a: [1e-3, 1000.0],
+        /// The driver's overcurrent protection (drain-source voltage monitoring of its
+        /// transistors, independent of the regulation): above this |current| it latches its
+        /// fault and turns the bridge off, A.
+        driver_ocp_a: [1e-3, 1000.0],
         /// Holding torque of the spring-applied brake on the motor shaft, N m (0: none).
         brake_holding_torque_nm: [0.0, 10.0],
         /// Coulomb friction torque at the motor shaft (motor + transmission drag), N m.
@@ -266,6 +270,10 @@ param_struct! {
         /// The driver's current regulation (cycle-by-cycle chopping): the largest
         /// |current| the H-bridge lets flow, A.
         current_limit_a: [1e-3, 1000.0],
+        /// The driver's overcurrent protection (drain-source voltage monitoring of its
+        /// transistors, independent of the regulation): above this |current| it latches its
+        /// fault and turns the bridge off, A.
+        driver_ocp_a: [1e-3, 1000.0],
         /// Holding torque of the spring-applied brake on the motor shaft, N m (0: none).
         brake_holding_torque_nm: [0.0, 10.0],
         /// Coulomb friction torque at the motor shaft (motor + gear drag), N m.
@@ -526,6 +534,7 @@ impl Default for PlantConfig {
             rotor_inertia_kg_m2: 142e-7,
             nominal_current_a: 5.77,
             current_limit_a: 5.23,
+            driver_ocp_a: 15.0,
             brake_holding_torque_nm: 0.1,
             coulomb_friction_motor_side_nm: 5.1e-3,
             viscous_friction_motor_side_nm_s_per_rad: 1.0e-6,
@@ -548,6 +557,7 @@ impl Default for PlantConfig {
             rotor_inertia_kg_m2: 10.8e-7,
             nominal_current_a: 1.2,
             current_limit_a: 0.66,
+            driver_ocp_a: 2.0,
             brake_holding_torque_nm: 0.03,
             coulomb_friction_motor_side_nm: 0.9e-3,
             viscous_friction_motor_side_nm_s_per_rad: 1.0e-7,

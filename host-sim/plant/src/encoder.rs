@@ -38,6 +38,10 @@ pub struct QuadratureEncoder {
     pub stuck: bool,
     /// Drop one count in every `n` (None: healthy).
     pub lose_one_in: Option<u32>,
+    /// Keep only one count in every `n` (a failing sensor; None: healthy).
+    pub keep_one_in: Option<u32>,
+    /// Counts seen towards the next kept count.
+    keep_tally: u64,
 }
 
 impl QuadratureEncoder {
@@ -53,6 +57,8 @@ impl QuadratureEncoder {
             loss_tally: 0,
             stuck: false,
             lose_one_in: None,
+            keep_one_in: None,
+            keep_tally: 0,
         };
         e.reset(0.0);
         e
@@ -97,6 +103,13 @@ impl QuadratureEncoder {
             // The tally was below n before this update, so `lost <= |delta|`.
             let lost = lost.min(delta.unsigned_abs()) as i64;
             delta -= lost * delta.signum();
+        }
+        if let Some(n) = self.keep_one_in {
+            let n = u64::from(n.max(1));
+            let before = self.keep_tally / n;
+            self.keep_tally += delta.unsigned_abs();
+            let kept = (self.keep_tally / n - before) as i64;
+            delta = kept * delta.signum();
         }
         // Adding modulo 2^16 is exactly what the hardware counter does.
         self.counter = self.counter.wrapping_add(delta.rem_euclid(1 << 16) as u16);

@@ -55,6 +55,8 @@ pub struct JointFaults {
     pub encoder_stuck: bool,
     /// The encoder drops one count in every `n`.
     pub encoder_lose_one_in: Option<u32>,
+    /// The encoder keeps only one count in every `n` (a failing sensor).
+    pub encoder_keep_one_in: Option<u32>,
     /// The motor leads are open: no current flows, no torque, no back-EMF braking.
     pub motor_disconnected: bool,
     /// The load side is jammed (e.g. a mechanical collision): it does not move; the
@@ -72,6 +74,11 @@ pub struct JointFaults {
     /// The driver reports a fault of its own (over-temperature, under-voltage lockout)
     /// and turns its bridge off whenever it is enabled.
     pub driver_failed: bool,
+    /// The brake holds this fraction of its rated torque (None: healthy).
+    pub brake_holding_ratio: Option<f64>,
+    /// A bridge transistor is stuck on: full supply towards +q while enabled, no current
+    /// regulation.
+    pub bridge_stuck_on: bool,
 }
 
 /// Physical parameters of one joint, SI, joint units.
@@ -96,6 +103,9 @@ pub struct JointModel {
     pub load_friction: Friction,
     /// The driver's current regulation: the largest |current|, A (infinite: none).
     pub current_limit: f64,
+    /// The driver's overcurrent protection: above this |current| it latches its fault and
+    /// turns the bridge off, A (infinite: none).
+    pub driver_ocp: f64,
     /// The holding brake on the motor shaft: holding torque (N m), engage and release
     /// times (s).
     pub brake: BrakeModel,
@@ -553,6 +563,7 @@ impl Joint {
         self.consts.dt = f64::NAN;
         self.encoder.stuck = faults.encoder_stuck;
         self.encoder.lose_one_in = faults.encoder_lose_one_in;
+        self.encoder.keep_one_in = faults.encoder_keep_one_in;
         if faults.motor_disconnected {
             self.current = 0.0;
         }
@@ -642,13 +653,19 @@ impl Joint {
         let shorted = self.faults.motor_shorted;
         // No current path: open leads, or a bridge off (high-impedance) on a sound winding.
         let open = self.faults.motor_disconnected || (!bridge_on && !shorted);
-        let u = if bridge_on && !shorted {
+        let u = if bridge_on && self.faults.bridge_stuck_on {
+            self.model.bridge.supply
+        } else if bridge_on && !shorted {
             self.model.bridge.voltage(self.duty)
         } else {
             0.0
         };
         let mut off = usize::from(open);
-        let brake = if self.brake.holding { k.dt_brake } else { 0.0 };
+        let brake = if self.brake.holding {
+            k.dt_brake * self.faults.brake_holding_ratio.unwrap_or(1.0)
+        } else {
+            0.0
+        };
 
         // 1. Electrical: mean drive force at the joint over the step, affine in the end
         //    velocity (motor.rs: n Kt (phi i0 + (1 - phi) u / R) - damping v).
@@ -660,11 +677,12 @@ impl Joint {
         // The driver's current regulation: where the mean current at the present speed
         // would exceed the limit, the driver chops and holds the current at the limit
         // (a current source: constant force, no back-EMF damping).
-        let limit = if bridge_on && !self.faults.current_regulation_lost {
-            self.model.current_limit
-        } else {
-            f64::INFINITY
-        };
+        let limit =
+            if bridge_on && !self.faults.current_regulation_lost && !self.faults.bridge_stuck_on {
+                self.model.current_limit
+            } else {
+                f64::INFINITY
+            };
         let at_speed = drive - k.drive_u * emf_per_v * self.v_motor;
         let chopping = !open && at_speed.abs() > k.force_per_amp * limit;
         if chopping {
@@ -785,6 +803,10 @@ impl Joint {
             }
         };
         self.encoder.update(self.motor_angle());
+        // The driver's overcurrent protection trips within the step.
+        if bridge_on && self.current.abs() > self.model.driver_ocp {
+            self.driver_fault = true;
+        }
     }
 
     /// The brake follows its coil after the engage or release time.
@@ -983,6 +1005,7 @@ mod tests {
             // without it here (tests/drive.rs tests the regulation).
             let mut model = *plant.joint(j)?.model();
             model.current_limit = f64::INFINITY;
+            model.driver_ocp = f64::INFINITY;
             let effort = model.rated_effort();
             let mut a = Joint::new(model, cpr);
             let mut b = Joint::new(model, cpr);

@@ -30,6 +30,12 @@ pub enum Fault {
     MotorDisconnected,
     /// The load side jams (collision, seized bearing): it stops and stays.
     LoadSeized,
+    /// The encoder keeps only one count in every `one_in` (a failing sensor, a dirty
+    /// disc: it counts a fraction of the motion).
+    EncoderCountsOneIn {
+        /// Keep one count in this many (>= 2).
+        one_in: u32,
+    },
     /// The encoder's counter jumps by `counts` at once (noise on the A/B lines); applied
     /// once, nothing stays injected.
     EncoderJump {
@@ -50,6 +56,17 @@ pub enum Fault {
     /// The driver reports a fault of its own (over-temperature, under-voltage lockout)
     /// and keeps its bridge off.
     DriverFailed,
+    /// A transistor of the bridge fails short (stuck on): while the bridge is enabled the
+    /// motor sees the full supply towards +q whatever the duty, and the driver's current
+    /// regulation, bypassed, limits nothing. Disabling the bridge (its enable line, the
+    /// safety relay) removes the stage's supply and stops it.
+    BridgeStuckOn,
+    /// The brake's lining is worn: it holds `holding_ratio` of its rated torque (in
+    /// [0, 1)).
+    BrakeWorn {
+        /// Remaining fraction of the holding torque.
+        holding_ratio: f64,
+    },
 }
 
 /// Errors of the plant's run-time interface. Nothing in the plant panics on bad input.
@@ -177,6 +194,7 @@ fn prismatic_model(p: &PrismaticConfig, bridge: HBridge, brake: &BrakeConfig) ->
             breakaway_ratio: p.breakaway_to_coulomb_ratio,
         },
         current_limit: p.current_limit_a,
+        driver_ocp: p.driver_ocp_a,
         brake: BrakeModel {
             holding_torque: p.brake_holding_torque_nm,
             engage_s: brake.engage_ms * 1e-3,
@@ -217,6 +235,7 @@ fn rotary_model(r: &RotaryConfig, bridge: HBridge, brake: &BrakeConfig) -> Joint
             breakaway_ratio: r.breakaway_to_coulomb_ratio,
         },
         current_limit: r.current_limit_a,
+        driver_ocp: r.driver_ocp_a,
         brake: BrakeModel {
             holding_torque: r.brake_holding_torque_nm,
             engage_s: brake.engage_ms * 1e-3,
@@ -495,6 +514,12 @@ impl Plant {
                 j.glitch_encoder(i64::from(counts));
                 return Ok(());
             }
+            Fault::EncoderCountsOneIn { one_in } => {
+                if one_in < 2 {
+                    return Err(PlantError::InvalidFault(fault));
+                }
+                f.encoder_keep_one_in = Some(one_in);
+            }
             Fault::MotorShorted => f.motor_shorted = true,
             Fault::CurrentRegulationLost => f.current_regulation_lost = true,
             Fault::WindingShort { resistance_ratio } => {
@@ -504,6 +529,13 @@ impl Plant {
                 f.winding_resistance_ratio = Some(resistance_ratio);
             }
             Fault::DriverFailed => f.driver_failed = true,
+            Fault::BridgeStuckOn => f.bridge_stuck_on = true,
+            Fault::BrakeWorn { holding_ratio } => {
+                if !(0.0..1.0).contains(&holding_ratio) {
+                    return Err(PlantError::InvalidFault(fault));
+                }
+                f.brake_holding_ratio = Some(holding_ratio);
+            }
         }
         j.set_faults(f);
         Ok(())
@@ -517,6 +549,36 @@ impl Plant {
             .get_mut(joint)
             .ok_or(PlantError::JointOutOfRange { joint })?;
         j.set_faults(JointFaults::default());
+        Ok(())
+    }
+
+    /// Replaces the set of faults injected into joint `joint` (e.g. a simulator's hard stop
+    /// seizing the load while an injected encoder fault stays).
+    pub fn set_faults(&mut self, joint: usize, faults: JointFaults) -> Result<(), PlantError> {
+        if let Some(r) = faults.winding_resistance_ratio {
+            if !(r > 0.0 && r <= 1.0) {
+                return Err(PlantError::InvalidFault(Fault::WindingShort {
+                    resistance_ratio: r,
+                }));
+            }
+        }
+        if let Some(r) = faults.brake_holding_ratio {
+            if !(0.0..1.0).contains(&r) {
+                return Err(PlantError::InvalidFault(Fault::BrakeWorn {
+                    holding_ratio: r,
+                }));
+            }
+        }
+        if faults.encoder_lose_one_in == Some(0) {
+            return Err(PlantError::InvalidFault(Fault::EncoderLosesCounts {
+                one_in: 0,
+            }));
+        }
+        let j = self
+            .joints
+            .get_mut(joint)
+            .ok_or(PlantError::JointOutOfRange { joint })?;
+        j.set_faults(faults);
         Ok(())
     }
 

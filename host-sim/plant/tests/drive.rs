@@ -230,8 +230,8 @@ fn a_failed_driver_reports_its_fault() -> TestResult {
 }
 
 /// Property: a partly shorted winding with the regulation lost draws more than the
-/// limit (the overcurrent the firmware must catch); with the regulation intact the
-/// current stays at the limit.
+/// limit (the overcurrent the firmware must catch) but below the driver's own overcurrent
+/// protection at this duty; with the regulation intact the current stays at the limit.
 #[test]
 fn a_winding_short_overcurrents_only_without_the_regulation() -> TestResult {
     for lost in [false, true] {
@@ -248,13 +248,15 @@ fn a_winding_short_overcurrents_only_without_the_regulation() -> TestResult {
                 p.inject(j, Fault::CurrentRegulationLost)?;
             }
         }
-        p.set_duty([0.3; NUM_JOINTS])?;
+        // Legs: 3 x 5.23 A < 0.05 x 24 V / 0.16 ohm < 15 A; links: 3 x 0.66 A < ... < 2 A.
+        p.set_duty([0.06, 0.06, 0.06, 0.04, 0.04, 0.04])?;
         p.advance(0.02, DT)?;
+        assert!(!p.driver_fault());
         for j in 0..NUM_JOINTS {
             let m = p.joint(j)?.model();
             let i = p.currents()[j];
             if lost {
-                assert!(i > 3.0 * m.current_limit, "joint {j}: {i}");
+                assert!(i > 1.5 * m.current_limit, "joint {j}: {i}");
             } else {
                 assert_close("current", i, m.current_limit, 1e-9);
             }
@@ -300,5 +302,52 @@ fn the_supply_voltage_scales_the_drive() -> TestResult {
     }
     assert!(q.set_supply_voltage(f64::NAN).is_err());
     assert!(q.set_supply_voltage(-1.0).is_err());
+    Ok(())
+}
+
+/// Property: a failing encoder that keeps one count in n counts a fraction 1/n of the
+/// motion (to one count).
+#[test]
+fn a_failing_encoder_counts_a_fraction_of_the_motion() -> TestResult {
+    let mut p = unregulated_plant()?;
+    p.inject(3, Fault::EncoderCountsOneIn { one_in: 10 })?;
+    let mut ext = CounterExtender::new(&p);
+    let x0 = p.motor_side_joint_positions()[3];
+    p.set_duty([0.0, 0.0, 0.0, 0.3, 0.0, 0.0])?;
+    for _ in 0..2000 {
+        p.step(DT)?;
+        ext.update(&p);
+    }
+    let cpu = p.counts_per_joint_unit()[3];
+    let truth = (p.motor_side_joint_positions()[3] - x0) * cpu;
+    let counted = ext.total[3] as f64;
+    assert!(truth > 1000.0, "{truth}");
+    assert!(
+        (counted - truth / 10.0).abs() <= 1.0,
+        "{counted} vs {truth}"
+    );
+    assert!(p
+        .inject(3, Fault::EncoderCountsOneIn { one_in: 1 })
+        .is_err());
+    Ok(())
+}
+
+/// Property: a transistor stuck on drives the full supply with no regulation: the
+/// driver's own overcurrent protection latches its fault and turns the bridge off before
+/// the current passes its trip by more than one step's rise.
+#[test]
+fn a_stuck_bridge_trips_the_drivers_overcurrent_protection() -> TestResult {
+    let mut p = plant()?;
+    p.inject(0, Fault::BridgeStuckOn)?;
+    p.set_duty([0.0; NUM_JOINTS])?;
+    let mut peak = 0.0f64;
+    for _ in 0..200 {
+        p.step(DT)?;
+        peak = peak.max(p.currents()[0].abs());
+    }
+    assert!(p.driver_fault());
+    assert!(!p.bridges_on()[0]);
+    let ocp = p.joint(0)?.model().driver_ocp;
+    assert!(peak > ocp && peak < 3.0 * ocp, "peak {peak} A");
     Ok(())
 }

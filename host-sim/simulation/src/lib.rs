@@ -13,13 +13,22 @@
 //! sends, faults; the paths are the `trajectory` crate's), [`engine`] (the loop),
 //! [`metrics`] (errors, efforts, faults), [`run`] (one scenario), [`output`] (files);
 //! [`report_text`] is the summary `host-sim sim` prints.
+//!
+//! [`board`] runs the whole board application (the tick service: state machine, stops,
+//! brakes, monitors, fault log, deadline policy, the link) on the plant with the board
+//! around it (drivers, brakes, e-stop chain, switches and stops, the tool, a wall), in
+//! virtual time; [`bench`] is a master in the same process that drives it over the wire
+//! protocol. The fault campaigns and the served simulated board use them.
 
+pub mod bench;
+pub mod board;
 pub mod config;
 pub mod engine;
 pub mod metrics;
 pub mod output;
 pub mod run;
 pub mod scenario;
+pub mod serve;
 
 pub use config::{ConfigError, SimConfig};
 pub use engine::EngineError;

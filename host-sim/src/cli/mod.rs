@@ -5,6 +5,7 @@
 //! [`teleop`], each turning its flags into the library's settings and printing what the
 //! library returns.
 
+pub mod board;
 pub mod design;
 pub mod sim;
 pub mod teleop;
@@ -207,6 +208,22 @@ pub enum Command {
     /// (refused target, garbage on the link, heartbeat loss) and exits non-zero when one
     /// fails. Writes status.csv to --out (default target/teleop/<scenario>/).
     Teleop(teleop::TeleopArgs),
+    /// The fault-injection campaign: every fault kind in every condition against the whole
+    /// board application in simulation.
+    ///
+    /// Each cell: detected or not, the time to detect against the kind's bound, the
+    /// reaction against the stop table's, and how far the platform moved afterwards
+    /// against the stops' bounds (0.5 mm after STO; 0.1 mm beyond the braking travel after
+    /// SS1/SS2; within 1 mm of the setpoint when the board continues). Prints the matrix,
+    /// writes campaign.csv and campaign.png to --out (default target/faults/), and exits
+    /// non-zero when a cell fails.
+    Faults(board::FaultsArgs),
+    /// The simulated board (the board application on the plant) on a Unix socket, paced
+    /// by the wall clock, for `teleop`, the console, `igtl` and `faultlog`.
+    Board(board::BoardArgs),
+    /// The fault log of a board (or the simulated board, or the emulator), read over its
+    /// link: time, cause, joint, value, the stop it caused, repeats; and the last reset.
+    Faultlog(board::FaultLogArgs),
 }
 
 impl Command {
@@ -227,6 +244,9 @@ impl Command {
             Command::Synth(args) => design::synth(args, robot.kind()),
             Command::Compare(args) => design::compare(args, robot),
             Command::Teleop(args) => teleop::run(args),
+            Command::Faults(args) => board::faults(args),
+            Command::Board(args) => board::board(args),
+            Command::Faultlog(args) => board::faultlog(args),
         }
     }
 }

@@ -17,6 +17,7 @@
 
 pub mod ci;
 pub mod error;
+pub mod faultlog;
 pub mod link;
 pub mod session;
 pub mod tracking;

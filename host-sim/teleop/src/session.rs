@@ -76,6 +76,8 @@ pub struct Session {
     pub fault_log: Vec<master_link::FaultLogPage>,
     /// The board's `HelloReply`.
     pub hello: Option<(FirmwareVersion, u8)>,
+    /// The reset the board reported in its `HelloReply`.
+    pub reset: Option<master_link::ResetStatus>,
     /// Requests in flight and answered: seq -> (request, reply and its time).
     requests: HashMap<Seq, (MasterToBoard, Option<(f64, BoardToMaster)>)>,
     /// Acks received.
@@ -105,6 +107,7 @@ impl Session {
             refused: Vec::new(),
             fault_log: Vec::new(),
             hello: None,
+            reset: None,
             requests: HashMap::new(),
             acks: 0,
             paced: true,
@@ -203,8 +206,12 @@ impl Session {
             BoardToMaster::HelloReply {
                 firmware_version,
                 protocol_version,
+                reset,
                 ..
-            } => self.hello = Some((firmware_version, protocol_version)),
+            } => {
+                self.hello = Some((firmware_version, protocol_version));
+                self.reset = Some(reset);
+            }
             BoardToMaster::Ack { seq } => {
                 self.acks += 1;
                 if let Some((_, reply)) = self.requests.get_mut(&seq) {
@@ -222,7 +229,23 @@ impl Session {
                     });
                 }
             }
-            BoardToMaster::FaultLog(page) => self.fault_log.push(page),
+            BoardToMaster::FaultLog(page) => {
+                self.fault_log.push(page);
+                // A fault-log page answers the oldest open request for one.
+                if let Some((_, reply)) = self
+                    .requests
+                    .values_mut()
+                    .filter(|(req, reply)| {
+                        reply.is_none() && matches!(req, MasterToBoard::FaultLogRequest { .. })
+                    })
+                    .min_by_key(|(req, _)| match req {
+                        MasterToBoard::FaultLogRequest { first } => *first,
+                        _ => u16::MAX,
+                    })
+                {
+                    *reply = Some((r.t_s, r.msg));
+                }
+            }
         }
     }
 

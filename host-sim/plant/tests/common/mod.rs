@@ -15,13 +15,20 @@ pub fn plant() -> Result<Plant, Box<dyn std::error::Error>> {
     Ok(p)
 }
 
-/// The shipped plant at `HOME` with the drivers' current regulation off: the motors and
-/// transmissions alone (data-sheet checks).
+/// The shipped plant at `HOME` with the drivers' current regulation and overcurrent
+/// protection out of the way: the motors and transmissions alone (data-sheet checks).
 pub fn unregulated_plant() -> Result<Plant, Box<dyn std::error::Error>> {
-    let mut p = plant()?;
-    for j in 0..NUM_JOINTS {
-        p.inject(j, plant::Fault::CurrentRegulationLost)?;
+    let mut cfg = PlantConfig::default();
+    for p in cfg.prismatic.iter_mut() {
+        p.current_limit_a = 1000.0;
+        p.driver_ocp_a = 1000.0;
     }
+    for r in cfg.rotary.iter_mut() {
+        r.current_limit_a = 1000.0;
+        r.driver_ocp_a = 1000.0;
+    }
+    let mut p = Plant::new(&cfg)?;
+    p.set_joint_positions(HOME)?;
     Ok(p)
 }
 

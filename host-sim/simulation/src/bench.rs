@@ -1,0 +1,295 @@
+//! A master in the same process as the simulated board ([`crate::board::BoardSim`]),
+//! speaking the wire protocol in virtual time: a session, sequence numbers, heartbeats
+//! every 50 ms, requests matched with their replies, the status reports recorded. The
+//! campaigns and the tests drive the board through it exactly as a master on the serial
+//! line would.
+
+use std::collections::HashMap;
+
+use master_link::{
+    encode, BoardToMaster, FaultLogPage, Header, MasterDecoder, MasterToBoard, NackReason,
+    RobotState, Seq, SeqCounter, StatusReport, MAX_FRAME_LEN, PROTOCOL_VERSION,
+};
+use thiserror::Error;
+
+use crate::board::{BoardSim, BoardSimError};
+
+/// Why a bench step failed.
+#[derive(Debug, Error)]
+pub enum BenchError {
+    #[error(transparent)]
+    Board(#[from] BoardSimError),
+    #[error("no reply to {request} within {timeout_ms} ms")]
+    NoReply { request: String, timeout_ms: u64 },
+    #[error("{request} refused: {reason:?}")]
+    Refused { request: String, reason: NackReason },
+    #[error("{what} not reached within {timeout_ms} ms (state {state:?}, fault {fault})")]
+    Timeout {
+        what: &'static str,
+        timeout_ms: u64,
+        state: RobotState,
+        fault: String,
+    },
+}
+
+/// One status report and when the master received it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StatusRow {
+    /// Virtual time, µs.
+    pub t_us: u64,
+    /// The report.
+    pub status: StatusReport,
+}
+
+/// The master's side of the link.
+pub struct SimMaster {
+    /// The session nonce.
+    pub session: u32,
+    seq: SeqCounter,
+    rx: MasterDecoder,
+    /// Every status report received.
+    pub statuses: Vec<StatusRow>,
+    /// Replies by the sequence number of the request they answer.
+    pub replies: HashMap<Seq, (u64, BoardToMaster)>,
+    /// The last `HelloReply`.
+    pub hello: Option<BoardToMaster>,
+    /// Fault-log pages received.
+    pub fault_logs: Vec<FaultLogPage>,
+}
+
+impl SimMaster {
+    /// A master with session nonce `session`.
+    pub fn new(session: u32) -> Self {
+        SimMaster {
+            session,
+            seq: SeqCounter::new(1),
+            rx: MasterDecoder::new(),
+            statuses: Vec::new(),
+            replies: HashMap::new(),
+            hello: None,
+            fault_logs: Vec::new(),
+        }
+    }
+
+    /// `msg` as the next frame: its sequence number and bytes.
+    pub fn frame(&mut self, msg: &MasterToBoard) -> (Seq, Vec<u8>) {
+        let seq = self.seq.next();
+        (seq, frame_in(msg, self.session, seq))
+    }
+
+    /// The sequence number the next frame gets.
+    pub fn next_seq(&self) -> Seq {
+        self.seq.peek()
+    }
+
+    /// Bytes from the board at `t_us`.
+    pub fn receive(&mut self, t_us: u64, bytes: &[u8]) {
+        for result in self.rx.feed(bytes) {
+            let Ok((_, msg)) = result else { continue };
+            match msg {
+                BoardToMaster::Status(status) => self.statuses.push(StatusRow { t_us, status }),
+                BoardToMaster::HelloReply { .. } => self.hello = Some(msg),
+                BoardToMaster::Ack { seq } | BoardToMaster::Nack { seq, .. } => {
+                    self.replies.insert(seq, (t_us, msg));
+                }
+                BoardToMaster::FaultLog(page) => self.fault_logs.push(page),
+            }
+        }
+    }
+
+    /// The last status report.
+    pub fn last_status(&self) -> Option<&StatusReport> {
+        self.statuses.last().map(|r| &r.status)
+    }
+}
+
+/// `msg` framed in `session` with sequence number `seq` (replays, old sessions).
+pub fn frame_in(msg: &MasterToBoard, session: u32, seq: Seq) -> Vec<u8> {
+    let mut buf = [0u8; MAX_FRAME_LEN];
+    match encode(msg, Header { session, seq }, &mut buf) {
+        Ok(n) => buf.get(..n).unwrap_or_default().to_vec(),
+        Err(_) => Vec::new(),
+    }
+}
+
+/// The board and the master, in lockstep: the master's frames reach the board before the
+/// board's next tick, the board's reach the master after it.
+pub struct Bench {
+    /// The board.
+    pub board: BoardSim,
+    /// The master.
+    pub master: SimMaster,
+    /// The master sends heartbeats (every 50 ms).
+    pub heartbeat: bool,
+    /// Bytes are delivered (false: the cable is cut both ways).
+    pub link_up: bool,
+    last_beat_us: u64,
+}
+
+/// The heartbeat period of the bench's master, µs.
+pub const HEARTBEAT_US: u64 = 50_000;
+
+impl Bench {
+    /// The master around `board`, session `session`.
+    pub fn new(board: BoardSim, session: u32) -> Self {
+        Bench {
+            board,
+            master: SimMaster::new(session),
+            heartbeat: true,
+            link_up: true,
+            last_beat_us: 0,
+        }
+    }
+
+    /// Virtual time, µs.
+    pub fn now_us(&self) -> u64 {
+        self.board.now_us()
+    }
+
+    /// Sends raw bytes to the board (garbage, replays).
+    pub fn send_raw(&mut self, bytes: &[u8]) {
+        if self.link_up {
+            self.board.receive(bytes);
+        }
+    }
+
+    /// Sends `msg`; its sequence number.
+    pub fn send(&mut self, msg: &MasterToBoard) -> Seq {
+        let (seq, bytes) = self.master.frame(msg);
+        self.send_raw(&bytes);
+        seq
+    }
+
+    /// One control period: a heartbeat when due, the board's tick, its output to the
+    /// master.
+    pub fn tick(&mut self) -> Result<(), BenchError> {
+        let now = self.now_us();
+        if self.heartbeat && now >= self.last_beat_us + HEARTBEAT_US {
+            self.last_beat_us = now;
+            self.send(&MasterToBoard::Heartbeat);
+        }
+        self.board.tick()?;
+        let out = self.board.take_output();
+        if self.link_up {
+            self.master.receive(self.board.now_us(), &out);
+        }
+        Ok(())
+    }
+
+    /// Runs `ms` control periods (1 kHz).
+    pub fn run_ms(&mut self, ms: u64) -> Result<(), BenchError> {
+        for _ in 0..ms {
+            self.tick()?;
+        }
+        Ok(())
+    }
+
+    /// Sends `msg` and runs until its reply (at most `timeout_ms`): `None` for an Ack (or
+    /// the answer of a `Hello` / `StatusRequest` / `FaultLogRequest`), the reason of a Nack.
+    pub fn request(
+        &mut self,
+        msg: &MasterToBoard,
+        timeout_ms: u64,
+    ) -> Result<Option<NackReason>, BenchError> {
+        let answered_by_kind = matches!(
+            msg,
+            MasterToBoard::Hello { .. }
+                | MasterToBoard::StatusRequest
+                | MasterToBoard::FaultLogRequest { .. }
+        );
+        let (hellos, logs, statuses) = (
+            self.master.hello.is_some(),
+            self.master.fault_logs.len(),
+            self.master.statuses.len(),
+        );
+        let seq = self.send(msg);
+        for _ in 0..timeout_ms {
+            self.tick()?;
+            if let Some((_, reply)) = self.master.replies.get(&seq) {
+                return Ok(match reply {
+                    BoardToMaster::Nack { reason, .. } => Some(*reason),
+                    _ => None,
+                });
+            }
+            if answered_by_kind {
+                let answered = match msg {
+                    MasterToBoard::Hello { .. } => self.master.hello.is_some() && !hellos,
+                    MasterToBoard::FaultLogRequest { .. } => self.master.fault_logs.len() > logs,
+                    _ => self.master.statuses.len() > statuses,
+                };
+                if answered {
+                    return Ok(None);
+                }
+            }
+        }
+        Err(BenchError::NoReply {
+            request: format!("{msg:?}"),
+            timeout_ms,
+        })
+    }
+
+    /// Sends `msg`; an error unless the board acknowledges it.
+    pub fn command(&mut self, msg: &MasterToBoard) -> Result<(), BenchError> {
+        match self.request(msg, 200)? {
+            None => Ok(()),
+            Some(reason) => Err(BenchError::Refused {
+                request: format!("{msg:?}"),
+                reason,
+            }),
+        }
+    }
+
+    /// Runs until `done` holds for the runtime's state (at most `timeout_ms`).
+    pub fn run_until(
+        &mut self,
+        what: &'static str,
+        timeout_ms: u64,
+        mut done: impl FnMut(&BoardSim) -> bool,
+    ) -> Result<u64, BenchError> {
+        for ms in 0..timeout_ms {
+            if done(&self.board) {
+                return Ok(ms);
+            }
+            self.tick()?;
+        }
+        let st = self.board.runtime().status();
+        Err(BenchError::Timeout {
+            what,
+            timeout_ms,
+            state: st.state,
+            fault: format!("{:?}", st.fault),
+        })
+    }
+
+    /// Hello, Home (with the park move), Enable (brake check and release): the robot
+    /// following, at the park pose.
+    pub fn bring_up(&mut self) -> Result<(), BenchError> {
+        self.request(
+            &MasterToBoard::Hello {
+                protocol_version: PROTOCOL_VERSION,
+                nonce: self.master.session,
+            },
+            100,
+        )?;
+        self.command(&MasterToBoard::Home { rehome: false })?;
+        self.run_until("homed", 120_000, |b| {
+            b.runtime().state() != RobotState::Homing
+        })?;
+        if self.board.runtime().state() != RobotState::Ready {
+            let st = self.board.runtime().status();
+            return Err(BenchError::Timeout {
+                what: "Ready after homing",
+                timeout_ms: 0,
+                state: st.state,
+                fault: format!("{:?}", st.fault),
+            });
+        }
+        // The stop that ends homing applies the brakes first.
+        self.run_ms(100)?;
+        self.command(&MasterToBoard::Enable)?;
+        self.run_until("Enabled", 2_000, |b| {
+            b.runtime().state() == RobotState::Enabled
+        })?;
+        Ok(())
+    }
+}

@@ -1,0 +1,147 @@
+//! `host-sim faults`, `host-sim board` and `host-sim faultlog`: the fault-injection
+//! campaign against the whole board application in simulation, the simulated board served
+//! on a socket, and the fault log of a board read over its link.
+
+use crate::error::CliError;
+use clap::Args;
+use simulation::config::default_target_dir;
+use std::path::PathBuf;
+use std::sync::atomic::AtomicBool;
+use std::time::Duration;
+
+/// `host-sim faults` options.
+#[derive(Debug, Args)]
+pub struct FaultsArgs {
+    /// Fault kinds, comma-separated [default: all]: encoder-stuck, encoder-jump,
+    /// encoder-dead, motor-open, motor-shorted, driver-fault, supply-sag, overcurrent,
+    /// bridge-stuck-on, link-loss, garbage-burst, replayed-frames, e-stop, relay-welded,
+    /// tick-overrun, nan-target, unreachable-target, limit-switch-closed, load-seized,
+    /// wall-contact, homing-switch-dead, brake-weak.
+    #[arg(long, value_delimiter = ',')]
+    pub kinds: Vec<String>,
+    /// Conditions, comma-separated [default: all]: holding, slow, fast, tool (and phase:
+    /// the kinds that have their own, homing or enabling).
+    #[arg(long, value_delimiter = ',')]
+    pub conditions: Vec<String>,
+    /// Threads [default: 2].
+    #[arg(long, default_value_t = 2)]
+    pub threads: usize,
+    /// Output directory [default: target/faults in the binary's target dir].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+/// Runs the campaign: the matrix printed, campaign.csv and campaign.png written; an error
+/// when a cell fails.
+pub fn faults(args: &FaultsArgs) -> Result<(), CliError> {
+    let kinds = if args.kinds.is_empty() {
+        faults::FaultKind::ALL.to_vec()
+    } else {
+        args.kinds
+            .iter()
+            .map(|k| {
+                faults::FaultKind::from_name(k).ok_or_else(|| CliError::UnknownName {
+                    what: "fault kind",
+                    name: k.clone(),
+                })
+            })
+            .collect::<Result<Vec<_>, _>>()?
+    };
+    let conditions = if args.conditions.is_empty() {
+        let mut all = faults::Condition::RUNNING.to_vec();
+        all.push(faults::Condition::Phase);
+        all
+    } else {
+        args.conditions
+            .iter()
+            .map(|c| {
+                faults::Condition::from_name(c).ok_or_else(|| CliError::UnknownName {
+                    what: "condition",
+                    name: c.clone(),
+                })
+            })
+            .collect::<Result<Vec<_>, _>>()?
+    };
+    let t0 = std::time::Instant::now();
+    let cells = faults::run(&kinds, &conditions, args.threads, &|c| {
+        eprintln!(
+            "  {:<20} {:<8} {}",
+            c.kind.name(),
+            c.condition.name(),
+            if c.pass { "ok" } else { "FAILED" }
+        );
+    })?;
+    print!("{}", faults::report::matrix_text(&cells));
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| default_target_dir().join("faults"));
+    std::fs::create_dir_all(&out).map_err(|source| CliError::CreateDir {
+        path: out.display().to_string(),
+        source,
+    })?;
+    let csv = out.join("campaign.csv");
+    let png = out.join("campaign.png");
+    faults::report::write_csv(&cells, &csv)?;
+    faults::report::write_png(&cells, &png)?;
+    println!(
+        "campaign: {} cells in {:.1} s; wrote {} and {}",
+        cells.len(),
+        t0.elapsed().as_secs_f64(),
+        csv.display(),
+        png.display()
+    );
+    let failed = cells.iter().filter(|c| !c.pass).count();
+    if failed > 0 {
+        return Err(CliError::CampaignFailed(failed));
+    }
+    Ok(())
+}
+
+/// `host-sim board` options.
+#[derive(Debug, Args)]
+pub struct BoardArgs {
+    /// The Unix socket to listen on.
+    #[arg(long, value_name = "PATH")]
+    pub socket: PathBuf,
+    /// Attach the thesis's tool (1.2 kg on a 0.1 m lever).
+    #[arg(long)]
+    pub tool: bool,
+}
+
+/// Serves the simulated board until the process is stopped.
+pub fn board(args: &BoardArgs) -> Result<(), CliError> {
+    let mut cfg = simulation::board::BoardSimConfig::reference(None)?;
+    if args.tool {
+        cfg.tool = Some(control::ToolLoad::thesis());
+    }
+    // The host is not real time: a late tick is the host's, not the board's.
+    cfg.service.watchdog.max_lateness_us = 1_000_000;
+    cfg.service.overruns_to_fault = u32::MAX;
+    let stop = AtomicBool::new(false);
+    let socket = args.socket.display().to_string();
+    simulation::serve::serve(&args.socket, cfg, &stop, &|| {
+        println!("simulated board on {socket} (the board application on the plant, paced by the wall clock; stop with Ctrl-C)");
+    })?;
+    Ok(())
+}
+
+/// `host-sim faultlog` options.
+#[derive(Debug, Args)]
+pub struct FaultLogArgs {
+    /// The board: a Unix socket (the simulated board, the emulator) or a serial device.
+    #[arg(long, value_name = "PATH")]
+    pub connect: PathBuf,
+    /// Serial devices: the baud rate.
+    #[arg(long, default_value_t = 1_000_000)]
+    pub baud: u32,
+}
+
+/// Reads the fault log and prints it.
+pub fn faultlog(args: &FaultLogArgs) -> Result<(), CliError> {
+    let link = teleop::link::open(&args.connect, args.baud, Duration::from_secs(5))?;
+    let mut s = teleop::session::Session::new(link);
+    let (reset, entries) = teleop::faultlog::read(&mut s)?;
+    print!("{}", teleop::faultlog::table(&reset, &entries));
+    Ok(())
+}
