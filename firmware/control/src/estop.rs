@@ -10,34 +10,68 @@ use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
 use hal::SafeOutputs;
 
-/// Set by the e-stop interrupt, taken by the control tick. Lock-free (atomics), so it can
-/// live in a `static` shared by the interrupt and the tasks.
+/// Set by the e-stop interrupt (the button) or by the link's receive task (an
+/// `EmergencyStop` message), taken by the control tick, which latches the fault of the one
+/// that tripped it. Lock-free (atomics), so it can live in a `static` shared by the
+/// interrupt and the tasks. While it is tripped the outputs must not be enabled again.
 #[derive(Debug, Default)]
 pub struct EStopLatch {
-    tripped: AtomicBool,
+    button: AtomicBool,
+    message: AtomicBool,
     count: AtomicU32,
+}
+
+/// What tripped the latch since the last tick.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct EStopTrip {
+    /// The button's interrupt.
+    pub button: bool,
+    /// An `EmergencyStop` message.
+    pub message: bool,
+}
+
+impl EStopTrip {
+    /// Nothing tripped.
+    pub const NONE: EStopTrip = EStopTrip {
+        button: false,
+        message: false,
+    };
+    /// The button.
+    pub const BUTTON: EStopTrip = EStopTrip {
+        button: true,
+        message: false,
+    };
 }
 
 impl EStopLatch {
     /// Not tripped.
     pub const fn new() -> Self {
         EStopLatch {
-            tripped: AtomicBool::new(false),
+            button: AtomicBool::new(false),
+            message: AtomicBool::new(false),
             count: AtomicU32::new(0),
         }
     }
-    /// Trips the latch (from the interrupt).
+    /// Trips the latch from the button's interrupt.
     pub fn trip(&self) {
-        self.tripped.store(true, Ordering::Release);
+        self.button.store(true, Ordering::Release);
         self.count.fetch_add(1, Ordering::Relaxed);
     }
-    /// Takes the trip: `true` once per trip (from the control tick).
-    pub fn take(&self) -> bool {
-        self.tripped.swap(false, Ordering::AcqRel)
+    /// Trips the latch for an `EmergencyStop` message.
+    pub fn trip_message(&self) {
+        self.message.store(true, Ordering::Release);
+        self.count.fetch_add(1, Ordering::Relaxed);
+    }
+    /// Takes the trips (from the control tick): each once.
+    pub fn take(&self) -> EStopTrip {
+        EStopTrip {
+            button: self.button.swap(false, Ordering::AcqRel),
+            message: self.message.swap(false, Ordering::AcqRel),
+        }
     }
     /// Tripped and not yet taken.
     pub fn is_tripped(&self) -> bool {
-        self.tripped.load(Ordering::Acquire)
+        self.button.load(Ordering::Acquire) || self.message.load(Ordering::Acquire)
     }
     /// Trips since boot.
     pub fn count(&self) -> u32 {
@@ -50,4 +84,12 @@ impl EStopLatch {
 pub fn emergency_stop_isr<O: SafeOutputs + ?Sized>(outputs: &mut O, latch: &EStopLatch) {
     outputs.force_safe();
     latch.trip();
+}
+
+/// What the link's receive task calls for an `EmergencyStop` message: outputs safe first,
+/// then the latch (the next tick latches `EmergencyStopMessage` even if the request queue
+/// was full).
+pub fn emergency_stop_message<O: SafeOutputs + ?Sized>(outputs: &mut O, latch: &EStopLatch) {
+    outputs.force_safe();
+    latch.trip_message();
 }

@@ -136,6 +136,8 @@ pub struct Runtime<S: Scalar, M: Mechanism<S> + Clone> {
     warnings: Warnings,
     /// The latched fault (the first one since the last clear).
     fault: FaultRecord,
+    /// The last fault handled: cause, joint, time (a repeat within the tick is one).
+    last_fault: Option<(FaultCause, u8, u64)>,
     log: FaultLog,
     reset: ResetStatus,
     inputs: Inputs<S>,
@@ -191,6 +193,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             targets: TargetClock::new(cfg.targets),
             warnings: Warnings::NOT_HOMED,
             fault: FaultRecord::NONE,
+            last_fault: None,
             log: FaultLog::new(),
             reset: ResetStatus {
                 cause: ResetCause::PowerOn,
@@ -300,6 +303,12 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
     pub fn fault(&mut self, finding: Finding, now_us: u64) {
         let record = finding.record(now_us);
         let already = self.sm.state() == State::Fault;
+        // The same fault twice in one tick (an `EmergencyStop` message both latched and
+        // queued) is one.
+        if already && self.last_fault == Some((finding.cause, record.joint, now_us)) {
+            return;
+        }
+        self.last_fault = Some((finding.cause, record.joint, now_us));
         if self.sm.handle(Event::Fault(finding.cause)).is_err() {
             return;
         }

@@ -17,6 +17,7 @@ use kinematics_core::Mechanism;
 use master_link::{BoardToMaster, FirmwareVersion, StatusReport, Warnings};
 
 use crate::controller::Scalar;
+use crate::estop::EStopTrip;
 use crate::link::Request;
 use crate::monitors::Finding;
 use crate::runtime::{Runtime, RuntimeTick};
@@ -166,9 +167,10 @@ impl<S: Scalar, M: Mechanism<S> + Clone> TickService<S, M> {
     }
 
     /// Start of a tick at `now_us`, `missed` control periods after the one scheduled
-    /// before it (the scheduler does not run missed periods back to back); whether the
-    /// e-stop interrupt tripped its latch since the last tick.
-    pub fn begin(&mut self, now_us: u64, missed: u64, estop_tripped: bool) {
+    /// before it (the scheduler does not run missed periods back to back); what tripped
+    /// the e-stop latch since the last tick (the button's interrupt, an `EmergencyStop`
+    /// message).
+    pub fn begin(&mut self, now_us: u64, missed: u64, estop: EStopTrip) {
         self.tick_start_state = self.runtime.state();
         self.missed_periods = self.missed_periods.saturating_add(missed);
         let period = u64::from(self.cfg.watchdog.period_us);
@@ -184,8 +186,12 @@ impl<S: Scalar, M: Mechanism<S> + Clone> TickService<S, M> {
         };
         self.last_start_us = Some(now_us);
         self.timing.last_jitter_us = u32::try_from(jitter).unwrap_or(u32::MAX);
-        if estop_tripped {
+        if estop.button {
             let f = Finding::board::<S>(master_link::FaultCause::EmergencyStopButton, S::one());
+            self.runtime.fault(f, now_us);
+        }
+        if estop.message {
+            let f = Finding::board::<S>(master_link::FaultCause::EmergencyStopMessage, S::zero());
             self.runtime.fault(f, now_us);
         }
         if late > u64::from(self.cfg.watchdog.max_lateness_us) {

@@ -176,6 +176,59 @@ pub const TABLE: [StopEvent; 30] = [
     StopEvent::OperatorAbsent,
 ];
 
+impl StopEvent {
+    /// The event's name in the table: the fault cause's, or the command's.
+    pub fn name(&self) -> &'static str {
+        match self {
+            StopEvent::Fault(c) => c.name(),
+            StopEvent::Disable => "Disable (command)",
+            StopEvent::HeartbeatLate => "heartbeat late (100 ms)",
+            StopEvent::ClutchEngaged => "clutch engaged",
+            StopEvent::OperatorAbsent => "operator absent (dead-man)",
+        }
+    }
+}
+
+impl StopCategory {
+    /// Short name.
+    pub const fn short(self) -> &'static str {
+        match self {
+            StopCategory::Sto => "STO",
+            StopCategory::Ss1 => "SS1",
+            StopCategory::Ss2 => "SS2",
+        }
+    }
+    /// What the outputs do, in order.
+    pub const fn outputs(self) -> &'static str {
+        match self {
+            StopCategory::Sto => "torque off and brakes applied at once",
+            StopCategory::Ss1 => {
+                "decelerate under power; at rest, brakes applied; torque off once they hold"
+            }
+            StopCategory::Ss2 => "decelerate under power; hold under power, standstill monitored",
+        }
+    }
+}
+
+/// Writes [`TABLE`] as a Markdown table (the firmware README prints it; a test checks
+/// that the README's copy is this one).
+pub fn write_table(out: &mut impl core::fmt::Write) -> core::fmt::Result {
+    writeln!(out, "| event | stop | the outputs | why |")?;
+    writeln!(out, "| --- | --- | --- | --- |")?;
+    for e in TABLE {
+        let r = reaction(e);
+        writeln!(
+            out,
+            "| {} | {} | {} | {} |",
+            e.name(),
+            r.category.short(),
+            r.category.outputs(),
+            r.why
+        )?;
+    }
+    Ok(())
+}
+
 /// Timing of the stops, µs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct StopConfig {

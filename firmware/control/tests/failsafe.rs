@@ -257,7 +257,7 @@ fn emergency_stop_from_every_state() {
         let cfg = ServiceConfig::for_period(1000, 168_000_000, control::link::FIRMWARE_VERSION);
         let mut svc = TickService::new(rt, cfg);
         svc.begin(t + 1000, 0, latch.take());
-        assert!(!latch.take(), "taken once");
+        assert_eq!(latch.take(), control::estop::EStopTrip::NONE, "taken once");
         svc.tick(&mut hw, t + 1000);
         let rt = svc.runtime();
         assert_eq!(rt.state(), State::Fault, "from {state:?}");
@@ -282,8 +282,18 @@ fn emergency_stop_from_every_state() {
     }
     LATCH.trip();
     LATCH.trip();
-    assert!(LATCH.take());
+    assert_eq!(LATCH.take(), control::estop::EStopTrip::BUTTON);
     assert_eq!(LATCH.count(), 2);
+    // The message's trip is told apart from the button's.
+    LATCH.trip_message();
+    assert!(LATCH.is_tripped());
+    assert_eq!(
+        LATCH.take(),
+        control::estop::EStopTrip {
+            button: false,
+            message: true
+        }
+    );
 }
 
 /// Property: the button's hard-wired channel stops the robot without the MCU (the relay
@@ -448,13 +458,13 @@ fn a_missed_deadline_is_a_fault_and_starves_the_watchdog() {
     for _ in 0..5 {
         t += 1000;
         svc.runtime_mut().command(&Command::Heartbeat, t).unwrap();
-        svc.begin(t, 0, false);
+        svc.begin(t, 0, control::estop::EStopTrip::NONE);
         svc.tick(&mut hw, t);
         assert!(svc.finish(t, cycles(300)).feed_watchdog);
         hw.step_ms();
     }
     t += 1000 + 300;
-    svc.begin(t, 0, false);
+    svc.begin(t, 0, control::estop::EStopTrip::NONE);
     svc.tick(&mut hw, t);
     let out = svc.finish(t, cycles(300));
     assert!(!out.feed_watchdog && svc.starved());
@@ -464,7 +474,7 @@ fn a_missed_deadline_is_a_fault_and_starves_the_watchdog() {
     assert!(!hw.enabled && !hw.brakes_released);
     for _ in 0..10 {
         t += 1000;
-        svc.begin(t, 0, false);
+        svc.begin(t, 0, control::estop::EStopTrip::NONE);
         svc.tick(&mut hw, t);
         assert!(
             !svc.finish(t, cycles(300)).feed_watchdog,
@@ -478,7 +488,7 @@ fn a_missed_deadline_is_a_fault_and_starves_the_watchdog() {
     for k in 0..3 {
         t += 1000;
         svc.runtime_mut().command(&Command::Heartbeat, t).unwrap();
-        svc.begin(t, 0, false);
+        svc.begin(t, 0, control::estop::EStopTrip::NONE);
         svc.tick(&mut hw, t);
         let out = svc.finish(t, cycles(900));
         hw.step_ms();

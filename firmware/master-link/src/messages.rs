@@ -420,6 +420,40 @@ impl FaultCause {
         }
     }
 
+    /// A short readable name (the fault log, the firmware README's stop table, the
+    /// console).
+    pub const fn name(self) -> &'static str {
+        match self {
+            FaultCause::None => "none",
+            FaultCause::EmergencyStopButton => "e-stop button",
+            FaultCause::EmergencyStopMessage => "e-stop message",
+            FaultCause::SafetyRelayMismatch => "safety relay mismatch",
+            FaultCause::HeartbeatTimeout => "heartbeat lost (500 ms)",
+            FaultCause::JointLimit => "joint out of range",
+            FaultCause::LimitSwitch => "limit switch",
+            FaultCause::FollowingError => "following error",
+            FaultCause::NoMotion => "no motion under drive",
+            FaultCause::EncoderJump => "encoder jump",
+            FaultCause::EncoderDead => "encoder dead",
+            FaultCause::MotorOpen => "motor circuit open",
+            FaultCause::CurrentImplausible => "current implausible (short)",
+            FaultCause::Overcurrent => "overcurrent",
+            FaultCause::Overload => "overload (at the limit)",
+            FaultCause::OverTemperature => "over-temperature (I2t)",
+            FaultCause::DriverFault => "driver fault",
+            FaultCause::SupplyVoltage => "supply voltage",
+            FaultCause::HomingFailed => "homing failed",
+            FaultCause::Singularity => "singularity guard",
+            FaultCause::GuardStop => "guard stop",
+            FaultCause::ForwardKinematics => "forward kinematics",
+            FaultCause::DeadlineMissed => "deadline missed",
+            FaultCause::StandstillLost => "standstill lost",
+            FaultCause::BrakeCheck => "brake check",
+            FaultCause::NonFiniteInput => "non-finite input",
+            FaultCause::Internal => "internal",
+        }
+    }
+
     /// Every cause but `None`, in declaration order.
     pub const ALL: [FaultCause; 26] = [
         FaultCause::EmergencyStopButton,

@@ -481,7 +481,7 @@ impl BoardSim {
                 Some(Inbound::Request(req)) => {
                     if req.command == Command::EmergencyStop {
                         self.hw.force_safe();
-                        self.latch.trip();
+                        self.latch.trip_message();
                     }
                     if self.queue.len() >= COMMAND_QUEUE {
                         self.send(&BoardToMaster::Nack {

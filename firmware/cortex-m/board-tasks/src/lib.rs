@@ -18,7 +18,7 @@
 use core::cell::Cell;
 use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
-use control::estop::{emergency_stop_isr, EStopLatch};
+use control::estop::{emergency_stop_message, EStopLatch};
 use control::faults::FaultLog;
 use control::link::{Command, Inbound, LinkRx, LinkTx, Request};
 use control::service::{TickOutcome, TickService};
@@ -292,7 +292,9 @@ pub async fn run_link_rx<R: ByteRx, K: SafeOutputs>(
                         Some(Inbound::Request(req)) => {
                             if req.command == Command::EmergencyStop {
                                 // Do not wait for the next tick.
-                                critical_section::with(|_| emergency_stop_isr(kill, &shared.estop));
+                                critical_section::with(|_| {
+                                    emergency_stop_message(kill, &shared.estop)
+                                });
                             }
                             if shared.commands.try_send(req).is_err() {
                                 shared.reply(BoardToMaster::Nack {
