@@ -225,7 +225,10 @@ fn constraints_at_the_centre_and_a_corner() {
         assert_eq!(m.get(*g), k as f64);
     }
     let g = guards(Limits::reference());
-    for (name, pose) in [("centre", Pose::central(0.160)), ("corner", task_grid(0.160, 5, 3)[120])] {
+    for (name, pose) in [
+        ("centre", Pose::central(0.160)),
+        ("corner", task_grid(0.160, 5, 3)[120]),
+    ] {
         let st = staged(&g, &pose);
         let full = st.full().unwrap();
         for k in g.certificate_constraints(&full).unwrap() {

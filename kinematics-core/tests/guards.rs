@@ -540,6 +540,9 @@ fn the_reference_payload_is_the_tool() {
             _ => {}
         });
     }
-    println!("tool over the task: largest leg force {:.1} N, link torque {:.3} N m", worst.0, worst.1);
+    println!(
+        "tool over the task: largest leg force {:.1} N, link torque {:.3} N m",
+        worst.0, worst.1
+    );
     assert!(worst.0 < l.force.warn && worst.1 < l.torque.warn);
 }

@@ -30,7 +30,7 @@ pub fn best_fitting_delay(
     step_s: f64,
 ) -> Option<Lag> {
     let n = t_s.len();
-    if n < 2 || stream.len() != n || follower.len() != n || !(step_s > 0.0) {
+    if n < 2 || stream.len() != n || follower.len() != n || step_s.is_nan() || step_s <= 0.0 {
         return None;
     }
     let t0 = *t_s.first()?;
@@ -90,6 +90,7 @@ pub fn best_fitting_delay(
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
 

@@ -254,7 +254,7 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
         let mut scaled = [(zero, zero); CONSTRAINTS];
         let (mut reach_t, mut reach_r) = (T::max_value()?, T::max_value()?);
         for (s, c) in scaled.iter_mut().zip(cons.iter()) {
-            if !(c.margin > zero) || !(c.rate.v >= zero && c.rate.w >= zero) {
+            if !(c.margin > zero && c.rate.v >= zero && c.rate.w >= zero) {
                 return None;
             }
             let usable = c.margin * share;

@@ -121,7 +121,7 @@ impl<T: Real> Staged<T> {
     /// to the end (statics included) without a stop-level reading.
     pub fn full(&self) -> Option<FullEvaluation<'_, T>> {
         let statics = self.statics.as_ref()?;
-        (self.next.is_none() && self.stop.is_none() && self.jac_ok && self.inv_cond_ok).then(|| {
+        (self.next.is_none() && self.stop.is_none() && self.jac_ok && self.inv_cond_ok).then_some({
             FullEvaluation {
                 sol: &self.eval.sol,
                 jac: &self.eval.jac,
