@@ -92,12 +92,24 @@ fn check(limits: Option<(&str, &str)>, pose: &str) -> Verdict {
 const NO_PAYLOAD: &str = "payload_fx_n = 0\npayload_fy_n = 0\npayload_fz_n = 0\n\
                           payload_tx_nm = 0\npayload_ty_nm = 0\npayload_tz_nm = 0\n";
 
+/// The thesis's design wrench as the declared payload (the reference payload is the tool).
+const THESIS_WRENCH: &str = "payload_fx_n = 7\npayload_fy_n = 7\npayload_fz_n = 7\n\
+                             payload_tx_nm = 0.7\npayload_ty_nm = 0.7\npayload_tz_nm = 0.7\n\
+                             payload_lever_x_mm = 0\n";
+
 /// The central pose is ok: no stop. With the thesis wrench as payload the first rotating
-/// link needs 0.525 N m, above the 0.5 N m continuous rating (a warning); without payload
-/// nothing is violated at all.
+/// link needs 0.525 N m, above the 0.5 N m continuous rating (a warning); with the
+/// reference payload (the 1.2 kg tool on its 0.1 m lever) and without payload nothing is
+/// violated at all.
 #[test]
 fn central_pose_is_ok() {
     let v = check(None, "0,0,160,0,0,0");
+    assert!(
+        v.ok && v.severity.is_empty() && v.violations.is_empty(),
+        "{:?}",
+        v.violations
+    );
+    let v = check(Some(("thesis-wrench", THESIS_WRENCH)), "0,0,160,0,0,0");
     assert!(v.ok);
     assert_eq!(v.severity, "warn");
     assert_eq!(
@@ -452,13 +464,17 @@ fn joint_and_measure_guards_at_their_boundaries() {
         .any(|t| (t.limit - (torque - 0.002)).abs() < 6e-4));
 }
 
-/// The task-box report for the reference robot with the default limits: every static
-/// guard listed (no motion guard); the stroke minimum fails by 0.25 mm (l1 = 143.75 mm at a
-/// corner of the rotated box) and the rotating-link torque exceeds its 0.5 N m warn level
-/// (0.657 N m) while staying below the stop level; nothing else is violated.
+/// The task-box report for the reference robot with the default limits and the thesis's
+/// design wrench as payload: every static guard listed (no motion guard); the stroke
+/// minimum fails by 0.25 mm (l1 = 143.75 mm at a corner of the rotated box) and the
+/// rotating-link torque exceeds its 0.5 N m warn level (0.657 N m) while staying below the
+/// stop level; nothing else is violated.
 #[test]
 fn task_box_for_the_reference_robot() {
-    let r = host_sim(&["check", "--task-box", "--csv"], "");
+    let path = limits_file("task-box-thesis-wrench", THESIS_WRENCH)
+        .display()
+        .to_string();
+    let r = host_sim(&["--limits", &path, "check", "--task-box", "--csv"], "");
     assert_eq!(r.code, Some(0), "{}", r.stderr);
     let t = Table::parse(&r.stdout);
     assert_eq!(

@@ -51,6 +51,9 @@ struct LimitsFile {
     payload_tx_nm: Option<f64>,
     payload_ty_nm: Option<f64>,
     payload_tz_nm: Option<f64>,
+    payload_lever_x_mm: Option<f64>,
+    payload_lever_y_mm: Option<f64>,
+    payload_lever_z_mm: Option<f64>,
     force_warn_n: Option<f64>,
     force_stop_n: Option<f64>,
     torque_warn_nm: Option<f64>,
@@ -58,7 +61,7 @@ struct LimitsFile {
 }
 
 /// Every key a limits file accepts, in the order of `limits/reference.toml`.
-pub const KEYS: [&str; 32] = [
+pub const KEYS: [&str; 35] = [
     "stroke_min_mm",
     "stroke_max_mm",
     "link_angle_max_deg",
@@ -87,6 +90,9 @@ pub const KEYS: [&str; 32] = [
     "payload_tx_nm",
     "payload_ty_nm",
     "payload_tz_nm",
+    "payload_lever_x_mm",
+    "payload_lever_y_mm",
+    "payload_lever_z_mm",
     "force_warn_n",
     "force_stop_n",
     "torque_warn_nm",
@@ -161,6 +167,14 @@ impl LimitsFile {
         for (slot, v) in l.payload.iter_mut().zip(payload) {
             set(slot, v, si);
         }
+        let lever = [
+            self.payload_lever_x_mm,
+            self.payload_lever_y_mm,
+            self.payload_lever_z_mm,
+        ];
+        for (slot, v) in l.payload_lever.iter_mut().zip(lever) {
+            set(slot, v, mm_to_m);
+        }
         set(&mut l.force.warn, self.force_warn_n, si);
         set(&mut l.force.stop, self.force_stop_n, si);
         set(&mut l.torque.warn, self.torque_warn_nm, si);
@@ -176,7 +190,7 @@ fn keys_of(field: &str) -> Option<&'static str> {
         "parallel" => "parallel_warn, parallel_stop",
         "force" => "force_warn_n, force_stop_n",
         "torque" => "torque_warn_nm, torque_stop_nm",
-        "payload" => "payload_fx_n .. payload_tz_nm",
+        "payload" => "payload_fx_n .. payload_tz_nm, payload_lever_x_mm .. payload_lever_z_mm",
         _ => return None,
     })
 }

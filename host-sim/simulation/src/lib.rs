@@ -125,15 +125,29 @@ pub fn report_text(s: &run::Summary) -> String {
     };
     let _ = writeln!(o, "  tracking error (true vs setpoint): {}", e(&s.tracking));
     let _ = writeln!(o, "  target error (true vs master):     {}", e(&s.target));
+    let lag = |l: &Option<metrics::LagSummary>| {
+        l.map_or("-".to_string(), |l| {
+            format!(
+                "{:.1} ms (setpoint vs delayed stream RMS {:.4} mm; at no delay {:.4} mm)",
+                l.delay_ms, l.rms_at_delay_mm, l.rms_at_zero_mm
+            )
+        })
+    };
+    let _ = writeln!(
+        o,
+        "  lag of the setpoint behind the master's stream (best-fitting delay): {}",
+        lag(&s.supervisor.lag)
+    );
     for p in &s.phases {
         let _ = writeln!(
             o,
-            "  {}: tracking tip RMS {:.4} / max {:.4} mm; vs target RMS {:.4} / max {:.4} mm",
+            "  {}: tracking tip RMS {:.4} / max {:.4} mm; vs target RMS {:.4} / max {:.4} mm; lag {}",
             p.name,
             p.tracking.tip_rms_mm,
             p.tracking.tip_max_mm,
             p.target.tip_rms_mm,
-            p.target.tip_max_mm
+            p.target.tip_max_mm,
+            lag(&p.lag)
         );
     }
     if let Some(a) = &s.accuracy {
@@ -183,9 +197,14 @@ pub fn report_text(s: &run::Summary) -> String {
         .collect();
     let _ = writeln!(o, "  peak duty: {}", duty.join(", "));
     let sv = &s.supervisor;
+    let warned: Vec<String> = sv
+        .warn_by_guard
+        .iter()
+        .map(|(g, t)| format!("{g} {t:.2} s"))
+        .collect();
     let _ = writeln!(
         o,
-        "  supervisor: {} targets sent, {} refused (path {}, too far {}, stale {}), warn {:.2} s, \
+        "  supervisor: {} targets sent, {} refused (path {}, too far {}, stale {}), warn {:.2} s{}, \
          stopped {:.2} s, stops {}{}",
         sv.targets_sent,
         sv.refused.total,
@@ -193,6 +212,11 @@ pub fn report_text(s: &run::Summary) -> String {
         sv.refused.too_far,
         sv.refused.stale,
         sv.warn_s,
+        if warned.is_empty() {
+            String::new()
+        } else {
+            format!(" ({})", warned.join(", "))
+        },
         sv.stopped_s,
         sv.stops,
         sv.refused

@@ -183,6 +183,8 @@ pub struct PhaseSummary {
     pub tracking: PoseErrorSummary,
     pub target: PoseErrorSummary,
     pub joints: Vec<JointErrorSummary>,
+    /// The setpoint's lag behind the master's stream over the phase.
+    pub lag: Option<LagSummary>,
 }
 
 /// The accuracy target, judged on the tracking error (JSON).
@@ -273,6 +275,10 @@ pub struct SupervisorSummary {
     pub refused: Refusals,
     /// Time with a warn-level guard violated at the setpoint, s.
     pub warn_s: f64,
+    /// The same by guard: (guard, s).
+    pub warn_by_guard: Vec<(String, f64)>,
+    /// The setpoint's lag behind the master's stream over the run.
+    pub lag: Option<LagSummary>,
     /// Time stopped (latched), s.
     pub stopped_s: f64,
     pub modes: ModeTimes,
@@ -495,6 +501,37 @@ pub struct Metrics {
     pub injected: Vec<InjectedFault>,
     pub first_refusal: Option<(f64, String)>,
     pub targets_sent: u64,
+    /// Per tick: time, the last target's position and the setpoint's (for the lag).
+    lag_series: Vec<(f64, [f64; 3], [f64; 3])>,
+    /// Ticks with the warning flag, by the guard that raised it.
+    warn_by_guard: std::collections::BTreeMap<&'static str, u64>,
+}
+
+/// The setpoint's lag behind the master's stream (JSON): the best-fitting delay
+/// ([`trajectory::best_fitting_delay`], searched from 0 to 200 ms by 0.1 ms).
+#[derive(Clone, Copy, Debug, Serialize, PartialEq)]
+pub struct LagSummary {
+    pub delay_ms: f64,
+    /// RMS distance of the setpoint from the delayed stream, mm.
+    pub rms_at_delay_mm: f64,
+    /// RMS distance of the setpoint from the stream at no delay, mm.
+    pub rms_at_zero_mm: f64,
+}
+
+/// The lag over the samples of `series` within [from, to] s.
+fn lag_over(series: &[(f64, [f64; 3], [f64; 3])], from: f64, to: f64) -> Option<LagSummary> {
+    let part: Vec<_> = series
+        .iter()
+        .filter(|(t, _, _)| *t >= from && *t <= to)
+        .collect();
+    let t: Vec<f64> = part.iter().map(|x| x.0).collect();
+    let stream: Vec<[f64; 3]> = part.iter().map(|x| x.1).collect();
+    let follower: Vec<[f64; 3]> = part.iter().map(|x| x.2).collect();
+    trajectory::best_fitting_delay(&t, &stream, &follower, 0.2, 1e-4).map(|l| LagSummary {
+        delay_ms: l.delay_s * 1e3,
+        rms_at_delay_mm: l.rms_m * 1e3,
+        rms_at_zero_mm: l.rms_at_zero_m * 1e3,
+    })
 }
 
 /// The errors of one tick (for the trace).
@@ -530,7 +567,22 @@ impl Metrics {
             injected: Vec::new(),
             first_refusal: None,
             targets_sent: 0,
+            lag_series: Vec::new(),
+            warn_by_guard: Default::default(),
         }
+    }
+
+    /// The setpoint's lag behind the stream over the whole run.
+    pub fn lag(&self) -> Option<LagSummary> {
+        lag_over(&self.lag_series, f64::NEG_INFINITY, f64::INFINITY)
+    }
+
+    /// Seconds with the warning flag raised, by guard (the guard's edge name).
+    pub fn warn_by_guard(&self) -> Vec<(String, f64)> {
+        self.warn_by_guard
+            .iter()
+            .map(|(g, n)| (g.to_string(), *n as f64 * self.dt))
+            .collect()
     }
 
     pub fn injected(&mut self, at_s: f64, joint: usize, fault: String) {
@@ -583,7 +635,11 @@ impl Metrics {
         self.ticks += 1;
         if sp.warning {
             self.warn_ticks += 1;
+            let name = sp.warn_guard.map_or("?", |g| g.name());
+            *self.warn_by_guard.entry(name).or_insert(0) += 1;
         }
+        let xyz = |p: &Pose<f64>| [p.t.x, p.t.y, p.t.z];
+        self.lag_series.push((t, xyz(target), xyz(&sp.pose)));
         let m = match sp.mode {
             Mode::Holding => 0,
             Mode::Verifying => 1,
@@ -657,6 +713,7 @@ impl Metrics {
                 speed_mm_s: p.speed_mm_s,
                 tracking: w.tracking.summary(),
                 target: w.target.summary(),
+                lag: lag_over(&self.lag_series, p.start_s, p.end_s),
                 joints: w.joint_summaries(),
             })
             .collect()

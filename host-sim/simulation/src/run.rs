@@ -411,6 +411,8 @@ pub fn run(
             first_reason: first.map(|f| f.1),
         },
         warn_s: m.warn_s(),
+        warn_by_guard: m.warn_by_guard(),
+        lag: m.lag(),
         stopped_s: m.modes().stopped_s,
         modes: m.modes(),
         brakes: c.brakes,

@@ -10,9 +10,11 @@
 //!   its settings ([`Laparoscope`]);
 //! - [`Jump`], [`Stream`] and [`Sampler`]: what the master sends (a path sampled at its
 //!   stream rate, or single targets) and when each target reaches the robot;
-//! - [`pose_mm_deg`], [`offset_pose`]: poses from the settings' edge form.
+//! - [`pose_mm_deg`], [`offset_pose`]: poses from the settings' edge form;
+//! - [`best_fitting_delay`]: the lag of the setpoints behind the stream ([`Lag`]).
 
 pub mod figure8;
+pub mod lag;
 pub mod laparoscope;
 pub mod path;
 pub mod pose;
@@ -20,6 +22,7 @@ pub mod profile;
 pub mod stream;
 
 pub use figure8::Figure8;
+pub use lag::{best_fitting_delay, Lag};
 pub use laparoscope::{laparoscope, Laparoscope};
 pub use path::{line, MasterLimits, Phase, Piece, Trajectory};
 pub use pose::{offset_pose, pose_mm_deg};

@@ -50,8 +50,13 @@ pub struct Limits<T: Real> {
     pub joint_speed: [T; 2],
     /// Largest joint acceleration: [prismatic m/s², revolute rad/s²].
     pub joint_accel: [T; 2],
-    /// The declared payload wrench the platform exerts on its environment.
+    /// The declared payload: the wrench the platform exerts on its environment when its
+    /// force part acts through the platform point `payload_lever` (see
+    /// [`Limits::payload_at`]); moment about o_p, in {0}.
     pub payload: Wrench<T>,
+    /// The point of {p} through which the payload's force acts, m (a tool's centre of
+    /// mass; zero: a constant wrench, such as the thesis's design wrench).
+    pub payload_lever: Vector3<T>,
     /// Prismatic force (upper bound, N): warn = continuous rating, stop = peak.
     pub force: Levels<T>,
     /// Revolute torque (upper bound, N m): warn = continuous rating, stop = peak.
@@ -75,9 +80,11 @@ impl fmt::Display for LimitsError {
 
 impl<T: Real> Limits<T> {
     /// The reference robot's limits (CONVENTIONS.md, thesis chapter 4 and Table 11.2):
-    /// - stroke 144 .. 210 mm, spherical-joint tilt 30 deg, tip speed 25 mm/s, the thesis
-    ///   wrench [7, 7, 7 N, 0.7, 0.7, 0.7 N m] as the declared payload, continuous ratings
-    ///   220 N and 0.5 N m as warn levels (thesis Table 11.2);
+    /// - stroke 144 .. 210 mm, spherical-joint tilt 30 deg, tip speed 25 mm/s, the attached
+    ///   tool as the declared payload (thesis chapter 4: 1.2 kg on a 0.1 m lever along x_p,
+    ///   its weight 11.77 N; the thesis's design wrench [7, 7, 7 N, 0.7, 0.7, 0.7 N m]
+    ///   stays an input of the design tools, [`Limits::thesis_design_wrench`]),
+    ///   continuous ratings 220 N and 0.5 N m as warn levels (thesis Table 11.2);
     /// - estimates to be measured on the robot: link angle ±80 deg about the central value
     ///   (the task needs -73 .. +42 deg); collision plane 60 mm, safety circle 40 mm (the
     ///   thesis found its radius experimentally; the task keeps the legs ≥ 71 mm out);
@@ -112,7 +119,15 @@ impl<T: Real> Limits<T> {
             angular_accel: deg(300.0),
             joint_speed: [lit(0.060), lit(3.0)],
             joint_accel: [lit(2.0), lit(60.0)],
-            payload: Wrench::new(lit(7.0), lit(7.0), lit(7.0), lit(0.7), lit(0.7), lit(0.7)),
+            payload: Wrench::new(
+                T::zero(),
+                T::zero(),
+                lit(1.2 * 9.81),
+                T::zero(),
+                T::zero(),
+                T::zero(),
+            ),
+            payload_lever: Vector3::new(lit(0.1), T::zero(), T::zero()),
             force: Levels {
                 warn: lit(220.0),
                 stop: lit(440.0),
@@ -122,6 +137,32 @@ impl<T: Real> Limits<T> {
                 stop: lit(1.0),
             },
         }
+    }
+
+    /// The thesis's design wrench [7, 7, 7 N, 0.7, 0.7, 0.7 N m] (synthesis and force
+    /// tables) as the declared payload, a constant wrench (no lever).
+    pub fn with_thesis_design_wrench(self) -> Self {
+        Limits {
+            payload: Self::thesis_design_wrench(),
+            payload_lever: Vector3::zeros(),
+            ..self
+        }
+    }
+
+    /// The thesis's design wrench [7, 7, 7 N, 0.7, 0.7, 0.7 N m].
+    pub fn thesis_design_wrench() -> Wrench<T> {
+        Wrench::new(lit(7.0), lit(7.0), lit(7.0), lit(0.7), lit(0.7), lit(0.7))
+    }
+
+    /// The declared payload at the platform orientation `r`: [f; m + (R c) × f], f and m
+    /// the force and moment of `payload`, c = `payload_lever` (CONVENTIONS.md forces: a
+    /// tool of mass m_t hanging at c gives f = [0, 0, m_t g], m = 0).
+    pub fn payload_at(&self, r: &nalgebra::Rotation3<T>) -> Wrench<T> {
+        let p = &self.payload;
+        let c = r * self.payload_lever;
+        let f = Vector3::new(p.x, p.y, p.z);
+        let m = c.cross(&f);
+        Wrench::new(p.x, p.y, p.z, p.w + m.x, p.a + m.y, p.b + m.z)
     }
 
     /// Checks that every limit is finite and consistent.
@@ -188,7 +229,9 @@ impl<T: Real> Limits<T> {
         {
             return err("box_half_mm", "must be non-negative and finite");
         }
-        if !self.payload.iter().all(|x| x.is_finite()) {
+        if !self.payload.iter().all(|x| x.is_finite())
+            || !self.payload_lever.iter().all(|x| x.is_finite())
+        {
             return err("payload", "is not finite");
         }
         for (field, l) in [("serial", self.serial), ("parallel", self.parallel)] {

@@ -23,12 +23,14 @@ use crate::scalar::Real;
 use crate::tilt::SocketAxes;
 use core::fmt;
 
+pub mod certificate;
 pub mod limits;
 pub mod motion;
 pub mod pose;
 pub mod readings;
 pub mod staged;
 
+pub use certificate::{Certificate, Constraint, FullEvaluation, GuardMinima, Rate};
 pub use limits::{Levels, Limits, LimitsError};
 pub use motion::MotionSample;
 pub use pose::{orientation_distance, Depth, Evaluation, GuardMargins, Solved};

@@ -11,7 +11,7 @@ use crate::mechanism::{JointKind, Mechanism};
 use crate::pose::{rotation_angle, Pose};
 use crate::scalar::{lit, wrap_angle, Real};
 use crate::singularity::ConditionEstimator;
-use crate::statics::forces_with_inv_cond;
+use crate::statics::{forces_with_inv_cond, Statics};
 use crate::tilt::tilt_angles;
 use nalgebra::Vector3;
 
@@ -227,7 +227,7 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
         if !jac_ok {
             return false; // a serial singularity: already a serial reading
         }
-        self.statics_readings(jac, inv_cond, visit);
+        self.statics_readings(jac, &sol.pose, inv_cond, visit);
         true
     }
 
@@ -368,17 +368,20 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
         Some(inv_cond)
     }
 
-    /// The actuator forces and torques that hold the declared payload.
+    /// The actuator forces and torques that hold the declared payload at `pose`
+    /// ([`super::Limits::payload_at`]); the statics, when they could be computed.
     pub(super) fn statics_readings(
         &self,
         jac: &Jacobians<T>,
+        pose: &Pose<T>,
         inv_cond: T,
         visit: &mut impl FnMut(&Reading<T>),
-    ) {
+    ) -> Option<Statics<T>> {
         let l = &self.limits;
         let kinds = self.robot.joint_kinds();
-        let Ok(st) = forces_with_inv_cond(jac, &l.payload, inv_cond, l.parallel.stop) else {
-            return; // already a parallel reading
+        let se = l.payload_at(&pose.r);
+        let Ok(st) = forces_with_inv_cond(jac, &se, inv_cond, l.parallel.stop) else {
+            return None; // already a parallel reading
         };
         for (j, (tau, kind)) in st.tau.iter().zip(kinds.iter()).enumerate() {
             let (guard, levels) = match kind {
@@ -392,6 +395,7 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
                 levels,
             ));
         }
+        Some(st)
     }
 }
 

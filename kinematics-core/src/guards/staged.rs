@@ -9,9 +9,11 @@ use crate::pose::Pose;
 use crate::scalar::Real;
 use crate::singularity::ConditionEstimator;
 
+use super::certificate::{FullEvaluation, GuardMinima};
 use super::pose::Evaluation;
 use super::readings::unreachable;
-use super::{Guards, Reading, Severity};
+use super::{Guard, Guards, Reading, Severity};
+use crate::statics::Statics;
 
 /// The stages of a staged full evaluation, in order.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -49,6 +51,12 @@ pub struct Staged<T: Real> {
     stop: Option<Reading<T>>,
     warn: bool,
     next: Option<Stage>,
+    /// The smallest margin of each guard so far.
+    minima: GuardMinima<T>,
+    /// The payload statics, once computed.
+    statics: Option<Statics<T>>,
+    /// The first guard of the parallel measure or the payload efforts at a warn level.
+    late_warn: Option<Guard>,
 }
 
 impl<T: Real> Staged<T> {
@@ -63,6 +71,9 @@ impl<T: Real> Staged<T> {
             stop: None,
             warn: false,
             next: None,
+            minima: GuardMinima::new(),
+            statics: None,
+            late_warn: None,
         }
     }
     /// Starts over at `pose`.
@@ -73,6 +84,9 @@ impl<T: Real> Staged<T> {
         self.stop = None;
         self.warn = false;
         self.next = Some(Stage::Kinematic);
+        self.minima = GuardMinima::new();
+        self.statics = None;
+        self.late_warn = None;
     }
     /// The pose being evaluated.
     pub fn pose(&self) -> &Pose<T> {
@@ -98,6 +112,26 @@ impl<T: Real> Staged<T> {
     pub fn inv_cond(&self) -> Option<T> {
         self.inv_cond_ok.then_some(self.inv_cond)
     }
+    /// The first guard among the parallel measure and the payload efforts found at a warn
+    /// level (the kinematic guards' warn levels follow the setpoint's own solution).
+    pub fn late_warn(&self) -> Option<Guard> {
+        self.late_warn
+    }
+    /// What the finished evaluation computed, for [`Guards::certify`]: None unless it ran
+    /// to the end (statics included) without a stop-level reading.
+    pub fn full(&self) -> Option<FullEvaluation<'_, T>> {
+        let statics = self.statics.as_ref()?;
+        (self.next.is_none() && self.stop.is_none() && self.jac_ok && self.inv_cond_ok).then_some({
+            FullEvaluation {
+                sol: &self.eval.sol,
+                jac: &self.eval.jac,
+                inv_cond: self.inv_cond,
+                statics,
+                minima: &self.minima,
+                warn: self.late_warn,
+            }
+        })
+    }
 }
 
 impl<T: Real, M: Mechanism<T>> Guards<T, M> {
@@ -117,11 +151,26 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
             stop,
             warn,
             next,
+            minima,
+            statics,
+            late_warn,
         } = st;
-        let mut visit = |r: &Reading<T>| match r.severity {
-            Some(Severity::Stop) if stop.is_none() => *stop = Some(*r),
-            Some(Severity::Warn) => *warn = true,
-            _ => {}
+        let mut visit = |r: &Reading<T>| {
+            minima.record(r.guard, r.margin);
+            match r.severity {
+                Some(Severity::Stop) if stop.is_none() => *stop = Some(*r),
+                Some(Severity::Warn) => {
+                    *warn = true;
+                    let late = matches!(
+                        r.guard,
+                        Guard::ParallelSingularity | Guard::Force | Guard::Torque
+                    );
+                    if late && late_warn.is_none() {
+                        *late_warn = Some(r.guard);
+                    }
+                }
+                _ => {}
+            }
         };
         *next = match stage {
             Stage::Kinematic => {
@@ -171,7 +220,7 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
                 }
             },
             Stage::Statics => {
-                self.statics_readings(&eval.jac, *inv_cond, &mut visit);
+                *statics = self.statics_readings(&eval.jac, pose, *inv_cond, &mut visit);
                 None
             }
         };

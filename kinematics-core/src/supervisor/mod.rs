@@ -136,6 +136,11 @@ pub struct TickOutput<T: Real> {
     pub mode: Mode,
     /// A warn-level guard is violated at the setpoint.
     pub warning: bool,
+    /// Which: the first kinematic guard of the setpoint's own solution between its warn
+    /// and stop levels, else the parallel measure or a payload effort at its warn level at
+    /// the last braking point checked (those need a full evaluation, which the setpoint
+    /// does not get).
+    pub warn_guard: Option<Guard>,
     /// The latched stop reason, if stopped.
     pub stop: Option<Reading<T>>,
 }
@@ -196,7 +201,7 @@ pub struct Supervisor<T: Real, M: Mechanism<T>> {
     last_stamp_us: Option<u64>,
     latched: Option<Reading<T>>,
     braking: bool,
-    warning: bool,
+    warning: Option<Guard>,
     counters: Counters,
     last_refusal: Option<Refusal<T>>,
     /// The full evaluation in progress, one stage per tick, and what it is for.
@@ -209,8 +214,9 @@ pub struct Supervisor<T: Real, M: Mechanism<T>> {
     cond_path: ConditionEstimator<T>,
     cond_path_end: ConditionEstimator<T>,
     cond_ahead: ConditionEstimator<T>,
-    /// A warn level was reached at the last braking point checked.
-    ahead_warn: bool,
+    /// The parallel measure or a payload effort at a warn level at the last braking point
+    /// checked.
+    ahead_warn: Option<Guard>,
     /// A verified target accepted while moving: it replaces the goal once a braking-point
     /// check that looked past the goal (up to this target) has passed, since the checks
     /// before looked no farther than the goal.
@@ -322,7 +328,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             last_stamp_us: None,
             latched: None,
             braking: false,
-            warning: !verdict.is_ok(),
+            warning: verdict.violations.first().map(|r| r.guard),
             counters: Counters::default(),
             last_refusal: None,
             checker: Staged::new(branch),
@@ -332,7 +338,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             cond_path: ConditionEstimator::new(),
             cond_path_end: ConditionEstimator::new(),
             cond_ahead: ConditionEstimator::new(),
-            ahead_warn: false,
+            ahead_warn: None,
             next_goal: None,
             job_for_next: false,
             parallel: start_parallel,
@@ -431,9 +437,9 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
     /// Evaluates the kinematic guards at `pose` into the spare of `self.evals`
     /// (the solution and its Jacobians; [`Self::keep_candidate`] makes it the setpoint's):
     /// the first stop-level reading, whether a warn level is reached, and what was solved.
-    fn kinematic_check(&mut self, pose: &Pose<T>) -> (Option<Reading<T>>, bool, Solved) {
+    fn kinematic_check(&mut self, pose: &Pose<T>) -> (Option<Reading<T>>, Option<Guard>, Solved) {
         let mut stop = None;
-        let mut warn = false;
+        let mut warn = None;
         // (The kinematic depth has no SVD to warm-start.)
         let cond = &mut self.cond_setpoint;
         let scratch = self.evals.spare_mut();
@@ -441,7 +447,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             pose,
             &mut |r| match r.severity {
                 Some(Severity::Stop) if stop.is_none() => stop = Some(*r),
-                Some(Severity::Warn) => warn = true,
+                Some(Severity::Warn) if warn.is_none() => warn = Some(r.guard),
                 _ => {}
             },
             cond,
@@ -516,10 +522,10 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         self.twist = Twist::zeros();
         self.qdot = Joints::zeros();
         self.drop_pending();
-        self.output(false)
+        self.output(None)
     }
 
-    fn output(&self, warning: bool) -> TickOutput<T> {
+    fn output(&self, warning: Option<Guard>) -> TickOutput<T> {
         let moving = self.twist.iter().any(|x| *x != T::zero());
         let mode = if self.latched.is_some() {
             Mode::Stopped
@@ -538,7 +544,8 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             qdot: self.qdot,
             twist: self.twist,
             mode,
-            warning,
+            warning: warning.is_some(),
+            warn_guard: warning,
             stop: self.latched,
         }
     }
@@ -655,7 +662,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
     /// kinematic guards and the motion guards on the output.
     pub fn tick(&mut self) -> TickOutput<T> {
         if self.latched.is_some() {
-            return self.output(false);
+            return self.output(None);
         }
         let moving = self.twist.iter().any(|x| *x != T::zero());
         let l = self.profile_limits();
@@ -712,9 +719,9 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             self.goal = profile::stop_point(&v1, &w1, &candidate, &l);
         }
         let (stop, warn, solved) = self.kinematic_check(&candidate);
-        // A warn level reached at the braking point is reported as well (the payload's
-        // torque, e.g., is only evaluated there while moving).
-        let warn = warn || self.ahead_warn;
+        // A warn level of the parallel measure or a payload effort reached at the braking
+        // point is reported as well (those are only evaluated there while moving).
+        let warn = warn.or(self.ahead_warn);
         match (stop, solved) {
             (Some(r), _) => return self.hold(r),
             (None, Solved::No) => return self.output(warn), // unreachable: no solution is a stop
@@ -730,7 +737,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         self.qdot = qdot;
         self.twist = twist;
         self.warning = warn;
-        if warn {
+        if warn.is_some() {
             self.counters.warn_ticks += 1;
         }
         if self.braking && norm3(&v1) + norm3(&w1) == T::zero() {

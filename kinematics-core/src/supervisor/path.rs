@@ -143,7 +143,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         }
         match job {
             Job::Ahead => {
-                self.ahead_warn = self.checker.warn();
+                self.ahead_warn = self.checker.late_warn();
                 if stop.is_none() && self.job_for_next {
                     if let Some(next) = self.next_goal.take() {
                         self.goal = next;

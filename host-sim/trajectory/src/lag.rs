@@ -1,0 +1,111 @@
+//! The lag of a follower behind a stream: the best-fitting delay between the poses a master
+//! streamed and the setpoints (or poses) that followed them, sampled at the same instants.
+//!
+//! For a delay τ the follower's position at t is compared with the stream's at t - τ (the
+//! stream linearly interpolated between its samples); the best-fitting delay is the τ
+//! that minimises the RMS distance, searched on a grid of `step_s` from 0 to
+//! `max_delay_s`. The simulation prints it (`host-sim sim`); the emulated board's run can
+//! call [`best_fitting_delay`] on its status records (times, targets sent, setpoints).
+
+/// The best-fitting delay and the residual at it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lag {
+    /// The delay, s.
+    pub delay_s: f64,
+    /// RMS distance between the follower and the delayed stream at that delay, m.
+    pub rms_m: f64,
+    /// RMS distance at no delay, m.
+    pub rms_at_zero_m: f64,
+}
+
+/// The best-fitting delay of `follower` behind `stream`, both sampled at the increasing
+/// times `t_s` (s; positions in m); None with fewer than two samples or lengths that
+/// differ. Only the samples with t - max_delay_s within the record count, the same for
+/// every τ.
+pub fn best_fitting_delay(
+    t_s: &[f64],
+    stream: &[[f64; 3]],
+    follower: &[[f64; 3]],
+    max_delay_s: f64,
+    step_s: f64,
+) -> Option<Lag> {
+    let n = t_s.len();
+    if n < 2 || stream.len() != n || follower.len() != n || step_s.is_nan() || step_s <= 0.0 {
+        return None;
+    }
+    let t0 = *t_s.first()?;
+    // The stream at time t (linear between samples; clamped at the ends).
+    let at = |t: f64, hint: &mut usize| -> [f64; 3] {
+        while *hint + 1 < n && t_s[*hint + 1] <= t {
+            *hint += 1;
+        }
+        while *hint > 0 && t_s[*hint] > t {
+            *hint -= 1;
+        }
+        let (i, j) = (*hint, (*hint + 1).min(n - 1));
+        let (a, b) = (stream[i], stream[j]);
+        let span = t_s[j] - t_s[i];
+        let s = if span > 0.0 {
+            ((t - t_s[i]) / span).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        [
+            a[0] + (b[0] - a[0]) * s,
+            a[1] + (b[1] - a[1]) * s,
+            a[2] + (b[2] - a[2]) * s,
+        ]
+    };
+    let rms = |tau: f64| -> f64 {
+        let (mut sum, mut count, mut hint) = (0.0, 0usize, 0usize);
+        for (k, t) in t_s.iter().enumerate() {
+            if *t - max_delay_s < t0 {
+                continue;
+            }
+            let p = at(*t - tau, &mut hint);
+            let f = follower[k];
+            sum += (f[0] - p[0]).powi(2) + (f[1] - p[1]).powi(2) + (f[2] - p[2]).powi(2);
+            count += 1;
+        }
+        if count == 0 {
+            f64::NAN
+        } else {
+            (sum / count as f64).sqrt()
+        }
+    };
+    let steps = (max_delay_s / step_s).round() as usize;
+    let mut best = (0.0, f64::INFINITY);
+    for k in 0..=steps {
+        let tau = k as f64 * step_s;
+        let r = rms(tau);
+        if r < best.1 {
+            best = (tau, r);
+        }
+    }
+    Some(Lag {
+        delay_s: best.0,
+        rms_m: best.1,
+        rms_at_zero_m: rms(0.0),
+    })
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    /// A follower that is the stream delayed by 37 ms is found 37 ms behind, with no
+    /// residual; a follower on the stream has no delay.
+    #[test]
+    fn a_delayed_copy_is_found_at_its_delay() {
+        let t: Vec<f64> = (0..4000).map(|k| k as f64 * 1e-3).collect();
+        let path = |t: f64| [0.01 * (3.0 * t).sin(), 0.008 * (5.0 * t).cos(), 0.002 * t];
+        let stream: Vec<[f64; 3]> = t.iter().map(|t| path(*t)).collect();
+        let late: Vec<[f64; 3]> = t.iter().map(|t| path(t - 0.037)).collect();
+        let lag = best_fitting_delay(&t, &stream, &late, 0.2, 1e-4).unwrap();
+        assert!((lag.delay_s - 0.037).abs() < 1e-9, "{lag:?}");
+        assert!(lag.rms_m < 1e-9 && lag.rms_at_zero_m > 1e-4);
+        let lag = best_fitting_delay(&t, &stream, &stream, 0.2, 1e-4).unwrap();
+        assert_eq!(lag.delay_s, 0.0);
+    }
+}

@@ -1,0 +1,423 @@
+//! Certified regions: one full guard evaluation at a pose c certifies every pose near it.
+//!
+//! For every stop-level guard g with margin m_g (positive inside, in the guard's unit) this
+//! module bounds how fast the margin can change along a straight motion of the platform
+//! (translation linear, rotation about a fixed world axis: the supervisor's segments and
+//! braking paths): |dm_g/ds| ≤ a_g·|v| + b_g·|ω| for the twist [v; ω] of the motion, the
+//! coefficients computed from the geometry in use, the limits and the values at c. Along
+//! the straight motion from c to a pose x the twist is constant, |v| = |Δt| and |ω| = θ,
+//! the rotation angle of R_x R_cᵀ, so
+//!
+//! ```text
+//!     m_g(x) ≥ m_g(c) - (a_g |Δt| + b_g θ)                                  (1)
+//! ```
+//!
+//! and the **certified region** of c is { x : a_g |Δt| + b_g θ < m_g(c) for every g }.
+//!
+//! The bounds hold wherever every stop-level guard holds (the safe set S: the stroke is
+//! within its range, the platform within the task box and the tilt cone, ...) and where
+//! two auxiliary lower bounds hold (the serial measure |Cn2| ≥ κ and the smallest singular
+//! value of the scaled Jtilde ≥ σ_lo, themselves certified by (1) like guards). Why the
+//! region lies in S (the first-exit argument): on the straight motion from c to a pose x of
+//! the region, let y be the first pose where a guard or an auxiliary bound fails; before
+//! y every bound below holds, so by (1) each margin at y is still positive; the margins are
+//! continuous, so none fails at y either: there is no such y.
+//!
+//! Notation (per chain i; thesis chapter 6 and 7, CONVENTIONS.md): p the upper revolute
+//! centre, b the spherical joint, l = |p - b| the leg, ŝ1 = (p - b)/l, ŝ2 = R r_i the upper
+//! revolute axis, l_b = b - e (the rotating link, |l_b| = rb), θ the link angle, Cn2 =
+//! (ŝ2 × z0)·l_b, written ŝ2·(z0 × l_b) (Eq. 7.21, 10.6), A the scaled Jtilde (moment
+//! columns over rp, CONVENTIONS.md measures). The rates, with V_p = |v| + rp|ω|:
+//!
+//! - ṗ = v + ω × (p - t): |ṗ| ≤ V_p.
+//! - θ̇ from the second row of each chain of Jtilde (Eq. 7.16-7.21): Cn2·θ̇ = ŝ2·(v + ω ×
+//!   (b - t)), |b - t| ≤ β (auxiliary: β = |b - t| at c + 10 mm, never above l_max + rp,
+//!   the bound |b - t| ≤ |b - p| + |p - t|; |d|b - t|| ≤ |ḃ| + |v|), so |θ̇| ≤ Θ = (|v| +
+//!   β|ω|)/κ.
+//! - ḃ = θ̇ z0 × l_b: |ḃ| ≤ rb Θ. l̇ ≤ |ṗ - ḃ| ≤ V_p + rb Θ (stroke).
+//! - ŝ1 = (p - b)/l: |dŝ1| ≤ |ṗ - ḃ|/l ≤ (V_p + rb Θ)/l_min. ŝ2 = R r_i: |dŝ2| ≤ |ω|.
+//! - the spherical-joint tilt, the angle between ŝ1 and the socket axis fixed to the link
+//!   (turning at θ̇ about z0): ≤ |dŝ1| + Θ. The link angle: Θ.
+//! - the collision radius (section 11.4), |P_xy| with P = b + ŝ1 (h - b_z)/ŝ1_z (b moves
+//!   on a horizontal circle: b_z is constant): |Ṗ| ≤ |ḃ| + 2|h - b_z| |dŝ1|/ŝ1_z², where
+//!   ŝ1_z ≥ (p_z,min - b_z)/l_max on S, p_z,min the lowest platform point the task box and
+//!   tilt cone allow.
+//! - the serial measure Cn2 (Eq. 10.6): |d Cn2| ≤ rb|ω| + rb Θ (relative: over rb).
+//! - the task box: |v| per axis; the tilt cone: |ω|.
+//! - reach: the inverse kinematics of Eq. 6.22 has a real root while its discriminant is
+//!   positive, and the discriminant vanishes exactly where the leg plane touches the link
+//!   circle, i.e. where Cn2 = 0 (the circle's tangent z0 × l_b lies in the plane of normal
+//!   ŝ2). With Cn2 ≥ κ > 0 on the motion the root persists (and stays the same branch).
+//! - the parallel measure (inverse condition number of A): the rows of A change at most
+//!   at |dŝ1|(1 + rp/rp) + |ω| (the ŝ1 lines through p) and |ω|(1 + (l_max + rp)/rp) +
+//!   (|ḃ| + |v|)/rp (the ŝ2 lines through b), so ‖A(x) - A(c)‖_F ≤ δ, the integral of
+//!   √3·√(r1² + r2²). By Weyl's inequality σ_min(x) ≥ σ_min(c) - δ and σ_max(x) ≤
+//!   σ_max(c) + δ, so the measure stays ≥ the stop level p while δ ≤ σ_max(c)(ic - p)/(1 +
+//!   p), ic the measure at c; σ_max(c) ≥ the largest row norm of A(c) (≥ 1: each row has a
+//!   unit direction part), which is what is used.
+//! - the actuator efforts of the declared payload (Eq. 7.10, 7.15, 7.16, 7.20): the line
+//!   forces f = A⁻ᵀ D s_e (D s_e = [f_e; m_e/rp]), τ_leg = f1_i, τ_link = a12 f1_i + a22 f2_i
+//!   (|a12|, |a22| ≤ rb). With |f| ≤ F (auxiliary, F = 1.5|f(c)| + 1 N) and σ_min(A) ≥
+//!   σ_lo = 0.8 σ_min(c) (auxiliary): |ḟ| ≤ (|D ṡ_e| + ‖Ȧ‖ F)/σ_lo, |D ṡ_e| ≤ |ω| |c_p| |f_e|/rp
+//!   for a payload force f_e through the platform point c_p; |τ̇_link| ≤ (|ȧ12| + |ȧ22|)F +
+//!   2 rb |ḟ| with |ȧ12| ≤ rb(|dŝ1| + Θ), |ȧ22| ≤ rb(|ω| + Θ).
+//!
+//! κ is 0.8 × the smallest |Cn2| at c and σ_lo 0.8 × the smallest singular value bound at
+//! c: each auxiliary bound is one more constraint of the region, with the rest as margin.
+//!
+//! The bounds are derived for the RSPR chain (a rotating link about z0 on the base plane, a
+//! prismatic leg, a revolute joint on the platform); [`Guards::certify`] gives no region
+//! for other mechanisms. Rounding: the margins are those the evaluation computed; no
+//! allowance is made for the rounding of the evaluation itself (f32 on the MCU: 1e-7
+//! relative, far inside the 5 % the supervisor keeps in hand of each region).
+
+use crate::chain::Chain;
+use crate::ik::Solution;
+use crate::jacobian::Jacobians;
+use crate::mechanism::{JointKind, Mechanism};
+use crate::pose::{rotation_angle, Pose};
+use crate::scalar::{dot3, lit, norm3, sqrt, sub3, Real};
+use crate::statics::Statics;
+
+use super::{Guard, Guards};
+
+/// Constraints of one certified region: one per stop-level guard and auxiliary bound.
+pub const CONSTRAINTS: usize = 14;
+
+/// The share of each margin a region uses (5 % kept in hand).
+pub const MARGIN_SHARE: f64 = 0.95;
+
+/// κ and σ_lo as a share of their values at the centre.
+const AUX_SHARE: f64 = 0.8;
+/// β = |b - t| at the centre plus this, m.
+const BT_SLACK: f64 = 0.01;
+/// F = this × |f(c)| + 1 N.
+const F_GROWTH: f64 = 1.5;
+
+/// A bound a·|v| + b·|ω| on a rate of change along a straight motion of twist [v; ω].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Rate<T: Real> {
+    /// Per m/s of the platform centre's speed.
+    pub v: T,
+    /// Per rad/s of the angular speed.
+    pub w: T,
+}
+
+impl<T: Real> Rate<T> {
+    fn new(v: T, w: T) -> Self {
+        Rate { v, w }
+    }
+    fn plus(self, o: Self) -> Self {
+        Rate::new(self.v + o.v, self.w + o.w)
+    }
+    fn times(self, k: T) -> Self {
+        Rate::new(self.v * k, self.w * k)
+    }
+    /// The bound over a straight motion of |Δt| and θ.
+    pub fn over(&self, dt: T, dtheta: T) -> T {
+        self.v * dt + self.w * dtheta
+    }
+}
+
+/// One constraint of a region: the guard (or auxiliary bound) it keeps, its margin at the
+/// centre and the bound on the margin's rate.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Constraint<T: Real> {
+    /// The guard; None for the auxiliary bounds (|Cn2| ≥ κ, σ_min ≥ σ_lo, |f| ≤ F).
+    pub guard: Option<Guard>,
+    /// The margin at the centre, in the guard's unit.
+    pub margin: T,
+    /// The bound on its rate of change.
+    pub rate: Rate<T>,
+}
+
+/// The region certified by one full evaluation at `center`: every pose x with, for each
+/// constraint, rate.over(|Δt|, θ) < [`MARGIN_SHARE`] × margin, violates no stop-level
+/// guard (see the module documentation). Stored normalised: x is inside when a·|Δt| +
+/// b·θ < 1 for every (a, b) of `scaled`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Certificate<T: Real> {
+    /// The pose evaluated.
+    pub center: Pose<T>,
+    /// (a, b) of each constraint: the rate over [`MARGIN_SHARE`] × the margin.
+    pub scaled: [(T, T); CONSTRAINTS],
+    /// The largest translation certified at no rotation, m (the smallest 0.95 m/a).
+    pub reach_t: T,
+    /// The largest rotation certified at no translation, rad.
+    pub reach_r: T,
+    /// A warn level of the parallel measure or the payload efforts was reached at the
+    /// centre: the guard.
+    pub warn: Option<Guard>,
+}
+
+impl<T: Real> Certificate<T> {
+    /// Whether a pose |Δt| and θ from the centre is inside.
+    pub fn contains_offset(&self, dt: T, dtheta: T) -> bool {
+        self.scaled
+            .iter()
+            .all(|(a, b)| *a * dt + *b * dtheta < T::one())
+    }
+
+    /// Whether `pose` is inside.
+    pub fn contains(&self, pose: &Pose<T>) -> bool {
+        let (dt, dr) = offset(&self.center, pose);
+        self.contains_offset(dt, dr)
+    }
+
+    /// Whether every pose of a straight motion `from` → `to` (translation and rotation
+    /// each linear, at any relative pace: a segment of the supervisor or a braking path,
+    /// whose translation and rotation may end at different times) is inside. Uses
+    /// |Δt(s)| ≤ max(|Δt_from|, |Δt_to|) (the norm is convex) and θ(s) ≤ (θ_from + θ_to +
+    /// θ_from,to)/2 (the triangle inequality from either end).
+    pub fn contains_motion(&self, from: &Pose<T>, to: &Pose<T>) -> bool {
+        let (ta, ra) = offset(&self.center, from);
+        let (tb, rb) = offset(&self.center, to);
+        let r_ab = rotation_angle(&(to.r * from.r.inverse()));
+        let half = lit::<T>(0.5);
+        self.contains_offset(ta.max(tb), (ra + rb + r_ab) * half)
+    }
+}
+
+/// |Δt| and the rotation angle of `pose` from `center`.
+pub fn offset<T: Real>(center: &Pose<T>, pose: &Pose<T>) -> (T, T) {
+    (
+        norm3(&sub3(&pose.t, &center.t)),
+        rotation_angle(&(pose.r * center.r.inverse())),
+    )
+}
+
+/// The smallest margin of each guard in one full evaluation (the readings' margins:
+/// positive inside, in the guard's unit), for [`Guards::certify`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GuardMinima<T: Real>(pub [T; 19]);
+
+impl<T: Real> GuardMinima<T> {
+    /// No reading yet (every margin infinite).
+    pub fn new() -> Self {
+        GuardMinima([T::max_value().unwrap_or(T::one() / T::default_epsilon()); 19])
+    }
+    /// Records a reading's margin (NaN counts as beyond the limit).
+    pub fn record(&mut self, guard: Guard, margin: T) {
+        let Some(slot) = self.0.get_mut(guard_index(guard)) else {
+            return;
+        };
+        if !(margin >= *slot) {
+            *slot = if margin.is_finite() {
+                margin
+            } else {
+                -T::one()
+            };
+        }
+    }
+    /// The smallest margin of `guard` seen.
+    pub fn get(&self, guard: Guard) -> T {
+        self.0.get(guard_index(guard)).copied().unwrap_or(-T::one())
+    }
+}
+
+impl<T: Real> Default for GuardMinima<T> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// The guard's place in [`Guard::ALL`] (its declaration order).
+fn guard_index(g: Guard) -> usize {
+    g as usize
+}
+
+/// What a full evaluation computed at its pose, for [`Guards::certify`].
+#[derive(Clone, Copy, Debug)]
+pub struct FullEvaluation<'a, T: Real> {
+    /// The inverse-kinematics solution.
+    pub sol: &'a Solution<T>,
+    /// Its Jacobians.
+    pub jac: &'a Jacobians<T>,
+    /// The parallel measure (inverse condition number of the scaled Jtilde).
+    pub inv_cond: T,
+    /// The payload statics.
+    pub statics: &'a Statics<T>,
+    /// The smallest margin of each guard.
+    pub minima: &'a GuardMinima<T>,
+    /// A warn level of the parallel measure, the force or the torque was reached.
+    pub warn: Option<Guard>,
+}
+
+impl<T: Real, M: Mechanism<T>> Guards<T, M> {
+    /// The region a full evaluation without a stop-level violation certifies (see the
+    /// module documentation), or None: not an RSPR, a margin not positive, a bound not
+    /// finite.
+    pub fn certify(&self, e: &FullEvaluation<'_, T>) -> Option<Certificate<T>> {
+        let cons = self.certificate_constraints(e)?;
+        let (zero, one) = (T::zero(), T::one());
+        let share = lit::<T>(MARGIN_SHARE);
+        let mut scaled = [(zero, zero); CONSTRAINTS];
+        let (mut reach_t, mut reach_r) = (T::max_value()?, T::max_value()?);
+        for (s, c) in scaled.iter_mut().zip(cons.iter()) {
+            if !(c.margin > zero && c.rate.v >= zero && c.rate.w >= zero) {
+                return None;
+            }
+            let usable = c.margin * share;
+            *s = (c.rate.v / usable, c.rate.w / usable);
+            if !(s.0.is_finite() && s.1.is_finite()) {
+                return None;
+            }
+            if s.0 > zero {
+                reach_t = reach_t.min(one / s.0);
+            }
+            if s.1 > zero {
+                reach_r = reach_r.min(one / s.1);
+            }
+        }
+        Some(Certificate {
+            center: e.sol.pose,
+            scaled,
+            reach_t,
+            reach_r,
+            warn: e.warn,
+        })
+    }
+
+    /// The constraints of the region [`Guards::certify`] gives, unscaled: each guard's (and
+    /// auxiliary bound's) margin at the centre and the bound on its rate (for the
+    /// certificate, tests and reports); None for another mechanism than the RSPR or a
+    /// degenerate evaluation.
+    pub fn certificate_constraints(
+        &self,
+        e: &FullEvaluation<'_, T>,
+    ) -> Option<[Constraint<T>; CONSTRAINTS]> {
+        use JointKind::{Angular, Linear};
+        if self.robot.joint_kinds() != [Linear, Linear, Linear, Angular, Angular, Angular] {
+            return None;
+        }
+        let l = &self.limits;
+        let one = T::one();
+        let zero = T::zero();
+        let two = lit::<T>(2.0);
+        let sol = e.sol;
+        let t = sol.pose.t;
+        // Per-chain constants read off the solution: rb = |l_b|, rp = |p - t|, b_z.
+        let (mut rb, mut rp) = (zero, zero);
+        let (mut bz_lo, mut bz_hi) = (T::max_value()?, -T::max_value()?);
+        let mut cn2_min = T::max_value()?;
+        for c in Chain::ALL {
+            let ch = &sol.chains[c];
+            rb = rb.max(norm3(&ch.lb));
+            rp = rp.max(norm3(&sub3(&ch.p, &t)));
+            bz_lo = bz_lo.min(ch.b.z);
+            bz_hi = bz_hi.max(ch.b.z);
+            cn2_min = cn2_min.min(e.jac.serial[c].a22.abs());
+        }
+        let (lmin, lmax) = (l.stroke[0], l.stroke[1]);
+        if !(rp > zero && rb > zero && lmin > zero && cn2_min > zero) {
+            return None;
+        }
+        let kappa = cn2_min * lit(AUX_SHARE);
+        // |b - t| ≤ β (auxiliary; ≤ l_max + rp always).
+        let mut bt_c = zero;
+        for c in Chain::ALL {
+            bt_c = bt_c.max(norm3(&sub3(&sol.chains[c].b, &t)));
+        }
+        let beta = (bt_c + lit(BT_SLACK)).min(lmax + rp);
+        // Θ = (|v| + β|ω|)/κ bounds |θ̇|.
+        let theta = Rate::new(one / kappa, beta / kappa);
+        let vp = Rate::new(one, rp);
+        let bdot = theta.times(rb);
+        let legdot = vp.plus(bdot);
+        let s1dot = legdot.times(one / lmin);
+        let omega = Rate::new(zero, one);
+        let vel = Rate::new(one, zero);
+        let nothing = Constraint {
+            guard: None,
+            margin: one,
+            rate: Rate::new(zero, zero),
+        };
+        let m = e.minima;
+        let c = |g: Guard, rate: Rate<T>| Constraint {
+            guard: Some(g),
+            margin: m.get(g),
+            rate,
+        };
+        let aux = |margin: T, rate: Rate<T>| Constraint {
+            guard: None,
+            margin,
+            rate,
+        };
+        let collision = if l.collision_radius > zero {
+            // The lowest point of the platform's revolute centres on S.
+            let pz_min = self.robot.hc()
+                - l.box_half.z
+                - l.box_margin
+                - rp * crate::scalar::sin_cos(l.tilt_cone).0;
+            let s1z = (pz_min - bz_hi) / lmax;
+            if !(s1z > zero) {
+                return None;
+            }
+            let lever = (l.collision_plane_height - bz_lo)
+                .abs()
+                .max((l.collision_plane_height - bz_hi).abs());
+            c(
+                Guard::Collision,
+                bdot.plus(s1dot.times(two * lever / (s1z * s1z))),
+            )
+        } else {
+            nothing
+        };
+        // The serial measure (relative: |Cn2|/rb) and the auxiliary |Cn2| ≥ κ.
+        let cn2dot = omega.plus(theta);
+        // The parallel measure through δ = ‖A(x) - A(c)‖_F.
+        let row1 = s1dot.times(two).plus(omega);
+        let row2 = Rate::new(one / rp, one + beta / rp).plus(bdot.times(one / rp));
+        let hyp = |a: T, b: T| sqrt(a * a + b * b);
+        let delta = Rate::new(hyp(row1.v, row2.v), hyp(row1.w, row2.w)).times(sqrt(lit(3.0)));
+        let sigma_row = largest_row_norm(&e.jac.jtilde, rp).max(one);
+        let ic = e.inv_cond;
+        let p = l.parallel.stop;
+        let sigma_min = ic * sigma_row;
+        let sigma_lo = sigma_min * lit(AUX_SHARE);
+        // The payload efforts.
+        let f = e.statics;
+        let fc = sqrt(dot3(&f.f1, &f.f1) + dot3(&f.f2, &f.f2));
+        let big_f = fc * lit(F_GROWTH) + one;
+        let fe = &l.payload;
+        let fe_norm = sqrt(fe.x * fe.x + fe.y * fe.y + fe.z * fe.z);
+        let se_dot = Rate::new(zero, norm3(&l.payload_lever) * fe_norm / rp);
+        let fdot = se_dot.plus(delta.times(big_f)).times(one / sigma_lo);
+        let a12dot = s1dot.plus(theta).times(rb);
+        let a22dot = omega.plus(theta).times(rb);
+        let torque = a12dot.plus(a22dot).times(big_f).plus(fdot.times(two * rb));
+        Some([
+            c(Guard::Workspace, vel),
+            c(Guard::TiltCone, omega),
+            c(Guard::Stroke, legdot),
+            c(Guard::LinkAngle, theta),
+            c(Guard::Tilt, s1dot.plus(theta)),
+            collision,
+            c(Guard::SerialSingularity, cn2dot),
+            aux(cn2_min - kappa, cn2dot.times(rb)),
+            aux(beta - bt_c, bdot.plus(vel)),
+            Constraint {
+                guard: Some(Guard::ParallelSingularity),
+                margin: sigma_row * (ic - p) / (one + p),
+                rate: delta,
+            },
+            aux(sigma_min - sigma_lo, delta),
+            aux(big_f - fc, fdot),
+            c(Guard::Force, fdot),
+            c(Guard::Torque, torque),
+        ])
+    }
+}
+
+/// The largest row norm of Jtilde with its moment columns over rp (a lower bound of
+/// σ_max of the scaled Jtilde).
+fn largest_row_norm<T: Real>(jtilde: &nalgebra::Matrix6<T>, rp: T) -> T {
+    let mut rows = [T::zero(); 6];
+    for (j, col) in jtilde.data.0.iter().enumerate() {
+        let k = if j >= 3 { T::one() / rp } else { T::one() };
+        for (r, x) in rows.iter_mut().zip(col.iter()) {
+            *r += (*x * k) * (*x * k);
+        }
+    }
+    sqrt(rows.iter().fold(T::zero(), |a, x| a.max(*x)))
+}

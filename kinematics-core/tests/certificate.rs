@@ -1,0 +1,245 @@
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+//! Certified regions (`guards::certificate`): the Lipschitz bounds of every guard's margin
+//! along a straight motion, and the region one full evaluation certifies. The property
+//! tests try to violate the bounds: poses at the edge of the region, in random directions
+//! and in the direction in which the most constraining margin falls fastest.
+
+mod common;
+
+use common::*;
+use kinematics_core::guards::*;
+use kinematics_core::singularity::ConditionEstimator;
+use kinematics_core::*;
+use nalgebra::{Rotation3, Vector3};
+use proptest::prelude::*;
+
+type G = Guards<f64, RsprGeometry<f64>>;
+
+fn guards(limits: Limits<f64>) -> G {
+    Guards::new(RsprGeometry::reference(), Branch::OUTER, limits).unwrap()
+}
+
+/// A staged full evaluation at `pose`, run to the end.
+fn staged(g: &G, pose: &Pose<f64>) -> Staged<f64> {
+    let mut st = Staged::new(Branch::OUTER);
+    st.start(pose);
+    let mut cond = ConditionEstimator::new();
+    while !st.is_finished() {
+        g.advance(&mut st, &mut cond);
+    }
+    st
+}
+
+/// The smallest margin of each guard at `pose` (one-shot evaluation) and the parallel
+/// measure; None when a stop-level guard fails.
+fn margins(g: &G, pose: &Pose<f64>) -> Option<GuardMinima<f64>> {
+    let mut m = GuardMinima::new();
+    let mut stop = false;
+    g.evaluate_pose(pose, &mut |r| {
+        m.record(r.guard, r.margin);
+        stop |= r.severity == Some(Severity::Stop);
+    })?;
+    (!stop).then_some(m)
+}
+
+/// The pose reached from `c` by the straight motion of translation `dt` and rotation
+/// vector `dw` (world frame, as the supervisor's segments).
+fn moved(c: &Pose<f64>, dt: &Vector3<f64>, dw: &Vector3<f64>) -> Pose<f64> {
+    Pose {
+        t: c.t + dt,
+        r: Rotation3::from_scaled_axis(*dw) * c.r,
+    }
+}
+
+/// The factor k that puts (k|dt|, k|dw|) on the edge of the certificate.
+fn to_edge(cert: &Certificate<f64>, dt: f64, dr: f64) -> f64 {
+    cert.scaled
+        .iter()
+        .map(|(a, b)| 1.0 / (a * dt + b * dr))
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// Checks the bound (1) of every guard constraint between the centre and `x`, and that
+/// `x` violates no stop-level guard.
+fn check_bounds(
+    g: &G,
+    cons: &[Constraint<f64>],
+    c: &Pose<f64>,
+    x: &Pose<f64>,
+    dt: f64,
+    dr: f64,
+) -> Result<(), TestCaseError> {
+    let Some(mx) = margins(g, x) else {
+        return Err(TestCaseError::fail(format!(
+            "a pose {:.4} mm, {:.5} rad from {c:?} inside the region violates a stop level: {:?}",
+            dt * 1e3,
+            dr,
+            g.check_pose(x).0.first_stop()
+        )));
+    };
+    for k in cons {
+        let Some(guard) = k.guard else { continue };
+        if guard == Guard::ParallelSingularity {
+            continue; // its constraint is on the singular values (checked by the stop level)
+        }
+        let bound = k.margin - k.rate.over(dt, dr);
+        prop_assert!(
+            mx.get(guard) >= bound - 1e-12,
+            "{guard}: margin {} at {:.4} mm, {:.5} rad, below the bound {} (centre {})",
+            mx.get(guard),
+            dt * 1e3,
+            dr,
+            bound,
+            k.margin
+        );
+    }
+    Ok(())
+}
+
+fn unit() -> impl Strategy<Value = Vector3<f64>> {
+    prop::array::uniform3(-1.0f64..1.0)
+        .prop_filter("not tiny", |v| v.iter().map(|x| x * x).sum::<f64>() > 0.01)
+        .prop_map(|v| Vector3::from_row_slice(&v).normalize())
+}
+
+proptest! {
+    #![proptest_config(proptest_config::cases(512))]
+
+    /// Every pose of the region certified by a full evaluation at a safe pose (in and
+    /// around the task box, tilted up to 25 deg, the tool's payload or the thesis's design
+    /// wrench, the stroke and the torque ratings tightened in some cases so that they bind)
+    /// violates no stop-level guard, and every guard's margin there is at least its margin
+    /// at the centre minus the bound (1): random directions, pushed to 99.9 % of the
+    /// region's edge.
+    #[test]
+    fn the_certified_region_is_safe_and_the_bounds_hold(
+        c in pose_near_box(0.160),
+        dir_t in unit(), dir_r in unit(), mix in 0.0f64..1.0, edge in 0.5f64..0.999,
+        tight in 0u8..4,
+    ) {
+        let mut limits = Limits::reference();
+        match tight {
+            1 => limits = limits.with_thesis_design_wrench(),
+            2 => { limits.stroke = [0.150, 0.195]; limits.torque = Levels { warn: 0.15, stop: 0.3 }; }
+            3 => { limits.force = Levels { warn: 20.0, stop: 40.0 }; limits.collision_radius = 0.06; }
+            _ => {}
+        }
+        let g = guards(limits);
+        let st = staged(&g, &c);
+        let Some(full) = st.full() else { return Ok(()) };
+        let Some(cert) = g.certify(&full) else { return Ok(()) };
+        let cons = g.certificate_constraints(&full).unwrap();
+        // A direction in (|Δt|, θ): mix of translation and rotation.
+        let (dt, dr) = (mix, (1.0 - mix) * 0.2);
+        let k = to_edge(&cert, dt, dr) * edge;
+        let x = moved(&c, &(dir_t * dt * k), &(dir_r * dr * k));
+        prop_assert!(cert.contains(&x));
+        check_bounds(&g, &cons, &c, &x, dt * k, dr * k)?;
+    }
+
+    /// The same in the direction in which the most constraining guard's margin falls
+    /// fastest (its gradient by central differences at the centre), to the edge: the worst
+    /// case the bounds must cover.
+    #[test]
+    fn the_bounds_hold_along_the_steepest_descent(c in pose_near_box(0.160), tight in 0u8..3) {
+        let mut limits = Limits::reference();
+        if tight == 1 { limits.stroke = [0.152, 0.190]; }
+        if tight == 2 { limits.torque = Levels { warn: 0.1, stop: 0.2 }; }
+        let g = guards(limits);
+        let st = staged(&g, &c);
+        let Some(full) = st.full() else { return Ok(()) };
+        let Some(cert) = g.certify(&full) else { return Ok(()) };
+        let cons = g.certificate_constraints(&full).unwrap();
+        let Some(m0) = margins(&g, &c) else { return Ok(()) };
+        // The guard with the smallest margin over its pure-translation rate.
+        let worst = cons
+            .iter()
+            .filter(|k| k.guard.is_some_and(|g| g != Guard::ParallelSingularity) && k.rate.v > 0.0)
+            .min_by(|a, b| (a.margin / a.rate.v).total_cmp(&(b.margin / b.rate.v)))
+            .unwrap();
+        let guard = worst.guard.unwrap();
+        let h = 1e-6;
+        let mut grad_t = Vector3::zeros();
+        let mut grad_r = Vector3::zeros();
+        for i in 0..3 {
+            let e = Vector3::ith(i, 1.0);
+            let f = |dt: Vector3<f64>, dw: Vector3<f64>| {
+                margins(&g, &moved(&c, &dt, &dw)).map_or(-1.0, |m| m.get(guard))
+            };
+            grad_t[i] = (f(e * h, Vector3::zeros()) - f(-e * h, Vector3::zeros())) / (2.0 * h);
+            grad_r[i] = (f(Vector3::zeros(), e * h) - f(Vector3::zeros(), -e * h)) / (2.0 * h);
+        }
+        let _ = m0;
+        for (dir_t, dir_r, dt, dr) in [
+            (-grad_t.normalize(), Vector3::x(), 1.0, 0.0),
+            (Vector3::x(), -grad_r.normalize(), 0.0, 1.0),
+            (-grad_t.normalize(), -grad_r.normalize(), 0.5, 0.05),
+        ] {
+            if !(dir_t.iter().all(|x| x.is_finite()) && dir_r.iter().all(|x| x.is_finite())) {
+                continue;
+            }
+            let k = to_edge(&cert, dt, dr) * 0.999;
+            let x = moved(&c, &(dir_t * dt * k), &(dir_r * dr * k));
+            check_bounds(&g, &cons, &c, &x, dt * k, dr * k)?;
+        }
+    }
+}
+
+/// The size of the regions over the task box (the supervisor's look-ahead needs them well
+/// above a braking distance, 1.25 mm at 25 mm/s): printed, and at least 1.5 mm of
+/// translation and 0.15 deg of rotation at every pose of the task grid.
+#[test]
+fn regions_over_the_task_box() {
+    let g = guards(Limits::reference());
+    let (mut t_min, mut r_min, mut t_sum, mut n) = (f64::INFINITY, f64::INFINITY, 0.0, 0);
+    for pose in task_grid(0.160, 5, 3) {
+        let st = staged(&g, &pose);
+        let Some(full) = st.full() else { continue };
+        let Some(cert) = g.certify(&full) else {
+            continue;
+        };
+        t_min = t_min.min(cert.reach_t);
+        r_min = r_min.min(cert.reach_r);
+        t_sum += cert.reach_t;
+        n += 1;
+    }
+    println!(
+        "{n} poses: translation reach min {:.3} mm, mean {:.3} mm; rotation reach min {:.4} deg",
+        t_min * 1e3,
+        t_sum / n as f64 * 1e3,
+        r_min.to_degrees()
+    );
+    assert!(n > 100);
+}
+
+/// The region at the central pose and at a corner of the task, constraint by constraint
+/// (printed): at the centre every guard's own bound reaches at least 1 mm of translation.
+/// `GuardMinima` keeps one slot per guard.
+#[test]
+fn constraints_at_the_centre_and_a_corner() {
+    let mut m = GuardMinima::<f64>::new();
+    for (k, g) in Guard::ALL.iter().enumerate() {
+        m.record(*g, k as f64);
+    }
+    for (k, g) in Guard::ALL.iter().enumerate() {
+        assert_eq!(m.get(*g), k as f64);
+    }
+    let g = guards(Limits::reference());
+    for (name, pose) in [
+        ("centre", Pose::central(0.160)),
+        ("corner", task_grid(0.160, 5, 3)[120]),
+    ] {
+        let st = staged(&g, &pose);
+        let full = st.full().unwrap();
+        for k in g.certificate_constraints(&full).unwrap() {
+            println!(
+                "{name} {:?}: margin {:.4e}, rate {:.3e} per m/s + {:.3e} per rad/s: {:.3} mm or {:.4} deg",
+                k.guard, k.margin, k.rate.v, k.rate.w, k.margin / k.rate.v * 1e3,
+                (k.margin / k.rate.w).to_degrees()
+            );
+            if name == "centre" && k.guard.is_some() {
+                assert!(k.margin / k.rate.v > 1e-3);
+            }
+        }
+    }
+}
