@@ -297,7 +297,7 @@ impl<S: Float> CurrentMonitor<S> {
 
     /// Caps the duties `duty` so that the model's current stays within the peak (see the
     /// module docs), given the supply voltage `supply_v` and the joint speeds `qdot` (m/s,
-    /// rad/s) at the start of the tick.
+    /// rad/s) at the start of the tick; every duty ends within [-1, 1] (a NaN becomes 0).
     pub fn limit(&mut self, duty: &mut [S; NUM_JOINTS], qdot: &[S; NUM_JOINTS], supply_v: S) {
         let v = if supply_v.is_finite() && supply_v > lit(1.0) {
             supply_v
@@ -321,10 +321,28 @@ impl<S: Float> CurrentMonitor<S> {
             };
             let i_lim = peak * *c;
             let ke = m.back_emf_v_s_per_rad;
+            // The range the current allows, within what a bridge can apply: a joint driven
+            // faster than its no-load speed (back-driven) puts one bound beyond ±1.
+            // (Comparisons, not `Float::min/max`: those are libm calls on the Cortex-M4.)
             let hi = (i_lim * m.resistance_ohm + ke * omega) / v;
             let lo = (-i_lim * m.resistance_ohm + ke * omega) / v;
+            let unit = |x: S| {
+                if x > S::one() {
+                    S::one()
+                } else if x < -S::one() {
+                    -S::one()
+                } else {
+                    x
+                }
+            };
+            let (hi, lo) = (unit(hi), unit(lo));
+            // (If the two cross, the current cannot be kept within the limit at any duty
+            // the bridge applies: the duty nearest the allowed range, towards braking.)
+            let (lo, hi) = if lo > hi { (hi, hi) } else { (lo, hi) };
             let limited = *d > hi || *d < lo;
-            if *d > hi {
+            if d.is_nan() {
+                *d = S::zero();
+            } else if *d > hi {
                 *d = hi;
             } else if *d < lo {
                 *d = lo;

@@ -138,6 +138,8 @@ pub struct Runtime<S: Scalar, M: Mechanism<S> + Clone> {
     fault: FaultRecord,
     /// The last fault handled: cause, joint, time (a repeat within the tick is one).
     last_fault: Option<(FaultCause, u8, u64)>,
+    /// The causes raised since the fault was latched (bit = index in `FaultCause::ALL`).
+    raised: u32,
     log: FaultLog,
     reset: ResetStatus,
     inputs: Inputs<S>,
@@ -194,6 +196,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             warnings: Warnings::NOT_HOMED,
             fault: FaultRecord::NONE,
             last_fault: None,
+            raised: 0,
             log: FaultLog::new(),
             reset: ResetStatus {
                 cause: ResetCause::PowerOn,
@@ -318,7 +321,9 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         }
         if !already {
             self.fault = record;
+            self.raised = 0;
         }
+        self.raised |= 1u32 << cause_index(finding.cause);
         self.stopper
             .request(StopEvent::Fault(finding.cause), now_us, self.torque_on);
         self.start_decelerating();
@@ -608,7 +613,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         Ok(())
     }
 
-    /// Reads the inputs and runs the monitors: the first finding becomes a fault.
+    /// Reads the inputs and runs the monitors: every new finding becomes a fault.
     fn sense_and_monitor<H: Hardware<S>>(&mut self, hw: &mut H, now_us: u64) {
         self.sensing.update(hw);
         self.inputs = Inputs {
@@ -623,13 +628,9 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         if let Some(ev) = self.heartbeat.poll(now_us) {
             let _ = self.event(ev, now_us);
         }
-        let mut finding = None;
-        if i.estop_pressed && self.fault.cause != FaultCause::EmergencyStopButton {
-            finding = Some(Finding::board::<S>(
-                FaultCause::EmergencyStopButton,
-                S::one(),
-            ));
-        }
+        let finding = i
+            .estop_pressed
+            .then(|| Finding::board::<S>(FaultCause::EmergencyStopButton, S::one()));
         let chain = self.chain.check(i.estop_pressed, i.relay_open);
         let power = self.power.check(i.supply_v, i.driver_fault, self.torque_on);
         let current = self
@@ -686,19 +687,20 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             });
         // The motor check before the encoder check: an open circuit also looks like a dead
         // encoder to the back-EMF (both count from the fault's first tick; the motor check
-        // names it right).
+        // names it right). Every finding is acted on, not only the first: a later one may
+        // call for a stronger stop than one already latched (an SS1 over-temperature must
+        // not mask an STO encoder jump). A cause already raised since the last clear is a
+        // repeat (a monitor reports a lasting condition every tick): neither logged nor
+        // acted on again.
         for f in [
-            chain, power, current, motor, encoder, ranges, standstill, fk,
-        ] {
-            finding = finding.or(f);
-        }
-        if let Some(f) = finding {
-            // A fault of the same cause and joint as the latched one is its repeat.
-            if self.sm.state() == State::Fault
-                && self.fault.cause == f.cause
-                && self.fault.joint == f.record(now_us).joint
-            {
-                return;
+            finding, chain, power, current, motor, encoder, ranges, standstill, fk,
+        ]
+        .into_iter()
+        .flatten()
+        {
+            let bit = 1u32 << cause_index(f.cause);
+            if self.sm.state() == State::Fault && self.raised & bit != 0 {
+                continue;
             }
             self.fault(f, now_us);
         }
@@ -1140,6 +1142,15 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             .as_ref()
             .map(|c| to_array(c.supervisor().setpoint_joints()))
     }
+}
+
+/// The index of `cause` in `FaultCause::ALL` (+1; `None` is 0): its bit in the raised set.
+fn cause_index(cause: FaultCause) -> u32 {
+    FaultCause::ALL
+        .iter()
+        .position(|c| *c == cause)
+        .map_or(0, |i| (i + 1) as u32)
+        .min(31)
 }
 
 fn jog_reason(e: JogError) -> NackReason {

@@ -234,3 +234,45 @@ fn stops_only_escalate_and_a_lost_standstill_is_sto() {
     tick(&mut rt, &mut hw, &mut t, true);
     assert_eq!(rt.status().stop, StopStatus::SafeTorqueOff);
 }
+
+/// Property (found by the fuzzer): a fault whose stop is stronger than the one in force is
+/// acted on and logged even while a weaker one is latched: an SS1 over-temperature, then
+/// a limit switch closing, is STO at once, with both in the log.
+#[test]
+fn a_weaker_latched_fault_does_not_mask_a_stronger_one() {
+    let (mut rt, mut hw, mut t) = holding_with_tool();
+    rt.fault(Finding::joint(FaultCause::OverTemperature, 0, 1.1f64), t);
+    tick(&mut rt, &mut hw, &mut t, true);
+    assert!(
+        matches!(
+            rt.status().stop,
+            StopStatus::SafeStop1Decelerating | StopStatus::SafeStop1Braking
+        ),
+        "{:?}",
+        rt.status().stop
+    );
+    // Leg 3's switch closes (a switch that fails closed).
+    hw.switch_below[2] = Some(1.0);
+    tick(&mut rt, &mut hw, &mut t, true);
+    let st = rt.status();
+    assert_eq!(st.stop, StopStatus::SafeTorqueOff);
+    assert!(!hw.enabled && !hw.brakes_released);
+    assert_eq!(
+        st.fault.cause,
+        FaultCause::OverTemperature,
+        "the first fault is reported"
+    );
+    let log = rt.fault_log();
+    let causes: Vec<_> = (0..log.len())
+        .map(|i| log.get(i).unwrap().record.cause)
+        .collect();
+    assert_eq!(
+        causes,
+        [FaultCause::OverTemperature, FaultCause::LimitSwitch]
+    );
+    // A lasting condition is logged once, not every tick.
+    for _ in 0..50 {
+        tick(&mut rt, &mut hw, &mut t, true);
+    }
+    assert_eq!(rt.fault_log().len(), 2);
+}

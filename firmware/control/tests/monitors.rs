@@ -1,0 +1,114 @@
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::needless_range_loop
+)]
+//! The monitors and limits on their own: the current limit's duties, the encoder jump
+//! threshold, the motor circuit checks, and a stronger stop over a latched weaker one.
+
+use control::current::{CurrentConfig, CurrentMonitor};
+use control::monitors::{DriveSample, EncoderCheck, EncoderCheckConfig, MotorCheck};
+use master_link::FaultCause;
+use proptest::prelude::*;
+use servo::encoder::{LEG_COUNTS_PER_M, LINK_COUNTS_PER_RAD};
+
+const CPU: [f64; 6] = [
+    LEG_COUNTS_PER_M,
+    LEG_COUNTS_PER_M,
+    LEG_COUNTS_PER_M,
+    LINK_COUNTS_PER_RAD,
+    LINK_COUNTS_PER_RAD,
+    LINK_COUNTS_PER_RAD,
+];
+
+proptest! {
+    #![proptest_config(proptest_config::cases(256))]
+
+    /// Property (found by the fuzzer): whatever the commanded duty, the joint speeds (a
+    /// joint back-driven beyond its no-load speed included) and the supply, the current
+    /// limit leaves every duty finite and within [-1, 1], and within the range the model
+    /// allows when that range meets [-1, 1].
+    #[test]
+    fn the_current_limit_keeps_duties_within_what_a_bridge_applies(
+        duty in prop::array::uniform6(prop_oneof![-3.0f64..3.0, Just(f64::NAN)]),
+        qdot in prop::array::uniform6(-2.0f64..2.0),
+        supply in prop_oneof![0.0f64..40.0, Just(f64::NAN)],
+    ) {
+        let mut m = CurrentMonitor::new(CurrentConfig::<f64>::default());
+        let mut d = duty;
+        // Links: rad/s, scaled up to their range.
+        let qdot: [f64; 6] = std::array::from_fn(|j| if j < 3 { qdot[j] } else { qdot[j] * 30.0 });
+        m.limit(&mut d, &qdot, supply);
+        for j in 0..6 {
+            prop_assert!(d[j].is_finite() && d[j].abs() <= 1.0, "joint {j}: {}", d[j]);
+        }
+    }
+}
+
+/// Property: an encoder jump is found when one tick brings more counts than 1.5 x the
+/// joint's top speed allows (+2), never below.
+#[test]
+fn an_encoder_jump_is_the_top_speed_with_its_margin() {
+    let cfg = EncoderCheckConfig::reference(CPU);
+    let motors = CurrentConfig::<f64>::default().motors;
+    let drive = DriveSample {
+        duty: [0.0; 6],
+        current: [0.0; 6],
+        supply_v: 24.0,
+        torque: false,
+    };
+    for j in 0..6 {
+        let limit = cfg.top_speed[j] * cfg.jump_margin * 1e-3 * CPU[j] + 2.0;
+        for (counts, jump) in [
+            (limit.floor() as i64, false),
+            (limit.ceil() as i64 + 1, true),
+        ] {
+            let mut c = EncoderCheck::new(cfg);
+            assert_eq!(c.check(&[0; 6], 1e-3, &motors, &drive), None);
+            let mut now = [0i64; 6];
+            now[j] = counts;
+            let f = c.check(&now, 1e-3, &motors, &drive);
+            assert_eq!(
+                f.map(|f| (f.cause, f.joint)),
+                jump.then_some((FaultCause::EncoderJump, Some(j))),
+                "joint {j}, {counts} counts (limit {limit})"
+            );
+        }
+    }
+}
+
+/// Property: the motor check names an open circuit (no current under a duty that should
+/// drive one) and a shorted winding (three times the model's current), each after its
+/// count, on the joint concerned; a healthy sample clears neither at once (leaky count).
+#[test]
+fn the_motor_check_finds_open_and_shorted_circuits() {
+    let motors = CurrentConfig::<f64>::default().motors;
+    let lim = [5.23, 5.23, 5.23, 0.66, 0.66, 0.66];
+    for (j, current, cause) in [
+        (2usize, 0.0, FaultCause::MotorOpen),
+        (4, 0.6, FaultCause::CurrentImplausible),
+    ] {
+        let mut m = MotorCheck::new(&motors);
+        let mut duty = [0.0; 6];
+        duty[j] = if j < 3 { 0.02 } else { 0.01 };
+        let mut i = [0.0; 6];
+        i[j] = current;
+        // The model: V d / R at rest: 1.38 A on the leg, 0.11 A on the link.
+        let d = DriveSample {
+            duty,
+            current: i,
+            supply_v: 24.0,
+            torque: true,
+        };
+        let mut found = None;
+        for k in 0..5 {
+            found = m.check(&d, &[0.0; 6], &motors, &lim);
+            if k < 4 {
+                assert_eq!(found, None, "{cause:?} after {} samples", k + 1);
+            }
+        }
+        let f = found.expect("found after 5 samples");
+        assert_eq!((f.cause, f.joint), (cause, Some(j)));
+    }
+}
