@@ -343,12 +343,25 @@ pub struct Pid<S> {
     coefficients: Option<Coefficients<S>>,
 }
 
-/// `a = 1 - exp(-2π fc dt)` and `b = 1 - exp(-kt dt)` for one sample time `dt`.
+/// What one sample needs of the gains and the sample time, prepared once per gains and
+/// `dt` (the control rate is fixed): `a = 1 - exp(-2π fc dt)`, `b = 1 - exp(-kt dt)`,
+/// `1 / dt`, and the sanitized limits (a NaN, negative or infinite limit taken as the
+/// per-field rule of [`sane_limit`]), so that a sample only multiplies, adds and compares.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Coefficients<S> {
     dt: S,
     a: S,
     b: S,
+    /// `1 / dt`.
+    inv_dt: S,
+    /// The output limit, in `[0, 1]`.
+    limit: S,
+    /// The deadband, `>= 0`.
+    deadband: S,
+    /// The integral limit, `>= 0`.
+    integral_limit: S,
+    /// `1 / friction_band` (1 when the band is not positive).
+    inv_band: S,
 }
 
 impl<S: Float> Pid<S> {
@@ -419,6 +432,12 @@ impl<S: Float> Pid<S> {
                     }
                     _ => S::zero(),
                 };
+                let max = S::max_value();
+                let band = if g.friction_band > S::zero() {
+                    g.friction_band
+                } else {
+                    S::one()
+                };
                 let c = Coefficients {
                     dt,
                     // a = 1 - exp(-2 pi fc dt), in [0, 1] for every dt > 0 (stable at any
@@ -431,6 +450,11 @@ impl<S: Float> Pid<S> {
                         S::one(),
                     ),
                     b: clamp(S::one() - (-kt * dt).exp(), S::zero(), S::one()),
+                    inv_dt: S::one() / dt,
+                    limit: sane_limit(g.output_limit, S::one()),
+                    deadband: sane_limit(g.deadband, max),
+                    integral_limit: sane_limit(g.integral_limit, max),
+                    inv_band: S::one() / band,
                 };
                 self.coefficients = Some(c);
                 c
@@ -444,9 +468,10 @@ impl<S: Float> Pid<S> {
             return PidOutput::rejected(error);
         }
         let g = self.gains;
+        let coef = self.coefficients(dt);
         let big = lit::<S>(TERM_BOUND);
         let max = S::max_value();
-        let limit = sane_limit(g.output_limit, S::one());
+        let limit = coef.limit;
         let y = input.measured;
         let r_dot = input.setpoint_velocity;
         if !self.primed {
@@ -459,16 +484,14 @@ impl<S: Float> Pid<S> {
         // Position error, kept finite for finite inputs of opposite huge values.
         let e = clamp_sym(input.setpoint - y, max);
         // Deadband: shrink |e| by the width (continuous, so no bump at the edge).
-        let deadband = sane_limit(g.deadband, max);
-        let e_db = sign(e) * clamp(e.abs() - deadband, S::zero(), max);
+        let e_db = sign(e) * clamp(e.abs() - coef.deadband, S::zero(), max);
         // Proportional term.
         let p = clamp_sym(g.kp * e_db, big);
 
         // Measured velocity by backward difference.
-        let v_raw = clamp_sym((y - self.prev_measured) / dt, max);
+        let v_raw = clamp_sym((y - self.prev_measured) * coef.inv_dt, max);
         self.prev_measured = y;
         // First-order low-pass, exact for a constant input over the sample.
-        let coef = self.coefficients(dt);
         let a = coef.a;
         self.velocity = clamp_sym(self.velocity + a * (v_raw - self.velocity), max);
         // Derivative on the measurement: damps the measured velocity (or the velocity
@@ -482,15 +505,10 @@ impl<S: Float> Pid<S> {
 
         // Feed-forward: velocity, acceleration, and Coulomb friction ramped in over
         // `friction_band` around zero desired speed.
-        let band = if g.friction_band > S::zero() {
-            g.friction_band
-        } else {
-            S::one()
-        };
         let ff = clamp_sym(g.kv * r_dot, big)
             + clamp_sym(g.ka * input.setpoint_acceleration, big)
             + clamp_sym(
-                g.friction_ff * clamp(r_dot / band, -S::one(), S::one()),
+                g.friction_ff * clamp(r_dot * coef.inv_band, -S::one(), S::one()),
                 big,
             );
 
@@ -515,8 +533,7 @@ impl<S: Float> Pid<S> {
             // Back-calculation: I += ki e dt + (1 - exp(-kt dt)) (u - u_raw).
             AntiWindup::BackCalculation { .. } => i + step + coef.b * (u - u_raw),
         };
-        let i_limit = sane_limit(g.integral_limit, max);
-        self.integral = clamp_sym(next, i_limit);
+        self.integral = clamp_sym(next, coef.integral_limit);
 
         PidOutput {
             duty: u,
