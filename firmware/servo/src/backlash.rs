@@ -211,6 +211,11 @@ pub struct BacklashCompensator<S> {
     primed: bool,
     /// The flank imposed by a steady external load (Unknown: none, follow the motion).
     preload: Direction,
+    /// `b/2` of the sanitized width (0 for a NaN, infinite or negative width), prepared
+    /// with the parameters so that a sample only compares and multiplies.
+    half: S,
+    /// The sanitized hysteresis (0 for NaN, infinite or negative).
+    hysteresis: S,
 }
 
 impl<S: Float> BacklashCompensator<S> {
@@ -225,6 +230,8 @@ impl<S: Float> BacklashCompensator<S> {
             offset: S::zero(),
             primed: false,
             preload: Direction::Unknown,
+            half: sane_half_width(params.width),
+            hysteresis: sane_hysteresis(params.hysteresis),
         }
     }
 
@@ -245,6 +252,8 @@ impl<S: Float> BacklashCompensator<S> {
     /// Replaces the parameters; the offset ramps to the new target (no jump).
     pub fn set_params(&mut self, params: BacklashParams<S>) {
         self.params = params;
+        self.half = sane_half_width(params.width);
+        self.hysteresis = sane_hysteresis(params.hysteresis);
     }
 
     /// Restarts at `setpoint` with the gap known to be taken up in `direction` (e.g. after
@@ -281,12 +290,7 @@ impl<S: Float> BacklashCompensator<S> {
     }
 
     fn half_width(&self) -> S {
-        let b = self.params.width;
-        if b.is_finite() && b > S::zero() {
-            b * lit(0.5)
-        } else {
-            S::zero()
-        }
+        self.half
     }
 
     /// One sample: follows the setpoint `setpoint` (u) over `dt` (s) and returns the
@@ -304,11 +308,7 @@ impl<S: Float> BacklashCompensator<S> {
             self.last_setpoint = setpoint;
             self.primed = true;
         }
-        let h = if self.params.hysteresis.is_finite() {
-            max_of(self.params.hysteresis, S::zero())
-        } else {
-            S::zero()
-        };
+        let h = self.hysteresis;
 
         // Direction with hysteresis: `extreme` is the furthest setpoint in the current
         // direction; a return by more than h from it reverses the direction.
@@ -373,5 +373,23 @@ impl<S: Float> BacklashCompensator<S> {
             offset: self.offset,
             offset_rate: clamp_sym((self.offset - old) / dt, S::max_value()),
         }
+    }
+}
+
+/// `b/2` for a finite width `b > 0`, else 0.
+fn sane_half_width<S: Float>(b: S) -> S {
+    if b.is_finite() && b > S::zero() {
+        b * lit(0.5)
+    } else {
+        S::zero()
+    }
+}
+
+/// The hysteresis when finite and `>= 0`, else 0.
+fn sane_hysteresis<S: Float>(h: S) -> S {
+    if h.is_finite() {
+        max_of(h, S::zero())
+    } else {
+        S::zero()
     }
 }

@@ -58,6 +58,9 @@ pub struct JointServo<S> {
     channels: [Channel<S>; NUM_JOINTS],
     fault: Option<TrackingFault<S>>,
     time_us: u64,
+    /// The last valid sample time and its whole microseconds (the rate is fixed; the
+    /// conversion is a libm round and a soft 64-bit conversion on the Cortex-M4).
+    dt_us: (S, u64),
 }
 
 impl<S: Float> JointServo<S> {
@@ -77,6 +80,7 @@ impl<S: Float> JointServo<S> {
             channels,
             fault: None,
             time_us: 0,
+            dt_us: (S::zero(), 0),
         };
         servo.apply_config();
         Ok(servo)
@@ -150,7 +154,10 @@ impl<S: Float> JointServo<S> {
         dt: S,
     ) -> ServoOutput<S> {
         if valid_dt(dt) {
-            self.time_us = self.time_us.saturating_add(seconds_to_us(dt));
+            if self.dt_us.0 != dt {
+                self.dt_us = (dt, seconds_to_us(dt));
+            }
+            self.time_us = self.time_us.saturating_add(self.dt_us.1);
         }
         if self.fault.is_some() {
             return ServoOutput::safe(self.fault);

@@ -29,7 +29,7 @@
 use num_traits::Float;
 
 use crate::config::{is_leg, Check, ConfigError};
-use crate::num::{clamp, clamp_sym, lit, sane_limit, sign, valid_dt};
+use crate::num::{bound, bound_below, clamp, clamp_sym, lit, sane_limit, sign, valid_dt};
 use crate::NUM_JOINTS;
 
 /// Bound on each term of the law, duty. Far above any useful value (the output is
@@ -450,11 +450,11 @@ impl<S: Float> Pid<S> {
                         S::one(),
                     ),
                     b: clamp(S::one() - (-kt * dt).exp(), S::zero(), S::one()),
-                    inv_dt: S::one() / dt,
+                    inv_dt: sane_limit(S::one() / dt, max),
                     limit: sane_limit(g.output_limit, S::one()),
                     deadband: sane_limit(g.deadband, max),
                     integral_limit: sane_limit(g.integral_limit, max),
-                    inv_band: S::one() / band,
+                    inv_band: sane_limit(S::one() / band, max),
                 };
                 self.coefficients = Some(c);
                 c
@@ -463,12 +463,17 @@ impl<S: Float> Pid<S> {
     }
 
     /// One sample: computes the duty from `input` with sample time `dt` (s).
+    ///
+    /// With finite inputs, a valid `dt` and valid gains no intermediate value can be NaN
+    /// (the coefficients are sanitized, each product is of two finite factors), so the
+    /// intermediate bounds are plain comparisons ([`bound`]); the one NaN that invalid
+    /// gains could make is caught on the sum, which then gives duty 0 and keeps the state.
     pub fn update(&mut self, input: &PidInput<S>, dt: S) -> PidOutput<S> {
         if let Some(error) = input.check(dt) {
             return PidOutput::rejected(error);
         }
-        let g = self.gains;
         let coef = self.coefficients(dt);
+        let g = &self.gains;
         let big = lit::<S>(TERM_BOUND);
         let max = S::max_value();
         let limit = coef.limit;
@@ -482,18 +487,20 @@ impl<S: Float> Pid<S> {
         }
 
         // Position error, kept finite for finite inputs of opposite huge values.
-        let e = clamp_sym(input.setpoint - y, max);
+        let e = bound(input.setpoint - y, max);
         // Deadband: shrink |e| by the width (continuous, so no bump at the edge).
-        let e_db = sign(e) * clamp(e.abs() - coef.deadband, S::zero(), max);
+        let e_db = if coef.deadband > S::zero() {
+            sign(e) * bound_below(e.abs() - coef.deadband, S::zero())
+        } else {
+            e
+        };
         // Proportional term.
-        let p = clamp_sym(g.kp * e_db, big);
+        let p = bound(g.kp * e_db, big);
 
         // Measured velocity by backward difference.
-        let v_raw = clamp_sym((y - self.prev_measured) * coef.inv_dt, max);
-        self.prev_measured = y;
+        let v_raw = bound((y - self.prev_measured) * coef.inv_dt, max);
         // First-order low-pass, exact for a constant input over the sample.
-        let a = coef.a;
-        self.velocity = clamp_sym(self.velocity + a * (v_raw - self.velocity), max);
+        let velocity = bound(self.velocity + coef.a * (v_raw - self.velocity), max);
         // Derivative on the measurement: damps the measured velocity (or the velocity
         // error against the desired velocity), never the change of the position error.
         let v_ref = if g.derivative_uses_setpoint_velocity {
@@ -501,25 +508,38 @@ impl<S: Float> Pid<S> {
         } else {
             S::zero()
         };
-        let d = clamp_sym(g.kd * clamp_sym(v_ref - self.velocity, max), big);
+        let d = bound(g.kd * bound(v_ref - velocity, max), big);
 
         // Feed-forward: velocity, acceleration, and Coulomb friction ramped in over
         // `friction_band` around zero desired speed.
-        let ff = clamp_sym(g.kv * r_dot, big)
-            + clamp_sym(g.ka * input.setpoint_acceleration, big)
-            + clamp_sym(
-                g.friction_ff * clamp(r_dot * coef.inv_band, -S::one(), S::one()),
-                big,
-            );
+        let ff = bound(g.kv * r_dot, big)
+            + bound(g.ka * input.setpoint_acceleration, big)
+            + bound(g.friction_ff * bound(r_dot * coef.inv_band, S::one()), big);
 
         // Output with the integral of the previous samples, then saturation.
         let i = self.integral;
         let u_raw = p + i + d + ff;
-        let u = clamp_sym(u_raw, limit);
+        if u_raw.is_nan() {
+            // Only invalid (non-finite) gains get here: the safe output, state kept.
+            return PidOutput {
+                duty: S::zero(),
+                saturated: false,
+                error: None,
+                terms: PidTerms {
+                    p: S::zero(),
+                    i: S::zero(),
+                    d: S::zero(),
+                    ff: S::zero(),
+                },
+            };
+        }
+        self.prev_measured = y;
+        self.velocity = velocity;
+        let u = bound(u_raw, limit);
         let saturated = u_raw > limit || u_raw < -limit;
 
         // Integral update (forward Euler) with the chosen anti-windup.
-        let step = clamp_sym(g.ki * e_db * dt, big);
+        let step = bound(g.ki * e_db * dt, big);
         let next = match g.anti_windup {
             AntiWindup::None => i + step,
             // Conditional integration: skip an update that pushes further into saturation.
