@@ -423,7 +423,7 @@ fn joint_and_measure_guards_at_their_boundaries() {
     boundary(
         "force-warn",
         pose,
-        "",
+        THESIS_WRENCH,
         "force_warn_n",
         "force",
         force,
@@ -434,7 +434,7 @@ fn joint_and_measure_guards_at_their_boundaries() {
     let v = check(
         Some((
             "force-stop",
-            &format!("force_warn_n = 1\nforce_stop_n = {stop}\n"),
+            &format!("{THESIS_WRENCH}force_warn_n = 1\nforce_stop_n = {stop}\n"),
         )),
         pose,
     );
@@ -443,7 +443,7 @@ fn joint_and_measure_guards_at_their_boundaries() {
     boundary(
         "torque-warn",
         pose,
-        "",
+        THESIS_WRENCH,
         "torque_warn_nm",
         "torque",
         torque,
@@ -453,7 +453,7 @@ fn joint_and_measure_guards_at_their_boundaries() {
     let v = check(
         Some((
             "torque-stop",
-            &format!("torque_stop_nm = {}\n", torque - 0.002),
+            &format!("{THESIS_WRENCH}torque_stop_nm = {}\n", torque - 0.002),
         )),
         pose,
     );
@@ -543,7 +543,7 @@ fn task_box_for_the_reference_robot() {
         conclusion.contains("torque exceeds its warn level") && conclusion.contains("0.657 N m"),
         "{conclusion}"
     );
-    let text = ok(&["check", "--task-box"], "");
+    let text = ok(&["--limits", &path, "check", "--task-box"], "");
     assert_eq!(text.trim_end().lines().last(), Some(conclusion));
     for g in &guards {
         assert!(text.contains(&format!("\n  {g} ")), "{g} in\n{text}");
