@@ -21,7 +21,21 @@ pub struct BrakeCheckConfig<S> {
     /// Release time of the brakes: the drives hold this long before following, µs
     /// (default 60 ms).
     pub release_us: u64,
+    /// Engage time of the brakes, µs (default 30 ms: twice the reference brake's 15 ms):
+    /// an enable that starts sooner after the brakes were applied waits this long from
+    /// their application before it pushes against them, so a brake still closing is not
+    /// taken for a failed one. A brake that closed on a moving joint may slip a little
+    /// longer: after the engage time the check also waits until every joint has moved less
+    /// than half its `max_motion` over 10 ms, for at most `settle_max_us` from the
+    /// application (default 300 ms); then it pushes whatever the joints do, so a slipping
+    /// brake fails the check.
+    pub engage_us: u64,
+    /// Longest wait for the joints to settle on the applied brakes, µs.
+    pub settle_max_us: u64,
 }
+
+/// The window over which the joints must be still before the check pushes, µs.
+const STILL_WINDOW_US: u64 = 10_000;
 
 fn lit<S: Float>(x: f64) -> S {
     S::from(x).unwrap_or_else(S::zero)
@@ -36,6 +50,8 @@ impl<S: Float> Default for BrakeCheckConfig<S> {
             push_us: 40_000,
             max_motion: [ml, ml, ml, mr, mr, mr],
             release_us: 60_000,
+            engage_us: 30_000,
+            settle_max_us: 300_000,
         }
     }
 }
@@ -43,6 +59,18 @@ impl<S: Float> Default for BrakeCheckConfig<S> {
 /// Where an enable is.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum EnablePhase<S> {
+    /// The brakes were applied less than their engage time ago, or the joints still move
+    /// on them: nothing is pushed.
+    Engaging {
+        /// End of the engage time, µs.
+        until_us: u64,
+        /// End of the longest wait, µs.
+        deadline_us: u64,
+        /// The joints at the start of the current still window, and its start.
+        window_q: [S; NUM_JOINTS],
+        /// Start of the current still window, µs.
+        window_us: u64,
+    },
     /// Pushing against the closed brakes towards +q (`true`) or -q, since `since_us`,
     /// from the joints `start`.
     Checking {
@@ -88,16 +116,28 @@ pub struct BrakeCheck<S> {
 }
 
 impl<S: Float> BrakeCheck<S> {
-    /// Starts an enable at `now_us` with the joints at `q`.
-    pub fn start(cfg: BrakeCheckConfig<S>, q: &[S; NUM_JOINTS], now_us: u64) -> Self {
-        BrakeCheck {
-            cfg,
-            phase: EnablePhase::Checking {
+    /// Starts an enable at `now_us` with the joints at `q`; the brakes were last applied
+    /// at `applied_at_us` (`None`: not since boot, they hold since power-up).
+    pub fn start(
+        cfg: BrakeCheckConfig<S>,
+        q: &[S; NUM_JOINTS],
+        now_us: u64,
+        applied_at_us: Option<u64>,
+    ) -> Self {
+        let phase = match applied_at_us {
+            Some(t) if t.saturating_add(cfg.engage_us) > now_us => EnablePhase::Engaging {
+                until_us: t.saturating_add(cfg.engage_us),
+                deadline_us: t.saturating_add(cfg.settle_max_us.max(cfg.engage_us)),
+                window_q: *q,
+                window_us: now_us,
+            },
+            _ => EnablePhase::Checking {
                 positive: true,
                 since_us: now_us,
                 start: *q,
             },
-        }
+        };
+        BrakeCheck { cfg, phase }
     }
 
     /// The phase.
@@ -107,12 +147,59 @@ impl<S: Float> BrakeCheck<S> {
 
     /// Whether the brakes may be released now (the check passed).
     pub fn brakes_released(&self) -> bool {
-        !matches!(self.phase, EnablePhase::Checking { .. })
+        matches!(
+            self.phase,
+            EnablePhase::Releasing { .. } | EnablePhase::Released
+        )
     }
 
     /// One step at `now_us` with the joints at `q`.
     pub fn step(&mut self, q: &[S; NUM_JOINTS], now_us: u64) -> EnableStep<S> {
+        if let EnablePhase::Engaging {
+            until_us,
+            deadline_us,
+            window_q,
+            window_us,
+        } = self.phase
+        {
+            let zero = [S::zero(); NUM_JOINTS];
+            if now_us < until_us {
+                self.phase = EnablePhase::Engaging {
+                    until_us,
+                    deadline_us,
+                    window_q: *q,
+                    window_us: now_us,
+                };
+                return EnableStep::Push(zero);
+            }
+            if now_us < deadline_us {
+                if now_us.saturating_sub(window_us) < STILL_WINDOW_US {
+                    return EnableStep::Push(zero);
+                }
+                let half = lit::<S>(0.5);
+                let still = q
+                    .iter()
+                    .zip(window_q.iter())
+                    .zip(self.cfg.max_motion.iter())
+                    .all(|((x, w), m)| (*x - *w).abs() <= *m * half);
+                if !still {
+                    self.phase = EnablePhase::Engaging {
+                        until_us,
+                        deadline_us,
+                        window_q: *q,
+                        window_us: now_us,
+                    };
+                    return EnableStep::Push(zero);
+                }
+            }
+            self.phase = EnablePhase::Checking {
+                positive: true,
+                since_us: now_us,
+                start: *q,
+            };
+        }
         match self.phase {
+            EnablePhase::Engaging { .. } => EnableStep::Push([S::zero(); NUM_JOINTS]),
             EnablePhase::Checking {
                 positive,
                 since_us,
@@ -158,5 +245,96 @@ impl<S: Float> BrakeCheck<S> {
             }
             EnablePhase::Released => EnableStep::Released,
         }
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::panic, clippy::indexing_slicing)]
+mod tests {
+    extern crate std;
+    use super::*;
+    use std::vec::Vec;
+
+    type Bc = BrakeCheck<f64>;
+
+    fn run(
+        bc: &mut Bc,
+        q: impl Fn(u64) -> [f64; NUM_JOINTS],
+        from: u64,
+        to: u64,
+    ) -> Vec<(u64, EnableStep<f64>)> {
+        (from..to)
+            .step_by(1000)
+            .map(|t| (t, bc.step(&q(t), t)))
+            .collect()
+    }
+
+    /// Property: brakes applied long ago (or never released since boot) are checked at
+    /// once: the first step pushes towards +q.
+    #[test]
+    fn settled_brakes_are_checked_at_once() {
+        let cfg = BrakeCheckConfig::<f64>::default();
+        for applied in [None, Some(0u64), Some(1_000_000)] {
+            let mut bc = Bc::start(cfg, &[0.0; NUM_JOINTS], 1_030_000, applied);
+            assert!(matches!(
+                bc.phase(),
+                EnablePhase::Checking { positive: true, .. }
+            ));
+            assert_eq!(
+                bc.step(&[0.0; NUM_JOINTS], 1_030_000),
+                EnableStep::Push(cfg.duty)
+            );
+        }
+    }
+
+    /// Property: within the engage time of the brakes' application, nothing is pushed and
+    /// the brakes stay applied; the check starts at the engage time when the joints are
+    /// still, from the joints at that time (a sag while engaging is no failure).
+    #[test]
+    fn an_enable_right_after_a_stop_waits_for_the_engage_time() {
+        let cfg = BrakeCheckConfig::<f64>::default();
+        let sag = |t: u64| [if t < 20_000 { t as f64 * 1e-9 } else { 2e-5 }; NUM_JOINTS];
+        let mut bc = Bc::start(cfg, &sag(1000), 1000, Some(0));
+        let steps = run(&mut bc, sag, 1000, 29_000 + 1000);
+        for (t, s) in &steps {
+            assert_eq!(*s, EnableStep::Push([0.0; NUM_JOINTS]), "at {t} µs");
+        }
+        assert!(!bc.brakes_released());
+        assert_eq!(
+            bc.step(&sag(30_000), 30_000),
+            EnableStep::Push([0.0; NUM_JOINTS])
+        );
+        // The still window (10 ms, from the last step within the engage time), then the push.
+        let steps = run(&mut bc, sag, 31_000, 45_000);
+        let first = steps
+            .iter()
+            .find(|(_, s)| *s != EnableStep::Push([0.0; NUM_JOINTS]))
+            .unwrap();
+        assert_eq!(first, &(39_000, EnableStep::Push(cfg.duty)));
+        assert!(!bc.brakes_released());
+    }
+
+    /// Property: joints that keep moving on the applied brakes delay the push until the
+    /// longest wait; then the check pushes and a joint still moving fails it.
+    #[test]
+    fn a_slipping_brake_fails_after_the_longest_wait() {
+        let cfg = BrakeCheckConfig::<f64>::default();
+        let slip = |t: u64| [t as f64 * 1e-9, 0.0, 0.0, 0.0, 0.0, 0.0];
+        let mut bc = Bc::start(cfg, &slip(0), 0, Some(0));
+        let steps = run(&mut bc, slip, 0, cfg.settle_max_us);
+        assert!(steps
+            .iter()
+            .all(|(_, s)| *s == EnableStep::Push([0.0; NUM_JOINTS])));
+        let steps = run(&mut bc, slip, cfg.settle_max_us, cfg.settle_max_us + 20_000);
+        let failed = steps
+            .iter()
+            .find_map(|&(t, s)| match s {
+                EnableStep::Failed { joint, motion } => Some((t, joint, motion)),
+                _ => None,
+            })
+            .unwrap();
+        assert_eq!(failed.1, 0);
+        assert!(failed.2 > cfg.max_motion[0]);
+        assert!(failed.0 <= cfg.settle_max_us + 8_000, "{failed:?}");
     }
 }

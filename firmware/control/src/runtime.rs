@@ -147,6 +147,10 @@ pub struct Runtime<S: Scalar, M: Mechanism<S> + Clone> {
     last_duty: [S; NUM_JOINTS],
     torque_on: bool,
     outputs_on: bool,
+    /// The brakes' release as last written, and when they were last applied (µs; the
+    /// brake check waits for their engage time).
+    brakes_out: bool,
+    brakes_applied_at_us: Option<u64>,
     /// Worst tick jitter and execution time, µs (from the board).
     tick_timing: (u32, u32),
     missed_ticks: u32,
@@ -213,6 +217,8 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             last_duty: [S::zero(); NUM_JOINTS],
             torque_on: false,
             outputs_on: false,
+            brakes_out: false,
+            brakes_applied_at_us: None,
             tick_timing: (0, 0),
             missed_ticks: 0,
             cfg,
@@ -438,6 +444,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             self.cfg.brakes,
             &self.sensing.measured().q,
             now_us,
+            self.brakes_applied_at_us,
         ));
         Ok(())
     }
@@ -770,6 +777,18 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         }
     }
 
+    /// The e-stop path put the outputs in their safe state behind the runtime's back
+    /// ([`crate::estop`]): the bridges are off, so the next tick with torque enables them
+    /// again instead of driving disabled bridges (fuzz finding 3).
+    /// The brakes were applied then too (at `now_us` at the latest).
+    pub fn outputs_forced_safe(&mut self, now_us: u64) {
+        self.outputs_on = false;
+        if self.brakes_out {
+            self.brakes_applied_at_us = Some(now_us);
+        }
+        self.brakes_out = false;
+    }
+
     /// The outputs of the tick: the duties within the current limit, the brakes, torque.
     fn write_outputs<H: Hardware<S>>(
         &mut self,
@@ -780,7 +799,6 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         let out = self.stopper.outputs(self.sm.drives_on());
         let brakes_released =
             out.brakes_released && self.enabling.as_ref().is_none_or(|e| e.brakes_released());
-        let _ = now_us;
         if out.torque {
             if !self.outputs_on {
                 hw.enable();
@@ -796,7 +814,12 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             self.last_duty = [S::zero(); NUM_JOINTS];
             self.current.reset_overload();
         }
-        hw.set_brakes_released(brakes_released && out.torque);
+        let released = brakes_released && out.torque;
+        if self.brakes_out && !released {
+            self.brakes_applied_at_us = Some(now_us);
+        }
+        self.brakes_out = released;
+        hw.set_brakes_released(released);
         self.torque_on = out.torque;
     }
 

@@ -186,6 +186,9 @@ impl<S: Scalar, M: Mechanism<S> + Clone> TickService<S, M> {
         };
         self.last_start_us = Some(now_us);
         self.timing.last_jitter_us = u32::try_from(jitter).unwrap_or(u32::MAX);
+        if estop.button || estop.message {
+            self.runtime.outputs_forced_safe(now_us);
+        }
         if estop.button {
             let f = Finding::board::<S>(master_link::FaultCause::EmergencyStopButton, S::one());
             self.runtime.fault(f, now_us);

@@ -296,6 +296,52 @@ fn emergency_stop_from_every_state() {
     );
 }
 
+/// Property: after the e-stop path forced the outputs safe behind the runtime's back, a
+/// fault cleared and an enable accepted before any tick ran with the torque off switch the
+/// bridges on again: the runtime never drives disabled bridges nor releases the brakes
+/// without torque (fuzz finding 3, `fuzz/regressions/commands-finding-3-*`).
+#[test]
+fn the_estop_path_forcing_outputs_safe_is_seen_by_the_next_enable() {
+    use hal::{Brakes, MotorOutputs};
+    let (rt, mut hw, t) = enabled();
+    assert!(hw.enabled);
+    let cfg = ServiceConfig::for_period(1000, 168_000_000, control::link::FIRMWARE_VERSION);
+    let mut svc = TickService::new(rt, cfg);
+    // What `SafeOutputs::force_safe` does to the board: bridges off, brakes applied.
+    let latch = EStopLatch::new();
+    MotorOutputs::disable(&mut hw);
+    Brakes::set_brakes_released(&mut hw, false);
+    latch.trip_message();
+    let now = t + 1000;
+    svc.begin(now, 0, latch.take());
+    let rt = svc.runtime_mut();
+    assert_eq!(rt.state(), State::Fault);
+    rt.command(&Command::Heartbeat, now).unwrap();
+    rt.command(&Command::ClearFault, now).unwrap();
+    rt.command(&Command::Enable, now).unwrap();
+    let mut now = now;
+    // The brakes' engage and settle wait, the check's two 40 ms pushes, the 60 ms release.
+    for _ in 0..400 {
+        let out = svc.tick(&mut hw, now);
+        assert_eq!(
+            out.drives_on, hw.enabled,
+            "the runtime's torque flag and the bridges agree ({:?})",
+            out.state
+        );
+        assert!(
+            !hw.brakes_released || hw.enabled,
+            "brakes released without torque"
+        );
+        hw.step_ms();
+        now += 1000;
+        svc.runtime_mut().command(&Command::Heartbeat, now).unwrap();
+        svc.begin(now, 0, latch.take());
+    }
+    let st = svc.runtime().status();
+    assert_eq!(svc.runtime().state(), State::Enabled, "{:?}", st.fault);
+    assert!(st.faults.is_empty(), "{:?}", st.faults);
+}
+
 /// Property: the button's hard-wired channel stops the robot without the MCU (the relay
 /// removes the drivers' power and the brakes' coil power while no tick runs); the MCU
 /// latches `EmergencyStopButton`, refuses to clear while the button is pressed, and once it
