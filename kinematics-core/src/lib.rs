@@ -30,6 +30,7 @@
 
 pub mod branch;
 pub mod chain;
+pub mod chain_geometry;
 mod double_buffer;
 pub mod fk;
 pub mod geometry;
@@ -49,6 +50,7 @@ pub mod usr;
 
 pub use branch::Branch;
 pub use chain::{Chain, PerChain};
+pub use chain_geometry::{ChainDimensions, PerChainGeometry};
 pub use fk::{forward, FkConfig, FkError, FkSolution, FkTracker, Tracked, TrackerCounts};
 pub use geometry::{GeometryError, Robot, RobotKind, RsprGeometry, UsrGeometry};
 pub use ik::{inverse, IkError, Solution};

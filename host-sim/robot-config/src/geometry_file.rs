@@ -85,6 +85,12 @@ impl From<GeometryError> for GeometryTextError {
                     error,
                 }
             }
+            GeometryError::NotUnit { field, .. } | GeometryError::AxisOutOfRange { field } => {
+                GeometryTextError::Dimension {
+                    key: field.to_string(),
+                    error,
+                }
+            }
             GeometryError::NotAssemblable { .. } => GeometryTextError::Geometry(error),
         }
     }
