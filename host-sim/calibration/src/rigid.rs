@@ -30,6 +30,15 @@ impl Rigid {
         }
     }
 
+    /// From the edge form x_mm, y_mm, z_mm, rx_deg, ry_deg, rz_deg (rotation vector).
+    pub fn from_mm_deg(v: [f64; 6]) -> Self {
+        let [x, y, z, a, b, c] = v;
+        Rigid::new(
+            Vector3::new(x, y, z) * 1e-3,
+            Vector3::new(a, b, c) * (std::f64::consts::PI / 180.0),
+        )
+    }
+
     /// The platform pose as a transform ({p} in {0}).
     pub fn from_pose(p: &Pose<f64>) -> Self {
         Rigid { r: p.r, t: p.t }
