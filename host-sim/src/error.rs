@@ -54,6 +54,8 @@ pub enum CliError {
         path: std::path::PathBuf,
         error: String,
     },
+    #[error("calibrate upload: the board {0}")]
+    Upload(String),
 }
 
 /// Library errors that reach the command line through their crate's error.

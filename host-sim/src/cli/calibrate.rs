@@ -37,6 +37,27 @@ pub enum CalibrateAction {
     /// calibration and the limit the noise allows; writes report.txt, validation.png,
     /// residuals.png and measurements.csv.
     Simulate(SimulateArgs),
+    /// Sends a calibrated geometry file to the board, which checks it (CRC, version,
+    /// plausibility, IK of the central pose) and stores it in flash with the drives off;
+    /// prints the version the board reports before and after, or why it refused.
+    Upload(UploadArgs),
+}
+
+/// `host-sim calibrate upload` arguments.
+#[derive(Debug, Args)]
+pub struct UploadArgs {
+    /// The board: a Unix socket (QEMU) or a serial device.
+    #[arg(long, value_name = "PATH")]
+    pub connect: PathBuf,
+    /// The calibrated geometry (robot = "rspr-per-chain", with its [calibration] version).
+    #[arg(long, value_name = "FILE.toml")]
+    pub file: PathBuf,
+    /// Serial devices: the baud rate.
+    #[arg(long, default_value_t = 1_000_000)]
+    pub baud: u32,
+    /// How long to wait for the board (connection, hello, the flash write), s.
+    #[arg(long, default_value_t = 15.0)]
+    pub timeout_s: f64,
 }
 
 /// The tracker's noise, shared by the identification, the plan and the simulation.
@@ -224,6 +245,7 @@ pub fn run(
     match &args.action {
         Some(CalibrateAction::Plan(a)) => run_plan(a, selected, limits),
         Some(CalibrateAction::Simulate(a)) => run_simulate(a),
+        Some(CalibrateAction::Upload(a)) => run_upload(a),
         None => run_identify(&args.identify, selected),
     }
 }
@@ -343,4 +365,29 @@ fn run_simulate(args: &SimulateArgs) -> Result<(), CliError> {
         dir.display()
     );
     Ok(())
+}
+
+fn run_upload(args: &UploadArgs) -> Result<(), CliError> {
+    use teleop::session::{GeometryAnswer, Session};
+    let (geometry, info) = robot_config::geometry_file::load_per_chain(&args.file)?;
+    let record = control::geometry_store::record_of(&geometry, info.version);
+    let timeout = std::time::Duration::from_secs_f64(args.timeout_s.max(0.0));
+    let link = teleop::link::open(&args.connect, args.baud, timeout)?;
+    let mut s = Session::new(link);
+    s.hello(args.timeout_s)?;
+    println!(
+        "board reports calibrated geometry version {}",
+        s.geometry_version.unwrap_or(0)
+    );
+    match s.store_geometry(record, args.timeout_s)? {
+        GeometryAnswer::Stored(v) => {
+            println!("stored calibrated geometry version {v}");
+            Ok(())
+        }
+        GeometryAnswer::Refused(reason) => Err(CliError::Upload(format!("refused: {reason:?}"))),
+        GeometryAnswer::Nack(reason) => Err(CliError::Upload(format!("refused: {reason:?}"))),
+        GeometryAnswer::Unexpected(what) => {
+            Err(CliError::Upload(format!("unexpected reply {what}")))
+        }
+    }
 }
