@@ -57,6 +57,22 @@ pub enum CliError {
     CompareNeedsRspr,
     #[error("{0} robots: narrow the ranges (at most 200000)")]
     TooManyRobots(usize),
+    #[error(transparent)]
+    Calibration(#[from] calibration::CalibrationError),
+    #[error("calibrate needs an RSPR geometry (the nominal robot or an earlier calibration)")]
+    CalibrateNeedsRspr,
+    #[error("cannot write {}: {error}", path.display())]
+    Output {
+        path: std::path::PathBuf,
+        error: String,
+    },
+    #[error("cannot read {}: {error}", path.display())]
+    Input {
+        path: std::path::PathBuf,
+        error: String,
+    },
+    #[error("calibrate upload: the board {0}")]
+    Upload(String),
 }
 
 /// Library errors that reach the command line through their crate's error.

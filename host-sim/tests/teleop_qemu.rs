@@ -178,12 +178,17 @@ fn fake_board(mut stream: UnixStream) {
                         Command::Hello { session } => Ok(Answer::Hello {
                             session,
                             reset: ResetStatus::default(),
+                            geometry_version: 0,
                         }),
                         Command::StatusRequest => Ok(Answer::Status),
                         c => board.command(&c, now).map(|()| Answer::Ack),
                     };
                     out.push(req.reply(result, &board.status(now), version));
                 }
+                Inbound::Geometry { seq, .. } => out.push(BoardToMaster::GeometryRefused {
+                    seq,
+                    reason: master_link::GeometryRefusal::Unsupported,
+                }),
             }),
             Err(e)
                 if e.kind() == std::io::ErrorKind::WouldBlock

@@ -2,6 +2,7 @@
 
 use crate::branch::Branch;
 use crate::chain::Chain;
+use crate::chain_geometry::PerChainGeometry;
 use crate::ik::{inverse, IkError};
 use crate::mechanism::ChainSolution;
 use crate::mechanism::{JointKind, Mechanism, PlatformChain, SerialBlock};
@@ -19,6 +20,11 @@ pub enum GeometryError {
     NotPositive { field: &'static str, value_m: f64 },
     /// The robot cannot be assembled in its central configuration on some branch.
     NotAssemblable { branch: Branch, error: IkError },
+    /// A direction given as a unit vector is not one (per-chain geometry).
+    NotUnit { field: &'static str, norm: f64 },
+    /// A rotating link's axis is more than 60 deg from z0, so the zero of its angle is
+    /// undefined (per-chain geometry).
+    AxisOutOfRange { field: &'static str },
 }
 
 impl fmt::Display for GeometryError {
@@ -32,6 +38,12 @@ impl fmt::Display for GeometryError {
                 f,
                 "cannot be assembled in the central configuration on branch {branch}: {error}"
             ),
+            GeometryError::NotUnit { field, norm } => {
+                write!(f, "{field} must be a unit vector, its norm is {norm}")
+            }
+            GeometryError::AxisOutOfRange { field } => {
+                write!(f, "{field} is more than 60 deg from z0")
+            }
         }
     }
 }
@@ -161,48 +173,49 @@ pub enum RobotKind {
 pub enum Robot<T: Real> {
     Rspr(RsprGeometry<T>),
     Usr(UsrGeometry<T>),
+    /// An RSPR with per-chain dimensions and encoder zero offsets (a calibrated robot).
+    RsprPerChain(PerChainGeometry<T>),
 }
 
 impl<T: Real> Robot<T> {
     /// The architecture.
     pub fn kind(&self) -> RobotKind {
         match self {
-            Robot::Rspr(_) => RobotKind::Rspr,
+            Robot::Rspr(_) | Robot::RsprPerChain(_) => RobotKind::Rspr,
             Robot::Usr(_) => RobotKind::Usr,
         }
     }
 }
 
+/// Dispatches a `Mechanism` method to the variant's geometry.
+macro_rules! each {
+    ($self:ident, $g:ident => $e:expr) => {
+        match $self {
+            Robot::Rspr($g) => $e,
+            Robot::Usr($g) => $e,
+            Robot::RsprPerChain($g) => $e,
+        }
+    };
+}
+
 impl<T: Real> Mechanism<T> for Robot<T> {
     fn rp(&self) -> T {
-        match self {
-            Robot::Rspr(g) => g.rp(),
-            Robot::Usr(g) => g.rp(),
-        }
+        each!(self, g => g.rp())
     }
     fn e(&self) -> T {
-        match self {
-            Robot::Rspr(g) => Mechanism::e(g),
-            Robot::Usr(g) => Mechanism::e(g),
-        }
+        each!(self, g => Mechanism::e(g))
     }
     fn hc(&self) -> T {
-        match self {
-            Robot::Rspr(g) => g.hc(),
-            Robot::Usr(g) => g.hc(),
-        }
+        each!(self, g => g.hc())
     }
     fn joint_kinds(&self) -> [JointKind; 6] {
-        match self {
-            Robot::Rspr(g) => g.joint_kinds(),
-            Robot::Usr(g) => g.joint_kinds(),
-        }
+        each!(self, g => g.joint_kinds())
     }
     fn length_scale(&self) -> T {
-        match self {
-            Robot::Rspr(g) => g.length_scale(),
-            Robot::Usr(g) => g.length_scale(),
-        }
+        each!(self, g => g.length_scale())
+    }
+    fn platform_chain(&self, pose: &Pose<T>, chain: Chain) -> PlatformChain<T> {
+        each!(self, g => g.platform_chain(pose, chain))
     }
     fn chain_ik(
         &self,
@@ -211,22 +224,13 @@ impl<T: Real> Mechanism<T> for Robot<T> {
         bit_set: bool,
         out: &mut ChainSolution<T>,
     ) -> Result<(), crate::mechanism::IkFailure> {
-        match self {
-            Robot::Rspr(g) => g.chain_ik(chain, pc, bit_set, out),
-            Robot::Usr(g) => g.chain_ik(chain, pc, bit_set, out),
-        }
+        each!(self, g => g.chain_ik(chain, pc, bit_set, out))
     }
     fn serial_block(&self, s: &ChainSolution<T>) -> SerialBlock<T> {
-        match self {
-            Robot::Rspr(g) => g.serial_block(s),
-            Robot::Usr(g) => g.serial_block(s),
-        }
+        each!(self, g => g.serial_block(s))
     }
     fn serial_measure(&self, s: &ChainSolution<T>) -> (T, T) {
-        match self {
-            Robot::Rspr(g) => g.serial_measure(s),
-            Robot::Usr(g) => g.serial_measure(s),
-        }
+        each!(self, g => g.serial_measure(s))
     }
 }
 

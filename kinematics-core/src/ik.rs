@@ -52,10 +52,24 @@ impl<T: Real> Solution<T> {
     }
 }
 
-/// The platform-side quantities of a chain at a pose (Eq. 6.1-6.7).
+/// The platform-side quantities of a chain at a pose (Eq. 6.1-6.7), as the robot defines
+/// them ([`Mechanism::platform_chain`]).
 #[inline]
 pub fn platform_chain<T: Real, M: Mechanism<T> + ?Sized>(
     m: &M,
+    pose: &Pose<T>,
+    chain: Chain,
+) -> PlatformChain<T> {
+    m.platform_chain(pose, chain)
+}
+
+/// The platform-side quantities of a chain of the symmetric robot of platform radius `rp`
+/// and eccentricity `e` at a pose (Eq. 6.1-6.7): the default of
+/// [`Mechanism::platform_chain`].
+#[inline]
+pub fn symmetric_platform_chain<T: Real>(
+    rp: T,
+    e: T,
     pose: &Pose<T>,
     chain: Chain,
 ) -> PlatformChain<T> {
@@ -75,7 +89,6 @@ pub fn platform_chain<T: Real, M: Mechanism<T> + ?Sized>(
     let u = col(radial.x, radial.y);
     let m_axis = col(r_axis.x, r_axis.y);
     let n = Vector3::new(r.m13, r.m23, r.m33);
-    let (rp, e) = (m.rp(), m.e());
     PlatformChain {
         p: axpy3(&pose.t, &u, rp), // Eq. 6.7
         u,

@@ -14,7 +14,9 @@
 //! part a small pure function ([`Mechanism::chain_ik`] and [`Mechanism::serial_block`]);
 //! one generic implementation of the Jacobian ([`jacobian()`]), the forward kinematics
 //! ([`fk`]), the statics ([`statics`]), the singularity measures ([`singularity`]) and the
-//! spherical-joint tilt ([`tilt`]) serves both robots.
+//! spherical-joint tilt ([`tilt`]) serves both robots, and the RSPR with per-chain
+//! dimensions and encoder zero offsets that a calibration identifies ([`chain_geometry`];
+//! the symmetric robot is one instance of it).
 #![no_std]
 #![deny(
     clippy::unwrap_used,
@@ -30,6 +32,7 @@
 
 pub mod branch;
 pub mod chain;
+pub mod chain_geometry;
 mod double_buffer;
 pub mod fk;
 pub mod geometry;
@@ -49,6 +52,7 @@ pub mod usr;
 
 pub use branch::Branch;
 pub use chain::{Chain, PerChain};
+pub use chain_geometry::{ChainDimensions, PerChainGeometry};
 pub use fk::{forward, FkConfig, FkError, FkSolution, FkTracker, Tracked, TrackerCounts};
 pub use geometry::{GeometryError, Robot, RobotKind, RsprGeometry, UsrGeometry};
 pub use ik::{inverse, IkError, Solution};

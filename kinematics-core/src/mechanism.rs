@@ -2,6 +2,7 @@
 //! kinematics and the per-chain block of the serial Jacobian.
 
 use crate::chain::Chain;
+use crate::pose::Pose;
 use crate::scalar::{lit, Real};
 use core::fmt;
 use nalgebra::Vector3;
@@ -116,6 +117,10 @@ pub struct ChainSolution<T: Real> {
     pub leg: T,
     /// Unit axis ŝ2_i of the upper revolute joint in {0} (the line through b_i).
     pub s2: Vector3<T>,
+    /// Unit axis ŝn_i of the chain's first base joint in {0} (Eq. 7.19): +z0 on the
+    /// symmetric RSPR and for the USR's yaw; the rotating link's own axis on a per-chain
+    /// geometry ([`crate::chain_geometry`]), whose serial block needs it.
+    pub axis: Vector3<T>,
     /// The chain's first joint: RSPR l_i (m), USR α_i (rad).
     pub qa: T,
     /// The chain's second joint: RSPR θ_i, USR β_i (rad).
@@ -136,6 +141,7 @@ impl<T: Real> ChainSolution<T> {
             s1: z,
             leg: T::zero(),
             s2: z,
+            axis: z,
             qa: T::zero(),
             qb: T::zero(),
             gamma: T::zero(),
@@ -156,6 +162,14 @@ pub trait Mechanism<T: Real> {
     fn joint_kinds(&self) -> [JointKind; 6];
     /// A characteristic length (m) used to scale tolerances (e.g. rb or l1).
     fn length_scale(&self) -> T;
+    /// The platform-side quantities of one chain at a pose (Eq. 6.1-6.7), which
+    /// [`Mechanism::chain_ik`] receives. The default is the symmetric robot's, from
+    /// [`Mechanism::rp`] and [`Mechanism::e`]; a geometry with per-chain platform joints
+    /// and base pivots ([`crate::chain_geometry`]) supplies its own.
+    #[inline]
+    fn platform_chain(&self, pose: &Pose<T>, chain: Chain) -> PlatformChain<T> {
+        crate::ik::symmetric_platform_chain(self.rp(), self.e(), pose, chain)
+    }
     /// Inverse kinematics of one chain on the chosen root (`bit_set` = the branch bit),
     /// written into `out` (in place: on the Cortex-M4 a returned solution costs copies
     /// worth more than the computation). On failure `out` must not be used.

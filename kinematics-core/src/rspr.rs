@@ -90,6 +90,7 @@ impl<T: Real> Mechanism<T> for RsprGeometry<T> {
             s1: Vector3::new(s1_vec.x / leg, s1_vec.y / leg, s1_vec.z / leg),
             leg,
             s2: pc.m,
+            axis: Vector3::new(T::zero(), T::zero(), T::one()),
             qa: leg,
             // θ_i: angle of the rotating link about +z0 from the radial direction (Fig. 6.3).
             qb: yaw_from(&pc.radial, &lb),

@@ -92,6 +92,7 @@ impl<T: Real> Mechanism<T> for UsrGeometry<T> {
             s1: s1_vec / leg,
             leg,
             s2: pc.m,
+            axis: Vector3::new(T::zero(), T::zero(), T::one()),
             // Eq. 6.35-6.37: yaw from the radial direction about +z0.
             qa: yaw_from(&pc.radial, &lb),
             // Elevation above the base plane (CONVENTIONS.md; Eq. 6.38 measures it from w_i).

@@ -23,6 +23,8 @@
 //!   ([`brakes`]), the current limits ([`current`]), the plausibility monitors
 //!   ([`monitors`]), the fault log ([`faults`]), the heartbeat ([`heartbeat`]), the
 //!   e-stop's interrupt path ([`estop`]) and the deadline ([`watchdog`]);
+//! - the calibrated geometry (issue 19): [`geometry_store`] (the checks of a received
+//!   record, its flash layout and log);
 //! - the master link's board side: [`link`] (frames to requests, replies to frames),
 //!   [`targets`] (target timestamps), [`wire`] (wire values), [`telemetry`] (the status).
 #![no_std]
@@ -42,6 +44,7 @@ pub mod current;
 pub mod drive;
 pub mod estop;
 pub mod faults;
+pub mod geometry_store;
 pub mod heartbeat;
 pub mod homing;
 pub mod link;

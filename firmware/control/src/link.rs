@@ -7,6 +7,8 @@
 //!     Inbound::Request  a Command for the runtime (a session opened, state-machine event,
 //!                       pose target, heartbeat, status or fault-log request); its outcome
 //!                       becomes HelloReply / Status / FaultLog / Ack / Nack
+//!     Inbound::Geometry a calibrated geometry: checked by the runtime, stored by the
+//!                       target; GeometryStored / GeometryRefused
 //! replies -> LinkTx (the session, sequence numbers, encode into the caller's buffer) -> UART
 //! ```
 //! Malformed, oversized, wrong-version, bad-checksum, out-of-order (replayed) frames and
@@ -18,8 +20,8 @@
 
 use master_link::{
     encode, BoardDecoder, BoardToMaster, EncodeError, FaultLogPage, FirmwareVersion, FrameError,
-    Header, LinkCounters, MasterToBoard, NackReason, ResetStatus, Seq, SeqCounter, StatusReport,
-    PROTOCOL_VERSION,
+    GeometryRecord, GeometryRefusal, Header, LinkCounters, MasterToBoard, NackReason, ResetStatus,
+    Seq, SeqCounter, StatusReport, PROTOCOL_VERSION,
 };
 
 /// A master request for the runtime.
@@ -104,6 +106,8 @@ pub enum Answer {
         session: u32,
         /// The last reset and its acknowledgement.
         reset: ResetStatus,
+        /// The stored calibrated geometry's version (0: none).
+        geometry_version: u32,
     },
     /// A page of the fault log.
     FaultLog(FaultLogPage),
@@ -120,11 +124,16 @@ impl Request {
         match result {
             Ok(Answer::Ack) => BoardToMaster::Ack { seq: self.seq },
             Ok(Answer::Status) => BoardToMaster::Status(*status),
-            Ok(Answer::Hello { session, reset }) => BoardToMaster::HelloReply {
+            Ok(Answer::Hello {
+                session,
+                reset,
+                geometry_version,
+            }) => BoardToMaster::HelloReply {
                 firmware_version: firmware,
                 protocol_version: PROTOCOL_VERSION,
                 session,
                 reset,
+                geometry_version,
             },
             Ok(Answer::FaultLog(page)) => BoardToMaster::FaultLog(page),
             Err(reason) => BoardToMaster::Nack {
@@ -135,6 +144,15 @@ impl Request {
     }
 }
 
+/// The reply to a `StoreGeometry` of sequence number `seq`: `GeometryStored` with the
+/// version, or `GeometryRefused` with the reason.
+pub fn geometry_reply(seq: Seq, result: Result<u32, GeometryRefusal>) -> BoardToMaster {
+    match result {
+        Ok(version) => BoardToMaster::GeometryStored { seq, version },
+        Err(reason) => BoardToMaster::GeometryRefused { seq, reason },
+    }
+}
+
 /// What one received frame gives.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Inbound {
@@ -142,6 +160,15 @@ pub enum Inbound {
     Request(Request),
     /// The link answered itself: send this.
     Reply(BoardToMaster),
+    /// A calibrated geometry to check (`Runtime::check_geometry`) and store (issue 19);
+    /// answer with [`geometry_reply`]. It does not travel in the request queue (a record
+    /// is 220 bytes, every other request at most 48): a target keeps one in a mailbox.
+    Geometry {
+        /// Sequence number of the master frame.
+        seq: Seq,
+        /// The record.
+        record: GeometryRecord,
+    },
 }
 
 /// Firmware version of this crate's release (the boards pass their own).
@@ -241,6 +268,7 @@ impl LinkRx {
             MasterToBoard::OperatorPresent { present } => Command::OperatorPresent { present },
             MasterToBoard::AcknowledgeReset => Command::AcknowledgeReset,
             MasterToBoard::FaultLogRequest { first } => Command::FaultLogRequest { first },
+            MasterToBoard::StoreGeometry(record) => return Inbound::Geometry { seq, record },
         };
         Inbound::Request(Request { seq, command })
     }

@@ -154,6 +154,8 @@ pub struct Runtime<S: Scalar, M: Mechanism<S> + Clone> {
     /// Worst tick jitter and execution time, µs (from the board).
     tick_timing: (u32, u32),
     missed_ticks: u32,
+    /// The stored calibrated geometry's version (0: none), for `HelloReply`.
+    geometry_version: u32,
 }
 
 fn lit<S: Scalar>(x: f64) -> S {
@@ -221,6 +223,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             brakes_applied_at_us: None,
             tick_timing: (0, 0),
             missed_ticks: 0,
+            geometry_version: 0,
             cfg,
         })
     }
@@ -277,6 +280,41 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
     /// The last reset and its acknowledgement.
     pub fn reset(&self) -> ResetStatus {
         self.reset
+    }
+    /// The stored calibrated geometry's version (0: none), reported in `HelloReply`.
+    pub fn geometry_version(&self) -> u32 {
+        self.geometry_version
+    }
+    /// Records the version of the calibrated geometry the board holds in flash (at boot,
+    /// and after a store).
+    pub fn set_geometry_version(&mut self, version: u32) {
+        self.geometry_version = version;
+    }
+
+    /// A received calibrated geometry (`StoreGeometry`): taken only with the drives off
+    /// (`Disabled`, `Ready`), checked against this robot's nominal dimensions (e, rb = the
+    /// length scale, rp, hc: an RSPR) and branch (`geometry_store::check`). Its version
+    /// when it may be stored; the target writes it to flash outside the control tick.
+    pub fn check_geometry(
+        &self,
+        record: &master_link::GeometryRecord,
+    ) -> Result<u32, master_link::GeometryRefusal> {
+        if !matches!(self.sm.state(), State::Disabled | State::Ready) {
+            return Err(master_link::GeometryRefusal::InvalidState);
+        }
+        let nominal = kinematics_core::RsprGeometry {
+            e: self.robot.e(),
+            rb: self.robot.length_scale(),
+            rp: self.robot.rp(),
+            hc: self.robot.hc(),
+        };
+        crate::geometry_store::check(
+            record,
+            &nominal,
+            self.cfg.controller.branch,
+            &crate::geometry_store::Plausible::default(),
+        )
+        .map(|_| record.version)
     }
     /// The robot.
     pub fn robot(&self) -> &M {
@@ -497,6 +535,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
                 return Ok(Answer::Hello {
                     session,
                     reset: self.reset,
+                    geometry_version: self.geometry_version,
                 })
             }
             Command::Enable => Event::Enable,

@@ -213,6 +213,23 @@ impl<S: Scalar, M: Mechanism<S> + Clone> TickService<S, M> {
         req.reply(result, &self.runtime.status(), self.cfg.firmware)
     }
 
+    /// A received calibrated geometry: its version when the runtime accepts it for
+    /// storing (see `Runtime::check_geometry`), or why not.
+    pub fn check_geometry(
+        &self,
+        record: &master_link::GeometryRecord,
+    ) -> Result<u32, master_link::GeometryRefusal> {
+        self.runtime.check_geometry(record)
+    }
+
+    /// After a pause of the control task that was not a missed deadline (the board
+    /// writing its flash with the drives off, which stalls the core): the next tick
+    /// starts the schedule afresh instead of counting as late.
+    pub fn resume_after_pause(&mut self) {
+        self.last_start_us = None;
+        self.watchdog.restart();
+    }
+
     /// The runtime's tick.
     pub fn tick<H: Hardware<S>>(&mut self, hw: &mut H, now_us: u64) -> RuntimeTick<S> {
         self.runtime.tick(hw, now_us)

@@ -97,6 +97,12 @@ impl WatchdogPolicy {
         d
     }
 
+    /// Forgets the last tick's start: the next tick only starts the schedule again (after
+    /// a planned pause, see `TickService::resume_after_pause`).
+    pub fn restart(&mut self) {
+        self.last_start_us = None;
+    }
+
     /// For a feeder outside the tick: feed at `now_us` only if the last tick was fed and
     /// the next one is not overdue (a missing tick is never fed).
     pub fn should_feed(&self, now_us: u64) -> bool {

@@ -10,7 +10,7 @@
 //! session rules; the clutch, the reset acknowledgement and the fault log at the wire
 //! level; timestamps; status contents.
 
-use control::link::{Command, Inbound, LinkRx, LinkTx, Request, FIRMWARE_VERSION};
+use control::link::{geometry_reply, Command, Inbound, LinkRx, LinkTx, Request, FIRMWARE_VERSION};
 use control::runtime::Runtime;
 use control::state_machine::State;
 use control::targets::{TargetClock, TargetClockConfig};
@@ -119,6 +119,10 @@ impl<H> Board<H> {
                     status.link = self.rx.counters();
                     req.reply(result, &status, FIRMWARE_VERSION)
                 }
+                // A target without flash answers the runtime's verdict.
+                Inbound::Geometry { seq, record } => {
+                    geometry_reply(seq, self.rt.check_geometry(&record))
+                }
             };
             let mut buf = [0u8; MAX_FRAME_LEN];
             let n = self.tx.encode(&reply, &mut buf).unwrap();
@@ -211,6 +215,7 @@ fn hello(m: &mut Master, b: &mut Board<PlantHw>) -> ResetStatus {
         protocol_version,
         session,
         reset,
+        ..
     } = r
     else {
         panic!("{r:?}")
@@ -823,4 +828,84 @@ fn a_watchdog_reset_must_be_acknowledged_before_enabling() {
             assert_eq!(r, BoardToMaster::Ack { seq: s }, "{cause:?}");
         }
     }
+}
+
+// ---------------------------------------------------------------------------------------
+// The calibrated geometry (issue 19)
+// ---------------------------------------------------------------------------------------
+
+/// A `StoreGeometry` with the drives off is checked and accepted; a corrupted, a version-0
+/// or an implausible record, and any record while the drives are on, is refused with the
+/// reason; the hello reply reports the stored version.
+#[test]
+fn a_calibrated_geometry_is_checked_before_it_is_stored() {
+    use control::geometry_store::record_of;
+    use kinematics_core::{Chain, ChainDimensions, PerChainGeometry};
+    use master_link::GeometryRefusal;
+    let mut m = Master::new();
+    let mut b = board();
+    hello(&mut m, &mut b);
+    let g = RsprGeometry::<f64>::reference();
+    let sym = PerChainGeometry::from(g);
+    let with_offset = |mm: f64| {
+        let mut chains = *sym.chains();
+        chains[Chain::Two] = ChainDimensions {
+            leg_offset: mm * 1e-3,
+            ..chains[Chain::Two]
+        };
+        PerChainGeometry::new(g, chains).unwrap()
+    };
+    let good = record_of(&with_offset(0.3), 3);
+    let (seq, r) = exchange(&mut m, &mut b, &MasterToBoard::StoreGeometry(good));
+    assert_eq!(r, BoardToMaster::GeometryStored { seq, version: 3 });
+    let refused = |m: &mut Master, b: &mut Board<PlantHw>, rec| {
+        let (seq, r) = exchange(m, b, &MasterToBoard::StoreGeometry(rec));
+        match r {
+            BoardToMaster::GeometryRefused { seq: s, reason } if s == seq => reason,
+            other => panic!("{other:?}"),
+        }
+    };
+    let mut corrupt = good;
+    corrupt.chains[0][0] += 1e-4;
+    assert_eq!(refused(&mut m, &mut b, corrupt), GeometryRefusal::Crc);
+    assert_eq!(
+        refused(&mut m, &mut b, record_of(&with_offset(0.3), 0)),
+        GeometryRefusal::Version
+    );
+    // A 5 mm leg offset is beyond any calibration (chain 2's value 13: index 4 + 16 + 13).
+    assert_eq!(
+        refused(&mut m, &mut b, record_of(&with_offset(5.0), 4)),
+        GeometryRefusal::OutOfTolerance { index: 33 }
+    );
+    let mut nan = good;
+    nan.chains[2][6] = f32::NAN;
+    assert_eq!(
+        refused(&mut m, &mut b, nan.sealed()),
+        GeometryRefusal::NonFinite { index: 42 }
+    );
+    // The stored version is what the hello reply reports.
+    b.rt.set_geometry_version(3);
+    let nonce = m.session;
+    let (_, r) = exchange(
+        &mut m,
+        &mut b,
+        &MasterToBoard::Hello {
+            protocol_version: PROTOCOL_VERSION,
+            nonce,
+        },
+    );
+    assert!(
+        matches!(
+            r,
+            BoardToMaster::HelloReply {
+                geometry_version: 3,
+                ..
+            }
+        ),
+        "{r:?}"
+    );
+    // With the drives on, nothing is stored.
+    home(&mut m, &mut b);
+    enable(&mut m, &mut b);
+    assert_eq!(refused(&mut m, &mut b, good), GeometryRefusal::InvalidState);
 }

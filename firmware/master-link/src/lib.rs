@@ -91,7 +91,8 @@ pub use frame::{
 };
 pub use messages::{
     BoardToMaster, FaultCause, FaultLogEntry, FaultLogPage, FaultRecord, FirmwareVersion,
-    GuardMargins, LinkCounters, MasterToBoard, NackReason, ResetCause, ResetStatus, RobotState,
-    Seq, StatusReport, StopStatus, WireMessage, FAULT_LOG_PAGE, JOINT_COUNT, JOINT_L1, JOINT_L2,
+    GeometryRecord, GeometryRefusal, GuardMargins, LinkCounters, MasterToBoard, NackReason,
+    ResetCause, ResetStatus, RobotState, Seq, StatusReport, StopStatus, WireMessage,
+    FAULT_LOG_PAGE, GEOMETRY_CHAIN_VALUES, GEOMETRY_LAYOUT, JOINT_COUNT, JOINT_L1, JOINT_L2,
     JOINT_L3, JOINT_THETA1, JOINT_THETA2, JOINT_THETA3, NO_JOINT,
 };

@@ -106,6 +106,113 @@ pub enum MasterToBoard {
         /// First entry wanted.
         first: u16,
     },
+    /// Store a calibrated geometry (issue 19) in the board's flash. Taken only while the
+    /// drives are off (`Disabled`, `Ready`); answered `GeometryStored` or
+    /// `GeometryRefused` with the reason.
+    StoreGeometry(GeometryRecord),
+}
+
+/// The record layout [`GeometryRecord::layout`] this crate writes.
+pub const GEOMETRY_LAYOUT: u8 = 1;
+
+/// Values per chain in a [`GeometryRecord`], in this order (SI; base quantities in {0},
+/// platform ones in {p}; `kinematics-core`'s `ChainDimensions`): base pivot x, y, z (m);
+/// base axis x, y, z; link length (m); platform joint x, y, z (m); platform axis x, y, z;
+/// leg offset (m); leg encoder zero (m); link encoder zero (rad).
+pub const GEOMETRY_CHAIN_VALUES: usize = 16;
+
+/// A calibrated per-chain geometry on the wire and in the board's flash: the nominal
+/// robot (e, rb, rp, hc in m), the three chains ([`GEOMETRY_CHAIN_VALUES`] each), the
+/// calibration's version and a CRC-32 (the frame's, ISO-HDLC) over the layout byte, the
+/// version and every value, little-endian: the record is checked end to end, from the
+/// host's file to the flash and back at boot.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct GeometryRecord {
+    /// The layout ([`GEOMETRY_LAYOUT`]).
+    pub layout: u8,
+    /// The calibration's version (reported in `HelloReply::geometry_version`; 0 is "none").
+    pub version: u32,
+    /// e, rb, rp, hc of the nominal robot, m.
+    pub nominal: [f32; 4],
+    /// The chains, chain 1 first.
+    pub chains: [[f32; GEOMETRY_CHAIN_VALUES]; 3],
+    /// CRC-32 of the rest ([`GeometryRecord::compute_crc`]).
+    pub crc: u32,
+}
+
+impl GeometryRecord {
+    /// The bytes the CRC covers: layout, version (LE), nominal and chain values (LE).
+    pub fn payload(&self) -> [u8; 5 + 4 * (4 + 3 * GEOMETRY_CHAIN_VALUES)] {
+        let mut out = [0u8; 5 + 4 * (4 + 3 * GEOMETRY_CHAIN_VALUES)];
+        let values = self.nominal.iter().chain(self.chains.iter().flatten());
+        let head = core::iter::once(self.layout).chain(self.version.to_le_bytes());
+        for (o, b) in out
+            .iter_mut()
+            .zip(head.chain(values.flat_map(|v| v.to_le_bytes())))
+        {
+            *o = b;
+        }
+        out
+    }
+
+    /// The CRC-32 of [`GeometryRecord::payload`].
+    pub fn compute_crc(&self) -> u32 {
+        crate::CRC32.checksum(&self.payload())
+    }
+
+    /// The record with its CRC set.
+    pub fn sealed(mut self) -> Self {
+        self.crc = self.compute_crc();
+        self
+    }
+
+    /// The CRC matches the contents.
+    pub fn crc_ok(&self) -> bool {
+        self.crc == self.compute_crc()
+    }
+}
+
+/// Why the board refused a geometry (`BoardToMaster::GeometryRefused`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum GeometryRefusal {
+    /// The record's CRC does not match its contents.
+    Crc,
+    /// A layout this firmware does not read.
+    Layout {
+        /// The layout received.
+        found: u8,
+    },
+    /// Version 0 is reserved for "no stored geometry".
+    Version,
+    /// A value is NaN or infinite (index: 0..=3 nominal, then 4 + 16 × chain + value).
+    NonFinite {
+        /// The value's index.
+        index: u8,
+    },
+    /// The nominal robot is not the board's.
+    Nominal {
+        /// The value's index (0..=3: e, rb, rp, hc).
+        index: u8,
+    },
+    /// A value is further from the nominal than a calibration can move it (index as for
+    /// `NonFinite`).
+    OutOfTolerance {
+        /// The value's index.
+        index: u8,
+    },
+    /// The geometry is invalid (an axis not a unit vector, a link length not positive) or
+    /// cannot be assembled in its central configuration.
+    NotAssemblable,
+    /// The inverse kinematics of the central pose fails on the board's branch.
+    CentralPose,
+    /// The drives are on (or homing): store only in `Disabled` or `Ready`.
+    InvalidState,
+    /// Writing or verifying the flash failed.
+    Flash,
+    /// This board cannot store a geometry.
+    Unsupported,
 }
 
 impl WireMessage for MasterToBoard {
@@ -625,6 +732,8 @@ pub enum BoardToMaster {
         session: u32,
         /// Why the board last reset, and whether that was acknowledged.
         reset: ResetStatus,
+        /// The version of the calibrated geometry stored in the board's flash (0: none).
+        geometry_version: u32,
     },
     /// Command accepted.
     Ack {
@@ -642,6 +751,20 @@ pub enum BoardToMaster {
     Status(StatusReport),
     /// A page of the fault log (answer to `FaultLogRequest`).
     FaultLog(FaultLogPage),
+    /// The geometry of a `StoreGeometry` was checked and stored.
+    GeometryStored {
+        /// Sequence number of the master frame.
+        seq: Seq,
+        /// The stored calibration's version.
+        version: u32,
+    },
+    /// The geometry of a `StoreGeometry` was refused; nothing was stored.
+    GeometryRefused {
+        /// Sequence number of the master frame.
+        seq: Seq,
+        /// Why.
+        reason: GeometryRefusal,
+    },
 }
 
 impl WireMessage for BoardToMaster {

@@ -60,6 +60,7 @@ fn largest_message_fits_in_max_frame() {
         .find(|m| matches!(m, MasterToBoard::PoseTarget { .. }))
         .unwrap();
     let pose = enc(&pose_msg, u16::MAX).len();
+    let geometry = enc(&MasterToBoard::StoreGeometry(max_geometry()), u16::MAX).len();
     let all_master = master_samples().iter().map(|m| enc(m, 1).len()).max();
     let all_board = board_samples().iter().map(|m| enc(m, 1).len()).max();
     println!(
@@ -72,7 +73,12 @@ fn largest_message_fits_in_max_frame() {
         Some(status.max(log)),
         "max Status or log page is the largest"
     );
-    assert!(all_master <= Some(pose));
+    assert_eq!(
+        all_master,
+        Some(geometry),
+        "StoreGeometry is the largest master message"
+    );
+    assert!(pose < geometry && geometry <= MAX_FRAME_LEN);
     assert!(status <= MAX_FRAME_LEN && log <= MAX_FRAME_LEN);
     // Documented sizes (update the README/report if the messages change).
     assert_eq!(status, STATUS_FRAME_LEN);
@@ -174,4 +180,35 @@ fn seq_counter_and_serial_arithmetic() {
     assert!(!seq_is_newer(SEQ_WINDOW + 1, 0));
     assert!(!seq_is_newer(5, 5));
     assert!(!seq_is_newer(4, 5));
+}
+
+/// The messages added for the calibrated geometry (issue 19) are appended: every earlier
+/// variant keeps its index (postcard's first byte), so its encoding is unchanged.
+#[test]
+fn geometry_messages_are_appended() {
+    let tag = |m: &MasterToBoard| body(m)[0];
+    assert_eq!(tag(&MasterToBoard::FaultLogRequest { first: 0 }), 13);
+    assert_eq!(tag(&MasterToBoard::StoreGeometry(max_geometry())), 14);
+    let btag = |m: &BoardToMaster| body(m)[0];
+    assert_eq!(btag(&BoardToMaster::FaultLog(FaultLogPage::default())), 4);
+    assert_eq!(
+        btag(&BoardToMaster::GeometryStored { seq: 0, version: 1 }),
+        5
+    );
+    assert_eq!(
+        btag(&BoardToMaster::GeometryRefused {
+            seq: 0,
+            reason: GeometryRefusal::Crc
+        }),
+        6
+    );
+    // The record's CRC covers every value: one flipped bit of one value is detected.
+    let g = max_geometry();
+    assert!(g.crc_ok());
+    let mut bad = g;
+    bad.chains[2][15] = f32::from_bits(bad.chains[2][15].to_bits() ^ 1);
+    assert!(!bad.crc_ok());
+    let mut bad = g;
+    bad.version ^= 1 << 20;
+    assert!(!bad.crc_ok());
 }

@@ -232,6 +232,15 @@ fn dimensions(out: &mut String, robot: &Robot<f64>) {
             ("l2_mm", g.l2, "upper link length"),
             ("hc_mm", g.hc, "central height"),
         ],
+        Robot::RsprPerChain(g) => {
+            let n = g.nominal();
+            vec![
+                ("e_mm", n.e, "nominal eccentricity (per-chain geometry)"),
+                ("rb_mm", n.rb, "nominal rotating link length"),
+                ("rp_mm", n.rp, "nominal platform radius"),
+                ("hc_mm", n.hc, "nominal central height"),
+            ]
+        }
     };
     let _ = writeln!(out, "Dimensions");
     for (name, v, what) in rows {

@@ -5,6 +5,9 @@
 //! e_mm = 20.0      # RSPR: e_mm, rb_mm, rp_mm, hc_mm; USR: e_mm, rp_mm, l1_mm, l2_mm, hc_mm
 //! ```
 //!
+//! A per-chain (calibrated) RSPR has its own layout, `robot = "rspr-per-chain"`
+//! ([`crate::per_chain_file`]); [`parse`] and [`load`] take both.
+//!
 //! Unknown keys are rejected, and every error names the file and the key or value.
 //! `geometry/reference-rspr.toml` and `geometry/reference-usr.toml` are the built-in
 //! reference robots in this form.
@@ -73,6 +76,9 @@ pub enum GeometryTextError {
     /// Dimensions that cannot be assembled (no one key is at fault).
     #[error("{0}")]
     Geometry(GeometryError),
+    /// A per-chain geometry file's problem.
+    #[error(transparent)]
+    PerChain(#[from] crate::per_chain_file::PerChainTextError),
 }
 
 impl From<GeometryError> for GeometryTextError {
@@ -82,6 +88,12 @@ impl From<GeometryError> for GeometryTextError {
             GeometryError::NonFinite { field } | GeometryError::NotPositive { field, .. } => {
                 GeometryTextError::Dimension {
                     key: format!("{field}_mm"),
+                    error,
+                }
+            }
+            GeometryError::NotUnit { field, .. } | GeometryError::AxisOutOfRange { field } => {
+                GeometryTextError::Dimension {
+                    key: field.to_string(),
                     error,
                 }
             }
@@ -108,6 +120,9 @@ pub enum GeometryFileError {
 /// Parses and validates the text of a geometry file; messages name the key or value but
 /// not the file (see [`load`]).
 pub fn parse(text: &str) -> Result<Robot<f64>, GeometryTextError> {
+    if crate::per_chain_file::is_per_chain(text) {
+        return Ok(Robot::RsprPerChain(crate::per_chain_file::parse(text)?.0));
+    }
     // Two passes, so that the second deserialises straight from the text and its errors
     // keep their position (an internally tagged enum would buffer and lose it).
     let located = |e: toml::de::Error| TomlError::located(text, &e);
@@ -135,6 +150,27 @@ pub fn parse(text: &str) -> Result<Robot<f64>, GeometryTextError> {
             .map(Robot::Usr)?)
         }
     }
+}
+
+/// Loads a per-chain geometry file with its calibration table (what the board is sent).
+/// Errors read `geometry file PATH: ...`.
+pub fn load_per_chain(
+    path: &Path,
+) -> Result<
+    (
+        kinematics_core::PerChainGeometry<f64>,
+        crate::per_chain_file::CalibrationInfo,
+    ),
+    GeometryFileError,
+> {
+    let text = std::fs::read_to_string(path).map_err(|source| GeometryFileError::Read {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    crate::per_chain_file::parse(&text).map_err(|e| GeometryFileError::Invalid {
+        path: path.to_path_buf(),
+        error: GeometryTextError::PerChain(e),
+    })
 }
 
 /// Loads a geometry file. Errors read `geometry file PATH: ...`.

@@ -3,6 +3,7 @@
 //! The core (`kinematics-core`) is SI; this crate is where millimetres and degrees meet it
 //! (shared/CONVENTIONS.md, "Units"). Modules:
 //! - [`geometry_file`]: a robot's dimensions in TOML (`geometry/*.toml`);
+//! - [`per_chain_file`]: a per-chain (calibrated) RSPR geometry in TOML;
 //! - [`limits_file`]: the guards' limits in TOML (`limits/reference.toml`);
 //! - [`selection`]: the robot and the limits a tool works with, and where they came from;
 //! - [`mod@overlay`]: the one TOML overlay of a settings file onto its embedded defaults (the
@@ -16,6 +17,7 @@ pub mod edge;
 pub mod geometry_file;
 pub mod limits_file;
 pub mod overlay;
+pub mod per_chain_file;
 pub mod selection;
 pub mod task_box;
 pub mod toml_error;

@@ -89,7 +89,10 @@ impl SimMaster {
             match msg {
                 BoardToMaster::Status(status) => self.statuses.push(StatusRow { t_us, status }),
                 BoardToMaster::HelloReply { .. } => self.hello = Some(msg),
-                BoardToMaster::Ack { seq } | BoardToMaster::Nack { seq, .. } => {
+                BoardToMaster::Ack { seq }
+                | BoardToMaster::Nack { seq, .. }
+                | BoardToMaster::GeometryStored { seq, .. }
+                | BoardToMaster::GeometryRefused { seq, .. } => {
                     self.replies.insert(seq, (t_us, msg));
                 }
                 BoardToMaster::FaultLog(page) => self.fault_logs.push(page),

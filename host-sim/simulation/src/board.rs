@@ -104,6 +104,61 @@ pub struct BoardSimConfig {
     pub telemetry_us: u64,
 }
 
+/// The simulated board's reserved flash sector for the calibrated geometry (16 slots of
+/// [`control::geometry_store::SLOT_LEN`] bytes, erased to 0xFF; a write clears bits only,
+/// as NOR flash does).
+#[derive(Clone, Debug)]
+struct SimGeometryFlash {
+    bytes: Vec<u8>,
+}
+
+impl SimGeometryFlash {
+    const SLOTS: usize = 16;
+    fn new() -> Self {
+        SimGeometryFlash {
+            bytes: vec![0xFF; Self::SLOTS * control::geometry_store::SLOT_LEN],
+        }
+    }
+}
+
+impl control::geometry_store::GeometryFlash for SimGeometryFlash {
+    fn slots(&self) -> usize {
+        Self::SLOTS
+    }
+    fn read_slot(
+        &mut self,
+        i: usize,
+        out: &mut [u8; control::geometry_store::SLOT_LEN],
+    ) -> Result<(), control::geometry_store::FlashError> {
+        let n = control::geometry_store::SLOT_LEN;
+        let slot = self
+            .bytes
+            .get(i * n..(i + 1) * n)
+            .ok_or(control::geometry_store::FlashError::Driver)?;
+        out.copy_from_slice(slot);
+        Ok(())
+    }
+    fn write_slot(
+        &mut self,
+        i: usize,
+        bytes: &[u8; control::geometry_store::SLOT_LEN],
+    ) -> Result<(), control::geometry_store::FlashError> {
+        let n = control::geometry_store::SLOT_LEN;
+        let slot = self
+            .bytes
+            .get_mut(i * n..(i + 1) * n)
+            .ok_or(control::geometry_store::FlashError::Driver)?;
+        for (d, s) in slot.iter_mut().zip(bytes.iter()) {
+            *d &= *s;
+        }
+        Ok(())
+    }
+    fn erase(&mut self) -> Result<(), control::geometry_store::FlashError> {
+        self.bytes.fill(0xFF);
+        Ok(())
+    }
+}
+
 /// The firmware version the simulated board reports.
 pub const SIM_FIRMWARE: FirmwareVersion = FirmwareVersion {
     major: 0,
@@ -315,6 +370,10 @@ pub struct BoardSim {
     rx: LinkRx,
     tx: LinkTx,
     queue: VecDeque<Request>,
+    /// A received calibrated geometry for the next tick (one at a time, as on the board).
+    geometry_in: Option<(master_link::Seq, master_link::GeometryRecord)>,
+    /// The board's reserved flash sector for the calibrated geometry.
+    geometry_flash: SimGeometryFlash,
     outbox: Vec<u8>,
     t_us: u64,
     next_status_us: u64,
@@ -395,6 +454,8 @@ impl BoardSim {
             rx: LinkRx::new(),
             tx: LinkTx::new(),
             queue: VecDeque::new(),
+            geometry_in: None,
+            geometry_flash: SimGeometryFlash::new(),
             outbox: Vec::new(),
             t_us: 0,
             next_status_us: 0,
@@ -478,6 +539,16 @@ impl BoardSim {
         for b in bytes {
             match self.rx.push(*b) {
                 Some(Inbound::Reply(r)) => self.send(&r),
+                Some(Inbound::Geometry { seq, record }) => {
+                    if self.geometry_in.is_some() {
+                        self.send(&BoardToMaster::Nack {
+                            seq,
+                            reason: NackReason::Busy,
+                        });
+                    } else {
+                        self.geometry_in = Some((seq, record));
+                    }
+                }
                 Some(Inbound::Request(req)) => {
                     if req.command == Command::EmergencyStop {
                         self.hw.force_safe();
@@ -520,6 +591,14 @@ impl BoardSim {
             let reply = self.service.request(&req, now);
             self.send(&reply);
         }
+        // As the board: a geometry the runtime accepts is stored after the tick.
+        let mut accepted_geometry = None;
+        if let Some((seq, record)) = self.geometry_in.take() {
+            match self.service.check_geometry(&record) {
+                Ok(_) => accepted_geometry = Some((seq, record)),
+                Err(reason) => self.send(&BoardToMaster::GeometryRefused { seq, reason }),
+            }
+        }
         self.service.tick(&mut self.hw, now);
         let exec_us = match &mut self.overrun {
             Some((n, us)) if *n > 0 => {
@@ -536,6 +615,25 @@ impl BoardSim {
             self.send(&BoardToMaster::Status(st));
         } else if !self.rx.connected() {
             self.next_status_us = now;
+        }
+        if let Some((seq, record)) = accepted_geometry {
+            let reply = match control::geometry_store::store(&mut self.geometry_flash, &record) {
+                Ok(_) => {
+                    self.service
+                        .runtime_mut()
+                        .set_geometry_version(record.version);
+                    BoardToMaster::GeometryStored {
+                        seq,
+                        version: record.version,
+                    }
+                }
+                Err(_) => BoardToMaster::GeometryRefused {
+                    seq,
+                    reason: master_link::GeometryRefusal::Flash,
+                },
+            };
+            self.service.resume_after_pause();
+            self.send(&reply);
         }
         self.step_plant()?;
         self.last_outcome = Some(outcome);

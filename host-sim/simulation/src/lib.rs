@@ -45,6 +45,12 @@ pub enum SimError {
     /// The plant models the RSPR prototype only.
     #[error("sim: the plant models the RSPR prototype's joints; choose an RSPR robot")]
     NotRspr,
+    /// The controller of the simulation runs the symmetric RSPR model only.
+    #[error(
+        "sim: the simulated controller runs the symmetric RSPR model (e, rb, rp, hc); \
+         a per-chain (calibrated) geometry is not simulated yet"
+    )]
+    PerChainGeometry,
     #[error(transparent)]
     Config(#[from] ConfigError),
     #[error(transparent)]
@@ -68,6 +74,7 @@ pub fn rspr(robot: &Robot<f64>) -> Result<RsprGeometry<f64>, SimError> {
     match robot {
         Robot::Rspr(g) => Ok(*g),
         Robot::Usr(_) => Err(SimError::NotRspr),
+        Robot::RsprPerChain(_) => Err(SimError::PerChainGeometry),
     }
 }
 

@@ -1,11 +1,12 @@
 //! The command line: the robot and limits selection shared by every subcommand, and the
 //! subcommands. New subcommands are new variants of [`Command`] with their own `Args`
 //! struct; the row-wise ones live in [`crate::commands`], the others here: [`design`]
-//! (`forces --path`, `report`, `ranges`, `workspace`, `synth`, `compare`), [`sim`] and
-//! [`teleop`], each turning its flags into the library's settings and printing what the
+//! (`forces --path`, `report`, `ranges`, `workspace`, `synth`, `compare`), [`sim`],
+//! [`teleop`] and [`calibrate`], each turning its flags into the library's settings and printing what the
 //! library returns.
 
 pub mod board;
+pub mod calibrate;
 pub mod design;
 pub mod sim;
 pub mod teleop;
@@ -48,8 +49,9 @@ pub struct RobotArgs {
     /// Built-in reference robot [default: rspr].
     #[arg(long, global = true, value_enum, conflicts_with = "geometry")]
     pub robot: Option<RobotChoice>,
-    /// Geometry file (TOML, mm): robot = "rspr" with e_mm, rb_mm, rp_mm, hc_mm, or
-    /// robot = "usr" with e_mm, rp_mm, l1_mm, l2_mm, hc_mm.
+    /// Geometry file (TOML, mm): robot = "rspr" with e_mm, rb_mm, rp_mm, hc_mm,
+    /// robot = "usr" with e_mm, rp_mm, l1_mm, l2_mm, hc_mm, or robot = "rspr-per-chain",
+    /// the calibrated geometry `calibrate` writes.
     #[arg(long, global = true, value_name = "FILE.toml")]
     pub geometry: Option<PathBuf>,
 }
@@ -224,6 +226,17 @@ pub enum Command {
     /// The fault log of a board (or the simulated board, or the emulator), read over its
     /// link: time, cause, joint, value, the stop it caused, repeats; and the last reset.
     Faultlog(board::FaultLogArgs),
+    /// Kinematic calibration from external measurements (issue 19).
+    ///
+    /// --measurements FILE.csv: joint readings paired with the marker pose (or position)
+    /// a tracker measured; identifies the per-chain geometry with the tracker-to-base and
+    /// marker-to-platform transforms (Levenberg-Marquardt over the combinations the SVD
+    /// of the identification Jacobian determines, --robust for outliers), prints the
+    /// residuals before and after and the identifiability, and writes calibrated.toml
+    /// (use it with --geometry), report.txt, residuals.csv and residuals.png (default
+    /// target/calibration/). `calibrate plan`: the poses to measure. `calibrate
+    /// simulate`: the proof on a simulated robot and tracker.
+    Calibrate(calibrate::CalibrateArgs),
 }
 
 impl Command {
@@ -247,6 +260,7 @@ impl Command {
             Command::Faults(args) => board::faults(args),
             Command::Board(args) => board::board(args),
             Command::Faultlog(args) => board::faultlog(args),
+            Command::Calibrate(args) => calibrate::run(args, selected, limits),
         }
     }
 }

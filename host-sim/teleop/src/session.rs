@@ -15,10 +15,24 @@ use crate::error::TeleopError;
 use crate::link::{Link, Received};
 use kinematics_core::Pose;
 use master_link::{
-    BoardToMaster, FirmwareVersion, MasterToBoard, NackReason, Seq, StatusReport, PROTOCOL_VERSION,
+    BoardToMaster, FirmwareVersion, GeometryRecord, GeometryRefusal, MasterToBoard, NackReason,
+    Seq, StatusReport, PROTOCOL_VERSION,
 };
 use std::collections::HashMap;
 use std::time::Duration;
+
+/// The board's answer to a `StoreGeometry`.
+#[derive(Clone, Debug, PartialEq)]
+pub enum GeometryAnswer {
+    /// Stored, with this version.
+    Stored(u32),
+    /// Refused, nothing stored.
+    Refused(GeometryRefusal),
+    /// The request was refused by the link or the queue (`NotConnected`, `Busy`).
+    Nack(NackReason),
+    /// Another reply (a defect).
+    Unexpected(String),
+}
 
 /// The board's telemetry period, s (`Status` every 20 ms once connected).
 pub const STATUS_PERIOD_S: f64 = 0.02;
@@ -78,6 +92,8 @@ pub struct Session {
     pub hello: Option<(FirmwareVersion, u8)>,
     /// The reset the board reported in its `HelloReply`.
     pub reset: Option<master_link::ResetStatus>,
+    /// The calibrated geometry version the last `HelloReply` reported (0: none).
+    pub geometry_version: Option<u32>,
     /// Requests in flight and answered: seq -> (request, reply and its time).
     requests: HashMap<Seq, (MasterToBoard, Option<(f64, BoardToMaster)>)>,
     /// Acks received.
@@ -108,6 +124,7 @@ impl Session {
             fault_log: Vec::new(),
             hello: None,
             reset: None,
+            geometry_version: None,
             requests: HashMap::new(),
             acks: 0,
             paced: true,
@@ -207,10 +224,12 @@ impl Session {
                 firmware_version,
                 protocol_version,
                 reset,
+                geometry_version,
                 ..
             } => {
                 self.hello = Some((firmware_version, protocol_version));
                 self.reset = Some(reset);
+                self.geometry_version = Some(geometry_version);
             }
             BoardToMaster::Ack { seq } => {
                 self.acks += 1;
@@ -243,6 +262,12 @@ impl Session {
                         _ => u16::MAX,
                     })
                 {
+                    *reply = Some((r.t_s, r.msg));
+                }
+            }
+            BoardToMaster::GeometryStored { seq, .. }
+            | BoardToMaster::GeometryRefused { seq, .. } => {
+                if let Some((_, reply)) = self.requests.get_mut(&seq) {
                     *reply = Some((r.t_s, r.msg));
                 }
             }
@@ -309,6 +334,22 @@ impl Session {
             BoardToMaster::Nack { reason, .. } => Ok(Some(reason)),
             _ => Ok(None),
         }
+    }
+
+    /// Sends a calibrated geometry and waits up to `timeout_s` for the board's answer (it
+    /// may erase its flash sector first: allow seconds).
+    pub fn store_geometry(
+        &mut self,
+        record: GeometryRecord,
+        timeout_s: f64,
+    ) -> Result<GeometryAnswer, TeleopError> {
+        let seq = self.send(MasterToBoard::StoreGeometry(record))?;
+        Ok(match self.reply(seq, timeout_s)? {
+            BoardToMaster::GeometryStored { version, .. } => GeometryAnswer::Stored(version),
+            BoardToMaster::GeometryRefused { reason, .. } => GeometryAnswer::Refused(reason),
+            BoardToMaster::Nack { reason, .. } => GeometryAnswer::Nack(reason),
+            other => GeometryAnswer::Unexpected(format!("{other:?}")),
+        })
     }
 
     /// Hello until the board answers (it may still be booting); the firmware version.

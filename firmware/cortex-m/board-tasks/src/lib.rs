@@ -32,8 +32,8 @@ use embassy_time::{Duration, Instant, Ticker, Timer};
 use hal::{Hardware, SafeOutputs};
 use kinematics_core::Mechanism;
 use master_link::{
-    BoardToMaster, FaultCause, FaultRecord, LinkCounters, NackReason, ResetCause, ResetStatus,
-    StatusReport, MAX_FRAME_LEN,
+    BoardToMaster, FaultCause, FaultRecord, GeometryRecord, GeometryRefusal, LinkCounters,
+    NackReason, ResetCause, ResetStatus, StatusReport, MAX_FRAME_LEN,
 };
 
 /// The firmware version sent in `HelloReply` (see [`firmware_version!`]).
@@ -66,6 +66,9 @@ pub struct Shared {
     /// The e-stop latch: tripped by the e-stop interrupt and the `EmergencyStop` message,
     /// taken by the control tick.
     pub estop: EStopLatch,
+    /// A received calibrated geometry for the control task (one at a time: a second one
+    /// before the first is handled is answered `Busy`).
+    pub geometry: Mutex<CriticalSectionRawMutex, Cell<Option<(master_link::Seq, GeometryRecord)>>>,
 }
 
 impl Shared {
@@ -82,6 +85,7 @@ impl Shared {
             replies_dropped: AtomicU32::new(0),
             encode_errors: AtomicU32::new(0),
             estop: EStopLatch::new(),
+            geometry: Mutex::new(Cell::new(None)),
         }
     }
 
@@ -198,6 +202,15 @@ pub trait ControlBoard<S: Scalar> {
     fn persist_fault_log(&mut self, log: &FaultLog) {
         let _ = log;
     }
+    /// Writes a calibrated geometry the runtime accepted (its checks passed, the drives are
+    /// off) to the board's flash and reads it back. The core may stall for the erase of a
+    /// full sector (seconds): the board keeps its watchdog alive through it, and the
+    /// control task resumes its schedule afterwards without counting the pause as a missed
+    /// deadline. The default: this board cannot store one.
+    fn store_geometry(&mut self, record: &GeometryRecord) -> Result<(), GeometryRefusal> {
+        let _ = record;
+        Err(GeometryRefusal::Unsupported)
+    }
     /// Before the tick at `now_us` (an emulated plant advances to it).
     fn before_tick(&mut self, now_us: u64) {
         let _ = now_us;
@@ -242,6 +255,14 @@ where
             let reply = service.request(&req, now);
             shared.reply(reply);
         }
+        // A geometry the runtime accepts is written after the tick (flash stalls the core).
+        let mut accepted_geometry = None;
+        if let Some((seq, record)) = shared.geometry.lock(|g| g.take()) {
+            match service.check_geometry(&record) {
+                Ok(_) => accepted_geometry = Some((seq, record)),
+                Err(reason) => shared.reply(BoardToMaster::GeometryRefused { seq, reason }),
+            }
+        }
         service.tick(board.hardware(), now);
         let cycles = board.cycles().wrapping_sub(c0);
         let outcome = service.finish(now, cycles);
@@ -254,6 +275,20 @@ where
             board.persist_fault_log(service.runtime().fault_log());
         }
         board.after_tick(service, &outcome);
+        if let Some((seq, record)) = accepted_geometry {
+            let reply = match board.store_geometry(&record) {
+                Ok(()) => {
+                    service.runtime_mut().set_geometry_version(record.version);
+                    BoardToMaster::GeometryStored {
+                        seq,
+                        version: record.version,
+                    }
+                }
+                Err(reason) => BoardToMaster::GeometryRefused { seq, reason },
+            };
+            service.resume_after_pause();
+            shared.reply(reply);
+        }
     }
 }
 
@@ -289,6 +324,21 @@ pub async fn run_link_rx<R: ByteRx, K: SafeOutputs>(
                 for byte in buf.iter().take(n) {
                     match link.push(*byte) {
                         Some(Inbound::Reply(reply)) => shared.reply(reply),
+                        Some(Inbound::Geometry { seq, record }) => {
+                            let queued = shared.geometry.lock(|g| {
+                                let free = g.get().is_none();
+                                if free {
+                                    g.set(Some((seq, record)));
+                                }
+                                free
+                            });
+                            if !queued {
+                                shared.reply(BoardToMaster::Nack {
+                                    seq,
+                                    reason: NackReason::Busy,
+                                });
+                            }
+                        }
                         Some(Inbound::Request(req)) => {
                             if req.command == Command::EmergencyStop {
                                 // Do not wait for the next tick.

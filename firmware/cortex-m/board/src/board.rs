@@ -56,6 +56,7 @@
 //! firmware sees as a mismatch with the released button and refuses to enable.
 
 use embassy_stm32::adc::{Adc, AdcChannel, AnyAdcChannel};
+use embassy_stm32::flash::{Blocking, Flash};
 use embassy_stm32::gpio::{Input, Level, Output, OutputType, Pull, Speed};
 use embassy_stm32::peripherals::{
     ADC1, IWDG, TIM1, TIM10, TIM11, TIM13, TIM14, TIM2, TIM3, TIM4, TIM5, TIM8, TIM9,
@@ -180,6 +181,8 @@ pub struct Board {
     pub led: Output<'static>,
     pub uart: Uart<'static, embassy_stm32::mode::Async>,
     pub iwdg: IndependentWatchdog<'static, IWDG>,
+    /// The flash, for the calibrated geometry's sector.
+    pub flash: Flash<'static, Blocking>,
 }
 
 /// Setup failure.
@@ -316,6 +319,7 @@ impl Board {
             .map_err(|_| BoardError::Uart)?;
 
         let iwdg = IndependentWatchdog::new(p.IWDG, IWDG_TIMEOUT_US);
+        let flash = Flash::new_blocking(p.FLASH);
 
         Ok(Board {
             encoders,
@@ -325,6 +329,7 @@ impl Board {
             led,
             uart,
             iwdg,
+            flash,
         })
     }
 }

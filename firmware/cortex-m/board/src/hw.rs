@@ -213,6 +213,8 @@ pub struct Control {
     pub iwdg: IndependentWatchdog<'static, IWDG>,
     /// Ticks since the last timing log.
     pub ticks: u32,
+    /// The flash, for the calibrated geometry's sector.
+    pub flash: embassy_stm32::flash::Flash<'static, embassy_stm32::flash::Blocking>,
 }
 
 impl ControlBoard<f32> for Control {
@@ -228,6 +230,18 @@ impl ControlBoard<f32> for Control {
     }
     fn persist_fault_log(&mut self, log: &control::faults::FaultLog) {
         crate::safe_halt::persist(log);
+    }
+    fn store_geometry(
+        &mut self,
+        record: &master_link::GeometryRecord,
+    ) -> Result<(), master_link::GeometryRefusal> {
+        let r = crate::geometry_flash::store(&mut self.flash, record);
+        self.iwdg.pet();
+        match r {
+            Ok(()) => info!("calibrated geometry version {} stored", record.version),
+            Err(e) => warn!("calibrated geometry not stored: {}", e),
+        }
+        r
     }
     fn after_tick<M: Mechanism<f32> + Clone>(
         &mut self,

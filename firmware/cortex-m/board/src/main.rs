@@ -14,6 +14,7 @@
 #![no_main]
 
 mod board;
+mod geometry_flash;
 mod hw;
 mod safe_halt;
 
@@ -107,6 +108,7 @@ async fn main(spawner: Spawner) {
         led: b.led,
         iwdg,
         ticks: 0,
+        flash: b.flash,
     };
     let control_spawner = EXECUTOR_CONTROL.start(interrupt::UART4);
     match control(Owned(control_board), reset, kept_log) {
@@ -144,6 +146,10 @@ fn control_service(
         halt("runtime configuration");
     };
     let _ = rt.boot_done(board.hw.counts(), now, reset, log);
+    // The calibrated geometry in flash: its version for the hello reply. The controller
+    // runs the symmetric reference model (see firmware/README.md, "Calibrated geometry").
+    let version = geometry_flash::stored_version(&mut board.flash, &robot, Branch::OUTER);
+    rt.set_geometry_version(version);
     info!(
         "boot done: {}, reset {}, {} faults kept",
         rt.state(),

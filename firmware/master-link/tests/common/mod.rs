@@ -73,9 +73,10 @@ pub fn master_variant(m: &MasterToBoard) -> usize {
         OperatorPresent { .. } => 11,
         AcknowledgeReset => 12,
         FaultLogRequest { .. } => 13,
+        StoreGeometry(_) => 14,
     }
 }
-pub const MASTER_VARIANTS: usize = 14;
+pub const MASTER_VARIANTS: usize = 15;
 
 pub fn board_variant(m: &BoardToMaster) -> usize {
     use BoardToMaster::*;
@@ -85,9 +86,38 @@ pub fn board_variant(m: &BoardToMaster) -> usize {
         Nack { .. } => 2,
         Status(_) => 3,
         FaultLog(_) => 4,
+        GeometryStored { .. } => 5,
+        GeometryRefused { .. } => 6,
     }
 }
-pub const BOARD_VARIANTS: usize = 5;
+pub const BOARD_VARIANTS: usize = 7;
+
+/// Every geometry refusal.
+pub const ALL_GEOMETRY_REFUSALS: [GeometryRefusal; 11] = [
+    GeometryRefusal::Crc,
+    GeometryRefusal::Layout { found: u8::MAX },
+    GeometryRefusal::Version,
+    GeometryRefusal::NonFinite { index: 51 },
+    GeometryRefusal::Nominal { index: 3 },
+    GeometryRefusal::OutOfTolerance { index: 17 },
+    GeometryRefusal::NotAssemblable,
+    GeometryRefusal::CentralPose,
+    GeometryRefusal::InvalidState,
+    GeometryRefusal::Flash,
+    GeometryRefusal::Unsupported,
+];
+
+/// A geometry record with maximal varints (the largest master message).
+pub fn max_geometry() -> GeometryRecord {
+    GeometryRecord {
+        layout: GEOMETRY_LAYOUT,
+        version: u32::MAX,
+        nominal: [0.02, 0.09, 0.05, 0.16],
+        chains: [[-1.5e-3; GEOMETRY_CHAIN_VALUES]; 3],
+        crc: 0,
+    }
+    .sealed()
+}
 
 pub const ALL_NACK_REASONS: [NackReason; 20] = [
     NackReason::UnsupportedVersion,
@@ -224,6 +254,7 @@ pub fn master_samples() -> Vec<MasterToBoard> {
         MasterToBoard::OperatorPresent { present: true },
         MasterToBoard::AcknowledgeReset,
         MasterToBoard::FaultLogRequest { first: u16::MAX },
+        MasterToBoard::StoreGeometry(max_geometry()),
     ]
 }
 
@@ -243,8 +274,13 @@ pub fn board_samples() -> Vec<BoardToMaster> {
                 cause: ResetCause::BrownOut,
                 acknowledged: false,
             },
+            geometry_version: u32::MAX,
         },
         BoardToMaster::Ack { seq: u16::MAX },
+        BoardToMaster::GeometryStored {
+            seq: u16::MAX,
+            version: u32::MAX,
+        },
         BoardToMaster::Status(max_status()),
         BoardToMaster::Status(StatusReport::default()),
         BoardToMaster::FaultLog(max_fault_log()),
@@ -254,6 +290,11 @@ pub fn board_samples() -> Vec<BoardToMaster> {
         seq: 0x1234,
         reason,
     }));
+    v.extend(
+        ALL_GEOMETRY_REFUSALS
+            .iter()
+            .map(|&reason| BoardToMaster::GeometryRefused { seq: 7, reason }),
+    );
     v.extend(ALL_STATES.iter().map(|&state| {
         BoardToMaster::Status(StatusReport {
             state,
@@ -295,6 +336,22 @@ pub fn arb_master() -> impl Strategy<Value = MasterToBoard> {
         any::<bool>().prop_map(|present| MasterToBoard::OperatorPresent { present }),
         Just(MasterToBoard::AcknowledgeReset),
         any::<u16>().prop_map(|first| MasterToBoard::FaultLogRequest { first }),
+        (
+            any::<u8>(),
+            any::<u32>(),
+            proptest::array::uniform4(any::<f32>()),
+            proptest::array::uniform16(any::<f32>()),
+            any::<u32>()
+        )
+            .prop_map(|(layout, version, nominal, chain, crc)| {
+                MasterToBoard::StoreGeometry(GeometryRecord {
+                    layout,
+                    version,
+                    nominal,
+                    chains: [chain; 3],
+                    crc,
+                })
+            }),
     ]
 }
 
@@ -354,8 +411,16 @@ pub fn arb_board() -> impl Strategy<Value = BoardToMaster> {
                 protocol_version: p,
                 session,
                 reset: ResetStatus::default(),
+                geometry_version: session.rotate_left(7),
             }
         }),
+        (any::<u16>(), any::<u32>())
+            .prop_map(|(seq, version)| BoardToMaster::GeometryStored { seq, version }),
+        (
+            any::<u16>(),
+            proptest::sample::select(ALL_GEOMETRY_REFUSALS.to_vec())
+        )
+            .prop_map(|(seq, reason)| BoardToMaster::GeometryRefused { seq, reason }),
         any::<u16>().prop_map(|seq| BoardToMaster::Ack { seq }),
         (
             any::<u16>(),

@@ -1,0 +1,96 @@
+//! The calibrated geometry's flash sector (issue 19): sector 11 of the STM32F405's flash,
+//! 128 KB at 0x080E_0000, reserved in `memory.x` (the image's FLASH region ends below
+//! it), as the slots of `control::geometry_store` (512 slots of 256 bytes: a store writes
+//! one, the sector is erased only when all are used).
+//!
+//! **Timing.** The F405 has one flash bank: while it programs or erases, every fetch from
+//! flash stalls the core, interrupts included (the hard-wired e-stop chain does not depend
+//! on the MCU). Writing a slot takes about 1 ms, erasing the sector 1 to 2 s (RM0090,
+//! DS8626: 128 KB sector erase, x32 parallelism). The runtime accepts a geometry only with
+//! the drives off, and for the duration the independent watchdog's timeout is raised to
+//! its maximum (about 32 s) and restored afterwards (its prescaler and reload can be
+//! rewritten at any time after the 0x5555 key; only stopping it is impossible).
+
+use control::geometry_store::{self, FlashError, GeometryFlash, SLOT_LEN};
+use embassy_stm32::flash::{Blocking, Flash};
+use embassy_stm32::pac;
+use embassy_stm32::pac::iwdg::vals::{Key, Pr};
+use master_link::{GeometryRecord, GeometryRefusal};
+
+/// Offset of the reserved sector from the flash base (sector 11; `memory.x`'s GEOMETRY).
+pub const SECTOR_OFFSET: u32 = 0x000E_0000;
+/// Its size.
+pub const SECTOR_LEN: u32 = 128 * 1024;
+
+/// The reserved sector through embassy-stm32's blocking flash driver.
+pub struct GeometrySector<'a>(pub &'a mut Flash<'static, Blocking>);
+
+impl GeometryFlash for GeometrySector<'_> {
+    fn slots(&self) -> usize {
+        (SECTOR_LEN as usize) / SLOT_LEN
+    }
+    fn read_slot(&mut self, i: usize, out: &mut [u8; SLOT_LEN]) -> Result<(), FlashError> {
+        self.0
+            .blocking_read(SECTOR_OFFSET + (i * SLOT_LEN) as u32, out)
+            .map_err(|_| FlashError::Driver)
+    }
+    fn write_slot(&mut self, i: usize, bytes: &[u8; SLOT_LEN]) -> Result<(), FlashError> {
+        self.0
+            .blocking_write(SECTOR_OFFSET + (i * SLOT_LEN) as u32, bytes)
+            .map_err(|_| FlashError::Driver)
+    }
+    fn erase(&mut self) -> Result<(), FlashError> {
+        self.0
+            .blocking_erase(SECTOR_OFFSET, SECTOR_OFFSET + SECTOR_LEN)
+            .map_err(|_| FlashError::Driver)
+    }
+}
+
+fn iwdg_wait_idle() {
+    while {
+        let sr = pac::IWDG.sr().read();
+        sr.pvu() || sr.rvu()
+    } {}
+}
+
+/// Sets the independent watchdog's prescaler and reload, then reloads it.
+fn iwdg_set(pr: Pr, rl: u16) {
+    iwdg_wait_idle();
+    pac::IWDG.kr().write(|w| w.set_key(Key::ENABLE));
+    pac::IWDG.pr().write(|w| w.set_pr(pr));
+    pac::IWDG.rlr().write(|w| w.set_rl(rl));
+    iwdg_wait_idle();
+    pac::IWDG.kr().write(|w| w.set_key(Key::RESET));
+}
+
+/// Stores `record` (accepted by the runtime) with the watchdog's timeout raised for the
+/// duration.
+pub fn store(
+    flash: &mut Flash<'static, Blocking>,
+    record: &GeometryRecord,
+) -> Result<(), GeometryRefusal> {
+    let (pr, rl) = (pac::IWDG.pr().read().pr(), pac::IWDG.rlr().read().rl());
+    iwdg_set(Pr::DIVIDE_BY256, 0x0FFF);
+    let result = geometry_store::store(&mut GeometrySector(flash), record);
+    iwdg_set(pr, rl);
+    result.map(|_| ()).map_err(|_| GeometryRefusal::Flash)
+}
+
+/// The stored geometry's version at boot, when its record is valid and still passes the
+/// checks against the board's robot (0: none).
+pub fn stored_version(
+    flash: &mut Flash<'static, Blocking>,
+    nominal: &kinematics_core::RsprGeometry<f32>,
+    branch: kinematics_core::Branch,
+) -> u32 {
+    match geometry_store::load_latest(&mut GeometrySector(flash)) {
+        Ok(Some((_, rec))) => {
+            let plausible = geometry_store::Plausible::default();
+            match geometry_store::check(&rec, nominal, branch, &plausible) {
+                Ok(_) => rec.version,
+                Err(_) => 0,
+            }
+        }
+        _ => 0,
+    }
+}
