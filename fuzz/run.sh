@@ -10,13 +10,14 @@
 #   fuzz/run.sh build   only the build (cargo-fuzz installed when missing, seeds generated)
 #
 # Settings (environment): FUZZ_RUNS (executions per target), FUZZ_SEED (libFuzzer -seed,
-# default 1), FUZZ_TARGETS (default "decoder commands"), FUZZ_SANITIZER (default none: the
+# default 1), FUZZ_TARGETS (default "decoder commands"), FUZZ_PARALLEL (1: the targets at
+# the same time), FUZZ_SANITIZER (default none: the
 # project's crates are safe Rust, see the README), CARGO_TARGET_DIR (default fuzz/target),
 # CARGO_FUZZ_ROOT (where cargo-fuzz is installed when missing, default cargo's own bin
 # directory), RSPR_FUZZ_STRICT (1: the known findings fail the checks, see the README).
 #
-# One libFuzzer process per target, one target after the other: no -fork, no -jobs (the
-# machine has 2 cores shared with other builds; each run uses one).
+# One libFuzzer process per target, no -fork, no -jobs; the targets one after the other, or
+# at the same time with FUZZ_PARALLEL=1 (each process uses at most one core).
 set -euo pipefail
 cd "$(dirname "$0")"
 FUZZ_DIR=$PWD
@@ -77,8 +78,9 @@ echo "==> seeds build and generation: $(elapsed "$t0") s"
 [ "$mode" = build ] && exit 0
 
 # --- runs --------------------------------------------------------------------------------
-status=0
-for t in "${targets[@]}"; do
+# One target: its run, its figures (into $log.summary), exit status 1 on a crash.
+run_target() {
+    local t=$1 corpus artifacts log rc=0 wall user sys maxrss_kb cpu execs rate rss slow
     if [ "$mode" = ci ]; then
         corpus=$target_dir/fuzz-ci-corpus/$t
         rm -rf "$corpus"
@@ -88,40 +90,61 @@ for t in "${targets[@]}"; do
     artifacts=$FUZZ_DIR/artifacts/$t
     mkdir -p "$corpus" "$artifacts"
     log=$target_dir/fuzz-$mode-$t.log
-    echo "==> $t: $runs executions, -seed=$seed, corpus $corpus"
-    rc=0
-    /usr/bin/time -o "$log.time" -f "%e %U %S %M" \
-        "$bin_dir/$t" "$corpus" "$seeds/$t" \
-        -dict="$seeds/link.dict" -seed="$seed" -runs="$runs" -max_len=$max_len \
-        -timeout=$timeout_s -rss_limit_mb=2048 -print_final_stats=1 \
-        -artifact_prefix="$artifacts/" >"$log" 2>&1 || rc=$?
-    read -r wall user sys maxrss_kb <"$log.time" || true
-    cpu=$(awk -v u="$user" -v s="$sys" 'BEGIN { printf "%.1f", u + s }')
-    execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log")
-    rate=$(sed -n 's/^stat::average_exec_per_sec: *//p' "$log")
-    rss=$(sed -n 's/^stat::peak_rss_mb: *//p' "$log")
-    slow=$(sed -n 's/^stat::slowest_unit_time_sec: *//p' "$log")
-    echo "    exit $rc; executions ${execs:-?} in $wall s wall, $cpu s CPU (load average" \
-        "$(cut -d' ' -f1 /proc/loadavg)); $(awk -v n="${execs:-0}" -v w="$wall" -v c="$cpu" \
-            'BEGIN { printf "%.0f exec/s wall, %.0f exec/s CPU", n / w, n / c }')"
-    echo "    peak RSS $((maxrss_kb / 1024)) MB (libFuzzer: ${rss:-?} MB);" \
-        "libFuzzer's slowest unit ${slow:-?} s (whole seconds)"
-    if [ "$rc" -ne 0 ]; then
-        echo "    FAILED: libFuzzer found a crash, timeout or OOM; its report (tail of $log):"
-        grep -E "panicked at|^(duty|STO|assertion)|SUMMARY|Test unit written|timeout|out-of-memory" "$log" |
-            head -20 | sed 's/^/    | /'
-        status=1
-        continue
-    fi
-    if [ "$mode" = bench ]; then
-        # Every corpus input once, timed by libFuzzer itself (instrumented, as fuzzed).
-        slowest=$(find "$corpus" -type f -print0 |
-            xargs -0 -n 400 "$bin_dir/$t" -runs=1 2>&1 |
-            sed -n 's/^Executed \(.*\) in \([0-9]*\) ms$/\2 \1/p' | sort -n | tail -1)
-        n=$(find "$corpus" -type f | wc -l)
-        echo "    corpus: $n inputs; slowest input: ${slowest%% *} ms (${slowest#* })"
-        # What the corpus reaches (uninstrumented replay through the same checks).
-        "$target_dir/release/examples/replay" "$t" "$corpus" | sed 's/^/    /'
-    fi
-done
+    {
+        echo "==> $t: $runs executions, -seed=$seed, corpus $corpus, log $log"
+        /usr/bin/time -o "$log.time" -f "%e %U %S %M" \
+            "$bin_dir/$t" "$corpus" "$seeds/$t" \
+            -dict="$seeds/link.dict" -seed="$seed" -runs="$runs" -max_len=$max_len \
+            -timeout=$timeout_s -rss_limit_mb=2048 -print_final_stats=1 \
+            -artifact_prefix="$artifacts/" >"$log" 2>&1 || rc=$?
+        read -r wall user sys maxrss_kb <"$log.time" || true
+        cpu=$(awk -v u="$user" -v s="$sys" 'BEGIN { printf "%.1f", u + s }')
+        execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log")
+        rate=$(sed -n 's/^stat::average_exec_per_sec: *//p' "$log")
+        rss=$(sed -n 's/^stat::peak_rss_mb: *//p' "$log")
+        slow=$(sed -n 's/^stat::slowest_unit_time_sec: *//p' "$log")
+        echo "    exit $rc; executions ${execs:-?} in $wall s wall, $cpu s CPU (load average" \
+            "$(cut -d' ' -f1 /proc/loadavg)); $(awk -v n="${execs:-0}" -v w="$wall" -v c="$cpu" \
+                'BEGIN { printf "%.0f exec/s wall, %.0f exec/s CPU", n / w, n / c }')"
+        echo "    peak RSS $((${maxrss_kb:-0} / 1024)) MB (libFuzzer: ${rss:-?} MB);" \
+            "libFuzzer's slowest unit ${slow:-?} s (whole seconds)"
+        if [ "$rc" -ne 0 ]; then
+            echo "    FAILED: libFuzzer found a crash, timeout or OOM; its report ($log):"
+            grep -E "panicked at|^(duty|STO|assertion)|SUMMARY|Test unit written|timeout|out-of-memory" "$log" |
+                head -20 | sed 's/^/    | /'
+        elif [ "$mode" = bench ]; then
+            # Every corpus input once, timed by libFuzzer itself (instrumented, as fuzzed).
+            local slowest n
+            slowest=$(find "$corpus" -type f -print0 |
+                xargs -0 -n 400 "$bin_dir/$t" -runs=1 2>&1 |
+                sed -n 's/^Executed \(.*\) in \([0-9]*\) ms$/\2 \1/p' | sort -n | tail -1)
+            n=$(find "$corpus" -type f | wc -l)
+            echo "    corpus: $n inputs; slowest input: ${slowest%% *} ms (${slowest#* })"
+            # What the corpus reaches (uninstrumented replay through the same checks).
+            "$target_dir/release/examples/replay" "$t" "$corpus" | sed 's/^/    /'
+        fi
+    } >"$log.summary"
+    [ "$rc" -eq 0 ]
+}
+
+# FUZZ_PARALLEL=1: the targets at the same time (one process each, so at most one core
+# each); default: one after the other.
+status=0
+if [ "${FUZZ_PARALLEL:-0}" = 1 ]; then
+    echo "==> targets in parallel: ${targets[*]}"
+    pids=()
+    for t in "${targets[@]}"; do
+        { run_target "$t" || exit 1; } &
+        pids+=($!)
+    done
+    for i in "${!pids[@]}"; do
+        wait "${pids[$i]}" || status=1
+        cat "$target_dir/fuzz-$mode-${targets[$i]}.log.summary"
+    done
+else
+    for t in "${targets[@]}"; do
+        run_target "$t" || status=1
+        cat "$target_dir/fuzz-$mode-$t.log.summary"
+    done
+fi
 exit $status

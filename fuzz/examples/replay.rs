@@ -39,6 +39,7 @@ fn main() {
     let mut nacks = std::collections::BTreeMap::<String, u32>::new();
     let mut replies = [0u64; 5];
     let (mut ticks, mut over, mut masked, mut n) = (0u64, 0u64, 0u64, 0u32);
+    let mut link = [[0u64; 8]; 2];
     for f in files(paths) {
         let Ok(data) = std::fs::read(&f) else {
             eprintln!("replay: cannot read {}", f.display());
@@ -46,7 +47,19 @@ fn main() {
         };
         let t0 = Instant::now();
         match target.as_str() {
-            "decoder" => rspr_fuzz::decoder::check(&data),
+            "decoder" => {
+                for (sum, c) in link.iter_mut().zip(rspr_fuzz::decoder::check(&data)) {
+                    let add = |a: &mut u64, b: u32| *a += u64::from(b);
+                    add(&mut sum[0], c.frames_ok);
+                    add(&mut sum[1], c.bad_checksum);
+                    add(&mut sum[2], c.malformed);
+                    add(&mut sum[3], c.oversized);
+                    add(&mut sum[4], c.wrong_version);
+                    add(&mut sum[5], c.out_of_order);
+                    add(&mut sum[6], c.wrong_session);
+                    add(&mut sum[7], c.dropped);
+                }
+            }
             "commands" => {
                 let Ok(s) = Scenario::arbitrary_take_rest(Unstructured::new(&data)) else {
                     continue;
@@ -85,6 +98,14 @@ fn main() {
         slowest.0.as_secs_f64() * 1e3,
         slowest.1.display()
     );
+    if target == "decoder" {
+        for (who, c) in ["BoardDecoder", "MasterDecoder"].iter().zip(link) {
+            println!(
+                "  {who}: ok {}, bad_checksum {}, malformed {}, oversized {}, wrong_version {}, out_of_order {}, wrong_session {}, dropped {}",
+                c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]
+            );
+        }
+    }
     if target == "commands" {
         println!("  ticks {ticks}; replies (HelloReply, Ack, Nack, Status, FaultLog) {replies:?}");
         println!("  duty outside [-1, 1] from the current limit (finding 1): {over} joint-ticks");

@@ -5,5 +5,5 @@
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
-    rspr_fuzz::decoder::check(data);
+    let _ = rspr_fuzz::decoder::check(data);
 });

@@ -25,10 +25,13 @@ use master_link::{
     LinkCounters, MasterToBoard, Seq, WireMessage, MAX_FRAME_LEN,
 };
 
-/// Runs both decoders over `data` with every check.
-pub fn check(data: &[u8]) {
-    check_stream::<MasterToBoard>(data);
-    check_stream::<BoardToMaster>(data);
+/// Runs both decoders over `data` with every check; returns their counters (board's,
+/// master's).
+pub fn check(data: &[u8]) -> [LinkCounters; 2] {
+    [
+        check_stream::<MasterToBoard>(data),
+        check_stream::<BoardToMaster>(data),
+    ]
 }
 
 /// The documented rules, as a model of the decoder's session and sequence state.
@@ -115,7 +118,7 @@ fn counted<M>(
     c
 }
 
-fn check_stream<M: WireMessage + core::fmt::Debug>(data: &[u8]) {
+fn check_stream<M: WireMessage + core::fmt::Debug>(data: &[u8]) -> LinkCounters {
     let mut dec = FrameDecoder::<M, MAX_FRAME_LEN>::new();
     let mut model = Model::default();
     // The bytes since the last delimiter (all of them: a frame may outgrow the buffer).
@@ -194,12 +197,13 @@ fn check_stream<M: WireMessage + core::fmt::Debug>(data: &[u8]) {
         assert_eq!(dec.session(), model.session, "session after {result:?}");
         frame.clear();
     }
-    let c = dec.counters();
+    let c = *dec.counters();
     assert_eq!(
         c.frames_total(),
         results,
         "frames_ok + rejected() against the results returned"
     );
+    c
 }
 
 #[cfg(test)]
@@ -212,8 +216,10 @@ mod tests {
     fn sample_streams_pass() {
         let m = frames::stream(&frames::master_messages(), 100);
         let b = frames::stream(&frames::board_messages(), 100);
-        check(&m);
-        check(&b);
+        let [on_board, _] = check(&m);
+        assert_eq!(on_board.frames_ok as usize, frames::master_messages().len());
+        let [_, on_master] = check(&b);
+        assert_eq!(on_master.frames_ok as usize, frames::board_messages().len());
         let mut rx = master_link::BoardDecoder::new();
         let n = rx.feed(&m).filter(Result::is_ok).count();
         assert_eq!(n, frames::master_messages().len());
@@ -230,6 +236,12 @@ mod tests {
         data.extend(frames::stream(&frames::master_messages(), 5));
         data.extend(frames::stream(&frames::master_messages()[1..], 5));
         data.extend([1, 2, 3, 0, 0, 0, 9]);
-        check(&data);
+        let [c, _] = check(&data);
+        assert_eq!(c.oversized, 1, "{c:?}");
+        // The replay: 16 frames not newer than the last, all refused but the
+        // EmergencyStop, which bypasses the sequence check.
+        assert_eq!(c.out_of_order, 15, "{c:?}");
+        assert_eq!(c.frames_ok, 17 + 1, "{c:?}");
+        assert_eq!(c.malformed, 1, "{c:?}");
     }
 }
