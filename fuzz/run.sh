@@ -97,7 +97,8 @@ run_target() {
             -dict="$seeds/link.dict" -seed="$seed" -runs="$runs" -max_len=$max_len \
             -timeout=$timeout_s -rss_limit_mb=2048 -print_final_stats=1 \
             -artifact_prefix="$artifacts/" >"$log" 2>&1 || rc=$?
-        read -r wall user sys maxrss_kb <"$log.time" || true
+        # (GNU time writes "Command exited with non-zero status N" first after a crash.)
+        read -r wall user sys maxrss_kb < <(tail -n 1 "$log.time") || true
         cpu=$(awk -v u="$user" -v s="$sys" 'BEGIN { printf "%.1f", u + s }')
         execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log")
         rate=$(sed -n 's/^stat::average_exec_per_sec: *//p' "$log")

@@ -104,6 +104,9 @@ pub struct FakeHw {
     last_read: [u16; NUM_JOINTS],
     /// The change of each counter between the last two reads, counts.
     pub read_delta: [i16; NUM_JOINTS],
+    /// `force_safe` switched the bridges off, and neither `enable` nor `disable` was called
+    /// since.
+    pub forced_safe: bool,
 }
 
 impl FakeHw {
@@ -128,6 +131,7 @@ impl FakeHw {
             over_range: [false; NUM_JOINTS],
             last_read: counts,
             read_delta: [0; NUM_JOINTS],
+            forced_safe: false,
         }
     }
 
@@ -233,15 +237,18 @@ impl MotorOutputs<f64> for FakeHw {
     fn disable(&mut self) {
         self.enabled = false;
         self.duty = [0.0; NUM_JOINTS];
+        self.forced_safe = false;
     }
     fn enable(&mut self) {
         self.enabled = true;
         self.duty = [0.0; NUM_JOINTS];
+        self.forced_safe = false;
     }
 }
 
 impl SafeOutputs for FakeHw {
     fn force_safe(&mut self) {
+        self.forced_safe = true;
         self.enabled = false;
         self.duty = [0.0; NUM_JOINTS];
         self.brakes_released = false;
