@@ -37,4 +37,8 @@ bash firmware/cortex-m/qemu-board/run.sh
 section "tests (unit, property, integration, CLI)"
 cargo test --workspace
 
+section "fuzzing: the link's frame decoder and the board's command handling (libFuzzer, fixed seed)"
+(cd fuzz && cargo test --release --quiet)
+FUZZ_RUNS=${FUZZ_RUNS:-1000000} bash fuzz/run.sh ci
+
 section "all passed in $(( $(date +%s) - started )) s"
