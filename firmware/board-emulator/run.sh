@@ -24,7 +24,7 @@ ELF="$(target_dir)/$TARGET/release/rspr-board"
 export RSPR_BOARD_ELF="$ELF"
 
 cd "$HERE"
-OUT="$(cargo metadata --format-version 1 --no-deps --ignore-rust-version 2>/dev/null |
+OUT="$(cargo metadata --format-version 1 --no-deps |
     python3 -c 'import json, sys; print(json.load(sys.stdin)["target_directory"])')/scenarios"
 
 section "board-emulator: build (release)"

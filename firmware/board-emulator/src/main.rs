@@ -70,6 +70,9 @@ enum Command {
         /// Stop after this many seconds of virtual time (default: run until killed).
         #[arg(long)]
         seconds: Option<f64>,
+        /// Leave the tool off (by default it goes on once the board is first Ready).
+        #[arg(long)]
+        without_tool: bool,
     },
     /// Check that the image fits the STM32F405; exit 1 when it does not.
     Fit,
@@ -88,7 +91,8 @@ fn main() -> ExitCode {
             socket,
             speed,
             seconds,
-        } => serve(firmware, &socket, speed, seconds),
+            without_tool,
+        } => serve(firmware, &socket, speed, seconds, !without_tool),
         Command::Fit => fit(&firmware),
     };
     match result {
@@ -218,6 +222,7 @@ fn serve(
     socket: &Path,
     speed: f64,
     seconds: Option<f64>,
+    with_tool: bool,
 ) -> Result<bool, String> {
     if !(speed.is_finite() && speed > 0.0) {
         return Err(format!("--speed must be positive, got {speed}"));
@@ -241,7 +246,7 @@ fn serve(
     let mut stream: Option<UnixStream> = None;
     let mut decoder = MasterDecoder::new();
     let mut state = None;
-    let mut tool_on = false;
+    let mut tool_on = !with_tool;
     let mut buf = [0u8; 4096];
     loop {
         if stream.is_none() {

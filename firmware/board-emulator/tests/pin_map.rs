@@ -44,19 +44,14 @@ fn pins(p: &[PinId], sep: &str) -> String {
 fn ours() -> Vec<(&'static str, String)> {
     let b = &BOARD;
     let enc = |j: usize| pins(&[b.encoders[j].a, b.encoders[j].b], " / ");
-    let names = ["l1", "l2", "l3", "theta1", "theta2", "theta3"];
-    let mut v: Vec<(&'static str, String)> = names
-        .iter()
-        .enumerate()
-        .map(|(j, _)| match j {
-            0 => ("encoder l1 A / B", enc(0)),
-            1 => ("encoder l2 A / B", enc(1)),
-            2 => ("encoder l3 A / B", enc(2)),
-            3 => ("encoder theta1 A / B", enc(3)),
-            4 => ("encoder theta2 A / B", enc(4)),
-            _ => ("encoder theta3 A / B", enc(5)),
-        })
-        .collect();
+    let mut v: Vec<(&'static str, String)> = vec![
+        ("encoder l1 A / B", enc(0)),
+        ("encoder l2 A / B", enc(1)),
+        ("encoder l3 A / B", enc(2)),
+        ("encoder theta1 A / B", enc(3)),
+        ("encoder theta2 A / B", enc(4)),
+        ("encoder theta3 A / B", enc(5)),
+    ];
     v.extend([
         ("PWM l1 / l2", pins(&[b.pwm[0].pin, b.pwm[1].pin], " / ")),
         ("PWM l3", b.pwm[2].pin.to_string()),

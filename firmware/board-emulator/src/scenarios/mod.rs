@@ -3,18 +3,19 @@
 //! 1. The image's fit on the STM32F405; [`boot`]: reset to the 1 kHz control tick with the
 //!    IWDG fed every tick; every pin configured as [`crate::pins::BOARD`] says; Hello
 //!    (session, reset cause PowerOn).
-//! 2. [`watchdog`]: the core stalled, the deadline missed and logged, the IWDG reset; the
-//!    reset cause and the fault log reported after it.
+//! 2. [`watchdog::starved`]: the core stalled, the deadline missed and logged, the IWDG
+//!    reset; the reset cause and the fault log reported after it (before the homing, so
+//!    that one homing serves the whole run).
 //! 3. [`motion`]: homing against the switches and stops, then the park move; Enable refused
 //!    until the reset is acknowledged ([`watchdog::acknowledge`]); enable (the brake check);
-//!    the laparoscope path within the tracking limits, with the lag of the setpoint behind
-//!    the master's targets; a target outside the workspace refused while the robot holds;
-//!    garbage on the link counted and ignored (the master's steps are `host-sim teleop`'s
-//!    own, `teleop::ci`).
+//!    a target outside the workspace refused while the robot holds; garbage on the link
+//!    counted and ignored; the tool put on; the laparoscope path within the tracking limits,
+//!    with the lag of the setpoint behind the master's targets (the master's steps are
+//!    `host-sim teleop`'s own, `teleop::ci`).
 //! 4. [`stops`]: heartbeat loss (hold, then SS1 with the brakes before the drivers); Disable
 //!    while moving (SS1); the e-stop edge (outputs safe within 10 µs, preempting the control
 //!    interrupt); the safety relay disagreeing with the button; a driver's nFAULT (STO);
-//!    Disable at the end.
+//!    enable and Disable at the end ([`watchdog::disable`]).
 //!
 //! Each check prints its figures; [`Outcome::all_ok`] says whether every one passed.
 
