@@ -1,7 +1,10 @@
-//! The master's side of the link: a Unix socket (QEMU's `-serial unix:PATH,server=on`) or a
-//! serial device, a reader thread that decodes the board's frames (`MasterDecoder`: COBS,
-//! CRC, version, sequence) and hands them over with their arrival time, and the writer
-//! with the master's sequence numbers.
+//! The master's side of the link: the writer with the master's session and sequence numbers
+//! ([`Link`]) over a [`Medium`] that carries the bytes and keeps the clock. [`open`] gives the
+//! host's medium, a Unix socket (QEMU's `-serial unix:PATH,server=on`) or a serial device,
+//! timed by the host's clock, with a reader thread that decodes the board's frames
+//! (`MasterDecoder`: COBS, CRC, version, sequence) and hands them over with their arrival
+//! time. An emulated board stepped in lockstep brings its own medium, timed by its virtual
+//! clock ([`Link::over`]).
 
 use crate::error::TeleopError;
 use master_link::{
@@ -30,22 +33,42 @@ pub struct Received {
     pub msg: BoardToMaster,
 }
 
+/// What carries the link's bytes, and the clock the session runs on: the host's socket or
+/// serial device ([`open`]), or an emulated board that advances its virtual time while the
+/// session waits.
+pub trait Medium: Send {
+    /// Writes `bytes` towards the board.
+    fn write_all(&mut self, bytes: &[u8]) -> std::io::Result<()>;
+    /// The next board message, waiting at most `timeout` of this medium's clock; `Ok(None)`
+    /// on timeout, `Err` once the link is closed.
+    fn recv(&mut self, timeout: Duration) -> Result<Option<Received>, TeleopError>;
+    /// The clock: seconds since the medium was opened.
+    fn now_s(&self) -> f64;
+    /// The counters of the board -> master direction (this side's decoder).
+    fn counters(&self) -> LinkCounters;
+}
+
 /// What the reader thread reports.
 enum FromReader {
     Message(Received),
     Closed(String),
 }
 
-/// An open link to the board.
-pub struct Link {
+/// The host's medium: a socket or a serial device, its reader thread, the host's clock.
+struct HostMedium {
     writer: Box<dyn Write + Send>,
     rx: Receiver<FromReader>,
-    seq: SeqCounter,
-    /// The session nonce of this connection (sent in `Hello`, carried by every frame).
-    session: u32,
     t0: Instant,
     counters: Arc<Mutex<LinkCounters>>,
     closed: Option<String>,
+}
+
+/// An open link to the board.
+pub struct Link {
+    medium: Box<dyn Medium>,
+    seq: SeqCounter,
+    /// The session nonce of this connection (sent in `Hello`, carried by every frame).
+    session: u32,
     /// Frames and bytes written.
     pub frames_sent: u64,
     pub bytes_sent: u64,
@@ -103,10 +126,13 @@ pub fn open(path: &Path, baud: u32, timeout: Duration) -> Result<Link, TeleopErr
         let r = f.try_clone().map_err(open_error)?;
         (Box::new(r), Box::new(f))
     };
-    Ok(Link::start(reader, writer))
+    Ok(Link::over(
+        Box::new(HostMedium::start(reader, writer)),
+        session_nonce(),
+    ))
 }
 
-impl Link {
+impl HostMedium {
     fn start(mut reader: Box<dyn Read + Send>, writer: Box<dyn Write + Send>) -> Self {
         let (tx, rx) = mpsc::channel();
         let t0 = Instant::now();
@@ -139,27 +165,68 @@ impl Link {
                 }
             }
         });
-        Link {
+        HostMedium {
             writer,
             rx,
-            seq: SeqCounter::new(0),
-            session: session_nonce(),
             t0,
             counters,
             closed: None,
+        }
+    }
+}
+
+impl Medium for HostMedium {
+    fn write_all(&mut self, bytes: &[u8]) -> std::io::Result<()> {
+        self.writer
+            .write_all(bytes)
+            .and_then(|()| self.writer.flush())
+    }
+
+    fn recv(&mut self, timeout: Duration) -> Result<Option<Received>, TeleopError> {
+        if let Some(why) = &self.closed {
+            return Err(TeleopError::Closed(why.clone()));
+        }
+        match self.rx.recv_timeout(timeout) {
+            Ok(FromReader::Message(m)) => Ok(Some(m)),
+            Ok(FromReader::Closed(why)) => {
+                self.closed = Some(why.clone());
+                Err(TeleopError::Closed(why))
+            }
+            Err(RecvTimeoutError::Timeout) => Ok(None),
+            Err(RecvTimeoutError::Disconnected) => Err(TeleopError::ReaderStopped),
+        }
+    }
+
+    fn now_s(&self) -> f64 {
+        self.t0.elapsed().as_secs_f64()
+    }
+
+    fn counters(&self) -> LinkCounters {
+        self.counters.lock().map(|c| *c).unwrap_or_default()
+    }
+}
+
+impl Link {
+    /// A link over `medium` with the session nonce `session` (a fresh value per connection;
+    /// an emulated run that must repeat itself bit for bit passes a fixed one).
+    pub fn over(medium: Box<dyn Medium>, session: u32) -> Self {
+        Link {
+            medium,
+            seq: SeqCounter::new(0),
+            session,
             frames_sent: 0,
             bytes_sent: 0,
         }
     }
 
-    /// Seconds since the link was opened (the master's clock).
+    /// Seconds since the link was opened (the master's clock: the medium's).
     pub fn now_s(&self) -> f64 {
-        self.t0.elapsed().as_secs_f64()
+        self.medium.now_s()
     }
 
     /// Microseconds since the link was opened (target timestamps).
     pub fn now_us(&self) -> u64 {
-        u64::try_from(self.t0.elapsed().as_micros()).unwrap_or(u64::MAX)
+        (self.medium.now_s() * 1e6) as u64
     }
 
     /// The session nonce of this connection.
@@ -199,10 +266,7 @@ impl Link {
 
     /// Writes bytes as they are (garbage tests).
     pub fn write_raw(&mut self, bytes: &[u8]) -> Result<(), TeleopError> {
-        self.writer
-            .write_all(bytes)
-            .and_then(|()| self.writer.flush())
-            .map_err(TeleopError::Write)?;
+        self.medium.write_all(bytes).map_err(TeleopError::Write)?;
         self.bytes_sent += bytes.len() as u64;
         Ok(())
     }
@@ -210,23 +274,12 @@ impl Link {
     /// The next board message, waiting at most `timeout`; `Ok(None)` on timeout, `Err`
     /// once the link is closed.
     pub fn recv(&mut self, timeout: Duration) -> Result<Option<Received>, TeleopError> {
-        if let Some(why) = &self.closed {
-            return Err(TeleopError::Closed(why.clone()));
-        }
-        match self.rx.recv_timeout(timeout) {
-            Ok(FromReader::Message(m)) => Ok(Some(m)),
-            Ok(FromReader::Closed(why)) => {
-                self.closed = Some(why.clone());
-                Err(TeleopError::Closed(why))
-            }
-            Err(RecvTimeoutError::Timeout) => Ok(None),
-            Err(RecvTimeoutError::Disconnected) => Err(TeleopError::ReaderStopped),
-        }
+        self.medium.recv(timeout)
     }
 
     /// The counters of the board -> master direction (this side's decoder).
     pub fn counters(&self) -> LinkCounters {
-        self.counters.lock().map(|c| *c).unwrap_or_default()
+        self.medium.counters()
     }
 }
 
