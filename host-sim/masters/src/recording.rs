@@ -864,28 +864,31 @@ impl Recording {
     /// commanded (stamped with the input sample's time) to the targets sent, the board's
     /// setpoint and the measured pose.
     pub fn latency(&self, cfg: &LagConfig) -> LatencyFigures {
-        let commanded: Vec<Stamped> = self
-            .targets
-            .iter()
-            .filter_map(|r| Some((r.input_t_s?, r.commanded?.position_m)))
-            .collect();
-        let targets: Vec<Stamped> = self
-            .targets
-            .iter()
-            .map(|r| (r.t_s, r.pose.position_m))
-            .collect();
-        let setpoints: Vec<Stamped> = self
-            .statuses
-            .iter()
-            .filter_map(|r| Some((r.t_s, r.setpoint?.position_m)))
-            .collect();
-        let measured: Vec<Stamped> = self
-            .statuses
-            .iter()
-            .filter_map(|r| Some((r.t_s, r.measured?.position_m)))
-            .collect();
-        LatencyFigures::measure(&commanded, &targets, &setpoints, &measured, cfg)
+        latency_of(&self.targets, &self.statuses, cfg)
     }
+}
+
+/// The latency figures of a run from its targets (their commanded poses and input times)
+/// and statuses (see [`crate::latency`]).
+pub fn latency_of(
+    targets: &[TargetRecord],
+    statuses: &[StatusRecord],
+    cfg: &LagConfig,
+) -> LatencyFigures {
+    let commanded: Vec<Stamped> = targets
+        .iter()
+        .filter_map(|r| Some((r.input_t_s?, r.commanded?.position_m)))
+        .collect();
+    let sent: Vec<Stamped> = targets.iter().map(|r| (r.t_s, r.pose.position_m)).collect();
+    let setpoints: Vec<Stamped> = statuses
+        .iter()
+        .filter_map(|r| Some((r.t_s, r.setpoint?.position_m)))
+        .collect();
+    let measured: Vec<Stamped> = statuses
+        .iter()
+        .filter_map(|r| Some((r.t_s, r.measured?.position_m)))
+        .collect();
+    LatencyFigures::measure(&commanded, &sent, &setpoints, &measured, cfg)
 }
 
 /// Time series for plotting: `(t_s, [x_mm, y_mm, z_mm, rx_deg, ry_deg, rz_deg])`, the

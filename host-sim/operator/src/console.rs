@@ -1,0 +1,1 @@
+//! The console (see `host-sim console`).
