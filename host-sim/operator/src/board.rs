@@ -594,28 +594,29 @@ pub fn request_name(msg: &MasterToBoard) -> &'static str {
     }
 }
 
-/// Why the board refused, in words a person at the robot can act on.
+/// Why the board refused, in words a person at the robot can act on (at most 44
+/// characters: the console shows it on one line).
 pub fn refusal_text(reason: NackReason) -> &'static str {
     match reason {
-        NackReason::UnsupportedVersion => "the board speaks another protocol version",
-        NackReason::NotConnected => "say hello first",
+        NackReason::UnsupportedVersion => "the board speaks another protocol",
+        NackReason::NotConnected => "no session: say hello first",
         NackReason::InvalidState => "not allowed in this state",
-        NackReason::NotHomed => "the robot must be homed first",
+        NackReason::NotHomed => "not homed: home the robot first",
         NackReason::Faulted => "a fault is latched: clear it first",
         NackReason::FaultStillActive => "the fault's cause is still present",
         NackReason::InvalidJoint => "no such joint",
         NackReason::InvalidValue => "a value is not finite or not valid",
         NackReason::OutOfWorkspace => "the target is outside the workspace",
         NackReason::JointLimit => "the target violates a joint limit",
-        NackReason::NearSingularity => "the target is too close to a singularity",
+        NackReason::NearSingularity => "the target is too near a singularity",
         NackReason::VelocityLimit => "too fast",
         NackReason::StaleTarget => "the target is stale or out of order",
         NackReason::ClutchDisengaged => "the clutch is not engaged",
-        NackReason::Busy => "busy (homing, enabling or brakes engaging): retry",
-        NackReason::AlreadyHomed => "already homed: re-homing needs the confirmation",
+        NackReason::Busy => "busy (homing, enabling, brakes): retry",
+        NackReason::AlreadyHomed => "already homed: re-homing needs confirming",
         NackReason::ResetNotAcknowledged => "acknowledge the board's last reset first",
-        NackReason::SafetyRelayMismatch => "the e-stop button and the safety relay disagree",
+        NackReason::SafetyRelayMismatch => "e-stop button and safety relay disagree",
         NackReason::BrakeCheckFailed => "the holding brakes failed their check",
-        NackReason::OperatorAbsent => "the operator is not present (dead-man released)",
+        NackReason::OperatorAbsent => "operator absent (dead-man released)",
     }
 }

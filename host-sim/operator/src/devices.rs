@@ -10,11 +10,13 @@ use masters::rate::{RateMapping, RateMappingConfig};
 use masters::spacenav::{self, SpaceNavMaster, SpnavOptions};
 use masters::udp::{GateConfig, UdpPoseMaster};
 use masters::{DeviceError, Master, MasterKind, MasterSample};
-use ratatui::crossterm::event::{self, Event, KeyCode, KeyEventKind};
+use ratatui::crossterm::event::{self, Event, KeyCode, KeyEventKind, KeyModifiers};
 use ratatui::crossterm::terminal;
 use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::str::FromStr;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use std::time::Duration;
 
 /// Which device.
@@ -58,15 +60,15 @@ impl FromStr for DeviceSpec {
     }
 }
 
-/// Opens the device.
-pub fn open(spec: &DeviceSpec) -> Result<Box<dyn Master>, OperatorError> {
+/// Opens the device; the keyboard sets `quit` on `q` or Ctrl-C (raw mode: no signal).
+pub fn open(spec: &DeviceSpec, quit: &Arc<AtomicBool>) -> Result<Box<dyn Master>, OperatorError> {
     Ok(match spec {
         DeviceSpec::SpaceMouse => {
             let socket = spacenav::socket_path();
             if socket.exists() {
-                open(&DeviceSpec::Spacenavd(Some(socket)))?
+                open(&DeviceSpec::Spacenavd(Some(socket)), quit)?
             } else {
-                open(&DeviceSpec::Evdev(None))?
+                open(&DeviceSpec::Evdev(None), quit)?
             }
         }
         DeviceSpec::Spacenavd(path) => {
@@ -86,7 +88,7 @@ pub fn open(spec: &DeviceSpec) -> Result<Box<dyn Master>, OperatorError> {
             })
         }
         DeviceSpec::Udp(addr) => Box::new(UdpPoseMaster::bind(*addr, None, GateConfig::default())?),
-        DeviceSpec::Keyboard => Box::new(TerminalKeyboard::new()?),
+        DeviceSpec::Keyboard => Box::new(TerminalKeyboard::new(Arc::clone(quit))?),
     })
 }
 
@@ -95,14 +97,19 @@ pub fn open(spec: &DeviceSpec) -> Result<Box<dyn Master>, OperatorError> {
 pub struct TerminalKeyboard {
     keys: KeyboardMaster,
     last: Option<KeyOutcome>,
+    quit: Arc<AtomicBool>,
 }
 
 impl TerminalKeyboard {
-    /// Puts the terminal in raw mode.
-    pub fn new() -> Result<Self, OperatorError> {
+    /// Puts the terminal in raw mode; `q` and Ctrl-C set `quit`.
+    pub fn new(quit: Arc<AtomicBool>) -> Result<Self, OperatorError> {
         let keys = KeyboardMaster::new(KeyboardConfig::default())?;
         terminal::enable_raw_mode().map_err(OperatorError::Terminal)?;
-        Ok(TerminalKeyboard { keys, last: None })
+        Ok(TerminalKeyboard {
+            keys,
+            last: None,
+            quit,
+        })
     }
 
     /// What the last key did.
@@ -150,6 +157,12 @@ impl Master for TerminalKeyboard {
         };
         while event::poll(Duration::ZERO).map_err(io)? {
             if let Event::Key(k) = event::read().map_err(io)? {
+                if k.code == KeyCode::Char('q')
+                    || (k.code == KeyCode::Char('c') && k.modifiers.contains(KeyModifiers::CONTROL))
+                {
+                    self.quit.store(true, Ordering::Relaxed);
+                    continue;
+                }
                 let action = match k.kind {
                     KeyEventKind::Press => KeyAction::Press,
                     KeyEventKind::Repeat => KeyAction::Repeat,
