@@ -36,6 +36,9 @@ pub enum CliError {
     Sim(#[from] SimError),
     #[error(transparent)]
     Teleop(#[from] TeleopError),
+    /// The operator's front ends (hand controller, console, OpenIGTLink, replay).
+    #[error(transparent)]
+    Operator(#[from] operator::OperatorError),
     #[error(transparent)]
     Campaign(#[from] faults::CampaignError),
     #[error(transparent)]

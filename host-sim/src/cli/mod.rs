@@ -8,6 +8,7 @@
 pub mod board;
 pub mod calibrate;
 pub mod design;
+pub mod operator;
 pub mod sim;
 pub mod teleop;
 
@@ -220,6 +221,21 @@ pub enum Command {
     /// writes campaign.csv and campaign.png to --out (default target/faults/), and exits
     /// non-zero when a cell fails.
     Faults(board::FaultsArgs),
+    /// A recorded teleoperation session (MCAP, `teleop --device`): prints its summary (with
+    /// the latency figures) and writes its plots: input.png, position.png,
+    /// orientation.png, lag.png, margins.png (default target/replay/<file stem>/).
+    Replay(operator::ReplayArgs),
+    /// The operator's console: a terminal UI (80x24 and larger) showing the board's state,
+    /// stop, faults, poses, joints, margins, link counters and tick timing live, with keys
+    /// for hello, home (re-homing confirmed), enable, disable, clear fault, stop, jog,
+    /// clutch and dead-man; every command shows the board's reply.
+    Console(operator::ConsoleArgs),
+    /// OpenIGTLink (versions 2 and 3) for 3D Slicer, PLUS and trackers: TRANSFORM or
+    /// POSITION to device Target are pose targets (platform frame {p} in the robot base {0},
+    /// mm, or in the client frame with --registration) through the board's supervisor; the
+    /// measured pose is streamed as TRANSFORM from device Robot, the state as STATUS and
+    /// STRING; GET_ requests are answered.
+    Igtl(operator::IgtlArgs),
     /// The simulated board (the board application on the plant) on a Unix socket, paced
     /// by the wall clock, for `teleop`, the console, `igtl` and `faultlog`.
     Board(board::BoardArgs),
@@ -259,6 +275,9 @@ impl Command {
             Command::Teleop(args) => teleop::run(args),
             Command::Faults(args) => board::faults(args),
             Command::Board(args) => board::board(args),
+            Command::Replay(args) => operator::replay(args),
+            Command::Console(args) => operator::console(args),
+            Command::Igtl(args) => operator::igtl(args),
             Command::Faultlog(args) => board::faultlog(args),
             Command::Calibrate(args) => calibrate::run(args, selected, limits),
         }

@@ -8,7 +8,8 @@ use simulation::config::{default_target_dir, SimConfig};
 use std::path::PathBuf;
 use teleop::{ClockChoice, PathChoice, Settings, TeleopScenario};
 
-/// `host-sim teleop` options.
+/// `host-sim teleop` options: a scripted path (`--scenario`, `--path`), or a hand
+/// controller (`--device`).
 #[derive(Debug, Args)]
 pub struct TeleopArgs {
     /// The board: a Unix socket (QEMU `-serial unix:PATH,server=on,wait=off`) or a serial
@@ -43,10 +44,23 @@ pub struct TeleopArgs {
     /// Output directory [default: target/teleop/<scenario> in the binary's target dir].
     #[arg(long)]
     pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub hand: super::operator::HandControllerArgs,
 }
 
 /// Runs the master.
 pub fn run(args: &TeleopArgs) -> Result<(), CliError> {
+    if let Some(device) = &args.hand.device {
+        return super::operator::hand_controller(
+            &args.connect,
+            args.baud,
+            args.connect_timeout_s,
+            args.home_timeout_s,
+            args.stream_rate_hz,
+            &args.hand,
+            device,
+        );
+    }
     let cfg = SimConfig::builtin()?;
     let out = args.out.clone().unwrap_or_else(|| {
         default_target_dir()

@@ -1,0 +1,639 @@
+//! A live board for the operator's front ends: the link of the `teleop` crate (a Unix
+//! socket or a serial device, the same code path for the simulated board, the emulator and
+//! a real board), every request tracked until the board answers it, the latest status,
+//! and the heartbeats.
+//!
+//! Unlike the scripted session of `host-sim teleop`, nothing here waits unless asked: a
+//! front end sends requests, keeps polling, and receives each answer as a [`Reply`] when
+//! it comes ([`Board::poll`]). [`Board::request`] waits for one answer (the bring-up
+//! steps, the OpenIGTLink bridge's targets).
+
+use crate::conversions::wire_pose;
+use crate::error::OperatorError;
+use master_link::{
+    BoardToMaster, FaultLogPage, FirmwareVersion, MasterToBoard, NackReason, ResetStatus,
+    RobotState, Seq, StatusReport, Warnings, PROTOCOL_VERSION,
+};
+use masters::CartesianPose;
+use std::collections::VecDeque;
+use std::path::Path;
+use std::time::Duration;
+use teleop::link::{self, Link, Received};
+
+/// How long a request waits for its answer before it counts as unanswered, s.
+pub const REPLY_TIMEOUT_S: f64 = 1.0;
+/// Heartbeat period, s (the board holds after 100 ms without one while enabled).
+pub const HEARTBEAT_PERIOD_S: f64 = 0.02;
+/// How long the board refuses `Enable` with `Busy` after homing or a disable while its
+/// brakes engage, with margin, s: [`Board::enable`] sends `Enable` again within it.
+pub const ENABLE_BUSY_WINDOW_S: f64 = 1.0;
+
+/// What a request came to.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Outcome {
+    /// Accepted.
+    Ack,
+    /// Refused, with the board's reason.
+    Refused(NackReason),
+    /// The answer to `Hello`.
+    HelloReply(HelloInfo),
+    /// The answer to `FaultLogRequest`.
+    FaultLog(FaultLogPage),
+    /// A calibrated geometry stored, with its version.
+    GeometryStored(u32),
+    /// A calibrated geometry refused, with the board's reason.
+    GeometryRefused(master_link::GeometryRefusal),
+    /// No answer within [`REPLY_TIMEOUT_S`].
+    NoReply,
+}
+
+/// The board's `HelloReply`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HelloInfo {
+    /// Firmware version.
+    pub firmware: FirmwareVersion,
+    /// Protocol version the board speaks.
+    pub protocol_version: u8,
+    /// The session it confirmed.
+    pub session: u32,
+    /// Its last reset and whether it was acknowledged.
+    pub reset: ResetStatus,
+    /// The version of its stored calibrated geometry (0: none, the nominal robot).
+    pub geometry_version: u32,
+}
+
+/// A request and what it came to.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Reply {
+    /// The request.
+    pub request: MasterToBoard,
+    /// Its sequence number.
+    pub seq: Seq,
+    /// When it was sent, s (the link's clock).
+    pub sent_s: f64,
+    /// When the answer came (or the request timed out), s.
+    pub t_s: f64,
+    /// The answer.
+    pub outcome: Outcome,
+}
+
+/// Something the board sent, as a front end sees it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum BoardEvent {
+    /// A status report and its arrival time, s.
+    Status(f64, StatusReport),
+    /// The answer to a request.
+    Reply(Reply),
+}
+
+/// A connected board.
+pub struct Board {
+    link: Link,
+    name: String,
+    pending: Vec<(Seq, MasterToBoard, f64)>,
+    status: Option<(f64, StatusReport)>,
+    hello: Option<HelloInfo>,
+    heartbeat: bool,
+    last_beat_s: f64,
+    last_stamp_us: u64,
+    backlog: VecDeque<BoardEvent>,
+    deferred: VecDeque<BoardEvent>,
+    statuses: u64,
+}
+
+impl Board {
+    /// Opens the board at `path`: a Unix socket (waited for until `timeout`: a board may
+    /// still be starting) or a serial device at `baud`.
+    pub fn open(path: &Path, baud: u32, timeout: Duration) -> Result<Self, OperatorError> {
+        let link = link::open(path, baud, timeout)?;
+        Ok(Board {
+            link,
+            name: path.display().to_string(),
+            pending: Vec::new(),
+            status: None,
+            hello: None,
+            heartbeat: true,
+            last_beat_s: f64::NEG_INFINITY,
+            last_stamp_us: 0,
+            backlog: VecDeque::new(),
+            deferred: VecDeque::new(),
+            statuses: 0,
+        })
+    }
+
+    /// The socket or device.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// The clock of this connection, s since it was opened.
+    pub fn now_s(&self) -> f64 {
+        self.link.now_s()
+    }
+
+    /// The latest status and its arrival time.
+    pub fn status(&self) -> Option<&(f64, StatusReport)> {
+        self.status.as_ref()
+    }
+
+    /// Statuses received so far.
+    pub fn statuses_received(&self) -> u64 {
+        self.statuses
+    }
+
+    /// The board's `HelloReply`, once received.
+    pub fn hello_info(&self) -> Option<HelloInfo> {
+        self.hello
+    }
+
+    /// The link: frames sent, the counters of the board → master direction.
+    pub fn link(&self) -> &Link {
+        &self.link
+    }
+
+    /// Heartbeats on (the default) or off.
+    pub fn set_heartbeat(&mut self, on: bool) {
+        self.heartbeat = on;
+    }
+
+    /// Requests sent and not answered yet.
+    pub fn pending(&self) -> usize {
+        self.pending.len()
+    }
+
+    /// Sends `msg` and tracks it until its answer; its sequence number.
+    pub fn send(&mut self, msg: MasterToBoard) -> Result<Seq, OperatorError> {
+        let seq = self.link.send(&msg)?;
+        self.pending.push((seq, msg, self.now_s()));
+        Ok(seq)
+    }
+
+    /// Sends `Hello` with this connection's session nonce.
+    pub fn send_hello(&mut self) -> Result<Seq, OperatorError> {
+        let nonce = self.link.session();
+        self.send(MasterToBoard::Hello {
+            protocol_version: PROTOCOL_VERSION,
+            nonce,
+        })
+    }
+
+    /// Sends a pose target (CRTK `servo_cp`) stamped with this connection's clock; its
+    /// sequence number and stamp, µs.
+    pub fn send_target(&mut self, pose: &CartesianPose) -> Result<(Seq, u64), OperatorError> {
+        let (position_m, rotation_vector_rad) = wire_pose(pose);
+        let stamp = self.link.now_us().max(self.last_stamp_us + 1);
+        self.last_stamp_us = stamp;
+        let seq = self.send(MasterToBoard::PoseTarget {
+            timestamp_us: stamp,
+            position_m,
+            rotation_vector_rad,
+        })?;
+        Ok((seq, stamp))
+    }
+
+    fn beat(&mut self) -> Result<(), OperatorError> {
+        let now = self.now_s();
+        if self.heartbeat && now - self.last_beat_s >= HEARTBEAT_PERIOD_S {
+            // Untracked: its Ack is not a front end's business.
+            self.link.send(&MasterToBoard::Heartbeat)?;
+            self.last_beat_s = now;
+        }
+        Ok(())
+    }
+
+    fn handle(&mut self, r: Received) {
+        let answer = |pending: &mut Vec<(Seq, MasterToBoard, f64)>,
+                      matches: &dyn Fn(&(Seq, MasterToBoard, f64)) -> bool,
+                      outcome: Outcome|
+         -> Option<Reply> {
+            let i = pending.iter().position(matches)?;
+            let (seq, request, sent_s) = pending.remove(i);
+            Some(Reply {
+                request,
+                seq,
+                sent_s,
+                t_s: r.t_s,
+                outcome,
+            })
+        };
+        let reply = match r.msg {
+            BoardToMaster::Status(s) => {
+                self.status = Some((r.t_s, s));
+                self.statuses += 1;
+                self.backlog.push_back(BoardEvent::Status(r.t_s, s));
+                None
+            }
+            BoardToMaster::HelloReply {
+                firmware_version,
+                protocol_version,
+                session,
+                reset,
+                geometry_version,
+            } => {
+                let info = HelloInfo {
+                    firmware: firmware_version,
+                    protocol_version,
+                    session,
+                    reset,
+                    geometry_version,
+                };
+                self.hello = Some(info);
+                answer(
+                    &mut self.pending,
+                    &|p| matches!(p.1, MasterToBoard::Hello { .. }),
+                    Outcome::HelloReply(info),
+                )
+            }
+            BoardToMaster::Ack { seq } => answer(&mut self.pending, &|p| p.0 == seq, Outcome::Ack),
+            BoardToMaster::Nack { seq, reason } => {
+                answer(&mut self.pending, &|p| p.0 == seq, Outcome::Refused(reason))
+            }
+            BoardToMaster::FaultLog(page) => answer(
+                &mut self.pending,
+                &|p| matches!(p.1, MasterToBoard::FaultLogRequest { first } if first == page.first),
+                Outcome::FaultLog(page),
+            ),
+            BoardToMaster::GeometryStored { seq, version } => answer(
+                &mut self.pending,
+                &|p| p.0 == seq,
+                Outcome::GeometryStored(version),
+            ),
+            BoardToMaster::GeometryRefused { seq, reason } => answer(
+                &mut self.pending,
+                &|p| p.0 == seq,
+                Outcome::GeometryRefused(reason),
+            ),
+        };
+        if let Some(reply) = reply {
+            // Every Hello sent before the answer is answered by it.
+            if matches!(reply.outcome, Outcome::HelloReply(_)) {
+                self.pending
+                    .retain(|p| !matches!(p.1, MasterToBoard::Hello { .. }));
+            }
+            self.backlog.push_back(BoardEvent::Reply(reply));
+        }
+    }
+
+    fn expire(&mut self) {
+        let now = self.now_s();
+        let mut i = 0;
+        while let Some(&(seq, request, sent_s)) = self.pending.get(i) {
+            if now - sent_s > REPLY_TIMEOUT_S {
+                self.pending.remove(i);
+                self.backlog.push_back(BoardEvent::Reply(Reply {
+                    request,
+                    seq,
+                    sent_s,
+                    t_s: now,
+                    outcome: Outcome::NoReply,
+                }));
+            } else {
+                i += 1;
+            }
+        }
+    }
+
+    /// Receives for at most `wait` (returning as soon as something came), sends the
+    /// heartbeat that falls due, and hands over what arrived, oldest first.
+    pub fn poll(&mut self, wait: Duration) -> Result<Vec<BoardEvent>, OperatorError> {
+        self.receive(wait)?;
+        let mut out: Vec<BoardEvent> = self.deferred.drain(..).collect();
+        out.extend(self.backlog.drain(..));
+        Ok(out)
+    }
+
+    /// Receives into the backlog: waits at most `wait` for the first message when nothing
+    /// is there yet.
+    fn receive(&mut self, wait: Duration) -> Result<(), OperatorError> {
+        self.beat()?;
+        if self.backlog.is_empty() {
+            let wait = wait.min(Duration::from_secs_f64(HEARTBEAT_PERIOD_S / 2.0));
+            if let Some(r) = self.link.recv(wait)? {
+                self.handle(r);
+            }
+        }
+        while let Some(r) = self.link.recv(Duration::ZERO)? {
+            self.handle(r);
+        }
+        self.beat()?;
+        self.expire();
+        Ok(())
+    }
+
+    /// Receives for at most `wait`; the first new event `pick` takes, the others kept for
+    /// the next [`Board::poll`].
+    fn receive_picking<T>(
+        &mut self,
+        wait: Duration,
+        pick: &mut dyn FnMut(&BoardEvent) -> Option<T>,
+    ) -> Result<Option<T>, OperatorError> {
+        self.receive(wait)?;
+        let mut found = None;
+        while let Some(e) = self.backlog.pop_front() {
+            if found.is_none() {
+                if let Some(x) = pick(&e) {
+                    found = Some(x);
+                    if matches!(e, BoardEvent::Reply(_)) {
+                        continue;
+                    }
+                }
+            }
+            self.deferred.push_back(e);
+        }
+        Ok(found)
+    }
+
+    /// Polls until the link's clock reaches `t_s`; everything that arrived.
+    pub fn poll_until(&mut self, t_s: f64) -> Result<Vec<BoardEvent>, OperatorError> {
+        let mut events = self.poll(Duration::ZERO)?;
+        loop {
+            let left = t_s - self.now_s();
+            if left <= 0.0 {
+                return Ok(events);
+            }
+            events.extend(self.poll(Duration::from_secs_f64(left))?);
+        }
+    }
+
+    /// Keeps receiving (events kept for the next [`Board::poll`]) until the clock reaches
+    /// `t_s`.
+    fn idle_until(&mut self, t_s: f64) -> Result<(), OperatorError> {
+        while self.now_s() < t_s {
+            let left = Duration::from_secs_f64((t_s - self.now_s()).max(0.0));
+            self.receive_picking::<()>(left, &mut |_| None)?;
+        }
+        Ok(())
+    }
+
+    /// Sends `msg` and waits for its answer (other events stay queued for the next
+    /// [`Board::poll`]).
+    pub fn request(&mut self, msg: MasterToBoard) -> Result<Outcome, OperatorError> {
+        let seq = self.send(msg)?;
+        self.answer_to(seq)
+    }
+
+    /// Sends a pose target and waits for the board's answer.
+    pub fn request_target(&mut self, pose: &CartesianPose) -> Result<Outcome, OperatorError> {
+        let (seq, _) = self.send_target(pose)?;
+        self.answer_to(seq)
+    }
+
+    /// Waits for the answer to request `seq` (at most [`REPLY_TIMEOUT_S`]: then
+    /// `Outcome::NoReply`).
+    fn answer_to(&mut self, seq: Seq) -> Result<Outcome, OperatorError> {
+        loop {
+            let got = self.receive_picking(Duration::from_millis(5), &mut |e| match e {
+                BoardEvent::Reply(r) if r.seq == seq => Some(r.outcome),
+                _ => None,
+            })?;
+            if let Some(o) = got {
+                return Ok(o);
+            }
+        }
+    }
+
+    /// Waits at most `timeout_s` for a status that satisfies `pred` (received after this
+    /// call); the status.
+    pub fn wait_status(
+        &mut self,
+        timeout_s: f64,
+        pred: impl Fn(&StatusReport) -> bool,
+    ) -> Result<Option<StatusReport>, OperatorError> {
+        let end = self.now_s() + timeout_s;
+        while self.now_s() < end {
+            let got = self.receive_picking(Duration::from_millis(5), &mut |e| match e {
+                BoardEvent::Status(_, s) if pred(s) => Some(*s),
+                _ => None,
+            })?;
+            if got.is_some() {
+                return Ok(got);
+            }
+        }
+        Ok(None)
+    }
+
+    /// Hello until the board answers (it may still be booting), at most `timeout_s`.
+    pub fn hello(&mut self, timeout_s: f64) -> Result<HelloInfo, OperatorError> {
+        let end = self.now_s() + timeout_s;
+        while self.now_s() < end {
+            self.send_hello()?;
+            let until = (self.now_s() + 0.5).min(end);
+            while self.now_s() < until {
+                self.receive_picking::<()>(Duration::from_millis(10), &mut |_| None)?;
+                if let Some(h) = self.hello {
+                    return Ok(h);
+                }
+            }
+        }
+        Err(OperatorError::NoHello { timeout_s })
+    }
+
+    /// Sends `Enable`, again while the board answers `Busy` (its brakes still engage after
+    /// homing or a disable: about 100 ms), for at most [`ENABLE_BUSY_WINDOW_S`]; the last
+    /// outcome.
+    pub fn enable(&mut self) -> Result<Outcome, OperatorError> {
+        let end = self.now_s() + ENABLE_BUSY_WINDOW_S;
+        loop {
+            let outcome = self.request(MasterToBoard::Enable)?;
+            if outcome != Outcome::Refused(NackReason::Busy) || self.now_s() >= end {
+                return Ok(outcome);
+            }
+            let t = self.now_s() + 0.05;
+            self.idle_until(t)?;
+        }
+    }
+
+    /// Brings the board to following: hello, the reset acknowledged when it needs it,
+    /// homing when not homed (never re-homing), enable, and the `Enabled` state; `log`
+    /// hears each step.
+    pub fn bring_up(
+        &mut self,
+        timeouts: &BringUpTimeouts,
+        log: &mut dyn FnMut(&str),
+    ) -> Result<StatusReport, OperatorError> {
+        let h = self.hello(timeouts.hello_s)?;
+        log(&format!(
+            "hello: firmware {}.{}.{}, protocol {}, last reset {:?}{}",
+            h.firmware.major,
+            h.firmware.minor,
+            h.firmware.patch,
+            h.protocol_version,
+            h.reset.cause,
+            if h.reset.acknowledged {
+                ""
+            } else {
+                " (not acknowledged)"
+            }
+        ));
+        if h.protocol_version != PROTOCOL_VERSION {
+            return Err(OperatorError::Protocol {
+                board: h.protocol_version,
+                master: PROTOCOL_VERSION,
+            });
+        }
+        if !h.reset.acknowledged {
+            self.expect_ack(MasterToBoard::AcknowledgeReset)?;
+            log("reset acknowledged");
+        }
+        let status = self
+            .wait_status(2.0, |_| true)?
+            .ok_or(OperatorError::NoStatus)?;
+        if status.state == RobotState::Fault {
+            return Err(OperatorError::Faulted {
+                cause: format!("{:?}", status.fault.cause),
+            });
+        }
+        if status.state == RobotState::Enabled {
+            log("already enabled");
+            self.discard_events();
+            return Ok(status);
+        }
+        if status.warnings.contains(Warnings::NOT_HOMED) {
+            self.expect_ack(MasterToBoard::Home { rehome: false })?;
+            log("homing");
+            let homed = self.wait_status(timeouts.home_s, |s| {
+                (s.state == RobotState::Ready && !s.warnings.contains(Warnings::NOT_HOMED))
+                    || s.state == RobotState::Fault
+            })?;
+            match homed {
+                Some(s) if s.state == RobotState::Ready => log("homed"),
+                Some(s) => {
+                    return Err(OperatorError::Faulted {
+                        cause: format!("{:?} while homing", s.fault.cause),
+                    })
+                }
+                None => {
+                    return Err(OperatorError::Timeout {
+                        what: "homing",
+                        timeout_s: timeouts.home_s,
+                    })
+                }
+            }
+        }
+        match self.enable()? {
+            Outcome::Ack => {}
+            Outcome::Refused(reason) => {
+                return Err(OperatorError::Refused {
+                    request: "Enable".into(),
+                    reason,
+                })
+            }
+            _ => {
+                return Err(OperatorError::NoReply {
+                    request: "Enable".into(),
+                })
+            }
+        }
+        let enabled = self.wait_status(timeouts.enable_s, |s| {
+            matches!(s.state, RobotState::Enabled | RobotState::Fault)
+        })?;
+        match enabled {
+            Some(s) if s.state == RobotState::Enabled => {
+                log("enabled");
+                // What came during the bring-up is history: the front end starts now.
+                self.discard_events();
+                Ok(s)
+            }
+            Some(s) => Err(OperatorError::Faulted {
+                cause: format!("{:?} while enabling", s.fault.cause),
+            }),
+            None => Err(OperatorError::Timeout {
+                what: "enabling",
+                timeout_s: timeouts.enable_s,
+            }),
+        }
+    }
+
+    /// Drops the events received and not handed over yet (a front end that starts now).
+    pub fn discard_events(&mut self) {
+        self.deferred.clear();
+        self.backlog.clear();
+    }
+
+    /// Sends `msg` and requires its Ack.
+    pub fn expect_ack(&mut self, msg: MasterToBoard) -> Result<(), OperatorError> {
+        match self.request(msg)? {
+            Outcome::Ack => Ok(()),
+            Outcome::Refused(reason) => Err(OperatorError::Refused {
+                request: request_name(&msg).into(),
+                reason,
+            }),
+            _ => Err(OperatorError::NoReply {
+                request: request_name(&msg).into(),
+            }),
+        }
+    }
+}
+
+/// The bring-up's time limits, s.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BringUpTimeouts {
+    /// Hello answered.
+    pub hello_s: f64,
+    /// Homing done.
+    pub home_s: f64,
+    /// `Enabled` after the Ack (the brake check takes about 140 ms).
+    pub enable_s: f64,
+}
+
+impl Default for BringUpTimeouts {
+    /// 15 s, 60 s, 2 s.
+    fn default() -> Self {
+        BringUpTimeouts {
+            hello_s: 15.0,
+            home_s: 60.0,
+            enable_s: 2.0,
+        }
+    }
+}
+
+/// A request's name, as the console and the logs show it.
+pub fn request_name(msg: &MasterToBoard) -> &'static str {
+    match msg {
+        MasterToBoard::Hello { .. } => "Hello",
+        MasterToBoard::Enable => "Enable",
+        MasterToBoard::Disable => "Disable",
+        MasterToBoard::Home { rehome: false } => "Home",
+        MasterToBoard::Home { rehome: true } => "Re-home",
+        MasterToBoard::PoseTarget { .. } => "PoseTarget",
+        MasterToBoard::Jog { .. } => "Jog",
+        MasterToBoard::Clutch { engaged: true } => "Clutch engaged",
+        MasterToBoard::Clutch { engaged: false } => "Clutch released",
+        MasterToBoard::Heartbeat => "Heartbeat",
+        MasterToBoard::EmergencyStop => "Stop",
+        MasterToBoard::ClearFault => "Clear fault",
+        MasterToBoard::StatusRequest => "Status request",
+        MasterToBoard::OperatorPresent { present: true } => "Operator present",
+        MasterToBoard::OperatorPresent { present: false } => "Operator absent",
+        MasterToBoard::AcknowledgeReset => "Acknowledge reset",
+        MasterToBoard::FaultLogRequest { .. } => "Fault log",
+        MasterToBoard::StoreGeometry(_) => "Store geometry",
+    }
+}
+
+/// Why the board refused, in words a person at the robot can act on (at most 44
+/// characters: the console shows it on one line).
+pub fn refusal_text(reason: NackReason) -> &'static str {
+    match reason {
+        NackReason::UnsupportedVersion => "the board speaks another protocol",
+        NackReason::NotConnected => "no session: say hello first",
+        NackReason::InvalidState => "not allowed in this state",
+        NackReason::NotHomed => "not homed: home the robot first",
+        NackReason::Faulted => "a fault is latched: clear it first",
+        NackReason::FaultStillActive => "the fault's cause is still present",
+        NackReason::InvalidJoint => "no such joint",
+        NackReason::InvalidValue => "a value is not finite or not valid",
+        NackReason::OutOfWorkspace => "the target is outside the workspace",
+        NackReason::JointLimit => "the target violates a joint limit",
+        NackReason::NearSingularity => "the target is too near a singularity",
+        NackReason::VelocityLimit => "too fast",
+        NackReason::StaleTarget => "the target is stale or out of order",
+        NackReason::ClutchDisengaged => "the clutch is not engaged",
+        NackReason::Busy => "busy (homing, enabling, brakes): retry",
+        NackReason::AlreadyHomed => "already homed: re-homing needs confirming",
+        NackReason::ResetNotAcknowledged => "acknowledge the board's last reset first",
+        NackReason::SafetyRelayMismatch => "e-stop button and safety relay disagree",
+        NackReason::BrakeCheckFailed => "the holding brakes failed their check",
+        NackReason::OperatorAbsent => "operator absent (dead-man released)",
+    }
+}

@@ -1,0 +1,702 @@
+//! `host-sim console --connect <serial device | socket>`: the terminal console of a person
+//! at the robot (ratatui), usable at 80x24 with its keys on screen.
+//!
+//! It shows, live from the board's status (every 20 ms): the state and the stop in force,
+//! homed or not, the latched fault with its cause, joint and value, the last reset, the
+//! measured pose and joints (`measured_cp`), the setpoint (`setpoint_cp`), the guard
+//! margins, the link counters of both directions and the tick timing. Every command shows
+//! the board's answer in the replies pane; a refusal says why in words.
+//!
+//! | key | command |
+//! | --- | --- |
+//! | `h` | Hello (sent at start too) |
+//! | `o` | Home; when the robot is homed already, the console asks, and `y` sends `Home { rehome: true }` (the confirmation the firmware requires) |
+//! | `e` | Enable (sent again while the board answers `Busy`: its brakes engage for ~100 ms after homing or a disable) |
+//! | `d` | Disable |
+//! | `c` | Clear fault |
+//! | `s`, Space | Stop (`EmergencyStop`: a latched fault, the board stops) |
+//! | `1`..`6` | select the joint to jog (l1 l2 l3 th1 th2 th3) |
+//! | `+`/`→`, `-`/`←` | jog the selected joint: `Jog` every 20 ms for 0.3 s after the key (a held key repeats) |
+//! | `[`, `]` | jog speed down, up |
+//! | `k` | clutch engaged / released (engaged: the robot holds) |
+//! | `p` | operator present / absent (the dead-man: absent, the robot holds) |
+//! | `a` | acknowledge the board's last reset |
+//! | `q`, Esc | quit (Disable first when enabled) |
+
+use crate::board::{refusal_text, request_name, Board, BoardEvent, HelloInfo, Outcome, Reply};
+use crate::conversions::{measured_cp, setpoint_cp};
+use crate::error::OperatorError;
+use master_link::{
+    LinkCounters, MasterToBoard, NackReason, RobotState, StatusReport, Warnings, NO_JOINT,
+};
+use ratatui::crossterm::event::{self, Event, KeyCode, KeyEventKind, KeyModifiers};
+use ratatui::layout::Rect;
+use ratatui::style::{Color, Modifier, Style};
+use ratatui::text::{Line, Span};
+use ratatui::widgets::{Block, Paragraph};
+use ratatui::Frame;
+use std::collections::VecDeque;
+use std::time::Duration;
+
+/// How long one jog key press keeps the joint moving, s.
+pub const JOG_PULSE_S: f64 = 0.3;
+/// Period of the `Jog` messages of a jog stream, s (the board stops a jog 0.1 s after the
+/// last one).
+pub const JOG_PERIOD_S: f64 = 0.02;
+/// Jog speeds: legs in mm/s and links in deg/s, the same step for both.
+pub const JOG_SPEEDS: [f64; 5] = [0.2, 0.5, 1.0, 2.0, 5.0];
+/// Replies kept on screen.
+const REPLIES_SHOWN: usize = 6;
+
+const JOINT_NAMES: [&str; 6] = ["l1", "l2", "l3", "th1", "th2", "th3"];
+
+/// A command the console sends (what a key asks for).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Action {
+    /// Send this request.
+    Send(MasterToBoard),
+    /// Start or extend a jog stream of the selected joint in this direction (+1 / -1).
+    Jog(f64),
+    /// Leave (the loop disables an enabled board first).
+    Quit,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct JogStream {
+    joint: usize,
+    velocity: f32,
+    until_s: f64,
+    last_sent_s: f64,
+    answered: bool,
+}
+
+/// The console's state: what the board said, the replies, the jog settings, a question
+/// being asked. Pure: keys in, actions out; the loop does the I/O.
+pub struct Console {
+    /// The board's name (socket or device).
+    pub board_name: String,
+    /// The latest status and its time.
+    pub status: Option<(f64, StatusReport)>,
+    /// The board's HelloReply.
+    pub hello: Option<HelloInfo>,
+    /// The master side's receive counters.
+    pub host_counters: LinkCounters,
+    /// Replies, newest last: (time, text, refused).
+    pub replies: VecDeque<(f64, String, bool)>,
+    /// The joint jogged (0..6).
+    pub joint: usize,
+    /// Index into [`JOG_SPEEDS`].
+    pub speed: usize,
+    /// The last clutch and presence states sent.
+    pub clutch: bool,
+    /// Operator present (the board's default).
+    pub present: bool,
+    /// Waiting for `y` to re-home.
+    pub confirm_rehome: bool,
+    jog: Option<JogStream>,
+    enable_retry_until: Option<f64>,
+    enable_retry_at: Option<f64>,
+}
+
+impl Console {
+    /// A console for `board_name` with nothing received yet.
+    pub fn new(board_name: &str) -> Self {
+        Console {
+            board_name: board_name.into(),
+            status: None,
+            hello: None,
+            host_counters: LinkCounters::default(),
+            replies: VecDeque::new(),
+            joint: 0,
+            speed: 2,
+            clutch: false,
+            present: true,
+            confirm_rehome: false,
+            jog: None,
+            enable_retry_until: None,
+            enable_retry_at: None,
+        }
+    }
+
+    fn homed(&self) -> Option<bool> {
+        self.status
+            .map(|(_, s)| !s.warnings.contains(Warnings::NOT_HOMED))
+    }
+
+    /// A line in the replies pane.
+    pub fn note(&mut self, t_s: f64, text: String, refused: bool) {
+        self.replies.push_back((t_s, text, refused));
+        while self.replies.len() > 64 {
+            self.replies.pop_front();
+        }
+    }
+
+    /// What a key does.
+    pub fn key(&mut self, code: KeyCode, modifiers: KeyModifiers, t_s: f64) -> Vec<Action> {
+        if self.confirm_rehome {
+            self.confirm_rehome = false;
+            if code == KeyCode::Char('y') {
+                return vec![Action::Send(MasterToBoard::Home { rehome: true })];
+            }
+            self.note(t_s, "re-homing cancelled".into(), false);
+            return vec![];
+        }
+        if modifiers.contains(KeyModifiers::CONTROL) && code == KeyCode::Char('c') {
+            return vec![Action::Quit];
+        }
+        let send = |m| vec![Action::Send(m)];
+        match code {
+            KeyCode::Char('h') => send(MasterToBoard::Hello {
+                protocol_version: master_link::PROTOCOL_VERSION,
+                nonce: 0,
+            }),
+            KeyCode::Char('o') => {
+                if self.homed() == Some(true) {
+                    self.confirm_rehome = true;
+                    vec![]
+                } else {
+                    send(MasterToBoard::Home { rehome: false })
+                }
+            }
+            KeyCode::Char('e') => {
+                self.enable_retry_until = Some(t_s + crate::board::ENABLE_BUSY_WINDOW_S);
+                send(MasterToBoard::Enable)
+            }
+            KeyCode::Char('d') => send(MasterToBoard::Disable),
+            KeyCode::Char('c') => send(MasterToBoard::ClearFault),
+            KeyCode::Char('s' | ' ') => {
+                self.jog = None;
+                send(MasterToBoard::EmergencyStop)
+            }
+            KeyCode::Char(c @ '1'..='6') => {
+                self.joint = usize::from(c as u8 - b'1');
+                self.jog = None;
+                vec![]
+            }
+            KeyCode::Char('+' | '=') | KeyCode::Right => vec![Action::Jog(1.0)],
+            KeyCode::Char('-') | KeyCode::Left => vec![Action::Jog(-1.0)],
+            KeyCode::Char('[') => {
+                self.speed = self.speed.saturating_sub(1);
+                vec![]
+            }
+            KeyCode::Char(']') => {
+                self.speed = (self.speed + 1).min(JOG_SPEEDS.len() - 1);
+                vec![]
+            }
+            KeyCode::Char('k') => send(MasterToBoard::Clutch {
+                engaged: !self.clutch,
+            }),
+            KeyCode::Char('p') => send(MasterToBoard::OperatorPresent {
+                present: !self.present,
+            }),
+            KeyCode::Char('a') => send(MasterToBoard::AcknowledgeReset),
+            KeyCode::Char('q') | KeyCode::Esc => vec![Action::Quit],
+            _ => vec![],
+        }
+    }
+
+    /// The jog velocity of the selected joint in direction `dir`: m/s or rad/s.
+    fn jog_velocity(&self, dir: f64) -> f32 {
+        let v = JOG_SPEEDS.get(self.speed).copied().unwrap_or(1.0) * dir;
+        (if self.joint < 3 {
+            v * 1e-3
+        } else {
+            v.to_radians()
+        }) as f32
+    }
+
+    /// Starts or extends the jog stream.
+    fn start_jog(&mut self, dir: f64, t_s: f64) {
+        let velocity = self.jog_velocity(dir);
+        match &mut self.jog {
+            Some(j) if j.joint == self.joint && j.velocity == velocity => {
+                j.until_s = t_s + JOG_PULSE_S;
+            }
+            _ => {
+                self.jog = Some(JogStream {
+                    joint: self.joint,
+                    velocity,
+                    until_s: t_s + JOG_PULSE_S,
+                    last_sent_s: f64::NEG_INFINITY,
+                    answered: false,
+                });
+            }
+        }
+    }
+
+    /// The jog message due at `t_s`, if any.
+    fn jog_due(&mut self, t_s: f64) -> Option<MasterToBoard> {
+        let j = self.jog.as_mut()?;
+        if t_s > j.until_s {
+            self.jog = None;
+            return None;
+        }
+        if t_s - j.last_sent_s < JOG_PERIOD_S {
+            return None;
+        }
+        j.last_sent_s = t_s;
+        Some(MasterToBoard::Jog {
+            joint: j.joint as u8,
+            velocity: j.velocity,
+        })
+    }
+
+    /// Takes what the board sent.
+    pub fn board_event(&mut self, e: &BoardEvent) -> Option<MasterToBoard> {
+        match e {
+            BoardEvent::Status(t, s) => {
+                self.status = Some((*t, *s));
+                None
+            }
+            BoardEvent::Reply(r) => self.reply(r),
+        }
+    }
+
+    /// A reply: noted (a jog stream's first answer and its refusals only); an Enable
+    /// refused with `Busy` is sent again 50 ms later within its window (the returned
+    /// request is due then: the loop sends it when `enable_due` says so).
+    fn reply(&mut self, r: &Reply) -> Option<MasterToBoard> {
+        let name = request_name(&r.request);
+        match (r.request, r.outcome) {
+            (MasterToBoard::Heartbeat, _) => return None,
+            (MasterToBoard::Jog { joint, velocity }, o) => {
+                let first = self.jog.as_mut().is_none_or(|j| !j.answered);
+                if let Some(j) = self.jog.as_mut() {
+                    j.answered = true;
+                }
+                let refused = matches!(o, Outcome::Refused(_));
+                if refused {
+                    self.jog = None;
+                }
+                if first || refused {
+                    let j = usize::from(joint);
+                    let unit = if j < 3 {
+                        ("mm/s", 1e3)
+                    } else {
+                        ("deg/s", 57.295_779_513_082_32)
+                    };
+                    let what = format!(
+                        "Jog {} {:+.1} {}",
+                        JOINT_NAMES.get(j).copied().unwrap_or("?"),
+                        f64::from(velocity) * unit.1,
+                        unit.0
+                    );
+                    self.outcome_note(r.t_s, &what, o);
+                }
+                return None;
+            }
+            (MasterToBoard::Enable, Outcome::Refused(NackReason::Busy))
+                if self.enable_retry_until.is_some_and(|u| r.t_s < u) =>
+            {
+                self.note(
+                    r.t_s,
+                    "Enable -> Busy (brakes engaging): sending again".into(),
+                    false,
+                );
+                self.enable_retry_at = Some(r.t_s + 0.05);
+                return None;
+            }
+            (MasterToBoard::Enable, _) => self.enable_retry_until = None,
+            (MasterToBoard::Clutch { engaged }, Outcome::Ack) => self.clutch = engaged,
+            (MasterToBoard::OperatorPresent { present }, Outcome::Ack) => self.present = present,
+            (MasterToBoard::Home { rehome: false }, Outcome::Refused(NackReason::AlreadyHomed)) => {
+                self.confirm_rehome = true;
+            }
+            _ => {}
+        }
+        self.outcome_note(r.t_s, name, r.outcome);
+        None
+    }
+
+    fn outcome_note(&mut self, t_s: f64, what: &str, o: Outcome) {
+        let (text, refused) = match o {
+            Outcome::Ack => (format!("{what} -> Ack"), false),
+            Outcome::Refused(reason) => (
+                format!("{what} REFUSED ({reason:?}): {}", refusal_text(reason)),
+                true,
+            ),
+            Outcome::HelloReply(h) => {
+                self.hello = Some(h);
+                (
+                    format!(
+                        "{what} -> firmware {}.{}.{}, protocol {}, reset {:?}{}",
+                        h.firmware.major,
+                        h.firmware.minor,
+                        h.firmware.patch,
+                        h.protocol_version,
+                        h.reset.cause,
+                        if h.reset.acknowledged {
+                            ""
+                        } else {
+                            " (acknowledge: a)"
+                        }
+                    ),
+                    false,
+                )
+            }
+            Outcome::FaultLog(p) => (format!("{what} -> {} entries", p.len), false),
+            Outcome::GeometryStored(v) => (format!("{what} -> stored, version {v}"), false),
+            Outcome::GeometryRefused(reason) => (format!("{what} REFUSED ({reason:?})"), true),
+            Outcome::NoReply => (format!("{what} -> no answer"), true),
+        };
+        self.note(t_s, text, refused);
+    }
+
+    /// An Enable due again (after `Busy`).
+    fn enable_due(&mut self, t_s: f64) -> bool {
+        if self.enable_retry_at.is_some_and(|at| t_s >= at) {
+            self.enable_retry_at = None;
+            return true;
+        }
+        false
+    }
+
+    /// Draws the console into `area` (80x24 and larger).
+    pub fn draw(&self, frame: &mut Frame, area: Rect) {
+        let title = match self.hello {
+            Some(h) => format!(
+                " RSPR console  {}  fw {}.{}.{} protocol {} ",
+                self.board_name,
+                h.firmware.major,
+                h.firmware.minor,
+                h.firmware.patch,
+                h.protocol_version
+            ),
+            None => format!(" RSPR console  {}  (no HelloReply yet) ", self.board_name),
+        };
+        let block = Block::bordered().title(title);
+        let inner = block.inner(area);
+        frame.render_widget(block, area);
+        let lines = self.lines(usize::from(inner.height));
+        frame.render_widget(Paragraph::new(lines), inner);
+    }
+
+    /// The console's lines for a pane `height` rows high.
+    pub fn lines(&self, height: usize) -> Vec<Line<'static>> {
+        let bold = Style::default().add_modifier(Modifier::BOLD);
+        let red = Style::default().fg(Color::Red).add_modifier(Modifier::BOLD);
+        let mut out: Vec<Line<'static>> = Vec::new();
+        match &self.status {
+            None => {
+                out.push(Line::from("no status from the board yet (h: hello)"));
+                for _ in 0..9 {
+                    out.push(Line::from(""));
+                }
+            }
+            Some((_, s)) => {
+                let homed = if s.warnings.contains(Warnings::NOT_HOMED) {
+                    "no"
+                } else {
+                    "yes"
+                };
+                let state_style = match s.state {
+                    RobotState::Fault => red,
+                    RobotState::Enabled => bold.fg(Color::Green),
+                    _ => bold,
+                };
+                out.push(Line::from(vec![
+                    Span::raw("State "),
+                    Span::styled(format!("{:<9}", format!("{:?}", s.state)), state_style),
+                    Span::raw(format!(
+                        " Stop {:<22} Homed {homed:<3} Clutch {} Op {}",
+                        format!("{:?}", s.stop),
+                        if self.clutch { "on " } else { "off" },
+                        if self.present { "present" } else { "ABSENT" }
+                    )),
+                ]));
+                let f = s.fault;
+                let fault = if f.cause == master_link::FaultCause::None {
+                    "none".to_string()
+                } else {
+                    let joint = if f.joint == NO_JOINT {
+                        String::new()
+                    } else {
+                        format!(
+                            " joint {}",
+                            JOINT_NAMES
+                                .get(usize::from(f.joint))
+                                .copied()
+                                .unwrap_or("?")
+                        )
+                    };
+                    format!(
+                        "{:?}{joint} value {:.4} at {} ms",
+                        f.cause, f.value, f.time_ms
+                    )
+                };
+                out.push(Line::from(vec![
+                    Span::raw("Fault    "),
+                    Span::styled(
+                        fault,
+                        if f.cause == master_link::FaultCause::None {
+                            Style::default()
+                        } else {
+                            red
+                        },
+                    ),
+                ]));
+                out.push(Line::from(format!(
+                    "Reset    {:?}{}  supply {:.1} V  fault log {} entries",
+                    s.reset.cause,
+                    if s.reset.acknowledged {
+                        " (acknowledged)"
+                    } else {
+                        " NOT ACKNOWLEDGED (a)"
+                    },
+                    s.supply_v,
+                    s.fault_log_len
+                )));
+                let pose = |p: Option<masters::CartesianPose>| match p {
+                    Some(p) => {
+                        let a = p.to_mm_deg();
+                        format!(
+                            "x {:7.3} y {:7.3} z {:7.3} mm  rx {:6.2} ry {:6.2} rz {:6.2} deg",
+                            a[0], a[1], a[2], a[3], a[4], a[5]
+                        )
+                    }
+                    None => "--".to_string(),
+                };
+                out.push(Line::from(format!("Measured {}", pose(measured_cp(s)))));
+                out.push(Line::from(format!("Setpoint {}", pose(setpoint_cp(s)))));
+                let q = s.joints;
+                out.push(Line::from(format!(
+                    "Joints   l1-l3 {:7.3} {:7.3} {:7.3} mm  th1-th3 {:7.2} {:7.2} {:7.2} deg",
+                    f64::from(q[0]) * 1e3,
+                    f64::from(q[1]) * 1e3,
+                    f64::from(q[2]) * 1e3,
+                    f64::from(q[3]).to_degrees(),
+                    f64::from(q[4]).to_degrees(),
+                    f64::from(q[5]).to_degrees()
+                )));
+                let m = s.margins;
+                let g = |x: f32| {
+                    if x.is_finite() {
+                        format!("{x:.2}")
+                    } else {
+                        "--".into()
+                    }
+                };
+                out.push(Line::from(format!(
+                    "Margins  nearest {} serial {} par {} stroke {} tilt {} coll {}",
+                    g(m.nearest),
+                    g(m.serial),
+                    g(m.parallel),
+                    g(m.stroke),
+                    g(m.tilt),
+                    g(m.collision)
+                )));
+                let c = s.link;
+                out.push(Line::from(format!(
+                    "Link     board rx ok {} crc {} bad {} ver {} order {} sess {} lost {}",
+                    c.frames_ok,
+                    c.bad_checksum,
+                    c.malformed,
+                    c.wrong_version,
+                    c.out_of_order,
+                    c.wrong_session,
+                    c.dropped
+                )));
+                let h = self.host_counters;
+                out.push(Line::from(format!(
+                    "         host rx ok {} rejected {} lost {}   workspace margin {}",
+                    h.frames_ok,
+                    h.rejected(),
+                    h.dropped,
+                    g(m.workspace)
+                )));
+                out.push(Line::from(format!(
+                    "Tick     jitter max {} us  exec max {} us  missed {}  refused targets {}",
+                    s.tick_jitter_max_us, s.tick_exec_max_us, s.missed_ticks, s.targets_refused
+                )));
+            }
+        }
+        let speed = JOG_SPEEDS.get(self.speed).copied().unwrap_or(1.0);
+        let jogging = match &self.jog {
+            Some(_) => "  JOGGING",
+            None => "",
+        };
+        out.push(Line::from(format!(
+            "Jog      joint {} (1-6)  speed {speed} mm/s | deg/s ([ ]){jogging}",
+            JOINT_NAMES.get(self.joint).copied().unwrap_or("?")
+        )));
+        out.push(Line::styled("-- replies (newest last)", bold));
+        let keys_rows = 3;
+        let room = height
+            .saturating_sub(out.len() + keys_rows)
+            .min(REPLIES_SHOWN.max(1));
+        let shown: Vec<&(f64, String, bool)> =
+            self.replies.iter().rev().take(room).collect::<Vec<_>>();
+        for _ in shown.len()..room {
+            out.push(Line::from(""));
+        }
+        for (t, text, refused) in shown.into_iter().rev() {
+            let style = if *refused { red } else { Style::default() };
+            let mut l = format!("{t:7.2} {text}");
+            if l.chars().count() > 78 {
+                l = l.chars().take(77).collect::<String>() + "~";
+            }
+            out.push(Line::styled(l, style));
+        }
+        if self.confirm_rehome {
+            out.push(Line::styled(
+                "Robot is homed. Re-home (every joint to its switch)? y = yes, other = no",
+                red,
+            ));
+        } else {
+            out.push(Line::styled("-- keys", bold));
+        }
+        out.push(Line::from(
+            "h hello o home e enable d disable c clear fault s/SPACE stop q quit",
+        ));
+        out.push(Line::from(
+            "1-6 joint +/- jog [ ] speed k clutch p dead-man a ack reset",
+        ));
+        out
+    }
+}
+
+/// Runs the console on the terminal until `q`: the board polled every 5 ms, the screen
+/// drawn every 50 ms.
+pub fn run(mut board: Board) -> Result<(), OperatorError> {
+    let mut terminal = ratatui::try_init().map_err(OperatorError::Terminal)?;
+    let result = event_loop(&mut board, &mut terminal);
+    ratatui::restore();
+    result
+}
+
+fn event_loop(
+    board: &mut Board,
+    terminal: &mut ratatui::DefaultTerminal,
+) -> Result<(), OperatorError> {
+    let mut c = Console::new(board.name());
+    board.send_hello()?;
+    let mut last_draw = f64::NEG_INFINITY;
+    loop {
+        let now = board.now_s();
+        for e in board.poll(Duration::from_millis(5))? {
+            if let Some(m) = c.board_event(&e) {
+                board.send(m)?;
+            }
+        }
+        c.host_counters = board.link().counters();
+        if c.enable_due(now) {
+            board.send(MasterToBoard::Enable)?;
+        }
+        if let Some(m) = c.jog_due(now) {
+            board.send(m)?;
+        }
+        while event::poll(Duration::ZERO).map_err(OperatorError::Terminal)? {
+            let Event::Key(k) = event::read().map_err(OperatorError::Terminal)? else {
+                continue;
+            };
+            if k.kind == KeyEventKind::Release {
+                continue;
+            }
+            for a in c.key(k.code, k.modifiers, now) {
+                match a {
+                    Action::Send(MasterToBoard::Hello { .. }) => {
+                        board.send_hello()?;
+                    }
+                    Action::Send(m) => {
+                        board.send(m)?;
+                    }
+                    Action::Jog(dir) => {
+                        c.start_jog(dir, now);
+                        if let Some(m) = c.jog_due(now) {
+                            board.send(m)?;
+                        }
+                    }
+                    Action::Quit => {
+                        if c.status
+                            .is_some_and(|(_, s)| s.state == RobotState::Enabled)
+                        {
+                            let _ = board.request(MasterToBoard::Disable);
+                        }
+                        return Ok(());
+                    }
+                }
+            }
+        }
+        if now - last_draw >= 0.05 {
+            last_draw = now;
+            terminal
+                .draw(|f| c.draw(f, f.area()))
+                .map_err(OperatorError::Terminal)?;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+    use ratatui::backend::TestBackend;
+    use ratatui::Terminal;
+
+    /// At 80x24 every line fits (no line longer than the 78 columns inside the border)
+    /// and the keys are on screen.
+    #[test]
+    fn fits_80x24_with_the_keys() {
+        let mut c = Console::new("/tmp/board.sock");
+        let mut s = StatusReport::default();
+        s.state = RobotState::Fault;
+        s.fault.cause = master_link::FaultCause::FollowingError;
+        s.fault.joint = 3;
+        s.fault.value = -0.0123;
+        s.link.frames_ok = 123_456_789;
+        c.status = Some((1.0, s));
+        for k in 0..10 {
+            c.note(
+                f64::from(k),
+                "Jog th1 +1.0 deg/s REFUSED (ResetNotAcknowledged): acknowledge the board's last reset first".into(),
+                true,
+            );
+        }
+        for l in c.lines(22) {
+            assert!(l.width() <= 78, "too wide ({}): {l}", l.width());
+        }
+        let mut t = Terminal::new(TestBackend::new(80, 24)).unwrap();
+        t.draw(|f| c.draw(f, f.area())).unwrap();
+        let screen: String = t
+            .backend()
+            .buffer()
+            .content()
+            .chunks(80)
+            .map(|row| row.iter().map(|cell| cell.symbol()).collect::<String>() + "\n")
+            .collect();
+        assert!(
+            screen.contains("FollowingError joint th1 value -0.0123"),
+            "{screen}"
+        );
+        assert!(screen.contains("s/SPACE stop"), "{screen}");
+        assert!(screen.contains("k clutch p dead-man"), "{screen}");
+    }
+
+    /// Re-homing a homed robot asks first; `y` sends `Home { rehome: true }`, another key
+    /// cancels.
+    #[test]
+    fn rehome_needs_the_confirmation() {
+        let mut c = Console::new("b");
+        c.status = Some((0.0, StatusReport::default()));
+        assert!(c
+            .key(KeyCode::Char('o'), KeyModifiers::NONE, 0.0)
+            .is_empty());
+        assert!(c.confirm_rehome);
+        assert_eq!(
+            c.key(KeyCode::Char('y'), KeyModifiers::NONE, 0.1),
+            vec![Action::Send(MasterToBoard::Home { rehome: true })]
+        );
+        c.key(KeyCode::Char('o'), KeyModifiers::NONE, 0.2);
+        assert!(c
+            .key(KeyCode::Char('n'), KeyModifiers::NONE, 0.3)
+            .is_empty());
+        assert!(!c.confirm_rehome);
+        let mut s = StatusReport::default();
+        s.warnings = Warnings::NOT_HOMED;
+        c.status = Some((0.0, s));
+        assert_eq!(
+            c.key(KeyCode::Char('o'), KeyModifiers::NONE, 0.4),
+            vec![Action::Send(MasterToBoard::Home { rehome: false })]
+        );
+    }
+}

@@ -1,0 +1,470 @@
+//! Master-slave teleoperation with a hand controller: a [`Master`] device through the
+//! teleoperation mapping ([`masters::Teleop`]: scaling, clutch, dead-man, tremor filter,
+//! limits) to the board, at the stream rate, with the board's status as the operator's
+//! cue, every sample, target, status and event recorded (MCAP), and the latency measured.
+//!
+//! # What goes to the board
+//!
+//! - Following: each tick's `servo_cp` as a `PoseTarget` (stamped with the link's clock).
+//! - The master's buttons, when they change: the clutch as `Clutch { engaged }` (engaged:
+//!   the master is decoupled and the robot holds) and the dead-man as
+//!   `OperatorPresent { present }` (released: the robot holds). The mapping holds on its
+//!   side at the same tick, so the board never sees a target while it is told to hold.
+//! - Heartbeats, every 20 ms ([`Board::poll`]).
+//!
+//! # Re-engaging without a jump
+//!
+//! The board stops under power when told to hold (SS2), a little short of the last target
+//! the mapping sent. So while the mapping holds, every status re-anchors it at the board's
+//! setpoint (`Teleop::resync`): on re-engaging, the robot's reference is where the board
+//! stands, the master's offset is captured there, and the first target equals it.
+
+use crate::board::{request_name, Board, BoardEvent, Outcome};
+use crate::conversions::{margins, measured_cp, setpoint_cp};
+use crate::error::OperatorError;
+use master_link::{MasterToBoard, NackReason, RobotState, StatusReport};
+use masters::latency::{LagConfig, LatencyFigures};
+use masters::recording::{
+    latency_of, EventKind, EventRecord, InputRecord, RecordingWriter, SessionInfo, StatusRecord,
+    TargetRecord,
+};
+use masters::{
+    CartesianPose, CueLevel, EdgeCue, EdgeCueConfig, Master, OperatorButtons, Teleop, TeleopConfig,
+    TeleopOutput, TeleopState,
+};
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// What a teleoperation run does.
+#[derive(Clone, Debug)]
+pub struct TeleoperationSettings {
+    /// The mapping (stream rate, scale, filter, limits, registration).
+    pub teleop: TeleopConfig,
+    /// The workspace-edge cue's thresholds.
+    pub cue: EdgeCueConfig,
+    /// Stop after this long, s (None: until the stop flag is set).
+    pub duration_s: Option<f64>,
+    /// The MCAP file to record to.
+    pub record: Option<PathBuf>,
+    /// Settings written into the recording's session record (as text).
+    pub settings_text: BTreeMap<String, String>,
+}
+
+impl Default for TeleoperationSettings {
+    fn default() -> Self {
+        TeleoperationSettings {
+            teleop: TeleopConfig::default(),
+            cue: EdgeCueConfig::default(),
+            duration_s: None,
+            record: None,
+            settings_text: BTreeMap::new(),
+        }
+    }
+}
+
+/// Everything a run saw, in memory (the recording holds the same).
+#[derive(Clone, Debug, Default)]
+pub struct Trace {
+    /// Master samples.
+    pub inputs: Vec<InputRecord>,
+    /// Targets sent.
+    pub targets: Vec<TargetRecord>,
+    /// Board statuses.
+    pub statuses: Vec<StatusRecord>,
+    /// Teleoperation events (state, cue, refusals).
+    pub events: Vec<EventRecord>,
+    /// The raw statuses with their arrival times.
+    pub reports: Vec<(f64, StatusReport)>,
+}
+
+/// What one tick shows the operator.
+#[derive(Clone, Copy, Debug)]
+pub struct TickView<'a> {
+    /// The link's clock, s.
+    pub t_s: f64,
+    /// Following or holding, and why.
+    pub state: TeleopState,
+    /// The workspace-edge cue.
+    pub cue: CueLevel,
+    /// The latest status.
+    pub status: Option<&'a StatusReport>,
+    /// The last target sent.
+    pub target: Option<CartesianPose>,
+    /// The master's buttons.
+    pub buttons: OperatorButtons,
+}
+
+/// The figures of a run.
+#[derive(Clone, Debug)]
+pub struct RunReport {
+    /// The master device.
+    pub master: String,
+    /// What was seen.
+    pub trace: Trace,
+    /// The mapping's counters.
+    pub stats: masters::teleop::TeleopStats,
+    /// Targets sent.
+    pub targets_sent: u64,
+    /// Targets the board refused at once (Nack), by reason.
+    pub targets_refused: BTreeMap<String, u64>,
+    /// Other requests refused: (time, request, reason).
+    pub refused: Vec<(f64, &'static str, NackReason)>,
+    /// Device read errors.
+    pub device_errors: u64,
+    /// The tremor filter's group delay at DC, s (None: no filter).
+    pub filter_delay_s: Option<f64>,
+    /// The latency figures.
+    pub latency: LatencyFigures,
+    /// The recording written.
+    pub recording: Option<PathBuf>,
+}
+
+impl RunReport {
+    /// The last status received.
+    pub fn final_status(&self) -> Option<&StatusReport> {
+        self.trace.reports.last().map(|(_, s)| s)
+    }
+
+    /// The run's summary as printed by `host-sim teleop --device`.
+    pub fn summary(&self) -> String {
+        let mut o = String::new();
+        let _ = writeln!(o, "--- teleoperation summary ({})", self.master);
+        let s = &self.stats;
+        let _ = writeln!(
+            o,
+            "ticks {}: following {} ({} limited by the master's limits), held: clutched {}, operator absent {}, master lost {}, stream gap {}, no master {}; engagements {}",
+            s.ticks,
+            s.following,
+            s.limited,
+            s.hold_clutched,
+            s.hold_operator_absent,
+            s.hold_master_lost,
+            s.hold_stream_gap,
+            s.hold_no_master,
+            s.engagements
+        );
+        let refused: Vec<String> = self
+            .targets_refused
+            .iter()
+            .map(|(k, v)| format!("{k} {v}"))
+            .collect();
+        let _ = writeln!(
+            o,
+            "targets sent {}, refused at once {}{}",
+            self.targets_sent,
+            self.targets_refused.values().sum::<u64>(),
+            if refused.is_empty() {
+                String::new()
+            } else {
+                format!(" ({})", refused.join(", "))
+            }
+        );
+        for (t, what, reason) in &self.refused {
+            let _ = writeln!(o, "  at {t:.2} s the board refused {what}: {reason:?}");
+        }
+        if self.device_errors > 0 {
+            let _ = writeln!(o, "device read errors: {}", self.device_errors);
+        }
+        if let Some(st) = self.final_status() {
+            let _ = writeln!(
+                o,
+                "board: final state {:?}, stop {:?}, fault {:?}; supervisor refusals {}; nearest margin {:.3}",
+                st.state, st.stop, st.fault.cause, st.targets_refused, st.margins.nearest
+            );
+        }
+        if let Some(d) = self.filter_delay_s {
+            let _ = writeln!(
+                o,
+                "tremor filter: group delay at DC {:.1} ms (part of master input -> target)",
+                d * 1e3
+            );
+        }
+        let _ = writeln!(o, "latency (lag along the path while moving):");
+        let _ = write!(o, "{}", self.latency);
+        if let Some(p) = &self.recording {
+            let _ = writeln!(o, "recording: {}", p.display());
+        }
+        o
+    }
+}
+
+fn status_record(t_s: f64, s: &StatusReport) -> StatusRecord {
+    let m = margins(s);
+    StatusRecord {
+        t_s,
+        state: format!("{:?}", s.state),
+        measured: measured_cp(s),
+        setpoint: setpoint_cp(s),
+        nearest_margin: m.iter().find(|(k, _)| *k == "nearest").map(|(_, v)| *v),
+        faults: s.faults.bits(),
+        margins: m.into_iter().map(|(k, v)| (k.to_string(), v)).collect(),
+        stop: Some(format!("{:?}", s.stop)),
+    }
+}
+
+/// The recording and the in-memory trace, written together.
+struct Recorder {
+    writer: Option<RecordingWriter>,
+    trace: Trace,
+}
+
+impl Recorder {
+    fn input(&mut self, r: InputRecord) -> Result<(), OperatorError> {
+        if let Some(w) = &mut self.writer {
+            w.write_input(&r)?;
+        }
+        self.trace.inputs.push(r);
+        Ok(())
+    }
+    fn target(&mut self, r: TargetRecord) -> Result<(), OperatorError> {
+        if let Some(w) = &mut self.writer {
+            w.write_target(&r)?;
+        }
+        self.trace.targets.push(r);
+        Ok(())
+    }
+    fn status(&mut self, t_s: f64, s: &StatusReport) -> Result<(), OperatorError> {
+        let r = status_record(t_s, s);
+        if let Some(w) = &mut self.writer {
+            w.write_status(&r)?;
+        }
+        self.trace.statuses.push(r);
+        self.trace.reports.push((t_s, *s));
+        Ok(())
+    }
+    fn event(&mut self, r: EventRecord) -> Result<(), OperatorError> {
+        if let Some(w) = &mut self.writer {
+            w.write_event(&r)?;
+        }
+        self.trace.events.push(r);
+        Ok(())
+    }
+    fn note(&mut self, t_s: f64, detail: String) -> Result<(), OperatorError> {
+        self.event(EventRecord {
+            t_s,
+            kind: EventKind::Note,
+            detail,
+        })
+    }
+}
+
+/// Runs teleoperation with `master` on an enabled `board` until `settings.duration_s`
+/// or `stop`; `observe` sees every tick (a live display). The board stays enabled and
+/// holding at the end (the caller disables it).
+pub fn run(
+    board: &mut Board,
+    master: &mut dyn Master,
+    settings: &TeleoperationSettings,
+    stop: &AtomicBool,
+    observe: &mut dyn FnMut(&TickView),
+) -> Result<RunReport, OperatorError> {
+    // Events older than the run are not part of it.
+    board.discard_events();
+    let status = match board.status() {
+        Some((_, s)) => *s,
+        None => board
+            .wait_status(1.0, |_| true)?
+            .ok_or(OperatorError::NoStatus)?,
+    };
+    if status.state != RobotState::Enabled {
+        return Err(OperatorError::NotEnabled {
+            state: format!("{:?}", status.state),
+        });
+    }
+    let start_pose = setpoint_cp(&status)
+        .or_else(|| measured_cp(&status))
+        .ok_or(OperatorError::NoStatus)?;
+    let mut teleop = Teleop::new(settings.teleop.clone())?;
+    let mut cue = EdgeCue::new(settings.cue)?;
+    let period_s = 1.0 / settings.teleop.stream_rate_hz;
+    let t_start = board.now_s();
+    teleop.start(t_start, start_pose)?;
+    let writer = match &settings.record {
+        Some(path) => {
+            if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+                std::fs::create_dir_all(dir).map_err(|source| OperatorError::Io {
+                    path: dir.to_path_buf(),
+                    source,
+                })?;
+            }
+            let unix_ns = std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0, |d| d.as_nanos() as u64);
+            let start_unix_ns = unix_ns.saturating_sub((t_start * 1e9) as u64);
+            let mut text = settings.settings_text.clone();
+            text.insert("board".into(), board.name().into());
+            let s = &settings.teleop.scale;
+            text.insert("scale_translation".into(), s.translation.to_string());
+            text.insert("scale_rotation".into(), s.rotation.to_string());
+            text.insert(
+                "tremor_filter".into(),
+                format!("{:?}", settings.teleop.tremor),
+            );
+            text.insert("limits".into(), format!("{:?}", settings.teleop.limits));
+            Some(RecordingWriter::create(
+                path,
+                &SessionInfo {
+                    start_unix_ns,
+                    master: master.name().into(),
+                    stream_rate_hz: settings.teleop.stream_rate_hz,
+                    settings: text,
+                },
+            )?)
+        }
+        None => None,
+    };
+    let mut rec = Recorder {
+        writer,
+        trace: Trace::default(),
+    };
+    rec.event(EventRecord::scale(t_start, settings.teleop.scale))?;
+    let mut report = RunReport {
+        master: master.name().into(),
+        trace: Trace::default(),
+        stats: teleop.stats(),
+        targets_sent: 0,
+        targets_refused: BTreeMap::new(),
+        refused: Vec::new(),
+        device_errors: 0,
+        filter_delay_s: teleop.filter().map(|f| f.dc_group_delay_s()),
+        latency: LatencyFigures::default(),
+        recording: None,
+    };
+    let mut next = t_start;
+    let mut last_t = t_start;
+    let mut last_state = teleop.state();
+    let mut buttons_sent: Option<OperatorButtons> = None;
+    let mut buttons = OperatorButtons::default();
+    let mut last_sample_t: Option<f64> = None;
+    let mut last_target: Option<CartesianPose> = None;
+    let mut latest_status = status;
+    loop {
+        if stop.load(Ordering::Relaxed)
+            || settings
+                .duration_s
+                .is_some_and(|d| board.now_s() - t_start >= d)
+        {
+            break;
+        }
+        for e in board.poll_until(next)? {
+            match e {
+                BoardEvent::Status(t, s) => {
+                    rec.status(t, &s)?;
+                    latest_status = s;
+                    let m = f64::from(s.margins.nearest);
+                    if m.is_finite() {
+                        // A margin beyond the stop level is at the edge; above 1, far.
+                        let before = cue.level();
+                        let level = cue.update(m.clamp(0.0, 1.0))?;
+                        if level != before {
+                            rec.event(EventRecord::cue(t, level))?;
+                        }
+                    }
+                    // Holding: the robot's reference is where the board stands.
+                    if matches!(teleop.state(), TeleopState::Holding(_))
+                        && s.state == RobotState::Enabled
+                    {
+                        if let Some(p) = setpoint_cp(&s) {
+                            teleop.resync(p)?;
+                        }
+                    }
+                }
+                BoardEvent::Reply(r) => match (r.request, r.outcome) {
+                    (MasterToBoard::PoseTarget { .. }, Outcome::Refused(reason)) => {
+                        *report
+                            .targets_refused
+                            .entry(format!("{reason:?}"))
+                            .or_default() += 1;
+                    }
+                    (MasterToBoard::PoseTarget { .. }, _) => {}
+                    (req, Outcome::Refused(reason)) => {
+                        let what = request_name(&req);
+                        report.refused.push((r.t_s, what, reason));
+                        rec.note(r.t_s, format!("refused {what}: {reason:?}"))?;
+                    }
+                    (req, Outcome::NoReply) => {
+                        rec.note(r.t_s, format!("no answer to {}", request_name(&req)))?;
+                    }
+                    _ => {}
+                },
+            }
+        }
+        let t = board.now_s();
+        next += period_s;
+        if next < t - period_s {
+            // Late by more than a period (a stalled host): do not pile ticks up.
+            next = t + period_s;
+        }
+        if t <= last_t {
+            continue;
+        }
+        last_t = t;
+        let sample = match master.poll(t) {
+            Ok(s) => s,
+            Err(e) => {
+                report.device_errors += 1;
+                if report.device_errors == 1 {
+                    rec.note(t, format!("device: {e}"))?;
+                }
+                None
+            }
+        };
+        if let Some(s) = &sample {
+            rec.input(InputRecord::from(s))?;
+            last_sample_t = Some(s.t_s);
+            buttons = s.buttons;
+            let before = buttons_sent;
+            if before.is_none_or(|b| b.operator_present != buttons.operator_present) {
+                board.send(MasterToBoard::OperatorPresent {
+                    present: buttons.operator_present,
+                })?;
+            }
+            if before.is_none_or(|b| b.clutch != buttons.clutch) {
+                board.send(MasterToBoard::Clutch {
+                    engaged: buttons.clutch,
+                })?;
+            }
+            buttons_sent = Some(buttons);
+        }
+        let out = teleop.step(t, sample.as_ref())?;
+        if let TeleopOutput::ServoCp { pose, limited } = out {
+            let (_, stamp) = board.send_target(&pose)?;
+            report.targets_sent += 1;
+            last_target = Some(pose);
+            rec.target(TargetRecord {
+                t_s: board.now_s(),
+                timestamp_us: stamp,
+                pose,
+                limited,
+                input_t_s: last_sample_t,
+                commanded: teleop.commanded(),
+            })?;
+        }
+        if teleop.state() != last_state {
+            last_state = teleop.state();
+            rec.event(EventRecord::state(t, last_state))?;
+        }
+        observe(&TickView {
+            t_s: t,
+            state: teleop.state(),
+            cue: cue.level(),
+            status: Some(&latest_status),
+            target: last_target,
+            buttons,
+        });
+    }
+    report.stats = teleop.stats();
+    report.latency = latency_of(
+        &rec.trace.targets,
+        &rec.trace.statuses,
+        &LagConfig::default(),
+    );
+    report.recording = match rec.writer.take() {
+        Some(w) => Some(w.finish()?),
+        None => None,
+    };
+    report.trace = rec.trace;
+    Ok(report)
+}

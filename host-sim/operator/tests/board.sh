@@ -1,0 +1,40 @@
+# Sourced by the operator's test scripts: builds host-sim (release) and starts the board to
+# test against: the board at $RSPR_BOARD_SOCKET when set (the emulator of the real board
+# image, `serve --socket PATH`, or any board serving the link on a Unix socket), else the
+# simulated board, `host-sim board --socket`, in the background. Sets: bin (host-sim),
+# work (a temporary directory), sock (the board's socket); `started PID` registers a
+# process to stop at exit.
+set -euo pipefail
+work="$(mktemp -d)"
+pids=()
+started() { pids+=("$1"); }
+cleanup() {
+    for p in "${pids[@]}"; do kill -INT "$p" 2>/dev/null || true; done
+    for p in "${pids[@]}"; do
+        for _ in $(seq 50); do kill -0 "$p" 2>/dev/null || break; sleep 0.1; done
+        kill "$p" 2>/dev/null || true
+        wait "$p" 2>/dev/null || true
+    done
+    rm -rf "$work"
+}
+trap cleanup EXIT
+
+cargo build --release -q -p host-sim
+target_dir="$(cargo metadata --format-version 1 --no-deps | python3 -c 'import json,sys; print(json.load(sys.stdin)["target_directory"])')"
+bin="$target_dir/release/host-sim"
+
+if [ -n "${RSPR_BOARD_SOCKET:-}" ]; then
+    sock="$RSPR_BOARD_SOCKET"
+    echo "board: $sock (RSPR_BOARD_SOCKET)"
+else
+    sock="$work/board.sock"
+    "$bin" board --socket "$sock" >"$work/board.log" 2>&1 &
+    started $!
+    for _ in $(seq 100); do [ -S "$sock" ] && break; sleep 0.05; done
+    [ -S "$sock" ] || { cat "$work/board.log"; echo "the simulated board did not start"; exit 1; }
+    echo "board: the simulated board on $sock"
+fi
+
+# Seconds since the script started.
+t0=$(date +%s.%N)
+elapsed() { python3 -c "import time; print(f'{time.time() - $t0:.1f}')"; }

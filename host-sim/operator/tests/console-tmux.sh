@@ -1,0 +1,112 @@
+#!/usr/bin/env bash
+# The console as a person uses it (issue 17): `host-sim console` in an 80x24 tmux window
+# against the board (the simulated board, or $RSPR_BOARD_SOCKET: see board.sh), driven
+# with send-keys and read with capture-pane. It homes, enables, jogs joint l1, triggers
+# refused commands (Enable before homing; re-homing, confirmed, while enabled), stops and
+# clears the fault, and reads each on the screen. Installs tmux when missing.
+#
+#   bash host-sim/operator/tests/console-tmux.sh
+#
+# Every wait is for a text to appear on the screen within a bound (homing 60 s, the rest
+# 5 s); nothing is retried. Exits non-zero on the first failure, printing the screen.
+set -euo pipefail
+cd "$(dirname "$0")/../../.."
+if ! command -v tmux >/dev/null; then
+    export DEBIAN_FRONTEND=noninteractive
+    apt-get update -qq && apt-get install -y -qq tmux >/dev/null
+fi
+tmux -V
+source host-sim/operator/tests/board.sh
+
+session="rspr-console-$$"
+tmux -L "$session" new-session -d -s console -x 80 -y 24 "$bin console --connect $sock; sleep 5"
+quit_tmux() { tmux -L "$session" kill-server 2>/dev/null || true; }
+trap 'quit_tmux; cleanup' EXIT
+
+screen() { tmux -L "$session" capture-pane -p -t console; }
+keys() { tmux -L "$session" send-keys -t console "$@"; }
+fail() { echo "FAILED: $*"; echo "--- screen:"; screen; exit 1; }
+# wait_for TEXT SECONDS: the screen shows TEXT (a fixed string) within SECONDS.
+wait_for() {
+    local end=$(( $(date +%s) + $2 ))
+    while ! screen | grep -qF -- "$1"; do
+        [ "$(date +%s)" -lt "$end" ] || fail "'$1' not on the screen within $2 s"
+        sleep 0.1
+    done
+    echo "  [$(elapsed) s] on screen: $1"
+}
+# The joint values of the Joints line: l1 l2 l3 (mm) th1 th2 th3 (deg).
+joints() { screen | sed -n 's/.*Joints   l1-l3 *\([-0-9.]*\) *\([-0-9.]*\) *\([-0-9.]*\) mm  th1-th3 *\([-0-9.]*\) *\([-0-9.]*\) *\([-0-9.]*\) deg.*/\1 \2 \3 \4 \5 \6/p'; }
+
+echo "==> the console at 80x24: keys on screen, the board's state"
+wait_for "h hello o home e enable d disable c clear fault s/SPACE stop q quit" 5
+wait_for "1-6 joint +/- jog [ ] speed k clutch p dead-man a ack reset" 5
+wait_for "Hello -> firmware" 10
+wait_for "Homed no" 5
+lines=$(screen | wc -l); cols=$(screen | awk '{ if (length($0) > m) m = length($0) } END { print m }')
+echo "  screen: $lines lines, widest $cols columns"
+[ "$lines" -le 24 ] && [ "$cols" -le 80 ] || fail "the screen is not 80x24"
+
+echo "==> a refused command: Enable before homing"
+keys e
+wait_for "Enable REFUSED (NotHomed): not homed: home the robot first" 5
+
+echo "==> home"
+keys o
+wait_for "Home -> Ack" 5
+wait_for "State Ready" 60
+wait_for "Homed yes" 5
+
+echo "==> enable (the board answers Busy while its brakes engage: the console sends it again)"
+keys e
+wait_for "Enable -> Ack" 5
+wait_for "State Enabled" 5
+
+echo "==> jog joint l1 at +1 mm/s"
+read -r l1 l2 l3 a1 a2 a3 <<<"$(joints)"
+echo "  joints before: l1 $l1 l2 $l2 l3 $l3 mm, th $a1 $a2 $a3 deg"
+keys 1
+wait_for "joint l1 (1-6)  speed 1 mm/s" 5
+for _ in 1 2 3 4 5; do keys +; sleep 0.2; done
+wait_for "Jog l1 +1.0 mm/s -> Ack" 5
+sleep 1.0
+read -r m1 m2 m3 b1 b2 b3 <<<"$(joints)"
+echo "  joints after:  l1 $m1 l2 $m2 l3 $m3 mm, th $b1 $b2 $b3 deg"
+# Five presses 0.2 s apart keep the jog going for 0.8 + 0.3 s (+ up to 0.1 s the board
+# runs on): about 1.1 mm at 1 mm/s; the bound allows for the terminal's and the host's
+# timing, not for another joint moving.
+python3 - "$l1 $l2 $l3 $a1 $a2 $a3" "$m1 $m2 $m3 $b1 $b2 $b3" <<'PY' || fail "jog"
+import sys
+a = [float(x) for x in sys.argv[1].split()]
+b = [float(x) for x in sys.argv[2].split()]
+d = [y - x for x, y in zip(a, b)]
+print(f"  l1 moved {d[0]:.3f} mm; the others {max(abs(x) for x in d[1:3]):.3f} mm, {max(abs(x) for x in d[3:]):.3f} deg")
+assert 0.5 <= d[0] <= 2.0, "l1 did not move about 1.1 mm"
+assert max(abs(x) for x in d[1:3]) <= 0.01 and max(abs(x) for x in d[3:]) <= 0.01, "another joint moved"
+PY
+
+echo "==> a refused command: re-homing (confirmed) while enabled"
+keys o
+wait_for "Robot is homed. Re-home" 5
+keys y
+wait_for "Re-home REFUSED" 5
+
+echo "==> stop, then clear the fault"
+keys s
+wait_for "Stop -> Ack" 5
+wait_for "State Fault" 5
+wait_for "EmergencyStopMessage" 5
+keys c
+wait_for "Clear fault -> Ack" 5
+
+echo "==> quit"
+keys q
+# The pane runs "console; sleep 5": once the console has quit, its command is sleep.
+pane_command() { tmux -L "$session" list-panes -t console -F '#{pane_current_command}'; }
+for _ in $(seq 50); do
+    [ "$(pane_command)" = sleep ] && break
+    sleep 0.1
+done
+[ "$(pane_command)" = sleep ] || fail "the console did not quit (pane runs $(pane_command))"
+echo
+echo "console under tmux: OK ($(elapsed) s)"
