@@ -14,13 +14,16 @@ section "toolchain (rust-toolchain.toml: $(rustup show active-toolchain | cut -d
 rustup show active-toolchain
 ensure_target
 
-section "format (both workspaces)"
+section "format (every workspace: host, Cortex-M, board emulator, fuzz)"
 cargo fmt --all -- --check
 (cd firmware/cortex-m && cargo fmt --all -- --check)
+(cd firmware/board-emulator && cargo fmt --all -- --check)
+(cd fuzz && cargo fmt --all -- --check)
 
-section "lint: clippy on every crate of both workspaces, warnings are errors"
+section "lint: clippy on every crate of every workspace, warnings are errors"
 cargo clippy --workspace --all-targets -- -D warnings
 (cd firmware/cortex-m && cargo clippy --workspace --release -- -D warnings)
+(cd fuzz && cargo clippy --all-targets -- -D warnings)
 
 section "the no_std libraries build for the Cortex-M4F"
 cargo build --release --target "$TARGET" -p kinematics-core -p hal -p servo -p control -p master-link
@@ -31,11 +34,16 @@ bash firmware/cortex-m/board/build-and-size.sh
 section "on-target tests and instructions per control tick (QEMU mps2-an386)"
 bash firmware/cortex-m/on-target/run.sh
 
-section "the board application in the emulator, in closed loop with the host master"
-bash firmware/cortex-m/qemu-board/run.sh
+section "the board's release image in the STM32F4 emulator (rigless), in closed loop with the plant and the master"
+bash firmware/board-emulator/run.sh
 
 section "tests (unit, property, integration, CLI)"
 cargo test --workspace
+
+section "the operator's front ends on the simulated board: the console in tmux, OpenIGTLink clients (pyigtl, libopenigtlink), spacenavd"
+bash host-sim/operator/tests/console-tmux.sh
+bash host-sim/operator/tests/igtl-board.sh
+bash host-sim/masters/tests/spacenavd-daemon.sh
 
 section "fuzzing: the link's frame decoder and the board's command handling (libFuzzer, fixed seed)"
 (cd fuzz && cargo test --release --quiet)

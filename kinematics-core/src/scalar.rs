@@ -128,7 +128,7 @@ pub fn sqrt<T: Real>(x: T) -> T {
 // 3-vector arithmetic written out component by component. nalgebra's operators are loops
 // over the components; at the firmware's opt-level "s" LLVM does not unroll them, and a
 // three-iteration loop costs about four times the arithmetic on the Cortex-M4 (measured
-// in `firmware/qemu`). The control path's hot functions use these instead.
+// in `firmware/cortex-m/on-target`). The control path's hot functions use these instead.
 
 /// a + b.
 #[inline]

@@ -375,8 +375,11 @@ impl Stopper {
                     return true;
                 }
             }
+            // Strictly after the engage time: the pins change at a varying point within
+            // their ticks, so the first tick past it keeps the drives on for at least the
+            // engage time after the brakes' pins changed (the board emulator measures it).
             StopPhase::Braking { since_us }
-                if now_us.saturating_sub(since_us) >= self.cfg.brake_engage_us =>
+                if now_us.saturating_sub(since_us) > self.cfg.brake_engage_us =>
             {
                 self.phase = StopPhase::TorqueOff { sto: false };
             }

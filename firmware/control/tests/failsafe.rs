@@ -185,7 +185,8 @@ fn heartbeat_loss_holds_then_stops_with_brakes() {
     assert_eq!(faulted_at, Some(HB.disable_after_us));
     let (braked, off) = (braked_at.unwrap(), off_at.unwrap());
     assert!(braked <= HB.disable_after_us + 2_000, "brakes at {braked}");
-    assert_eq!(off - braked, rt.stopper().config().brake_engage_us);
+    // The first tick strictly after the brakes' engage time.
+    assert_eq!(off - braked, rt.stopper().config().brake_engage_us + 1000);
     let z_end = common::true_pose(&hw).t.z;
     assert!((z_end - z_at_hold).abs() < 0.5e-3, "{z_at_hold} -> {z_end}");
     assert!(z_end < 0.165 - 1e-3, "did not carry on to the target");

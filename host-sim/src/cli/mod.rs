@@ -206,8 +206,8 @@ pub enum Command {
     /// The host master of the board: hello, home, enable, stream a path with heartbeats,
     /// record the status telemetry and print a summary (tracking, refusals, link counters).
     ///
-    /// --connect: a Unix socket (QEMU `-serial unix:PATH,server=on,wait=off`, see
-    /// firmware/cortex-m/qemu-board) or a serial device. --scenario ci adds the checks of the CI run
+    /// --connect: a Unix socket (the board emulator's or the simulated board's `serve
+    /// --socket PATH`) or a serial device. --scenario ci adds the checks of the CI run
     /// (refused target, garbage on the link, heartbeat loss) and exits non-zero when one
     /// fails. Writes status.csv to --out (default target/teleop/<scenario>/).
     Teleop(teleop::TeleopArgs),

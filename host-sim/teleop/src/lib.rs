@@ -1,5 +1,6 @@
 //! `teleop`: the host master of the board behind `host-sim teleop`, over a Unix socket
-//! (the emulator, `firmware/cortex-m/qemu-board`) or a serial device (a real board).
+//! (the board emulator `firmware/board-emulator`, or the simulated board `host-sim board`)
+//! or a serial device (a real board).
 //!
 //! It speaks the firmware's protocol (`master-link`: COBS frames, CRC-32, postcard
 //! messages, protocol version, sequence numbers): Hello, Home, Enable, then streams a
@@ -9,7 +10,8 @@
 //! `target/teleop/<scenario>/`) and prints a summary: tracking figures, refusals, link
 //! counters of both directions, the board's tick timing.
 //!
-//! `--scenario ci` adds the checks of the CI run (firmware/cortex-m/qemu-board/run.sh): a
+//! `--scenario ci` adds the checks of the CI run (the board emulator's scenarios run them
+//! on the board's release image, `firmware/board-emulator`): a
 //! target
 //! outside the workspace is refused and the robot holds; garbage on the link is counted
 //! and ignored; when the heartbeat stops the board holds, then turns the drives off. It

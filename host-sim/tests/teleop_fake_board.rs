@@ -8,8 +8,8 @@
 //!   the heartbeat holds after 100 ms and faults after 500 ms), targets
 //!   followed at once unless outside |x| <= 25 mm (acknowledged, then ignored: the robot
 //!   holds). Every check must pass.
-//! * `ci_scenario_in_the_emulator` (ignored: needs qemu-system-arm, the thumbv7em target
-//!   and about two minutes): runs `firmware/qemu-board/run.sh` with the short line path.
+//!
+//! The same master against the board's release image runs in `firmware/board-emulator`.
 
 use control::link::{Answer, Command, Inbound, LinkRx, LinkTx};
 use master_link::{
@@ -18,7 +18,6 @@ use master_link::{
 };
 use std::io::{Read, Write};
 use std::os::unix::net::{UnixListener, UnixStream};
-use std::path::PathBuf;
 use std::process::Command as Process;
 use std::thread;
 use std::time::{Duration, Instant};
@@ -268,17 +267,4 @@ fn ci_scenario_against_a_fake_board() {
     );
     let _ = board.join();
     let _ = std::fs::remove_dir_all(&dir);
-}
-
-#[test]
-#[ignore = "needs qemu-system-arm and the thumbv7em target; about two minutes"]
-fn ci_scenario_in_the_emulator() {
-    let script =
-        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../firmware/cortex-m/qemu-board/run.sh");
-    let status = Process::new("bash")
-        .arg(script)
-        .env("TELEOP_PATH", "line")
-        .status()
-        .unwrap();
-    assert!(status.success());
 }
