@@ -3,18 +3,18 @@
 # workspace, the instructions per full control tick of the on-target scenario (QEMU,
 # instruction count) against the board image's text size.
 #
-#   firmware/cortex-m/opt-levels.sh [PROFILE ...]   default: release o2 o3 hot3
+#   firmware/cortex-m/opt-levels.sh [PROFILE ...]   default: release os o3 hot3
 #
-# release: opt-level "s" everywhere; o2, o3: the whole image at 2 or 3; hot3: "s" with the
-# crates that instantiate the (generic) control code, the images `board` and `on-target`,
-# at 3. Prints one table row per profile; builds into the workspace's target directory
+# release: opt-level 2 everywhere (what is flashed); os, o3: the whole image at "s" or 3;
+# hot3: the release profile with the crates that instantiate the (generic) control code,
+# the images `board` and `on-target`, at 3. Prints one table row per profile; builds into the workspace's target directory
 # (one directory per profile: several GB each, delete them afterwards).
 set -euo pipefail
 HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 source "$HERE/scripts.sh"
 cd "$HERE"
 profiles=("$@")
-[ ${#profiles[@]} -gt 0 ] || profiles=(release o2 o3 hot3)
+[ ${#profiles[@]} -gt 0 ] || profiles=(release os o3 hot3)
 TARGET_DIR="$(target_dir)"
 rows=()
 for p in "${profiles[@]}"; do

@@ -7,7 +7,7 @@
 #
 # 1. installs qemu-system-arm with apt when it is missing (non-interactive);
 # 2. builds the firmware images for thumbv7em-none-eabihf (the Cortex-M4 workspace's
-#    release profile, the board image's: opt-level "s", fat LTO, codegen-units 1);
+#    release profile, the board image's: opt-level 2, fat LTO, codegen-units 1);
 # 3. runs the on-target tests under QEMU: they print `N passed, M failed` and exit non-zero
 #    on any failure (this script then exits non-zero too);
 # 4. builds the instruction-count TCG plugin (gcc), runs the tick-cost image under QEMU with
@@ -15,8 +15,8 @@
 #    table of instructions per call and the profile of the full control tick.
 #
 # Environment: CPI (cycles per instruction assumed for the % column, default 1.3), MHZ
-# (default 168), RATE_HZ (default 1000), PROFILE (cargo profile, default release; `fast` =
-# opt-level 3), QEMU_TIMEOUT (seconds per QEMU run, default 300), TICK_BUDGET (the script
+# (default 168), RATE_HZ (default 1000), PROFILE (cargo profile, default release; `os`,
+# `o3`, `hot3`: see opt-levels.sh), QEMU_TIMEOUT (seconds per QEMU run, default 300), TICK_BUDGET (the script
 # fails when the worst full tick of the scenario exceeds it; default 20000, the issue's
 # target; set it empty to turn the check off).
 set -euo pipefail

@@ -76,21 +76,21 @@ pub fn store(
     result.map(|_| ()).map_err(|_| GeometryRefusal::Flash)
 }
 
-/// The stored geometry's version at boot, when its record is valid and still passes the
-/// checks against the board's robot (0: none).
-pub fn stored_version(
+/// The stored calibrated geometry at boot and its version, when its record is valid and
+/// still passes the checks against the board's nominal robot (None: none stored, or it
+/// fails them).
+pub fn stored(
     flash: &mut Flash<'static, Blocking>,
     nominal: &kinematics_core::RsprGeometry<f32>,
     branch: kinematics_core::Branch,
-) -> u32 {
+) -> Option<(kinematics_core::PerChainGeometry<f32>, u32)> {
     match geometry_store::load_latest(&mut GeometrySector(flash)) {
         Ok(Some((_, rec))) => {
             let plausible = geometry_store::Plausible::default();
-            match geometry_store::check(&rec, nominal, branch, &plausible) {
-                Ok(_) => rec.version,
-                Err(_) => 0,
-            }
+            geometry_store::check(&rec, nominal, branch, &plausible)
+                .ok()
+                .map(|g| (g, rec.version))
         }
-        _ => 0,
+        _ => None,
     }
 }

@@ -30,7 +30,7 @@ use embassy_stm32::interrupt;
 use embassy_stm32::interrupt::{InterruptExt, Priority};
 use embassy_time::Instant;
 use hal::{QuadratureCounter, SafeOutputs};
-use kinematics_core::{Branch, RsprGeometry};
+use kinematics_core::{Branch, PerChainGeometry, RsprGeometry};
 use master_link::ResetCause;
 
 /// Control period, µs (1 kHz).
@@ -129,15 +129,19 @@ async fn main(spawner: Spawner) {
     }
 }
 
-/// The reference robot's runtime, booted on the encoders as they read now with the reset
-/// cause and the kept fault log, in its tick service. (A plain function: the intermediate
-/// values stay off the task's future.)
+/// The robot's runtime, booted on the encoders as they read now with the reset cause and
+/// the kept fault log, in its tick service: on the calibrated geometry stored in flash when
+/// one passes its checks, else on the symmetric reference robot (both as a
+/// `PerChainGeometry`; a geometry stored while running takes effect at the next reset).
+/// (A plain function: the intermediate values stay off the task's future.)
 fn control_service(
     board: &mut hw::Control,
     reset: ResetCause,
     log: Option<FaultLog>,
-) -> TickService<f32, RsprGeometry<f32>> {
-    let robot = RsprGeometry::<f32>::reference();
+) -> TickService<f32, PerChainGeometry<f32>> {
+    let nominal = RsprGeometry::<f32>::reference();
+    let (robot, version) = geometry_flash::stored(&mut board.flash, &nominal, Branch::OUTER)
+        .unwrap_or((PerChainGeometry::from(nominal), 0));
     let Ok(cfg) = reference_config_for(&robot, Branch::OUTER, None, None) else {
         halt("central configuration");
     };
@@ -146,9 +150,7 @@ fn control_service(
         halt("runtime configuration");
     };
     let _ = rt.boot_done(board.hw.counts(), now, reset, log);
-    // The calibrated geometry in flash: its version for the hello reply. The controller
-    // runs the symmetric reference model (see firmware/README.md, "Calibrated geometry").
-    let version = geometry_flash::stored_version(&mut board.flash, &robot, Branch::OUTER);
+    // The calibrated geometry's version for the hello reply (0: the reference robot).
     rt.set_geometry_version(version);
     info!(
         "boot done: {}, reset {}, {} faults kept",

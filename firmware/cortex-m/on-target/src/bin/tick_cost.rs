@@ -21,14 +21,14 @@ use kinematics_core::guards::{Guards, Limits, MotionSample, Staged};
 use kinematics_core::ik::{inverse_into, platform_chain, Solution};
 use kinematics_core::jacobian::{jacobian_into, Jacobians};
 use kinematics_core::lu::Lu6;
-use kinematics_core::mechanism::radial;
+use kinematics_core::mechanism::{radial, Mechanism};
 use kinematics_core::singularity::{parallel_inv_cond, ConditionEstimator};
 use kinematics_core::statics::forces_with_inv_cond;
 use kinematics_core::supervisor::{interpolate, Mode, Supervisor, SupervisorConfig};
 use kinematics_core::tilt::{tilt_angles, SocketAxes};
 use kinematics_core::{
-    forward, inverse, measures, Branch, Chain, FkConfig, FkTracker, Joints, Pose, RsprGeometry,
-    Twist,
+    forward, inverse, measures, Branch, Chain, FkConfig, FkTracker, Joints, PerChainGeometry, Pose,
+    RsprGeometry, Twist,
 };
 use nalgebra::{ComplexField, Matrix6, RealField, Rotation3, Vector3, Vector6};
 use on_target::bench::{bench_profile_off, bench_profile_on, calibrate, measure};
@@ -38,7 +38,13 @@ use panic_semihosting as _;
 use servo::encoder::{EncoderConfig, Encoders, LEG_COUNTS_PER_M, LINK_COUNTS_PER_RAD};
 use servo::{JointServo, Pid, PidGains, PidInput, ServoConfig};
 
-type G32 = RsprGeometry<f32>;
+/// The board's model: the per-chain geometry (here the reference robot's), as the board
+/// image runs it.
+type G32 = PerChainGeometry<f32>;
+
+fn reference_robot() -> G32 {
+    PerChainGeometry::from(RsprGeometry::<f32>::reference())
+}
 
 fn arr(q: &Joints<f32>) -> [f32; 6] {
     [q[0], q[1], q[2], q[3], q[4], q[5]]
@@ -115,8 +121,8 @@ fn profile_window() -> (u32, u32) {
 /// The full control tick: the controller with the motor stub, through hold, verify, move,
 /// re-target while moving, and arrival. Profiled.
 fn full_tick() {
-    let g = G32::reference();
-    let q0 = arr(&inverse(&g, &Pose::central(g.hc), Branch::OUTER)
+    let g = reference_robot();
+    let q0 = arr(&inverse(&g, &Pose::central(g.hc()), Branch::OUTER)
         .map(|s| s.q())
         .unwrap_or_default());
     let mut plant = PlantStub::new(q0.map(f64::from), [65_500, 10, 32_000, 65_530, 0, 40_000]);
@@ -235,7 +241,7 @@ fn full_tick() {
 /// The supervisor alone, through the same kind of scenario.
 fn supervisor_tick() {
     let Ok(mut sup) = Supervisor::new(
-        G32::reference(),
+        reference_robot(),
         Branch::OUTER,
         Limits::reference(),
         SupervisorConfig::default(),
@@ -273,7 +279,7 @@ fn path(n: usize) -> impl Iterator<Item = Pose<f32>> {
 
 /// Each part alone, at poses along the path.
 fn parts() {
-    let g = G32::reference();
+    let g = reference_robot();
     let fk_cfg = FkConfig::<f32>::default();
     let Ok(guards) = Guards::new(g, Branch::OUTER, Limits::reference()) else {
         panic!("guards setup");
@@ -495,7 +501,7 @@ fn parts() {
 
 /// The servo side: encoders and the six PIDs.
 fn servo_parts() {
-    let g = G32::reference();
+    let g = reference_robot();
     let Ok(mut enc) = Encoders::<f32>::new(&EncoderConfig::default()) else {
         panic!("enc")
     };
