@@ -77,7 +77,10 @@ pub struct Reply {
     pub outcome: Outcome,
 }
 
-/// Something the board sent, as a front end sees it.
+/// Something the board sent, as a front end sees it. (Copy and a few hundred per second:
+/// the size of its largest variant, a reply that may carry a calibrated geometry, is kept
+/// inline rather than boxed.)
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum BoardEvent {
     /// A status report and its arrival time, s.

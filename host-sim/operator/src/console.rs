@@ -50,7 +50,9 @@ const REPLIES_SHOWN: usize = 6;
 
 const JOINT_NAMES: [&str; 6] = ["l1", "l2", "l3", "th1", "th2", "th3"];
 
-/// A command the console sends (what a key asks for).
+/// A command the console sends (what a key asks for). (Copy, one per key press: the
+/// request's size, set by the calibrated geometry's message, is kept inline.)
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Action {
     /// Send this request.
@@ -638,8 +640,10 @@ mod tests {
     #[test]
     fn fits_80x24_with_the_keys() {
         let mut c = Console::new("/tmp/board.sock");
-        let mut s = StatusReport::default();
-        s.state = RobotState::Fault;
+        let mut s = StatusReport {
+            state: RobotState::Fault,
+            ..StatusReport::default()
+        };
         s.fault.cause = master_link::FaultCause::FollowingError;
         s.fault.joint = 3;
         s.fault.value = -0.0123;
@@ -691,8 +695,10 @@ mod tests {
             .key(KeyCode::Char('n'), KeyModifiers::NONE, 0.3)
             .is_empty());
         assert!(!c.confirm_rehome);
-        let mut s = StatusReport::default();
-        s.warnings = Warnings::NOT_HOMED;
+        let s = StatusReport {
+            warnings: Warnings::NOT_HOMED,
+            ..StatusReport::default()
+        };
         c.status = Some((0.0, s));
         assert_eq!(
             c.key(KeyCode::Char('o'), KeyModifiers::NONE, 0.4),

@@ -38,7 +38,7 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 /// What a teleoperation run does.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Default)]
 pub struct TeleoperationSettings {
     /// The mapping (stream rate, scale, filter, limits, registration).
     pub teleop: TeleopConfig,
@@ -50,18 +50,6 @@ pub struct TeleoperationSettings {
     pub record: Option<PathBuf>,
     /// Settings written into the recording's session record (as text).
     pub settings_text: BTreeMap<String, String>,
-}
-
-impl Default for TeleoperationSettings {
-    fn default() -> Self {
-        TeleoperationSettings {
-            teleop: TeleopConfig::default(),
-            cue: EdgeCueConfig::default(),
-            duration_s: None,
-            record: None,
-            settings_text: BTreeMap::new(),
-        }
-    }
 }
 
 /// Everything a run saw, in memory (the recording holds the same).
