@@ -73,6 +73,23 @@ enum Command {
         /// Leave the tool off (by default it goes on once the board is first Ready).
         #[arg(long)]
         without_tool: bool,
+        /// Catch up at most this far: when virtual time falls further behind the wall clock
+        /// (at `--speed`), the board's clock slips (the board and the plant go on from
+        /// where they are) instead of running faster than `--speed` until it has caught
+        /// up (default: no limit, always catch up). A master on the wall clock then sees
+        /// the board pause, its clock with it, where catching up would show it a board
+        /// whose clock runs fast (heartbeats late, targets stale).
+        #[arg(long, value_name = "MS")]
+        catch_up_ms: Option<f64>,
+        /// Report the pacing: a line when virtual time falls behind the wall clock (at
+        /// `--speed`) by more than this many ms ("behind the wall clock by more than"),
+        /// one when it is back within half of that ("on time again": the largest lag, how
+        /// long, what the clock slipped), and, when a master goes, the largest lag while it
+        /// was connected. Counted from the first time the board is on time (after the
+        /// boot's JIT warm-up). A board behind the wall clock answers late: what a master
+        /// on the wall clock measures then is the emulator's host, not the board.
+        #[arg(long, value_name = "MS")]
+        report_lag_ms: Option<f64>,
     },
     /// Check that the image fits the STM32F405; exit 1 when it does not.
     Fit,
@@ -92,7 +109,16 @@ fn main() -> ExitCode {
             speed,
             seconds,
             without_tool,
-        } => serve(firmware, &socket, speed, seconds, !without_tool),
+            catch_up_ms,
+            report_lag_ms,
+        } => serve(
+            firmware,
+            &socket,
+            speed,
+            seconds,
+            !without_tool,
+            Pacing::new(speed, catch_up_ms, report_lag_ms),
+        ),
         Command::Fit => fit(&firmware),
     };
     match result {
@@ -223,10 +249,12 @@ fn serve(
     speed: f64,
     seconds: Option<f64>,
     with_tool: bool,
+    pacing: Result<Pacing, String>,
 ) -> Result<bool, String> {
     if !(speed.is_finite() && speed > 0.0) {
         return Err(format!("--speed must be positive, got {speed}"));
     }
+    let mut pacing = pacing?;
     if socket.exists() {
         std::fs::remove_file(socket).map_err(|e| format!("{}: {e}", socket.display()))?;
     }
@@ -241,7 +269,7 @@ fn serve(
         socket.display(),
         socket.display()
     );
-    let wall0 = Instant::now();
+    pacing.start();
     let virtual0 = bench.now_s();
     let mut stream: Option<UnixStream> = None;
     let mut decoder = MasterDecoder::new();
@@ -254,17 +282,29 @@ fn serve(
                 s.set_nonblocking(true).map_err(|e| e.to_string())?;
                 println!("{:.3} s: master connected", bench.now_s());
                 stream = Some(s);
+                pacing.master_connected();
             }
         }
         if let Some(s) = stream.as_mut() {
             match s.read(&mut buf) {
                 Ok(0) => {
-                    println!("{:.3} s: master gone", bench.now_s());
+                    println!(
+                        "{:.3} s: master gone{}",
+                        bench.now_s(),
+                        pacing.master_gone()
+                    );
                     stream = None;
                 }
                 Ok(n) => bench.act(Action::Send(buf.get(..n).unwrap_or_default().to_vec())),
                 Err(e) if e.kind() == ErrorKind::WouldBlock => {}
-                Err(_) => stream = None,
+                Err(e) => {
+                    println!(
+                        "{:.3} s: master gone ({e}){}",
+                        bench.now_s(),
+                        pacing.master_gone()
+                    );
+                    stream = None;
+                }
             }
         }
         bench.run_for(1_000_000).map_err(|e| e.to_string())?;
@@ -297,7 +337,12 @@ fn serve(
         if let Some(s) = stream.as_mut() {
             if !bytes.is_empty() {
                 let _ = s.set_nonblocking(false);
-                if s.write_all(&bytes).is_err() {
+                if let Err(e) = s.write_all(&bytes) {
+                    println!(
+                        "{:.3} s: master gone ({e}){}",
+                        bench.now_s(),
+                        pacing.master_gone()
+                    );
                     stream = None;
                 } else {
                     let _ = s.set_nonblocking(true);
@@ -308,13 +353,134 @@ fn serve(
         if seconds.is_some_and(|limit| virtual_s >= limit) {
             break;
         }
-        let due = Duration::from_secs_f64(virtual_s / speed);
-        let elapsed = wall0.elapsed();
-        if due > elapsed {
-            std::thread::sleep(due - elapsed);
-        }
+        pacing.step(virtual_s, bench.now_s(), stream.is_some());
     }
     let gaps = bench.finish().map_err(|e| e.to_string())?;
     println!("emulator gaps: {gaps}");
     Ok(true)
+}
+
+/// How `serve` paces virtual time against the wall clock, and what it reports of it.
+struct Pacing {
+    speed: f64,
+    /// How far behind the board catches up at most, s (`--catch-up-ms`).
+    catch_up_s: Option<f64>,
+    /// Report spells behind the wall clock beyond this, s (`--report-lag-ms`).
+    report_s: Option<f64>,
+    /// The wall instant of virtual time 0, moved on by what the clock slipped.
+    origin: Instant,
+    /// On time once yet (the lag is counted from then on).
+    on_time: bool,
+    /// The current spell behind the wall clock: its virtual start, its largest lag, what
+    /// the clock slipped during it, s.
+    spell: Option<(f64, f64, f64)>,
+    /// The largest lag and the slip while the current master is connected, s.
+    master: (f64, f64),
+}
+
+impl Pacing {
+    fn new(
+        speed: f64,
+        catch_up_ms: Option<f64>,
+        report_lag_ms: Option<f64>,
+    ) -> Result<Self, String> {
+        let ms = |name: &str, v: Option<f64>| match v {
+            Some(ms) if !(ms.is_finite() && ms >= 0.0) => {
+                Err(format!("{name} must be a number of ms >= 0, got {ms}"))
+            }
+            v => Ok(v.map(|ms| ms * 1e-3)),
+        };
+        Ok(Pacing {
+            speed,
+            catch_up_s: ms("--catch-up-ms", catch_up_ms)?,
+            report_s: ms("--report-lag-ms", report_lag_ms)?,
+            origin: Instant::now(),
+            on_time: false,
+            spell: None,
+            master: (0.0, 0.0),
+        })
+    }
+
+    /// Virtual time 0 is now.
+    fn start(&mut self) {
+        self.origin = Instant::now();
+    }
+
+    fn master_connected(&mut self) {
+        self.master = (0.0, 0.0);
+    }
+
+    /// What the pacing was while the master that goes was connected.
+    fn master_gone(&self) -> String {
+        match (self.report_s, self.catch_up_s) {
+            (None, _) => String::new(),
+            (Some(_), None) => format!(
+                " (largest lag behind the wall clock meanwhile {:.1} ms)",
+                self.master.0 * 1e3
+            ),
+            (Some(_), Some(_)) => format!(
+                " (largest lag behind the wall clock meanwhile {:.1} ms; the board's clock slipped {:.1} ms)",
+                self.master.0 * 1e3,
+                self.master.1 * 1e3
+            ),
+        }
+    }
+
+    /// After a step of the board to `virtual_s` (from virtual time 0; the board's clock
+    /// reads `now_s`): waits while the board is ahead of the wall clock; when it is
+    /// further behind than it may catch up, its clock slips; reports.
+    fn step(&mut self, virtual_s: f64, now_s: f64, master: bool) {
+        let due = Duration::from_secs_f64(virtual_s / self.speed);
+        let elapsed = self.origin.elapsed();
+        if due > elapsed {
+            std::thread::sleep(due - elapsed);
+        }
+        let mut lag = elapsed.saturating_sub(due).as_secs_f64();
+        let mut slip = 0.0;
+        if let Some(most) = self.catch_up_s {
+            if lag > most {
+                slip = lag - most;
+                self.origin += Duration::from_secs_f64(slip);
+                lag = most;
+            }
+        }
+        let Some(limit) = self.report_s else {
+            return;
+        };
+        self.on_time |= lag == 0.0;
+        if !self.on_time {
+            return;
+        }
+        let slipped = self.spell.map_or(0.0, |(_, _, s)| s) + slip;
+        let behind = lag + slipped;
+        if master {
+            self.master.0 = self.master.0.max(behind);
+            self.master.1 += slip;
+        }
+        match self.spell {
+            None if behind > limit => {
+                println!(
+                    "{now_s:.3} s: behind the wall clock by more than {:.1} ms (the emulator slower than {}x real time here)",
+                    limit * 1e3,
+                    self.speed
+                );
+                self.spell = Some((now_s, behind, slipped));
+            }
+            Some((t, worst, _)) if lag <= limit / 2.0 && slip == 0.0 => {
+                let slipped = if self.catch_up_s.is_some() {
+                    format!("; the board's clock slipped {:.1} ms", slipped * 1e3)
+                } else {
+                    String::new()
+                };
+                println!(
+                    "{now_s:.3} s: on time again: behind the wall clock by up to {:.1} ms for {:.3} s{slipped}",
+                    worst.max(behind) * 1e3,
+                    now_s - t
+                );
+                self.spell = None;
+            }
+            Some((t, worst, _)) => self.spell = Some((t, worst.max(behind), slipped)),
+            None => {}
+        }
+    }
 }

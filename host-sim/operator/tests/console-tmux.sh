@@ -43,7 +43,10 @@ wait_for "h hello o home e enable d disable c clear fault s/SPACE stop q quit" 5
 wait_for "1-6 joint +/- jog [ ] speed k clutch p dead-man a ack reset" 5
 wait_for "Hello -> firmware" 10
 wait_for "Homed no" 5
-lines=$(screen | wc -l); cols=$(screen | awk '{ if (length($0) > m) m = length($0) } END { print m }')
+# Characters, not bytes (the frame's box-drawing characters are 3 bytes each in UTF-8, and
+# Debian's default awk, mawk, counts bytes).
+lines=$(screen | wc -l)
+cols=$(screen | python3 -c 'import sys; print(max((len(l) for l in sys.stdin.buffer.read().decode("utf-8").splitlines()), default=0))')
 echo "  screen: $lines lines, widest $cols columns"
 [ "$lines" -le 24 ] && [ "$cols" -le 80 ] || fail "the screen is not 80x24"
 

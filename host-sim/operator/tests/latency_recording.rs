@@ -89,6 +89,10 @@ fn latency_measured_recorded_and_replayed() {
         },
         None,
     );
+    // Done with the board: disabled now (common::EnabledBoard), not after the replay below,
+    // which takes longer than the board waits for a heartbeat (500 ms, then
+    // HeartbeatTimeout: a fault a board that outlives the test would keep).
+    drop(b);
     let delay = filtered.filter_delay_s.unwrap();
     let f = filtered.latency;
     let p = plain.latency;

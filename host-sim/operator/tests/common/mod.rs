@@ -1,15 +1,31 @@
 //! The board the end-to-end tests drive: `RSPR_BOARD_SOCKET` when set (a board already
 //! serving on that Unix socket: `host-sim board --socket PATH`, or the emulator of the real
-//! board image, `firmware/board-emulator ... serve --socket PATH`; run the tests one at a
-//! time then, `--test-threads=1`: a board serves one master at a time), else the simulated
+//! board image, `firmware/board-emulator ... serve --socket PATH`; run each test in a
+//! process of its own then, e.g. `-- --exact NAME`: a board serves one master at a time,
+//! and a master's connection closes only when its process ends, teleop's link keeping its
+//! socket open in its reader thread once dropped), else the simulated
 //! board (the board application on the plant, `simulation::serve`) in a thread of the
 //! test, paced by the wall clock.
+//!
+//! A board at `RSPR_BOARD_SOCKET` outlives each test and keeps its state between masters
+//! (homed, where the robot stands). Each test starts as on a freshly homed board: once
+//! enabled, the robot goes to the central pose, where the homing parks it (within the park
+//! move's tolerance; [`TestBoard::enabled`]). Each test leaves it there, disabled, as the
+//! console does on quit ([`EnabledBoard`]'s drop): not enabled with the master gone, which
+//! the board takes for a lost master (`HeartbeatTimeout`, a fault the next bring-up
+//! refuses), and not at the workspace's edge, where the board refuses the next Enable
+//! (`OutOfWorkspace`: the enable check takes the measured pose, which stands up to the
+//! backlash beyond the setpoint the supervisor stopped at the edge).
 #![allow(dead_code, clippy::unwrap_used, clippy::expect_used)]
 
+use kinematics_core::RsprGeometry;
+use master_link::{MasterToBoard, RobotState, StopStatus};
 use masters::script::Waypoint;
 use masters::{CartesianPose, OperatorButtons};
 use nalgebra::{UnitQuaternion, Vector3};
-use operator::{Board, BringUpTimeouts};
+use operator::conversions::setpoint_cp;
+use operator::{Board, BringUpTimeouts, Outcome};
+use std::ops::{Deref, DerefMut};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -59,14 +75,125 @@ impl TestBoard {
         Board::open(&self.socket, 1_000_000, Duration::from_secs(10)).unwrap()
     }
 
-    /// Connects and brings the board to Enabled (hello, homing, enable).
-    pub fn enabled(&self) -> Board {
+    /// Connects and brings the board to Enabled (hello, homing, enable), the robot at the
+    /// central pose: a board of its own is there (the homing's park move); a board that
+    /// outlived an earlier test (`RSPR_BOARD_SOCKET`) is sent there (one target, the
+    /// board's supervisor plans the move).
+    pub fn enabled(&self) -> EnabledBoard {
         let mut b = self.connect();
         b.bring_up(&BringUpTimeouts::default(), &mut |m| {
             eprintln!("  board: {m}")
         })
         .unwrap();
+        let external = self.thread.is_none();
+        let mut b = EnabledBoard { board: b, external };
+        if external {
+            let from = to_centre(&mut b).unwrap();
+            eprintln!(
+                "  board: to the central pose from [{:.4} {:.4} {:.4}] mm, {:.4} deg",
+                from.position_m.x * 1e3,
+                from.position_m.y * 1e3,
+                from.position_m.z * 1e3,
+                from.orientation
+                    .angle_to(&centre().orientation)
+                    .to_degrees()
+            );
+        }
         b
+    }
+}
+
+/// The central pose of the reference robot (`Pose::central(hc)`, hc = 160 mm): where the
+/// homing parks it (the park joints are its inverse kinematics; the park move ends within
+/// 0.1 mm of them: 0.06 mm, z 160.065 mm, on the emulated board).
+pub fn centre() -> CartesianPose {
+    CartesianPose {
+        position_m: Vector3::new(0.0, 0.0, RsprGeometry::<f64>::reference().hc),
+        orientation: UnitQuaternion::identity(),
+    }
+}
+
+/// Sends the robot to the central pose and waits until the setpoint is there (within
+/// 1 µm and 1 µrad), then 0.5 s more for the drives to settle; the setpoint it started
+/// from.
+fn to_centre(b: &mut Board) -> Result<CartesianPose, String> {
+    let c = centre();
+    let from = match b.status() {
+        Some((_, s)) => *s,
+        None => b
+            .wait_status(1.0, |_| true)
+            .map_err(|e| e.to_string())?
+            .ok_or("no status")?,
+    };
+    let from = setpoint_cp(&from).ok_or("no setpoint")?;
+    match b.request_target(&c).map_err(|e| e.to_string())? {
+        Outcome::Ack => {}
+        o => return Err(format!("the target at the central pose: {o:?}")),
+    }
+    let there = b
+        .wait_status(10.0, |s| {
+            s.state != RobotState::Enabled
+                || setpoint_cp(s).is_some_and(|p| {
+                    (p.position_m - c.position_m).norm() < 1e-6
+                        && p.orientation.angle_to(&c.orientation) < 1e-6
+                })
+        })
+        .map_err(|e| e.to_string())?
+        .ok_or("the setpoint not at the central pose within 10 s")?;
+    if there.state != RobotState::Enabled {
+        return Err(format!("on the way to the central pose: {there:?}"));
+    }
+    let t = b.now_s() + 0.5;
+    b.poll_until(t).map_err(|e| e.to_string())?;
+    b.discard_events();
+    Ok(from)
+}
+
+/// An enabled board, disabled when dropped (as the console does on quit): on a board that
+/// outlives the test, first back to the central pose; then Disable and the safe stop 1 to
+/// its end. Errors are printed, not raised, there (a test that failed has said why; a
+/// board left faulted or off-centre makes the next test's bring-up say so).
+pub struct EnabledBoard {
+    board: Board,
+    external: bool,
+}
+
+impl Deref for EnabledBoard {
+    type Target = Board;
+    fn deref(&self) -> &Board {
+        &self.board
+    }
+}
+
+impl DerefMut for EnabledBoard {
+    fn deref_mut(&mut self) -> &mut Board {
+        &mut self.board
+    }
+}
+
+impl Drop for EnabledBoard {
+    fn drop(&mut self) {
+        let enabled = |b: &Board| {
+            b.status()
+                .is_some_and(|(_, s)| s.state == RobotState::Enabled)
+        };
+        if self.external && enabled(&self.board) {
+            if let Err(e) = to_centre(&mut self.board) {
+                eprintln!("  board: not back to the central pose at the end: {e}");
+            }
+        }
+        match self.board.request(MasterToBoard::Disable) {
+            Ok(Outcome::Ack) => {
+                let done = self.board.wait_status(5.0, |s| {
+                    s.state != RobotState::Enabled
+                        && matches!(s.stop, StopStatus::None | StopStatus::SafeStop1Done)
+                });
+                if !matches!(done, Ok(Some(_))) {
+                    eprintln!("  board: Disable not done within 5 s: {done:?}");
+                }
+            }
+            o => eprintln!("  board: Disable at the end: {o:?}"),
+        }
     }
 }
 

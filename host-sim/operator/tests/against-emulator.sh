@@ -1,0 +1,242 @@
+#!/usr/bin/env bash
+# The operator's end-to-end tests against the EMULATED BOARD: the board's release image
+# (firmware/cortex-m/board, the ELF build-and-size.sh builds and measures) on the rigless
+# STM32F4 emulator with the plant, `board-emulator serve`, virtual time paced to the wall
+# clock, instead of the simulated board (the board application compiled for the host).
+#
+#   bash host-sim/operator/tests/against-emulator.sh
+#
+#   1. the board image (build-and-size.sh: release, sizes against the budgets);
+#   2. the board emulator (its own workspace: release, --locked, --ignore-rust-version);
+#   3. the host side: host-sim (release, as board.sh builds it) and the two Rust test
+#      binaries, built as tests/run-all.sh builds them (`cargo test --workspace`: the test
+#      profile, the workspace's features), so that nothing is built twice;
+#   4. a fresh emulated board, warmed up (see warm_up): the tests of
+#      tests/latency_recording.rs and tests/scripted_operator.rs, one at a time, each in a
+#      process of its own (a board serves one master at a time, and a master's connection
+#      closes only when its process ends: teleop's link leaves its reader thread and that
+#      socket open when dropped). The board outlives each test: each test sends the robot
+#      to the central pose once enabled, and leaves it there, disabled
+#      (tests/common/mod.rs);
+#   5. a fresh emulated board: console-tmux.sh (it starts from a board not homed: Enable
+#      refused before homing, then it homes);
+#   6. a fresh emulated board, warmed up: igtl-board.sh (the bridge enables it).
+#
+# Each group gets a board of its own, as each gets a simulated board of its own in
+# tests/run-all.sh; `serve` puts the tool (1.2 kg on 0.1 m) on once the board is Ready.
+# The emulator runs with --catch-up-ms and --report-lag-ms (see start_emulator): when its
+# virtual time falls behind the wall clock, it says by how much and for how long, and the
+# largest lag each master saw; each group prints that log. Every check passes or fails;
+# nothing is retried. Every group runs; the script exits non-zero when any step failed,
+# after the table of the steps with their wall times.
+set -uo pipefail
+cd "$(dirname "$0")/../../.."
+source firmware/cortex-m/scripts.sh
+
+t_start=$(date +%s.%N)
+now() { date +%s.%N; }
+since() { python3 -c "print(f'{$(now) - $1:.1f}')"; }
+work="$(mktemp -d)"
+emu_pid=""
+steps=()
+failed=0
+
+stop_emulator() {
+    if [ -n "$emu_pid" ]; then
+        # A background job of a script ignores SIGINT: TERM.
+        kill "$emu_pid" 2>/dev/null || true
+        wait "$emu_pid" 2>/dev/null || true
+        emu_pid=""
+    fi
+}
+cleanup() {
+    stop_emulator
+    rm -rf "$work"
+}
+trap cleanup EXIT
+trap 'exit 130' INT
+trap 'exit 143' TERM
+
+# step NAME COMMAND...: runs COMMAND, prints and records its wall time and verdict.
+step() {
+    local name="$1"
+    shift
+    printf '\n==> %s (at %s s)\n' "$name" "$(since "$t_start")"
+    local t0 status=0
+    t0=$(now)
+    "$@" || status=$?
+    local dt
+    dt=$(since "$t0")
+    if [ "$status" -eq 0 ]; then
+        steps+=("$(printf '%-62s %7s s  PASS' "$name" "$dt")")
+    else
+        steps+=("$(printf '%-62s %7s s  FAIL (exit %d)' "$name" "$dt" "$status")")
+        failed=1
+    fi
+    printf '<== %s: %s s, exit %d\n' "$name" "$dt" "$status"
+    return "$status"
+}
+
+summary() {
+    printf '\n==> against the emulated board: steps\n'
+    printf '%s\n' "${steps[@]}"
+    local verdict=FAILED
+    [ "$failed" -ne 0 ] || verdict="all passed"
+    printf 'total %s s: %s\n' "$(since "$t_start")" "$verdict"
+}
+
+# Builds: a failed build ends the run (there is nothing to test).
+build_image() { bash firmware/cortex-m/board/build-and-size.sh; }
+build_emulator() {
+    (cd firmware/board-emulator &&
+        cargo build --release --locked --ignore-rust-version --bin board-emulator)
+}
+build_host() {
+    cargo build --release -q -p host-sim &&
+        cargo test --workspace --no-run --test scripted_operator --test latency_recording
+}
+for s in "the board image (release, thumbv7em-none-eabihf):build_image" \
+    "the board emulator (release, --locked, --ignore-rust-version):build_emulator" \
+    "host-sim (release) and the test binaries (test profile):build_host"; do
+    step "${s%%:*}" "${s##*:}" || { summary; exit 1; }
+done
+export RSPR_BOARD_ELF
+RSPR_BOARD_ELF="$(target_dir)/$TARGET/release/rspr-board"
+# The target directory of the workspace in the current directory.
+target_of() {
+    cargo metadata --format-version 1 --no-deps |
+        python3 -c 'import json, sys; print(json.load(sys.stdin)["target_directory"])'
+}
+emulator="$(cd firmware/board-emulator && target_of)/release/board-emulator"
+host_sim="$(target_of)/release/host-sim"
+echo "image $RSPR_BOARD_ELF"
+echo "emulator $emulator"
+
+# start_emulator NAME [SERVE-OPTION...]: a fresh board on $work/NAME.sock, its output in
+# $work/NAME.log. The socket must appear within 30 s (the image boots in milliseconds of
+# wall time).
+start_emulator() {
+    stop_emulator
+    export RSPR_BOARD_SOCKET="$work/$1.sock"
+    log="$work/$1.log"
+    shift
+    # The emulated board stands for a board with a processor of its own: it runs before
+    # the other work of the machine (nice -10, where allowed), so that its virtual time
+    # keeps up with the wall clock as far as the machine can. When it cannot, its clock
+    # slips beyond 10 ms behind (--catch-up-ms): the masters, on the wall clock, see the
+    # board pause rather than run fast to catch up, which would make them late for it
+    # (heartbeats) and their targets stale (more than 50 ms later than the fastest).
+    # --report-lag-ms says when and by how much.
+    nice -n -10 "$emulator" --firmware "$RSPR_BOARD_ELF" serve --socket "$RSPR_BOARD_SOCKET" \
+        --catch-up-ms 10 --report-lag-ms 20 "$@" >"$log" 2>&1 &
+    emu_pid=$!
+    local end=$(($(date +%s) + 30))
+    while [ ! -S "$RSPR_BOARD_SOCKET" ]; do
+        if ! kill -0 "$emu_pid" 2>/dev/null || [ "$(date +%s)" -ge "$end" ]; then
+            cat "$log"
+            echo "the emulated board did not serve $RSPR_BOARD_SOCKET within 30 s"
+            return 1
+        fi
+        sleep 0.05
+    done
+    echo "emulated board on $RSPR_BOARD_SOCKET (pid $emu_pid)"
+}
+
+# warm_up: the emulator translates the image's code the first time it runs (rigless's
+# Cranelift JIT): the first homing, the first Enable, the first targets stall the
+# emulated core, and its virtual clock falls behind the wall clock by up to 1.9 s
+# (measured here), which a master on the wall clock sees as a board that stops answering
+# for that long. A real board has no such thing. Before the tests, `host-sim teleop` (a
+# master paced by the board's telemetry, made for an emulated board that its host stalls)
+# homes, enables, streams a 10 mm line and back and disables, which runs those paths
+# once. Not a verdict: its own checks run through those stalls; it must leave the board
+# homed and Ready, which the tests then check for themselves.
+warm_up() {
+    local t0 status=0
+    t0=$(now)
+    "$host_sim" teleop --connect "$RSPR_BOARD_SOCKET" --scenario path --path line --clock board \
+        --out "$work/warm-up-$1" || status=$?
+    echo "warm-up: $(since "$t0") s (host-sim teleop exit $status: not a verdict, see above)"
+}
+
+# wait_on_time: until the emulated board keeps up with the wall clock again (every
+# "behind the wall clock" of its log followed by an "on time again"), within 30 s, so
+# that each test starts with a board on time (the warm-up's master leaves it behind).
+wait_on_time() {
+    local t0 end behind back
+    t0=$(now)
+    end=$(($(date +%s) + 30))
+    while :; do
+        behind=$(grep -c 'behind the wall clock by more than' "$log")
+        back=$(grep -c 'on time again' "$log")
+        [ "$behind" -gt "$back" ] || break
+        if [ "$(date +%s)" -ge "$end" ]; then
+            echo "the emulated board is still behind the wall clock after 30 s:" \
+                "this machine does not run it in real time now"
+            return 1
+        fi
+        sleep 0.1
+    done
+    echo "the emulated board on the wall clock (waited $(since "$t0") s)"
+}
+
+# group NAME WARM COMMAND...: COMMAND against a fresh emulated board (warmed up first when
+# WARM is warm), then the board's log (its state changes, the masters, the pacing). The
+# board must still be running after.
+group() {
+    local name="$1" warm="$2"
+    shift 2
+    start_emulator "$name" || return 1
+    local status=0
+    if [ "$warm" = warm ]; then warm_up "$name"; fi
+    wait_on_time && "$@" || status=$?
+    echo "--- the emulated board ($name):"
+    cat "$log"
+    echo "pacing: per master, the largest lag behind the wall clock (ms) and what the" \
+        "board's clock slipped (ms):" \
+        "$(sed -n "s/.*meanwhile \([0-9.]*\) ms; the board's clock slipped \([0-9.]*\) ms.*/\1 (\2)/p" \
+            "$log" | paste -sd',')"
+    if ! kill -0 "$emu_pid" 2>/dev/null; then
+        echo "the emulated board stopped during the tests"
+        status=1
+    fi
+    stop_emulator
+    return "$status"
+}
+
+# Each test of both binaries in a process of its own, in order; all run, the failures are
+# listed.
+rust_tests() {
+    local bin name names status=0 failures=()
+    for bin in latency_recording scripted_operator; do
+        names="$(cargo test -q --workspace --test "$bin" -- --list --format terse)" &&
+            names="$(sed -n 's/: test$//p' <<<"$names")" && [ -n "$names" ] ||
+            { echo "no tests listed in $bin"; return 1; }
+        for name in $names; do
+            printf '\n--- %s: %s\n' "$bin" "$name"
+            local before
+            before=$(grep -c 'master gone' "$log")
+            if ! wait_on_time ||
+                ! cargo test -q --workspace --test "$bin" -- --exact "$name" --nocapture; then
+                failures+=("$bin::$name")
+                status=1
+            fi
+            # The board's pacing while the test's master was connected (the emulator logs it
+            # when the master goes, at the latest 2 s after the test's process ends).
+            for _ in $(seq 20); do
+                [ "$(grep -c 'master gone' "$log")" -gt "$before" ] && break
+                sleep 0.1
+            done
+            echo "pacing during $name: $(grep 'master gone' "$log" | tail -1)"
+        done
+    done
+    [ "$status" -eq 0 ] || printf 'failed: %s\n' "${failures[@]}"
+    return "$status"
+}
+step "Rust tests: latency_recording, scripted_operator" group rust warm rust_tests
+# The console's test starts from a board not homed: no warm-up (it would home the board).
+step "console-tmux.sh" group console cold bash host-sim/operator/tests/console-tmux.sh
+step "igtl-board.sh" group igtl warm bash host-sim/operator/tests/igtl-board.sh
+
+summary
+exit "$failed"
