@@ -1,6 +1,6 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 //! Recorded device streams replayed through the real parsers, byte for byte: the
-//! fixtures in `tests/fixtures/` (built by `make_fixtures.py` from literal values, which
+//! fixtures (built by `tests/fixtures/make_fixtures.py` at test time from literal values, which
 //! it also writes to `expected.json`) must decode to exactly those values, malformed
 //! input included; and the same bytes fed in pieces of any size decode the same.
 #![cfg(target_endian = "little")]
@@ -191,8 +191,7 @@ fn evdev_abs_stream_with_drop_and_malformed() {
 /// deadzone: zero twist) and no button.
 #[test]
 fn evdev_master_replays_a_fixture_file() {
-    let path =
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/evdev_rel.bin");
+    let path = common::fixtures_dir().join("evdev_rel.bin");
     let mapping = RateMapping::new(RateMappingConfig::spacemouse_evdev()).unwrap();
     let mut m = EvdevMaster::open(&path, mapping).unwrap();
     let s = m.poll(1.0).unwrap().unwrap();
