@@ -532,11 +532,14 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
     pub fn command(&mut self, cmd: &Command, now_us: u64) -> Result<Answer, NackReason> {
         let ev = match *cmd {
             Command::Hello { session } => {
+                // A new master: its predecessor's clutch and dead-man no longer hold.
+                self.sm.new_master();
+                self.update_holds(now_us);
                 return Ok(Answer::Hello {
                     session,
                     reset: self.reset,
                     geometry_version: self.geometry_version,
-                })
+                });
             }
             Command::Enable => Event::Enable,
             Command::Disable => Event::Disable,

@@ -285,6 +285,14 @@ impl StateMachine {
         }
     }
 
+    /// A master session starts (`Hello`): the previous master's clutch and presence are
+    /// forgotten (clutch released, operator present, as at power-up); the new master sends
+    /// its own.
+    pub fn new_master(&mut self) {
+        self.clutch = false;
+        self.operator_present = true;
+    }
+
     /// Applies an event (see [`next_state`]).
     pub fn handle(&mut self, event: Event) -> Result<Transition, Refusal> {
         let from = self.state;

@@ -970,3 +970,30 @@ fn jog_moves_one_joint_and_stops_when_the_jogs_stop() {
         );
     }
 }
+
+/// A master session starts with `Hello`: the board forgets the previous master's clutch
+/// and operator-presence flags (a master that left clutched, or with its dead-man
+/// released, does not hold the robot for the next one, who has no way to know why).
+#[test]
+fn hello_forgets_the_previous_masters_clutch_and_presence() {
+    let (mut rt, mut hw) = runtime_and_plant();
+    let mut t = 0;
+    home_and_enable(&mut rt, &mut hw, &mut t);
+    rt.command(&Command::Clutch { engaged: true }, t).unwrap();
+    rt.command(&Command::OperatorPresent { present: false }, t)
+        .unwrap();
+    run(&mut rt, &mut hw, &mut t, 200);
+    assert_eq!(rt.status().stop, master_link::StopStatus::SafeOperatingStop);
+    assert!(rt.machine().clutch_engaged());
+    rt.command(&Command::Hello { session: 7 }, t).unwrap();
+    assert!(!rt.machine().clutch_engaged());
+    assert_eq!(rt.machine().hold(), None);
+    run(&mut rt, &mut hw, &mut t, 2);
+    assert_eq!(rt.status().stop, master_link::StopStatus::None);
+    let cmd = Command::Target {
+        stamp_us: 9_000_000,
+        position_m: [0.001, 0.0, 0.160],
+        rotation_vector_rad: [0.0; 3],
+    };
+    rt.command(&cmd, t).unwrap();
+}

@@ -12,10 +12,9 @@
 #      binaries, built as tests/run-all.sh builds them (`cargo test --workspace`: the test
 #      profile, the workspace's features), so that nothing is built twice;
 #   4. a fresh emulated board, warmed up (see warm_up): the tests of
-#      tests/latency_recording.rs and tests/scripted_operator.rs, one at a time, each in a
-#      process of its own (a board serves one master at a time, and a master's connection
-#      closes only when its process ends: teleop's link leaves its reader thread and that
-#      socket open when dropped). The board outlives each test: each test sends the robot
+#      tests/latency_recording.rs and tests/scripted_operator.rs, one at a time (a board
+#      serves one master at a time), each in a process of its own, so that the board's log
+#      gives the pacing of each test's masters. The board outlives each test: each test sends the robot
 #      to the central pose once enabled, and leaves it there, disabled
 #      (tests/common/mod.rs);
 #   5. a fresh emulated board: console-tmux.sh (it starts from a board not homed: Enable

@@ -13,6 +13,7 @@ use master_link::{
 };
 use std::fs::{File, OpenOptions};
 use std::io::{Read, Write};
+use std::net::Shutdown;
 use std::os::unix::fs::FileTypeExt;
 use std::os::unix::net::UnixStream;
 use std::path::Path;
@@ -61,6 +62,19 @@ struct HostMedium {
     t0: Instant,
     counters: Arc<Mutex<LinkCounters>>,
     closed: Option<String>,
+    /// The socket, to shut down when the medium is dropped: its reader thread then reads
+    /// the end of the stream and ends, and the board sees the connection close (it serves
+    /// one master at a time). A serial device has no connection: its reader ends at the
+    /// next bytes it reads, once nobody receives them.
+    socket: Option<UnixStream>,
+}
+
+impl Drop for HostMedium {
+    fn drop(&mut self) {
+        if let Some(s) = &self.socket {
+            let _ = s.shutdown(Shutdown::Both);
+        }
+    }
 }
 
 /// An open link to the board.
@@ -91,6 +105,7 @@ pub fn open(path: &Path, baud: u32, timeout: Duration) -> Result<Link, TeleopErr
             Err(_) => thread::sleep(Duration::from_millis(100)),
         }
     };
+    let mut socket = None;
     let (reader, writer): (Box<dyn Read + Send>, Box<dyn Write + Send>) = if is_socket {
         let stream = loop {
             match UnixStream::connect(path) {
@@ -105,6 +120,7 @@ pub fn open(path: &Path, baud: u32, timeout: Duration) -> Result<Link, TeleopErr
             }
         };
         let r = stream.try_clone().map_err(open_error)?;
+        socket = Some(stream.try_clone().map_err(open_error)?);
         (Box::new(r), Box::new(stream))
     } else {
         let status = Command::new("stty")
@@ -127,13 +143,17 @@ pub fn open(path: &Path, baud: u32, timeout: Duration) -> Result<Link, TeleopErr
         (Box::new(r), Box::new(f))
     };
     Ok(Link::over(
-        Box::new(HostMedium::start(reader, writer)),
+        Box::new(HostMedium::start(reader, writer, socket)),
         session_nonce(),
     ))
 }
 
 impl HostMedium {
-    fn start(mut reader: Box<dyn Read + Send>, writer: Box<dyn Write + Send>) -> Self {
+    fn start(
+        mut reader: Box<dyn Read + Send>,
+        writer: Box<dyn Write + Send>,
+        socket: Option<UnixStream>,
+    ) -> Self {
         let (tx, rx) = mpsc::channel();
         let t0 = Instant::now();
         let counters = Arc::new(Mutex::new(LinkCounters::default()));
@@ -157,7 +177,13 @@ impl HostMedium {
                 let t_s = t0.elapsed().as_secs_f64();
                 for b in buf.iter().take(n) {
                     if let Some(Ok((seq, msg))) = decoder.push(*b) {
-                        let _ = tx.send(FromReader::Message(Received { t_s, seq, msg }));
+                        if tx
+                            .send(FromReader::Message(Received { t_s, seq, msg }))
+                            .is_err()
+                        {
+                            // The medium was dropped: nobody reads any more.
+                            return;
+                        }
                     }
                 }
                 if let Ok(mut c) = shared.lock() {
@@ -171,6 +197,7 @@ impl HostMedium {
             t0,
             counters,
             closed: None,
+            socket,
         }
     }
 }

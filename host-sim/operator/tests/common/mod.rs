@@ -1,9 +1,7 @@
 //! The board the end-to-end tests drive: `RSPR_BOARD_SOCKET` when set (a board already
 //! serving on that Unix socket: `host-sim board --socket PATH`, or the emulator of the real
-//! board image, `firmware/board-emulator ... serve --socket PATH`; run each test in a
-//! process of its own then, e.g. `-- --exact NAME`: a board serves one master at a time,
-//! and a master's connection closes only when its process ends, teleop's link keeping its
-//! socket open in its reader thread once dropped), else the simulated
+//! board image, `firmware/board-emulator ... serve --socket PATH`; a board serves one
+//! master at a time, so run the tests one at a time then), else the simulated
 //! board (the board application on the plant, `simulation::serve`) in a thread of the
 //! test, paced by the wall clock.
 //!
