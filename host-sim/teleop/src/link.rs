@@ -331,3 +331,36 @@ pub(crate) fn encode_error(msg: &MasterToBoard, e: impl std::fmt::Debug) -> Tele
         reason: format!("{e:?}"),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, clippy::expect_used)]
+    use super::*;
+    use std::os::unix::net::UnixListener;
+
+    /// A dropped link closes its connection: the board's side reads the end of the stream
+    /// within 2 s (its reader thread does not keep the socket open), so the board, which
+    /// serves one master at a time, can take the next one.
+    #[test]
+    fn a_dropped_link_closes_its_socket() {
+        let dir = std::env::temp_dir().join(format!("rspr-link-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("board.sock");
+        let _ = std::fs::remove_file(&path);
+        let listener = UnixListener::bind(&path).unwrap();
+        let link = open(&path, 1_000_000, Duration::from_secs(2)).unwrap();
+        let (mut board, _) = listener.accept().unwrap();
+        board
+            .set_read_timeout(Some(Duration::from_secs(2)))
+            .unwrap();
+        drop(link);
+        let mut buf = [0u8; 64];
+        let n = board.read(&mut buf);
+        let _ = std::fs::remove_dir_all(&dir);
+        assert_eq!(
+            n.map_err(|e| e.kind()),
+            Ok(0),
+            "the board's side must read the end of the stream"
+        );
+    }
+}
