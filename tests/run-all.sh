@@ -41,14 +41,15 @@ bash firmware/board-emulator/run.sh
 section "tests (unit, property, integration, CLI)"
 cargo test --workspace
 
-# (host-sim/operator/tests/console-tmux.sh, the console driven in tmux, is not run here yet:
-# it finds that jogging l1 changes the legs l2 and l3 as the console shows them by half
-# their backlash, 0.06 mm, on the simulated and the emulated board alike; see the note of
-# issue 17. host-sim/operator/tests/against-emulator.sh runs the operator's tests against
-# the emulated board.)
-section "the operator's front ends on the simulated board: OpenIGTLink clients (pyigtl, libopenigtlink), spacenavd"
+section "the operator's front ends on the simulated board: OpenIGTLink clients (pyigtl, libopenigtlink), spacenavd, the console over a serial device"
 bash host-sim/operator/tests/igtl-board.sh
 bash host-sim/masters/tests/spacenavd-daemon.sh
+# The console over a serial device, as on a real board's UART: a pseudo-terminal bridged to
+# the simulated board by socat.
+RSPR_BOARD_VIA_PTY=1 bash host-sim/operator/tests/console-tmux.sh
+
+section "the operator's front ends on the emulated board (the release image): scripted operator, latency, console in tmux, OpenIGTLink"
+bash host-sim/operator/tests/against-emulator.sh
 
 section "fuzzing: the link's frame decoder and the board's command handling (libFuzzer, fixed seed)"
 (cd fuzz && cargo test --release --quiet)

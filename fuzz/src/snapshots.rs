@@ -241,10 +241,13 @@ pub fn build(cfg_service: ServiceConfig, cycles: u32) -> Snapshots {
     };
     hw.last_read = hw.plant.encoder_counts();
     hw.apply();
-    let cfg = ok(
+    let mut cfg = ok(
         reference_config_for(&g, Branch::OUTER, None, Some(hw.plant.joint_positions())),
         "configuration",
     );
+    // The fuzzed board runs on the fake hardware, whose joints have no backlash: no
+    // compensation (its offsets would stand between the fake's motors and joints).
+    cfg.controller.servo.backlash = servo::backlash::BacklashConfig::off();
     let mut rt = ok(Rt::new(g, cfg, 0), "runtime");
     let mut t = 0;
     let unbooted = snap(None, &rt, &mut hw, t);

@@ -126,8 +126,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Controller<S, M> {
         )
         .map_err(ControllerError::Supervisor)?;
         let kinds = robot.joint_kinds();
-        let drive =
-            Drive::new(kinds, dt, &cfg.servo, &measured.q).map_err(ControllerError::Servo)?;
+        let drive = Drive::new(kinds, dt, &cfg.servo, measured).map_err(ControllerError::Servo)?;
         Ok(Controller {
             planner: Planner::new(supervisor, kinds, cfg.tool),
             drive,
@@ -211,9 +210,10 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Controller<S, M> {
         self.planner.hold();
     }
 
-    /// Resets the servo after a tracking fault, holding the joints `q`.
-    pub fn reset_servo(&mut self, q: &[S; NUM_JOINTS]) {
-        self.drive.reset(q);
+    /// Resets the servo after a tracking fault, its loops at the motors' positions
+    /// `motor` ([`Measured::motor`]).
+    pub fn reset_servo(&mut self, motor: &[S; NUM_JOINTS]) {
+        self.drive.reset(motor);
     }
 
     /// One control tick on the tick's measurements: advance the supervisor and run the six

@@ -37,15 +37,19 @@ pub struct Drive<S: Scalar> {
 }
 
 impl<S: Scalar> Drive<S> {
-    /// Servos for joints of `kinds`, ticked every `dt` s, holding `q`.
+    /// Servos for joints of `kinds`, ticked every `dt` s, holding the joints where the
+    /// tick's measurements put them: the loops start at the motors' positions, and the
+    /// backlash compensation resumes with the offsets the sensing holds (the motors'
+    /// setpoints are where they stand: nothing moves).
     pub fn new(
         kinds: [JointKind; NUM_JOINTS],
         dt: S,
         cfg: &ServoConfig<S>,
-        q: &[S; NUM_JOINTS],
+        measured: &Measured<S>,
     ) -> Result<Self, ConfigError> {
         let mut servo = JointServo::new(cfg)?;
-        servo.reset(q);
+        servo.reset(&measured.motor);
+        servo.resume_backlash(&measured.q, &measured.backlash);
         Ok(Drive { kinds, dt, servo })
     }
 
@@ -59,16 +63,24 @@ impl<S: Scalar> Drive<S> {
         &self.servo
     }
 
-    /// Resets the servo after a tracking fault, holding the joints `q`.
-    pub fn reset(&mut self, q: &[S; NUM_JOINTS]) {
-        self.servo.reset(q);
+    /// The backlash offsets the last tick added to the joint setpoints (motor less
+    /// joint), m or rad.
+    pub fn backlash_offsets(&self) -> [S; NUM_JOINTS] {
+        self.servo.backlash_offsets()
     }
 
-    /// Runs the six joint servos from the measured joints towards the plan: the duties
-    /// (zero on a tracking fault) in the report, for the caller to limit and write
-    /// ([`TickReport::apply`]).
+    /// Resets the servo after a tracking fault, its loops at the motors' positions
+    /// `motor`.
+    pub fn reset(&mut self, motor: &[S; NUM_JOINTS]) {
+        self.servo.reset(motor);
+    }
+
+    /// Runs the six joint servos from the measured motors towards the plan (the joint
+    /// setpoints plus the backlash offsets): the duties (zero on a tracking fault) in the
+    /// report, for the caller to limit and write ([`TickReport::apply`]). The offsets
+    /// this tick used are [`Drive::backlash_offsets`], for the sensing.
     pub fn act(&mut self, measured: &Measured<S>, plan: &Plan<S>) -> TickReport<S> {
-        let q_meas = &measured.q;
+        let q_meas = &measured.motor;
         // Angles from the supervisor are wrapped to (-π, π]; unwrap them next to the
         // (continuous) encoder readings.
         let mut sp = to_array(&plan.setpoint.q);

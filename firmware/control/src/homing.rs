@@ -14,15 +14,23 @@
 
 use hal::{CurrentSense, LimitSwitches};
 use num_traits::Float;
+use servo::backlash::Direction;
 use servo::config::ConfigError;
 use servo::joint_servo::JointServo;
 use servo::{ServoConfig, NUM_JOINTS};
 
-/// The encoders as the homing sees them (the runtime's sensing): this tick's joints and
-/// counts, and the reference of a joint.
+/// The encoders as the homing sees them (the runtime's sensing): this tick's joints,
+/// motors and counts, the reference of a joint, and the backlash offsets of the homing's
+/// servo.
 pub trait JointReferences<S> {
-    /// This tick's joint positions (relative for the joints not referenced yet).
+    /// This tick's joint positions (relative for the joints not referenced yet): the
+    /// motors' less the backlash offsets.
     fn joints(&self) -> [S; NUM_JOINTS];
+    /// This tick's motor positions in joint units (the servo closes its loops on them).
+    fn motors(&self) -> [S; NUM_JOINTS];
+    /// The backlash offsets (motor less joint) the homing's servo applies, from the next
+    /// tick on.
+    fn set_backlash(&mut self, offsets: &[S; NUM_JOINTS]);
     /// This tick's extended counts.
     fn counts(&self) -> [i64; NUM_JOINTS];
     /// Joint `joint` is at `q` now (its count is kept); false outside `0..6`.
@@ -370,13 +378,15 @@ impl<S: Float> Homing<S> {
         self.phase
     }
 
-    /// Starts homing from the joints `q` and counts `counts` the sensing reads now: every
-    /// joint holds there under servo until its turn. `rest`: where the joints are, when
-    /// known (a robot homed already and homed again), instead of the configured rest
+    /// Starts homing from the joints `q`, motors `motor` and counts `counts` the sensing
+    /// reads now: every joint holds there under servo until its turn (the backlash
+    /// compensation resumes with the offsets `motor - q`). `rest`: where the joints are,
+    /// when known (a robot homed already and homed again), instead of the configured rest
     /// positions (the travel windows are measured from it).
     pub fn start(
         &mut self,
         q: &[S; NUM_JOINTS],
+        motor: &[S; NUM_JOINTS],
         counts: &[i64; NUM_JOINTS],
         rest: Option<&[S; NUM_JOINTS]>,
         now_us: u64,
@@ -388,7 +398,12 @@ impl<S: Float> Homing<S> {
         self.q = *q;
         self.counts = *counts;
         self.hold = *q;
-        self.servo.reset(q);
+        self.servo.reset(motor);
+        let mut offsets = *motor;
+        for (o, x) in offsets.iter_mut().zip(q) {
+            *o = *o - *x;
+        }
+        self.servo.resume_backlash(q, &offsets);
         self.index = 0;
         self.last_us = now_us;
         match joint_of(&self.cfg, 0) {
@@ -449,46 +464,105 @@ impl<S: Float> Homing<S> {
     fn hold_others(
         &mut self,
         q: &[S; NUM_JOINTS],
+        motor: &[S; NUM_JOINTS],
         moving: Option<usize>,
         dt: S,
     ) -> [S; NUM_JOINTS] {
         if let Some(j) = moving {
             let qj = q.get(j).copied().unwrap_or_else(S::zero);
             set(&mut self.hold, j, qj);
-            self.servo.reset_joint(j, qj);
+            self.servo
+                .reset_joint(j, motor.get(j).copied().unwrap_or_else(S::zero));
         }
         let out = self
             .servo
-            .update(&self.hold, &[S::zero(); NUM_JOINTS], q, dt);
+            .update(&self.hold, &[S::zero(); NUM_JOINTS], motor, dt);
         let limit = self.cfg.duty_limit;
         out.duty.map(|d| d.max(-limit).min(limit))
     }
 
     /// Holds every joint at its hold position under the homing's servo (after the
-    /// references, while the park move's path is checked); `q` the measured joints.
-    pub fn hold(&mut self, q: &[S; NUM_JOINTS], now_us: u64) -> servo::ServoOutput<S> {
+    /// references, while the park move's path is checked); `motor` the measured motors.
+    pub fn hold(&mut self, motor: &[S; NUM_JOINTS], now_us: u64) -> servo::ServoOutput<S> {
         let hold = self.hold;
-        self.track(&hold, &[S::zero(); NUM_JOINTS], q, now_us)
+        self.track(&hold, &[S::zero(); NUM_JOINTS], motor, now_us)
     }
 
     /// Follows the joint setpoint `setpoint` (speed `qdot`) under the homing's servo, the
-    /// duties within the homing's duty limit (the park move); `q` the measured joints. The
-    /// hold positions follow the setpoint.
+    /// duties within the homing's duty limit (the park move); `motor` the measured
+    /// motors. The hold positions follow the setpoint. The servo's backlash offsets are
+    /// [`Homing::backlash_offsets`], for the sensing.
     pub fn track(
         &mut self,
         setpoint: &[S; NUM_JOINTS],
         qdot: &[S; NUM_JOINTS],
-        q: &[S; NUM_JOINTS],
+        motor: &[S; NUM_JOINTS],
         now_us: u64,
     ) -> servo::ServoOutput<S> {
         let dt_us = now_us.saturating_sub(self.last_us).max(1);
         self.last_us = now_us;
         let dt = S::from(dt_us).unwrap_or_else(S::one) * S::from(1e-6).unwrap_or_else(S::zero);
         self.hold = *setpoint;
-        let mut out = self.servo.update(setpoint, qdot, q, dt);
+        let mut out = self.servo.update(setpoint, qdot, motor, dt);
         let limit = self.cfg.duty_limit;
         out.duty = out.duty.map(|d| d.max(-limit).min(limit));
         out
+    }
+
+    /// The backlash offsets (motor less joint) the homing's servo applied last, m or rad.
+    pub fn backlash_offsets(&self) -> [S; NUM_JOINTS] {
+        self.servo.backlash_offsets()
+    }
+
+    /// Joint `joint` is at `q` now: the sensing's reference (the motor at `q` plus the
+    /// offset the servo's compensation holds), and the compensation restarted there (the
+    /// joint's setpoint jumped to its referenced value without a motion).
+    fn reference<R: JointReferences<S>>(&mut self, sensing: &mut R, joint: usize, q: S) {
+        sensing.set_reference(joint, q);
+        let offset = self
+            .servo
+            .backlash_offsets()
+            .get(joint)
+            .copied()
+            .unwrap_or_else(S::zero);
+        self.servo.resume_backlash_joint(joint, q, offset);
+        self.q = sensing.joints();
+    }
+
+    /// The backlash offset of joint `joint`, driven open loop at duty `own`, `travel` into
+    /// its phase: once it has travelled more than the gap, the motor pushes on the flank
+    /// of its motion (`+-b/2`); before, the offset stays as it was. (Its compensator is not
+    /// left to follow the joint's own measurement: the joint is the motor less the offset,
+    /// and a time-ramped offset faster than the motion would turn the measured direction
+    /// round.)
+    fn moving_flank(
+        &mut self,
+        joint: usize,
+        own: S,
+        travel: S,
+        q: &[S; NUM_JOINTS],
+        motor: &[S; NUM_JOINTS],
+    ) {
+        let (Some(&qj), Some(&mj)) = (q.get(joint), motor.get(joint)) else {
+            return;
+        };
+        let Some(comp) = self.servo.backlash(joint) else {
+            return;
+        };
+        let direction = if own > S::zero() {
+            Direction::Positive
+        } else if own < S::zero() {
+            Direction::Negative
+        } else {
+            Direction::Unknown
+        };
+        let full = comp.flank_offset(direction);
+        let offset = if direction != Direction::Unknown && travel > full.abs() * lit2() {
+            full
+        } else {
+            mj - qj
+        };
+        self.servo.resume_backlash_joint(joint, qj, offset);
     }
 
     /// One step on the tick's measurements (`sensing`, updated at the start of the tick):
@@ -506,7 +580,7 @@ impl<S: Float> Homing<S> {
         let dt_us = now_us.saturating_sub(self.last_us).max(1);
         self.last_us = now_us;
         let dt = S::from(dt_us).unwrap_or_else(S::one) * S::from(1e-6).unwrap_or_else(S::zero);
-        let (q, counts) = (sensing.joints(), sensing.counts());
+        let (q, motor, counts) = (sensing.joints(), sensing.motors(), sensing.counts());
         self.q = q;
         self.counts = counts;
         let switches = hw.switches();
@@ -517,7 +591,9 @@ impl<S: Float> Homing<S> {
             HomingPhase::Idle => return (HomingStatus::Running(HomingPhase::Idle), zero),
             HomingPhase::Failed(e) => return (HomingStatus::Failed(e), zero),
             HomingPhase::Referenced => {
-                return (HomingStatus::Referenced, self.hold_others(&q, None, dt))
+                let duty = self.hold_others(&q, &motor, None, dt);
+                sensing.set_backlash(&self.servo.backlash_offsets());
+                return (HomingStatus::Referenced, duty);
             }
             HomingPhase::LeaveSwitch { joint }
             | HomingPhase::Approach { joint }
@@ -576,8 +652,7 @@ impl<S: Float> Homing<S> {
                     self.enter(HomingPhase::LeaveSwitch { joint }, now_us);
                 } else if h.method == HomeMethod::Switch && sw {
                     // The reference: the position where the switch closes.
-                    sensing.set_reference(joint, h.home_position);
-                    self.q = sensing.joints();
+                    self.reference(sensing, joint, h.home_position);
                     self.enter(HomingPhase::BackOff { joint }, now_us);
                 } else if stalled {
                     if h.method == HomeMethod::Switch {
@@ -590,8 +665,7 @@ impl<S: Float> Homing<S> {
                     if (from_start - expected).abs() > h.travel_tolerance {
                         return (self.fail(HomingError::StalledOutsideWindow { joint }), zero);
                     }
-                    sensing.set_reference(joint, h.home_position);
-                    self.q = sensing.joints();
+                    self.reference(sensing, joint, h.home_position);
                     self.enter(HomingPhase::BackOff { joint }, now_us);
                 } else if travel > h.max_travel {
                     return (self.fail(HomingError::NotFound { joint }), zero);
@@ -622,15 +696,17 @@ impl<S: Float> Homing<S> {
                 }
             }
         }
-        let q_now = self.q;
+        let (q_now, motor_now) = (self.q, sensing.motors());
         let moving = match self.phase {
             HomingPhase::Referenced => None,
             _ => Some(joint),
         };
-        let mut duty = self.hold_others(&q_now, moving, dt);
+        let mut duty = self.hold_others(&q_now, &motor_now, moving, dt);
         if moving.is_some() {
             set(&mut duty, joint, own);
+            self.moving_flank(joint, own, travel, &q_now, &motor_now);
         }
+        sensing.set_backlash(&self.servo.backlash_offsets());
         let status = match self.phase {
             HomingPhase::Referenced => HomingStatus::Referenced,
             p => HomingStatus::Running(p),
@@ -646,4 +722,9 @@ pub enum HomingSetupError {
     Homing(HomingError),
     /// Servo or encoder settings.
     Servo(ConfigError),
+}
+
+/// 2 in the scalar type.
+fn lit2<S: Float>() -> S {
+    S::one() + S::one()
 }

@@ -4,7 +4,8 @@
 //!
 //! One control tick ([`runtime::Runtime::tick`]), as the code runs it:
 //! ```text
-//! sensing     counters read once -> extended counts -> joints -> measured pose
+//! sensing     counters read once -> extended counts -> motors -> joints (less the backlash
+//!             offsets) -> measured pose
 //!             (FK tracker: one Newton step per tick while the joints move)
 //! runtime     heartbeat timers; the state machine decides what runs:
 //!   homing    switches, currents -> joint references -> outputs

@@ -256,19 +256,26 @@ impl<S: Float> EncoderCheck<S> {
     }
 }
 
+/// Weight of a new sample in the short check's filtered currents (time constant about
+/// 4 ticks).
+const SHORT_FILTER: f64 = 0.5;
+
 /// The motor circuits' plausibility: with the drives on, the current the motor model
 /// expects for the last tick's duty at the measured speed, `i = (V·d − Ke·ω)/R` (capped at
 /// the drivers' regulation limit), must flow.
 /// * A current below a fifth of that, while the model expects more than the floor, is an
 ///   open motor circuit (a broken lead or connector): the joint is held by nothing but
 ///   its brake.
-/// * A current above three times that (and above a fifth of the regulation limit) is a
-///   shorted winding or a failed driver stage: the model's resistance may be 30 % off (a
-///   warm winding), a short takes most of it away.
+/// * A current above three times that is a shorted winding or a failed driver stage: the
+///   model's resistance may be 30 % off (a warm winding), a short takes most of it away.
+///   Judged on one sample above a fifth of the regulation limit, or on the currents
+///   filtered over about two ticks above a twentieth of it (a servo hunting through zero
+///   on a short swings through small currents sample by sample).
 ///
 /// Each is counted per joint, two up on a sample that shows it and one down on one that
 /// does not; `2 × open_ticks` counts are a fault (`open_ticks` samples in a row, or a third
-/// of the samples for longer).
+/// of the samples for longer). A sample whose current is too small to show a short (under
+/// a fifth of the regulation limit) leaves the short's count as it is.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MotorCheck<S> {
     /// Expected currents below this are not judged, A per joint (default 3 % of each
@@ -279,6 +286,8 @@ pub struct MotorCheck<S> {
     pub open_ticks: u16,
     low: [u16; NUM_JOINTS],
     high: [u16; NUM_JOINTS],
+    short_i: [S; NUM_JOINTS],
+    short_e: [S; NUM_JOINTS],
 }
 
 impl<S: Float> MotorCheck<S> {
@@ -289,6 +298,8 @@ impl<S: Float> MotorCheck<S> {
             open_ticks: 5,
             low: [0; NUM_JOINTS],
             high: [0; NUM_JOINTS],
+            short_i: [S::zero(); NUM_JOINTS],
+            short_e: [S::zero(); NUM_JOINTS],
         }
     }
 
@@ -336,13 +347,42 @@ impl<S: Float> MotorCheck<S> {
             if *n >= self.open_ticks * 2 && found.is_none() {
                 found = Some(Finding::joint(FaultCause::MotorOpen, j, *d));
             }
-            let short = drive.torque
-                && (!i.is_finite()
-                    || (i.abs() > expected.max(*floor) * lit(3.0) && i.abs() > *lim * lit(0.2)));
+            // A short is judged on the currents filtered over a few ticks (measured and
+            // expected, `SHORT_FILTER`): a servo hunting through zero on a shorted
+            // winding swings the current through small values and back, sample by
+            // sample, where one sample says little; over a few it draws several times
+            // what the model expects. Judged where the filtered current is a twentieth
+            // of the regulation limit or more (about 0.26 A on a leg: 65 ADC counts);
+            // below that a sample leaves the count as it is. Without torque there is
+            // nothing to judge and it starts over.
+            let (Some(fi), Some(fe)) = (self.short_i.get_mut(j), self.short_e.get_mut(j)) else {
+                continue;
+            };
+            let k: S = lit(SHORT_FILTER);
+            let (short, judged) = if drive.torque && i.is_finite() && expected.is_finite() {
+                *fi = *fi + (i.abs() - *fi) * k;
+                *fe = *fe + (expected - *fe) * k;
+                // One sample that shows it on its own (a large current, three times what
+                // the model expects, or the floor), or the filtered currents.
+                let sample = i.abs() > *lim * lit(0.2) && i.abs() > expected.max(*floor) * lit(3.0);
+                let filtered = *fi > *lim * lit(0.05);
+                (
+                    sample || (filtered && *fi > *fe * lit(3.0)),
+                    filtered || i.abs() > *lim * lit(0.2),
+                )
+            } else {
+                *fi = S::zero();
+                *fe = S::zero();
+                (drive.torque, drive.torque)
+            };
             *h = if short {
                 h.saturating_add(2)
-            } else {
+            } else if !drive.torque {
+                0
+            } else if judged {
                 h.saturating_sub(1)
+            } else {
+                *h
             };
             if *h >= self.open_ticks * 2 && found.is_none() {
                 found = Some(Finding::joint(FaultCause::CurrentImplausible, j, i.abs()));

@@ -5,7 +5,8 @@
 //!
 //! One tick, in every state:
 //! ```text
-//! sensing   counters -> extended counts -> joints -> measured pose (FK tracker, once homed)
+//! sensing   counters -> extended counts -> motors -> joints (less the servo's backlash
+//!           offsets) -> measured pose (FK tracker, once homed)
 //! inputs    currents, supply, driver fault, switches, e-stop button, safety relay
 //! monitors  safety chain, power stage, currents (overcurrent, overload, I²t), encoders
 //!           (jump, dead), joint ranges and limit switches, standstill of a hold,
@@ -13,7 +14,8 @@
 //! stops     the fault's (or a hold's) reaction from the stop table: STO, SS1 or SS2
 //! drive     Homing:   homing step (switches, currents, references), then the park move
 //!           Enabling: the brake check against the closed brakes, then the release
-//!           Enabled:  planner (supervisor) -> drive (six PIDs)
+//!           Enabled:  planner (supervisor) -> drive (six PIDs; its backlash offsets
+//!                     go back to the sensing for the next tick)
 //!           stops:    the supervisor brakes; the servo holds
 //! outputs   duties capped by the current limit -> PWM; brakes; torque off
 //! status    from what the tick computed (no second evaluation)
@@ -416,6 +418,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
                     self.stopper.clear();
                     self.homing.start(
                         &self.sensing.measured().q,
+                        &self.sensing.measured().motor,
                         &self.sensing.encoders().counts(),
                         known.as_ref(),
                         now_us,
@@ -785,6 +788,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
                     // stop during homing) the drives stop where they are.
                     if let Some(ctl) = self.controller.as_mut() {
                         let report = ctl.tick(self.sensing.measured());
+                        self.sensing.set_backlash(&ctl.drive().backlash_offsets());
                         duty = report.servo.duty;
                         standstill = ctl.supervisor().twist().iter().all(|x| *x == S::zero());
                         self.control_faults(&report, now_us);
@@ -968,18 +972,19 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
     /// One tick of the park move: the path check (holding), then the profile under the
     /// homing's servo; the duties.
     fn park(&mut self, now_us: u64) -> [S; NUM_JOINTS] {
-        let q = self.sensing.measured().q;
+        let (q, motor) = (self.sensing.measured().q, self.sensing.measured().motor);
         let Some(step) = self.parking.as_mut().map(|p| p.step(&q, now_us)) else {
             return [S::zero(); NUM_JOINTS];
         };
         let out = match step {
-            ParkStep::Checking { .. } | ParkStep::Arrived => self.homing.hold(&q, now_us),
-            ParkStep::Move { q: sp, qdot } => self.homing.track(&sp, &qdot, &q, now_us),
+            ParkStep::Checking { .. } | ParkStep::Arrived => self.homing.hold(&motor, now_us),
+            ParkStep::Move { q: sp, qdot } => self.homing.track(&sp, &qdot, &motor, now_us),
             ParkStep::Refused(r) => {
                 self.park_failed(r, now_us);
                 return [S::zero(); NUM_JOINTS];
             }
         };
+        self.sensing.set_backlash(&self.homing.backlash_offsets());
         if let Some(f) = out.fault {
             let finding = match f.joint {
                 Some(j) => Finding::joint(FaultCause::FollowingError, j, f.error),
@@ -1019,6 +1024,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             EnableStep::Hold | EnableStep::Released => {
                 let ctl = self.controller.as_mut()?;
                 let report = ctl.tick(self.sensing.measured());
+                self.sensing.set_backlash(&ctl.drive().backlash_offsets());
                 *duty = report.servo.duty;
                 self.control_faults(&report, now_us);
                 if step == EnableStep::Released && self.sm.state() == State::Enabling {

@@ -1,10 +1,20 @@
 //! Sensing: the single owner of the measured joints and pose.
 //!
 //! Every control tick, in every state, starts with [`Sensing::update`]: the six raw
-//! counters are read once, extended once (`servo::encoder`), converted to joint positions,
-//! and, once the robot is homed, the measured pose follows them through the forward
+//! counters are read once, extended once (`servo::encoder`), converted to the motors'
+//! positions, less the backlash compensation's offsets to the joints' positions, and,
+//! once the robot is homed, the measured pose follows the joints through the forward
 //! kinematics ([`FkTracker`]: one Newton step per tick while the joints move, nothing
-//! while they stand). Homing sets the encoders' reference through
+//! while they stand).
+//!
+//! The encoders sit on the motors. Where the backlash compensation holds a motor `o`
+//! beyond its joint's setpoint to keep the lead screw's gap taken up (`servo::backlash`),
+//! the joint is at the motor's position less `o`: the servo's offsets of the last tick
+//! ([`Sensing::set_backlash`]) are what the sensing subtracts, and they stay while the
+//! drives are off (the brakes hold the motors where they were, the gap does not change).
+//! Without it the measured joints, the measured pose and every guard on them would move
+//! by the offset (up to b/2 = 0.06 mm per leg) whenever the compensation takes up a gap,
+//! though the platform does not move. Homing sets the encoders' reference through
 //! [`Sensing::set_reference`]; the controller, the homing, the fault monitors and the
 //! telemetry all read the tick's [`Measured`], never the hardware or a second estimate.
 
@@ -34,13 +44,19 @@ pub enum PoseStatus {
     Failed(FkError),
 }
 
-/// The measurements of one tick: raw counters, joints and pose (the extended counts are
-/// the encoders': [`Sensing::encoders`]).
+/// The measurements of one tick: raw counters, motors, joints and pose (the extended
+/// counts are the encoders': [`Sensing::encoders`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Measured<S: Scalar> {
     /// The raw 16-bit counters as read.
     pub raw: [u16; NUM_JOINTS],
-    /// Joint positions (m, rad), relative until homed.
+    /// The motors' positions in joint units (m, rad): the encoders', relative until
+    /// homed. The joint servos close their loops on these.
+    pub motor: [S; NUM_JOINTS],
+    /// The backlash compensation's offsets subtracted from the motors (m, rad): `motor - q`.
+    pub backlash: [S; NUM_JOINTS],
+    /// Joint positions (m, rad): the motors' less the backlash offsets, relative until
+    /// homed. Everything else (pose, guards, monitors, telemetry) reads these.
     pub q: [S; NUM_JOINTS],
     /// The measured pose (the last good one after a failed tick), once homed.
     pub pose: Option<Pose<S>>,
@@ -115,6 +131,8 @@ impl<S: Scalar, M: Mechanism<S>> Sensing<S, M> {
             encoder_cfg,
             measured: Measured {
                 raw: [0; NUM_JOINTS],
+                motor: encoders.positions(),
+                backlash: [S::zero(); NUM_JOINTS],
                 q: encoders.positions(),
                 pose: None,
                 status: PoseStatus::NotHomed,
@@ -155,7 +173,9 @@ impl<S: Scalar, M: Mechanism<S>> Sensing<S, M> {
         }
         self.tracker = None;
         self.measured.raw = raw;
-        self.measured.q = self.encoders.positions();
+        self.measured.backlash = [S::zero(); NUM_JOINTS];
+        self.measured.motor = self.encoders.positions();
+        self.measured.q = self.measured.motor;
         self.measured.pose = None;
         self.measured.status = PoseStatus::NotHomed;
     }
@@ -165,9 +185,11 @@ impl<S: Scalar, M: Mechanism<S>> Sensing<S, M> {
     pub fn update<H: QuadratureCounter + ?Sized>(&mut self, hw: &mut H) -> &Measured<S> {
         self.counters.ticks += 1;
         let raw = hw.counts();
-        let q = self.encoders.update(&raw);
+        let motor = self.encoders.update(&raw);
         let m = &mut self.measured;
         m.raw = raw;
+        m.motor = motor;
+        let q = minus(&motor, &m.backlash);
         m.q = q;
         m.factorised = false;
         let Some(tracker) = self.tracker.as_mut() else {
@@ -202,13 +224,39 @@ impl<S: Scalar, M: Mechanism<S>> Sensing<S, M> {
     }
 
     /// The homing procedure's reference: joint `joint` is at `q` now (its count is kept).
-    /// The pose is not tracked until [`Sensing::track_pose`].
+    /// Its motor is where the backlash offset the sensing holds puts it: `q + offset`
+    /// (the homing's servo takes up the gap as it approaches the switch, so the motor
+    /// leads the joint by b/2 in the approach's direction: the encoder is referred to
+    /// the middle of the gap, as `servo::backlash` expects). The pose is not tracked
+    /// until [`Sensing::track_pose`].
     pub fn set_reference(&mut self, joint: usize, q: S) -> bool {
         self.tracker = None;
         self.measured.pose = None;
-        let ok = self.encoders.set_position(joint, q);
-        self.measured.q = self.encoders.positions();
+        let offset = self
+            .measured
+            .backlash
+            .get(joint)
+            .copied()
+            .unwrap_or_else(S::zero);
+        let ok = self.encoders.set_position(joint, q + offset);
+        self.refresh_joints();
         ok
+    }
+
+    /// The backlash compensation's offsets of this tick (m, rad: motor setpoint less
+    /// joint setpoint, [`servo::joint_servo::JointServo::backlash_offsets`]), subtracted
+    /// from the motors from the next update on, and kept while no servo runs. Non-finite
+    /// offsets are taken as 0.
+    pub fn set_backlash(&mut self, offsets: &[S; NUM_JOINTS]) {
+        for (o, n) in self.measured.backlash.iter_mut().zip(offsets) {
+            *o = if n.is_finite() { *n } else { S::zero() };
+        }
+    }
+
+    fn refresh_joints(&mut self) {
+        let m = &mut self.measured;
+        m.motor = self.encoders.positions();
+        m.q = minus(&m.motor, &m.backlash);
     }
 
     /// Every joint is referenced: the pose is solved once from the current joints (the
@@ -225,6 +273,7 @@ impl<S: Scalar, M: Mechanism<S>> Sensing<S, M> {
 
     /// The reference is no longer trusted (a fault that may have moved the encoders'
     /// zero, a new homing run): no pose until homed again.
+    /// The backlash offsets stay: the gaps have not changed.
     pub fn lose_reference(&mut self) {
         self.tracker = None;
         self.measured.pose = None;
@@ -261,10 +310,25 @@ impl<S: Scalar, M: Mechanism<S>> JointReferences<S> for Sensing<S, M> {
     fn joints(&self) -> [S; NUM_JOINTS] {
         self.measured.q
     }
+    fn motors(&self) -> [S; NUM_JOINTS] {
+        self.measured.motor
+    }
+    fn set_backlash(&mut self, offsets: &[S; NUM_JOINTS]) {
+        Sensing::set_backlash(self, offsets)
+    }
     fn counts(&self) -> [i64; NUM_JOINTS] {
         self.encoders.counts()
     }
     fn set_reference(&mut self, joint: usize, q: S) -> bool {
         Sensing::set_reference(self, joint, q)
     }
+}
+
+/// `a - b`, element by element.
+pub(crate) fn minus<S: Scalar>(a: &[S; NUM_JOINTS], b: &[S; NUM_JOINTS]) -> [S; NUM_JOINTS] {
+    let mut out = *a;
+    for (o, y) in out.iter_mut().zip(b) {
+        *o -= *y;
+    }
+    out
 }

@@ -275,6 +275,39 @@ impl<S: Float> BacklashCompensator<S> {
         }
     }
 
+    /// Restarts at `setpoint` with the motor `offset` (u) beyond it, as a previous
+    /// compensator of this joint left it (the motors were off since, held by the brakes:
+    /// the gap has not changed): the direction is the offset's sign (unknown for 0), the
+    /// offset is kept, so that the motor setpoint `setpoint + offset` is where the motor
+    /// stands and nothing moves. A non-finite offset counts as 0; one beyond `b/2` (the
+    /// width changed since) ramps back to `+-b/2` as usual.
+    pub fn resume(&mut self, setpoint: S, offset: S) {
+        let offset = if offset.is_finite() {
+            offset
+        } else {
+            S::zero()
+        };
+        let direction = if offset > S::zero() {
+            Direction::Positive
+        } else if offset < S::zero() {
+            Direction::Negative
+        } else {
+            Direction::Unknown
+        };
+        self.reset(setpoint, direction);
+        self.offset = offset;
+    }
+
+    /// The offset of a gap fully taken up in `direction`: `+-b/2`, 0 for `Unknown` or
+    /// with the compensation off.
+    pub fn flank_offset(&self, direction: Direction) -> S {
+        if self.active() {
+            direction.sign::<S>() * self.half_width()
+        } else {
+            S::zero()
+        }
+    }
+
     /// The current direction of the commanded motion.
     pub fn direction(&self) -> Direction {
         self.direction

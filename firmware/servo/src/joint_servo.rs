@@ -295,6 +295,27 @@ impl<S: Float> JointServo<S> {
         }
     }
 
+    /// Restarts the backlash compensators at the setpoints `setpoint_q` with the motor
+    /// offsets `offsets` a previous servo left (see [`BacklashCompensator::resume`]): the
+    /// motors' setpoints are where they stand.
+    pub fn resume_backlash(&mut self, setpoint_q: &[S; NUM_JOINTS], offsets: &[S; NUM_JOINTS]) {
+        for ((ch, r), o) in self.channels.iter_mut().zip(setpoint_q).zip(offsets) {
+            ch.backlash.resume(*r, *o);
+        }
+    }
+
+    /// [`JointServo::resume_backlash`] for joint `joint` alone (e.g. when its position
+    /// was just referenced: its setpoint moved without a motion); false outside `0..6`.
+    pub fn resume_backlash_joint(&mut self, joint: usize, setpoint: S, offset: S) -> bool {
+        match self.channels.get_mut(joint) {
+            Some(ch) => {
+                ch.backlash.resume(setpoint, offset);
+                true
+            }
+            None => false,
+        }
+    }
+
     /// Servo time, us: the sum of the valid `dt`s since creation.
     pub fn time_us(&self) -> u64 {
         self.time_us

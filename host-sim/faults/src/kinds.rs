@@ -264,16 +264,18 @@ impl FaultKind {
             // Five samples of a current three times the model's (or one above 1.5 x the
             // peak), once the servo asks the joint for a current: in a holding condition
             // while the probe move starts.
-            // Timed from the first tick the leg draws a fifth of its peak current (where
-            // the check begins to judge), the probe a 3 mm step: the check's 10 counts (two
-            // per sample that shows it, one back per sample that does not) take 5 samples
-            // in a row, or a servo hunting through zero for a few tens of ms; at 25 mm/s
-            // the back-EMF carries most of the voltage and the short shows only when the
-            // hunting draws three times the model's current. The driver's own overcurrent
-            // protection (15 A) stands behind it.
+            // Timed from the first tick the leg draws a twentieth of its peak current
+            // (where the check begins to judge: `control::monitors::MotorCheck`), the
+            // probe a 3 mm step: the check's 10 counts (two per sample that shows it, one
+            // back per sample that does not, none for a sample too small to judge) take 5
+            // samples in a row, or a servo hunting through zero for a few ms more, judged
+            // on the currents filtered over two ticks; at 25 mm/s the back-EMF carries
+            // most of the voltage and the short shows only when the hunting draws three
+            // times the model's current. The driver's own overcurrent protection (15 A)
+            // stands behind it.
             FaultKind::Overcurrent => Expectation {
                 probe_step_mm: Some(3.0),
-                shows_at_current: Some((1, 0.2)),
+                shows_at_current: Some((1, 0.05)),
                 ..e(
                     cause(&[C::Overcurrent, C::CurrentImplausible], Some(1)),
                     50,

@@ -1,7 +1,8 @@
 # Sourced by the operator's test scripts: builds host-sim (release) and starts the board to
 # test against: the board at $RSPR_BOARD_SOCKET when set (the emulator of the real board
 # image, `serve --socket PATH`, or any board serving the link on a Unix socket), else the
-# simulated board, `host-sim board --socket`, in the background. Sets: bin (host-sim),
+# simulated board, `host-sim board --socket`, in the background (through a serial device
+# with RSPR_BOARD_VIA_PTY=1, below). Sets: bin (host-sim),
 # work (a temporary directory), sock (the board's socket); `started PID` registers a
 # process to stop at exit.
 set -euo pipefail
@@ -33,6 +34,24 @@ else
     for _ in $(seq 100); do [ -S "$sock" ] && break; sleep 0.05; done
     [ -S "$sock" ] || { cat "$work/board.log"; echo "the simulated board did not start"; exit 1; }
     echo "board: the simulated board on $sock"
+fi
+
+# RSPR_BOARD_VIA_PTY=1: the tests reach the board through a serial device, as they would a
+# real board's UART: a pseudo-terminal that socat bridges to the board's socket (installed
+# when missing). The front ends then take their serial-device path (`stty raw`, the device
+# file) instead of the socket's.
+if [ "${RSPR_BOARD_VIA_PTY:-0}" = 1 ]; then
+    if ! command -v socat >/dev/null; then
+        export DEBIAN_FRONTEND=noninteractive
+        apt-get update -qq && apt-get install -y -qq socat >/dev/null
+    fi
+    tty="$work/board.tty"
+    socat PTY,link="$tty",raw,echo=0 UNIX-CONNECT:"$sock" 2>"$work/socat.log" &
+    started $!
+    for _ in $(seq 100); do [ -e "$tty" ] && break; sleep 0.05; done
+    [ -e "$tty" ] || { cat "$work/socat.log"; echo "socat did not make the pseudo-terminal"; exit 1; }
+    echo "board: through the serial device $tty ($(readlink "$tty"), socat to $sock)"
+    sock="$tty"
 fi
 
 # Seconds since the script started.

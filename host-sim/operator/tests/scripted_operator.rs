@@ -306,7 +306,8 @@ fn dead_man_released_the_robot_holds() {
 /// box with its margin (x <= 25 mm, `Limits::reference`). The robot stops at the boundary:
 /// the setpoint never beyond it and finally within 0.5 mm of it (the supervisor's path
 /// check refuses the targets beyond), the measured pose within the backlash bound of it,
-/// the board Enabled without a fault or a stop, the operator's cue at the edge.
+/// the board Enabled without a fault or a stop, the operator's cue at the edge. Then a
+/// second master connects and enables the robot again where the first left it.
 #[test]
 fn pushing_past_the_workspace_edge_stops_at_the_boundary() {
     let board = TestBoard::start();
@@ -364,4 +365,17 @@ fn pushing_past_the_workspace_edge_stops_at_the_boundary() {
     );
     assert!(cue_events.contains(&"at_edge"), "cue {cue_events:?}");
     assert_no_fault(&r);
+    // A second master in this process: the first one's connection closed when its link
+    // was dropped (the board serves one master at a time), and the new one enables the
+    // robot where the first left it, disabled at the edge (on a board that outlives the
+    // test, the first master took it back to the centre before it left). The enable check
+    // takes the measured pose: the joints', less the backlash compensation's offsets,
+    // within the servo's error of the setpoint that stopped at the boundary.
+    let b = board.enabled();
+    let s = b.status().map(|(_, s)| *s).unwrap();
+    eprintln!(
+        "second master: Enabled at x = {:.4} mm (measured)",
+        f64::from(s.position_m[0]) * 1e3
+    );
+    assert_eq!(s.state, RobotState::Enabled);
 }

@@ -543,6 +543,7 @@ impl Sim {
             }
         };
         let report = self.drive.act(&measured, &plan);
+        self.sensing.set_backlash(&self.drive.backlash_offsets());
         report.apply(&mut io);
         let t2 = Instant::now();
         let duty = self.plant.duty();

@@ -11,9 +11,8 @@
 //! move's tolerance; [`TestBoard::enabled`]). Each test leaves it there, disabled, as the
 //! console does on quit ([`EnabledBoard`]'s drop): not enabled with the master gone, which
 //! the board takes for a lost master (`HeartbeatTimeout`, a fault the next bring-up
-//! refuses), and not at the workspace's edge, where the board refuses the next Enable
-//! (`OutOfWorkspace`: the enable check takes the measured pose, which stands up to the
-//! backlash beyond the setpoint the supervisor stopped at the edge).
+//! refuses), and at the centre, so that the next test starts where a freshly homed board
+//! would.
 #![allow(dead_code, clippy::unwrap_used, clippy::expect_used)]
 
 use kinematics_core::RsprGeometry;
