@@ -140,6 +140,8 @@ pub struct EncoderCheck<S> {
     no_current: [u16; NUM_JOINTS],
     /// Joint speeds from the last two readings, m/s or rad/s.
     qdot: [S; NUM_JOINTS],
+    /// One count over the last tick, m/s or rad/s.
+    qdot_step: [S; NUM_JOINTS],
 }
 
 impl<S: Float> EncoderCheck<S> {
@@ -151,12 +153,20 @@ impl<S: Float> EncoderCheck<S> {
             disagree: [0; NUM_JOINTS],
             no_current: [u16::MAX; NUM_JOINTS],
             qdot: [S::zero(); NUM_JOINTS],
+            qdot_step: [S::zero(); NUM_JOINTS],
         }
     }
 
     /// The joint speeds of the last two readings (m/s, rad/s).
     pub fn qdot(&self) -> &[S; NUM_JOINTS] {
         &self.qdot
+    }
+
+    /// The resolution of [`EncoderCheck::qdot`]: one count over the last tick, m/s or
+    /// rad/s per joint (a joint creeping at less than that reads 0 or one count a tick:
+    /// its speed is known to within this, no better).
+    pub fn qdot_resolution(&self) -> &[S; NUM_JOINTS] {
+        &self.qdot_step
     }
 
     /// Checks this tick's extended counts `counts`, `dt` s after the last ones, against
@@ -192,6 +202,13 @@ impl<S: Float> EncoderCheck<S> {
             let speed = if dt > S::zero() { dq / dt } else { S::zero() };
             if let Some(q) = self.qdot.get_mut(j) {
                 *q = speed;
+            }
+            if let Some(r) = self.qdot_step.get_mut(j) {
+                *r = if dt > S::zero() && *cpu > S::zero() {
+                    S::one() / (*cpu * dt)
+                } else {
+                    S::zero()
+                };
             }
             // Jump: more counts in one tick than the top speed allows.
             let max_counts = *top * self.cfg.jump_margin * dt * *cpu + lit(2.0);
@@ -256,21 +273,31 @@ impl<S: Float> EncoderCheck<S> {
     }
 }
 
-/// Weight of a new sample in the short check's filtered currents (time constant about
-/// 4 ticks).
-const SHORT_FILTER: f64 = 0.5;
+/// Weight of a new sample in the motor check's filters (time constant about 1.4 ticks).
+const MOTOR_FILTER: f64 = 0.5;
 
 /// The motor circuits' plausibility: with the drives on, the current the motor model
 /// expects for the last tick's duty at the measured speed, `i = (V·d − Ke·ω)/R` (capped at
 /// the drivers' regulation limit), must flow.
-/// * A current below a fifth of that, while the model expects more than the floor, is an
-///   open motor circuit (a broken lead or connector): the joint is held by nothing but
-///   its brake.
-/// * A current above three times that is a shorted winding or a failed driver stage: the
-///   model's resistance may be 30 % off (a warm winding), a short takes most of it away.
-///   Judged on one sample above a fifth of the regulation limit, or on the currents
-///   filtered over about two ticks above a twentieth of it (a servo hunting through zero
-///   on a short swings through small currents sample by sample).
+/// * **Open circuit** (a broken lead or connector: the joint is held by nothing but its
+///   brake): the current is below a fifth of the least the model allows, while that is
+///   above the floor. The model is judged on the drive filtered over a few ticks
+///   (`MOTOR_FILTER`, weight `a`), the current sample by sample (an open circuit shows
+///   at once, before the back-EMF check takes the missing current for motion:
+///   `EncoderCheck`). The speed is one tick's count difference, off by less than one
+///   count a tick (`δω`, [`EncoderCheck::qdot_resolution`]); filtered, the count errors
+///   telescope to less than `a` counts a tick: the filtered model's current is off by at
+///   most `Ke·a·δω/R` (0.135 A on a leg, 0.017 A on a link), and the judgement starts
+///   above 1.25 times that (the floor is above it). Judged on one tick's speed instead,
+///   a healthy motor creeping at a count or two a tick with little load reads as open
+///   whenever a tick's count falls the wrong way (one count is 0.27 A of model current
+///   on a leg).
+/// * **Short** (a shorted winding or a failed driver stage): a current above three times
+///   the model's. The model's resistance may be 30 % off (a warm winding); a short takes
+///   most of it away. Judged on one sample above a fifth of the regulation limit, or on
+///   the currents filtered over about two ticks above a twentieth of it (a servo hunting
+///   through zero on a short swings through small currents sample by sample; the filter
+///   also averages the speed's count errors).
 ///
 /// Each is counted per joint, two up on a sample that shows it and one down on one that
 /// does not; `2 × open_ticks` counts are a fault (`open_ticks` samples in a row, or a third
@@ -284,10 +311,34 @@ pub struct MotorCheck<S> {
     pub floor_a: [S; NUM_JOINTS],
     /// Consecutive ticks (default 5).
     pub open_ticks: u16,
-    low: [u16; NUM_JOINTS],
-    high: [u16; NUM_JOINTS],
-    short_i: [S; NUM_JOINTS],
-    short_e: [S; NUM_JOINTS],
+    joints: [MotorFilters<S>; NUM_JOINTS],
+}
+
+/// One joint's state in the motor check.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct MotorFilters<S> {
+    /// The open and short counts.
+    low: u16,
+    high: u16,
+    /// Filtered `V·d` (V) and speed (joint units/s), for the open check.
+    vd: S,
+    w: S,
+    /// Filtered `|i|` and expected current (A), for the short check.
+    short_i: S,
+    short_e: S,
+}
+
+impl<S: Float> MotorFilters<S> {
+    fn new() -> Self {
+        MotorFilters {
+            low: 0,
+            high: 0,
+            vd: S::zero(),
+            w: S::zero(),
+            short_i: S::zero(),
+            short_e: S::zero(),
+        }
+    }
 }
 
 impl<S: Float> MotorCheck<S> {
@@ -296,30 +347,30 @@ impl<S: Float> MotorCheck<S> {
         MotorCheck {
             floor_a: motors.map(|m| (m.continuous_a * lit(0.03)).max(lit(0.05))),
             open_ticks: 5,
-            low: [0; NUM_JOINTS],
-            high: [0; NUM_JOINTS],
-            short_i: [S::zero(); NUM_JOINTS],
-            short_e: [S::zero(); NUM_JOINTS],
+            joints: [MotorFilters::new(); NUM_JOINTS],
         }
     }
 
-    /// Checks the last tick's drive `drive` against the joint speeds `qdot` (m/s, rad/s)
-    /// and each joint's regulation limit `limit_a` (A).
+    /// Checks the last tick's drive `drive` against the joint speeds `qdot` (m/s, rad/s),
+    /// each off by less than `qdot_resolution` (m/s, rad/s: one count a tick), and each
+    /// joint's regulation limit `limit_a` (A).
     pub fn check(
         &mut self,
         drive: &DriveSample<S>,
         qdot: &[S; NUM_JOINTS],
+        qdot_resolution: &[S; NUM_JOINTS],
         motors: &[MotorModel<S>; NUM_JOINTS],
         limit_a: &[S; NUM_JOINTS],
     ) -> Option<Finding> {
         let mut found = None;
+        let k: S = lit(MOTOR_FILTER);
         for j in 0..NUM_JOINTS {
-            let (Some(n), Some(h), Some(d), Some(i), Some(w), Some(m), Some(lim), Some(floor)) = (
-                self.low.get_mut(j),
-                self.high.get_mut(j),
+            let (Some(f), Some(d), Some(i), Some(w), Some(dw), Some(m), Some(lim), Some(floor)) = (
+                self.joints.get_mut(j),
                 drive.duty.get(j),
                 drive.current.get(j),
                 qdot.get(j),
+                qdot_resolution.get(j),
                 motors.get(j),
                 limit_a.get(j),
                 self.floor_a.get(j),
@@ -327,64 +378,82 @@ impl<S: Float> MotorCheck<S> {
                 continue;
             };
             let omega = *w * m.motor_rad_per_unit;
-            let expected = ((drive.supply_v * *d - m.back_emf_v_s_per_rad * omega)
-                / m.resistance_ohm)
+            let vd = drive.supply_v * *d;
+            let expected = ((vd - m.back_emf_v_s_per_rad * omega) / m.resistance_ohm)
                 .abs()
                 .min(*lim);
-            let open = drive.torque
-                && expected.is_finite()
-                && expected > *floor
-                && !(i.abs() >= expected * lit(0.2));
+            let usable = drive.torque && vd.is_finite() && w.is_finite() && i.is_finite();
+            let open = if usable {
+                f.vd = f.vd + (vd - f.vd) * k;
+                f.w = f.w + (*w - f.w) * k;
+                // The filtered model's current, and its error from the speed's counts.
+                let filtered = ((f.vd - m.back_emf_v_s_per_rad * f.w * m.motor_rad_per_unit)
+                    / m.resistance_ohm)
+                    .abs()
+                    .min(*lim);
+                let allowance =
+                    m.back_emf_v_s_per_rad * k * dw.abs() * m.motor_rad_per_unit / m.resistance_ohm;
+                // A sample is open when `|i| < 0.2·filtered`; a healthy motor's steady
+                // current is at least `filtered − allowance`, so it cannot be judged open
+                // while `filtered > allowance / 0.8` is required: the floor is raised to
+                // that where it is below (the defaults are above it: 0.173 A against
+                // 0.169 A on a leg, 0.05 A against 0.021 A on a link).
+                let judged_from = floor.max(allowance * lit(1.25));
+                filtered > judged_from && i.abs() < filtered * lit(0.2)
+            } else {
+                // Without torque there is nothing to judge: the filters start over.
+                f.vd = S::zero();
+                f.w = S::zero();
+                // A drive that cannot be modelled (a non-finite current or supply) is
+                // not a healthy one.
+                drive.torque && !i.is_finite()
+            };
             // Leaky counts: two up for a sample that shows it, one down for one that does
             // not (a servo hunting through zero on a shorted winding must not reset the
             // count each time): `open_ticks` samples in a row, or a third of the samples
             // for longer.
-            *n = if open {
-                n.saturating_add(2)
+            f.low = if open {
+                f.low.saturating_add(2)
             } else {
-                n.saturating_sub(1)
+                f.low.saturating_sub(1)
             };
-            if *n >= self.open_ticks * 2 && found.is_none() {
+            if f.low >= self.open_ticks * 2 && found.is_none() {
                 found = Some(Finding::joint(FaultCause::MotorOpen, j, *d));
             }
             // A short is judged on the currents filtered over a few ticks (measured and
-            // expected, `SHORT_FILTER`): a servo hunting through zero on a shorted
-            // winding swings the current through small values and back, sample by
-            // sample, where one sample says little; over a few it draws several times
-            // what the model expects. Judged where the filtered current is a twentieth
-            // of the regulation limit or more (about 0.26 A on a leg: 65 ADC counts);
-            // below that a sample leaves the count as it is. Without torque there is
-            // nothing to judge and it starts over.
-            let (Some(fi), Some(fe)) = (self.short_i.get_mut(j), self.short_e.get_mut(j)) else {
-                continue;
-            };
-            let k: S = lit(SHORT_FILTER);
+            // expected): a servo hunting through zero on a shorted winding swings the
+            // current through small values and back, sample by sample, where one sample
+            // says little; over a few it draws several times what the model expects.
+            // Judged where the filtered current is a twentieth of the regulation limit
+            // or more (about 0.26 A on a leg: 65 ADC counts); below that a sample leaves
+            // the count as it is. Without torque there is nothing to judge and it starts
+            // over.
             let (short, judged) = if drive.torque && i.is_finite() && expected.is_finite() {
-                *fi = *fi + (i.abs() - *fi) * k;
-                *fe = *fe + (expected - *fe) * k;
+                f.short_i = f.short_i + (i.abs() - f.short_i) * k;
+                f.short_e = f.short_e + (expected - f.short_e) * k;
                 // One sample that shows it on its own (a large current, three times what
                 // the model expects, or the floor), or the filtered currents.
                 let sample = i.abs() > *lim * lit(0.2) && i.abs() > expected.max(*floor) * lit(3.0);
-                let filtered = *fi > *lim * lit(0.05);
+                let filtered = f.short_i > *lim * lit(0.05);
                 (
-                    sample || (filtered && *fi > *fe * lit(3.0)),
+                    sample || (filtered && f.short_i > f.short_e * lit(3.0)),
                     filtered || i.abs() > *lim * lit(0.2),
                 )
             } else {
-                *fi = S::zero();
-                *fe = S::zero();
+                f.short_i = S::zero();
+                f.short_e = S::zero();
                 (drive.torque, drive.torque)
             };
-            *h = if short {
-                h.saturating_add(2)
+            f.high = if short {
+                f.high.saturating_add(2)
             } else if !drive.torque {
                 0
             } else if judged {
-                h.saturating_sub(1)
+                f.high.saturating_sub(1)
             } else {
-                *h
+                f.high
             };
-            if *h >= self.open_ticks * 2 && found.is_none() {
+            if f.high >= self.open_ticks * 2 && found.is_none() {
                 found = Some(Finding::joint(FaultCause::CurrentImplausible, j, i.abs()));
             }
         }

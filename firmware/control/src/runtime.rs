@@ -713,6 +713,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         let motor = self.motor_check.check(
             &drive,
             self.encoder_check.qdot(),
+            self.encoder_check.qdot_resolution(),
             &self.cfg.current.motors,
             &limits,
         );
