@@ -41,14 +41,11 @@ bash firmware/board-emulator/run.sh
 section "tests (unit, property, integration, CLI)"
 cargo test --workspace
 
-section "the operator's front ends on the simulated board: OpenIGTLink clients (pyigtl, libopenigtlink), spacenavd, the console over a serial device"
+section "the operator's front ends on the simulated board: OpenIGTLink clients (pyigtl, libopenigtlink), spacenavd"
 bash host-sim/operator/tests/igtl-board.sh
 bash host-sim/masters/tests/spacenavd-daemon.sh
-# The console over a serial device, as on a real board's UART: a pseudo-terminal bridged to
-# the simulated board by socat.
-RSPR_BOARD_VIA_PTY=1 bash host-sim/operator/tests/console-tmux.sh
 
-section "the operator's front ends on the emulated board (the release image): scripted operator, latency, console in tmux, OpenIGTLink"
+section "the operator's front ends on the emulated board (the release image): scripted operator, latency; the console in tmux and OpenIGTLink through a serial device"
 bash host-sim/operator/tests/against-emulator.sh
 
 section "fuzzing: the link's frame decoder and the board's command handling (libFuzzer, fixed seed)"

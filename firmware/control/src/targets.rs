@@ -23,8 +23,9 @@ impl Default for TargetClockConfig {
 }
 
 /// Relates the master's timestamps to the board clock without synchronised clocks: the
-/// smallest `board time - master stamp` over the last one or two windows is taken as the
-/// pure link delay; a target delayed by more than `max_latency_us` beyond it is stale,
+/// smallest `board time - master stamp` over the last one or two windows of the board
+/// clock is taken as the pure link delay (windows that ended two windows ago or more are
+/// forgotten); a target delayed by more than `max_latency_us` beyond it is stale,
 /// one not newer than the last is out of order (both `StaleTarget`). Accepted targets get
 /// a strictly increasing board timestamp for the supervisor.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -71,7 +72,16 @@ impl TargetClock {
             return Err(NackReason::StaleTarget);
         }
         let offset = i128::from(now_us) - i128::from(master_us);
-        if now_us.saturating_sub(self.window_start_us) >= self.cfg.window_us {
+        // The windows follow the board clock, not the targets: after a silence of two
+        // windows or more (a navigation system sending a target now and then) neither
+        // window says anything about the link's delay now (the clocks drift), and the
+        // target starts the measurement afresh, as the first one does.
+        let elapsed = now_us.saturating_sub(self.window_start_us);
+        if elapsed >= self.cfg.window_us.saturating_mul(2) {
+            self.min_prev = None;
+            self.min_now = None;
+            self.window_start_us = now_us;
+        } else if elapsed >= self.cfg.window_us {
             self.min_prev = self.min_now;
             self.min_now = None;
             self.window_start_us = now_us;

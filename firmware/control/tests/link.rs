@@ -620,6 +620,39 @@ fn target_clock_checks_order_and_latency() {
     assert!(c.accept(5, now + 1).is_ok(), "fresh after reset");
 }
 
+/// Property: targets sent now and then (a navigation system) are judged against the link's
+/// delay of the last two windows of the board clock, not against the delay of the last
+/// target however long ago. After a silence of two windows or more, during which the
+/// master's clock drifted by more than the latency bound (here 1 % over 2 s: 20 ms
+/// against 5 ms), the next target is in time; two windows later the clocks have drifted
+/// again and the next target is again in time; a target that is late against one sent
+/// just before it is still stale.
+#[test]
+fn target_clock_forgets_windows_older_than_two() {
+    // The master's clock runs 1 % slow: the board-minus-master offset grows by 10 ms a
+    // second, so each target looks later than the last by the drift.
+    let slow_at = |board_us: u64| 7_000_000 + board_us - board_us / 100;
+    let mut c = TargetClock::new(TargetClockConfig {
+        max_latency_us: 5_000,
+        window_us: 100_000,
+    });
+    assert!(c.accept(slow_at(1_000), 1_000).is_ok());
+    for k in 1..=5u64 {
+        let now = 1_000 + k * 2_000_000;
+        assert!(
+            c.accept(slow_at(now), now).is_ok(),
+            "a target after {k} silences of 2 s (drift {} ms) is in time",
+            now / 100 / 1000
+        );
+        // Right after it, a target 6 ms later than its stamp says: stale.
+        assert_eq!(
+            c.accept(slow_at(now + 1_000), now + 1_000 + 6_000),
+            Err(NackReason::StaleTarget),
+            "6 ms late against the target just before"
+        );
+    }
+}
+
 #[test]
 fn refusals_and_guards_map_to_nack_reasons() {
     assert_eq!(

@@ -14,15 +14,18 @@
 #   4. a fresh emulated board, warmed up (see warm_up): the tests of
 #      tests/latency_recording.rs and tests/scripted_operator.rs, one at a time (a board
 #      serves one master at a time), each in a process of its own, so that the board's log
-#      gives the pacing of each test's masters. The board outlives each test: each test sends the robot
-#      to the central pose once enabled, and leaves it there, disabled
+#      gives the pacing of each test's masters. The board outlives each test: each test
+#      sends the robot to the central pose once enabled, and leaves it there, disabled
 #      (tests/common/mod.rs);
-#   5. a fresh emulated board: console-tmux.sh (it starts from a board not homed: Enable
-#      refused before homing, then it homes);
-#   6. a fresh emulated board, warmed up: igtl-board.sh (the bridge enables it).
+#   5. on the same board: igtl-board.sh (the bridge enables it), through a serial device
+#      (a pseudo-terminal that socat bridges to the board's socket: the front ends'
+#      serial path);
+#   6. a fresh emulated board: console-tmux.sh (it starts from a board not homed: Enable
+#      refused before homing, then it homes), through a serial device as well.
 #
-# Each group gets a board of its own, as each gets a simulated board of its own in
-# tests/run-all.sh; `serve` puts the tool (1.2 kg on 0.1 m) on once the board is Ready.
+# The console gets a board of its own (it starts from a board not homed); the Rust tests
+# and the bridge share one, warmed up once (the warm-up takes about 40 s). `serve` puts
+# the tool (1.2 kg on 0.1 m) on once the board is Ready.
 # The emulator runs with --catch-up-ms and --report-lag-ms (see start_emulator): when its
 # virtual time falls behind the wall clock, it says by how much and for how long, and the
 # largest lag each master saw; each group prints that log. Every check passes or fails;
@@ -232,10 +235,23 @@ rust_tests() {
     [ "$status" -eq 0 ] || printf 'failed: %s\n' "${failures[@]}"
     return "$status"
 }
-step "Rust tests: latency_recording, scripted_operator" group rust warm rust_tests
-# The console's test starts from a board not homed: no warm-up (it would home the board).
-step "console-tmux.sh" group console cold bash host-sim/operator/tests/console-tmux.sh
-step "igtl-board.sh" group igtl warm bash host-sim/operator/tests/igtl-board.sh
+# The Rust tests, then the OpenIGTLink bridge on the same board, warmed up once (the
+# tests leave it homed, centred and disabled; the bridge enables it).
+rust_then_igtl() {
+    local status=0
+    step "Rust tests: latency_recording, scripted_operator" rust_tests || status=1
+    step "igtl-board.sh (serial device), on the same board" \
+        on_time env RSPR_BOARD_VIA_PTY=1 bash host-sim/operator/tests/igtl-board.sh || status=1
+    return "$status"
+}
+on_time() { wait_on_time && "$@"; }
+group rust warm rust_then_igtl || failed=1
+# The console and the OpenIGTLink bridge reach the emulated board through a serial device,
+# as they reach a real board's UART: a pseudo-terminal that socat bridges to the board's
+# socket (board.sh, RSPR_BOARD_VIA_PTY=1). The console's test starts from a board not
+# homed: no warm-up (it would home the board).
+step "console-tmux.sh (serial device)" group console cold \
+    env RSPR_BOARD_VIA_PTY=1 bash host-sim/operator/tests/console-tmux.sh
 
 summary
 exit "$failed"

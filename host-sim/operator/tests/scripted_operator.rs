@@ -109,13 +109,46 @@ fn assert_no_fault(r: &RunReport) {
     assert_eq!(s.stop, StopStatus::None);
 }
 
-/// The board's measured pose is the forward kinematics of the motor-side encoders: with
-/// the leg backlash compensated (the plant's legs have 0.12 mm of backlash) it stands up to
-/// about that far from the setpoint, in the direction of the last motion (seen here: 0.13
-/// mm ahead in x after a +x motion, 0.02 mm in z). The exact properties are checked on the
-/// setpoint (the pose the board's supervisor commands); the measured pose is compared
-/// between rests reached in the same direction, or held to this bound.
+/// The board's measured pose is the forward kinematics of the joints: the motor-side
+/// encoders less the backlash compensation's offsets (`control::sensing`), so at rest it
+/// stands within the servo's error of the setpoint (a few µm here; before the offsets
+/// were taken off it stood up to 0.13 mm ahead in the direction of the last motion). The
+/// exact properties are checked on the setpoint (the pose the board's supervisor
+/// commands); where the robot stops hard (the workspace edge), the measured pose is held
+/// to the setpoint's bound plus this: the legs' backlash (0.12 mm), the most the load side
+/// can stand off the motor side, with margin.
 const BACKLASH_BOUND_M: f64 = 0.15e-3;
+
+/// How far the measured position can move while the servo holds: the position change of
+/// `counts` encoder counts on every joint at once at the pose `at` (the reference robot,
+/// its outer branch), `sum_j |(J⁻¹)_{v,j}| · counts / cpu_j`, m (J = dq/dx, Eq. 7.18; the
+/// encoders' resolutions of `servo::encoder`). A holding servo dithers by a count either
+/// side of its setpoint, so two counts peak to peak.
+fn hold_band_m(at: &Vector3<f64>, counts: f64) -> f64 {
+    use kinematics_core::{inverse, jacobian, Branch, Pose, Robot, RsprGeometry};
+    use servo::encoder::{LEG_COUNTS_PER_M, LINK_COUNTS_PER_RAD};
+    let robot = Robot::Rspr(RsprGeometry::reference());
+    let pose = Pose {
+        t: *at,
+        r: nalgebra::Rotation3::identity(),
+    };
+    let sol = inverse(&robot, &pose, Branch::OUTER).expect("the held pose is reachable");
+    let j = jacobian(&robot, &sol)
+        .expect("the held pose is not singular")
+        .j;
+    let inv = j.try_inverse().expect("J invertible at the held pose");
+    let cpu = [
+        LEG_COUNTS_PER_M,
+        LEG_COUNTS_PER_M,
+        LEG_COUNTS_PER_M,
+        LINK_COUNTS_PER_RAD,
+        LINK_COUNTS_PER_RAD,
+        LINK_COUNTS_PER_RAD,
+    ];
+    (0..6)
+        .map(|k| inv.fixed_view::<3, 1>(0, k).norm() * counts / cpu[k])
+        .sum()
+}
 
 /// Largest distance of the setpoint from `from` over script times [a, b], m.
 fn max_setpoint_motion(r: &RunReport, a: f64, b: f64, from: &Vector3<f64>) -> f64 {
@@ -193,7 +226,7 @@ fn one_to_five_scaling_moves_a_fifth() {
 /// Clutch (indexing): the master moves 5 mm in x and, still moving, is clutched; while
 /// clutched it moves 10 mm in y and 5 mm back in x; it is released and rests, then moves
 /// 5 mm in x. The board holds while clutched (the setpoint still, the measured pose within
-/// 0.01 mm, once stopped); nothing jumps at re-engagement (setpoint and measured pose
+/// the holding servo's band of two encoder counts on every joint, once stopped); nothing jumps at re-engagement (setpoint and measured pose
 /// within 0.05 mm, the bound, over the second after it); then the robot follows
 /// the master's 5 mm from where it stands (setpoint within 1 µm).
 #[test]
@@ -230,9 +263,14 @@ fn clutch_move_away_and_reengage_does_not_jump() {
         clutched.0 * 1e3, clutched.1 * 1e3, jump.0 * 1e3, jump.1 * 1e3,
         after.x * 1e3, after.y * 1e3, after.z * 1e3
     );
+    let band = hold_band_m(&held_m, 2.0);
+    eprintln!(
+        "the holding servo's band at the held pose (two counts on every joint): {:.4} mm",
+        band * 1e3
+    );
     assert!(
-        clutched.0 < 1e-6 && clutched.1 < 1e-5,
-        "moved while clutched: {clutched:?}"
+        clutched.0 < 1e-6 && clutched.1 <= band,
+        "moved while clutched: {clutched:?} (band {band})"
     );
     assert!(
         jump.0 < 5e-5 && jump.1 < 5e-5,
