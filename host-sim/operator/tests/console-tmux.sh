@@ -77,7 +77,11 @@ read -r m1 m2 m3 b1 b2 b3 <<<"$(joints)"
 echo "  joints after:  l1 $m1 l2 $m2 l3 $m3 mm, th $b1 $b2 $b3 deg"
 # Five presses 0.2 s apart keep the jog going for 0.8 + 0.3 s (+ up to 0.1 s the board
 # runs on): about 1.1 mm at 1 mm/s; the bound allows for the terminal's and the host's
-# timing, not for another joint moving.
+# timing, not for another joint moving. The other joints hold under their servos: as l1
+# moves, the load on them changes and their following error by up to two counts (legs
+# 0.003 mm, links 0.010 deg); the screen rounds to 0.001 mm and 0.01 deg, so a difference
+# of two readings is off by up to one more step. Bounds: 0.01 mm, and 0.02 deg (+1e-9 for
+# the decimal strings' float difference).
 python3 - "$l1 $l2 $l3 $a1 $a2 $a3" "$m1 $m2 $m3 $b1 $b2 $b3" <<'PY' || fail "jog"
 import sys
 a = [float(x) for x in sys.argv[1].split()]
@@ -85,7 +89,7 @@ b = [float(x) for x in sys.argv[2].split()]
 d = [y - x for x, y in zip(a, b)]
 print(f"  l1 moved {d[0]:.3f} mm; the others {max(abs(x) for x in d[1:3]):.3f} mm, {max(abs(x) for x in d[3:]):.3f} deg")
 assert 0.5 <= d[0] <= 2.0, "l1 did not move about 1.1 mm"
-assert max(abs(x) for x in d[1:3]) <= 0.01 and max(abs(x) for x in d[3:]) <= 0.01, "another joint moved"
+assert max(abs(x) for x in d[1:3]) <= 0.01 and max(abs(x) for x in d[3:]) <= 0.02 + 1e-9, "another joint moved"
 PY
 
 echo "==> a refused command: re-homing (confirmed) while enabled"
