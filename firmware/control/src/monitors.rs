@@ -280,8 +280,8 @@ const MOTOR_FILTER: f64 = 0.5;
 /// expects for the last tick's duty at the measured speed, `i = (V·d − Ke·ω)/R` (capped at
 /// the drivers' regulation limit), must flow.
 /// * **Open circuit** (a broken lead or connector: the joint is held by nothing but its
-///   brake): the current is below a fifth of the least the model allows, while that is
-///   above the floor. The model is judged on the drive filtered over a few ticks
+///   brake): the current is below a fifth of the model's, while that is above the floor.
+///   The model is judged on the drive filtered over a few ticks
 ///   (`MOTOR_FILTER`, weight `a`), the current sample by sample (an open circuit shows
 ///   at once, before the back-EMF check takes the missing current for motion:
 ///   `EncoderCheck`). The speed is one tick's count difference, off by less than one
@@ -393,11 +393,11 @@ impl<S: Float> MotorCheck<S> {
                     .min(*lim);
                 let allowance =
                     m.back_emf_v_s_per_rad * k * dw.abs() * m.motor_rad_per_unit / m.resistance_ohm;
-                // A sample is open when `|i| < 0.2·filtered`; a healthy motor's steady
-                // current is at least `filtered − allowance`, so it cannot be judged open
-                // while `filtered > allowance / 0.8` is required: the floor is raised to
-                // that where it is below (the defaults are above it: 0.173 A against
-                // 0.169 A on a leg, 0.05 A against 0.021 A on a link).
+                // A sample is open when `|i| < 0.2·filtered`. A healthy motor's steady
+                // current is at least `filtered − allowance`, which is at least a fifth of
+                // `filtered` wherever `filtered ≥ allowance / 0.8`: judging starts there
+                // or at the floor, whichever is higher (the defaults' floors are: 0.173 A
+                // against 0.169 A on a leg, 0.05 A against 0.021 A on a link).
                 let judged_from = floor.max(allowance * lit(1.25));
                 filtered > judged_from && i.abs() < filtered * lit(0.2)
             } else {
