@@ -106,8 +106,22 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Controller<S, M> {
     /// be homed: the measured pose is the supervisor's start).
     pub fn new(
         robot: M,
+        cfg: ControllerConfig<S>,
+        measured: &Measured<S>,
+    ) -> Result<Self, ControllerError<S>> {
+        let start_pose = measured.pose.ok_or(ControllerError::NoPose)?;
+        Self::starting_at(robot, cfg, measured, &start_pose)
+    }
+
+    /// A controller whose supervisor starts at `start_pose` (a pose it has verified, which
+    /// the measurements stand within their resolution of: the caller's to check), its
+    /// servos where the tick's measurements say the joints are (they pull the joints the
+    /// few counts onto the supervisor's setpoint).
+    pub fn starting_at(
+        robot: M,
         mut cfg: ControllerConfig<S>,
         measured: &Measured<S>,
+        start_pose: &Pose<S>,
     ) -> Result<Self, ControllerError<S>> {
         let lo: S = scalar::lit(100.0);
         let hi: S = scalar::lit(10_000.0);
@@ -116,7 +130,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Controller<S, M> {
         }
         let dt = S::one() / cfg.rate_hz;
         cfg.supervisor.dt = dt;
-        let start_pose = measured.pose.ok_or(ControllerError::NoPose)?;
+        let start_pose = *start_pose;
         let supervisor = Supervisor::new(
             robot.clone(),
             cfg.branch,

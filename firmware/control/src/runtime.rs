@@ -110,6 +110,10 @@ pub struct Inputs<S> {
     pub relay_open: bool,
 }
 
+/// Encoder counts a holding servo may stand off its setpoint on each joint: a count
+/// either side (see `Runtime::held_start`).
+const HOLD_COUNTS: f64 = 2.0;
+
 /// The board application: the sensing, the monitors, the state machine, the stops, the
 /// fail-safe timers, homing and the controller, driven by [`Runtime::tick`] (every control
 /// period) and [`Runtime::command`] (every master request).
@@ -123,6 +127,10 @@ pub struct Runtime<S: Scalar, M: Mechanism<S> + Clone> {
     homing: Homing<S>,
     parking: Option<ParkMove<S, M>>,
     controller: Option<Controller<S, M>>,
+    /// The setpoint the last controller held when its stop completed (pose and joints),
+    /// while the reference it was measured in stands: an enable may start from it (see
+    /// `held_start`).
+    held: Option<(Pose<S>, [S; NUM_JOINTS])>,
     enabling: Option<BrakeCheck<S>>,
     stopper: Stopper,
     standstill: Standstill<S>,
@@ -190,6 +198,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             homing,
             parking: None,
             controller: None,
+            held: None,
             enabling: None,
             stopper: Stopper::new(cfg.stops),
             standstill: Standstill::reference(),
@@ -379,6 +388,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         self.jog = None;
         if self.sm.state() == State::Fault && !self.sm.homed() {
             self.sensing.lose_reference();
+            self.held = None;
         }
     }
 
@@ -414,6 +424,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
                     // The master just spoke: the heartbeat timing restarts.
                     self.heartbeat.rearm(now_us);
                     self.sensing.lose_reference();
+                    self.held = None;
                     self.controller = None;
                     self.stopper.clear();
                     self.homing.start(
@@ -445,6 +456,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         }
         if !self.sm.homed() {
             self.sensing.lose_reference();
+            self.held = None;
         }
         self.update_holds(now_us);
         Ok(t)
@@ -467,11 +479,19 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             StopPhase::Running | StopPhase::TorqueOff { .. } => {}
             _ => return Err(Refusal::Busy),
         }
-        match Controller::new(
-            self.robot.clone(),
-            self.cfg.controller,
-            self.sensing.measured(),
-        ) {
+        let measured = *self.sensing.measured();
+        let mut built = Controller::new(self.robot.clone(), self.cfg.controller, &measured);
+        if matches!(built, Err(ControllerError::Supervisor(_))) {
+            if let Some(pose) = self.held_start(&measured.q) {
+                built = Controller::starting_at(
+                    self.robot.clone(),
+                    self.cfg.controller,
+                    &measured,
+                    &pose,
+                );
+            }
+        }
+        match built {
             Ok(c) => self.controller = Some(c),
             Err(ControllerError::NoPose | ControllerError::Supervisor(_)) => {
                 return Err(Refusal::UnsafeStart)
@@ -488,6 +508,24 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             self.brakes_applied_at_us,
         ));
         Ok(())
+    }
+
+    /// Where an enable whose measured pose the supervisor refuses may start instead: the
+    /// setpoint the last controller held, when the measured joints stand within
+    /// `HOLD_COUNTS` encoder counts of its joints. A robot stopped at a limit (the
+    /// workspace edge) holds there to within the servo's counts, and its measured pose may
+    /// stand a count beyond the limit its setpoint keeps to: it is where the supervisor
+    /// left it, not a robot moved out of its workspace, and it must be possible to enable
+    /// it again (or it is stuck until re-homed). Further off, the start is refused.
+    fn held_start(&self, q: &[S; NUM_JOINTS]) -> Option<Pose<S>> {
+        let (pose, held_q) = self.held.as_ref()?;
+        let cpu = &self.cfg.controller.encoders.counts_per_unit;
+        let band: S = lit(HOLD_COUNTS);
+        let near = (0..NUM_JOINTS).all(|j| match (q.get(j), held_q.get(j), cpu.get(j)) {
+            (Some(a), Some(b), Some(c)) if *c > S::zero() => Float::abs(*a - *b) <= band / *c,
+            _ => false,
+        });
+        near.then_some(*pose)
     }
 
     /// The supervisor brakes at the start of a deceleration (and refuses targets).
@@ -811,7 +849,11 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             && !self.sm.drives_on()
             && self.parking.is_none()
         {
-            // The stop is complete: the controller is rebuilt at the next enable.
+            // The stop is complete: the controller is rebuilt at the next enable, which may
+            // start from the setpoint it held.
+            if let Some(sup) = self.controller.as_ref().map(|c| c.supervisor()) {
+                self.held = Some((*sup.setpoint(), to_array(sup.setpoint_joints())));
+            }
             self.controller = None;
         }
         self.write_outputs(hw, &mut duty, now_us);

@@ -1093,3 +1093,95 @@ fn hello_forgets_the_previous_masters_clutch_and_presence() {
     };
     rt.command(&cmd, t).unwrap();
 }
+
+/// A robot disabled at the workspace edge can be enabled again. The supervisor keeps the
+/// setpoint within the task box (x <= 25 mm); the servo holds the joints to within a count
+/// of it, so the measured pose may stand a count beyond the edge (here a braked motor a
+/// count or two off: `count_offset`). The enable starts from the setpoint the last
+/// controller held when the measured joints are within two counts of its joints (the
+/// robot moves at most those counts), and is refused (`OutOfWorkspace`) when they are
+/// further off: a robot moved out of its workspace is not resumed.
+#[test]
+fn an_enable_at_the_workspace_edge_resumes_from_the_held_setpoint() {
+    let (mut rt, mut hw) = runtime_and_plant();
+    let mut t = 0;
+    home_and_enable(&mut rt, &mut hw, &mut t);
+    let z = rt.measured().pose.unwrap().t.z;
+    let edge = 0.025;
+    let target = Pose {
+        t: Vector3::new(edge - 1e-7, 0.0, z),
+        r: Rotation3::identity(),
+    };
+    let (p, r) = control::wire::pose_to_wire(&target);
+    rt.command(
+        &Command::Target {
+            stamp_us: 5_000_000,
+            position_m: p,
+            rotation_vector_rad: r,
+        },
+        t,
+    )
+    .unwrap();
+    run(&mut rt, &mut hw, &mut t, 4000);
+    rt.command(&Command::Disable, t).unwrap();
+    run(&mut rt, &mut hw, &mut t, 200);
+    assert_eq!(rt.state(), State::Ready);
+    let x_at = |rt: &mut Runtime<f64, RsprGeometry<f64>>, hw: &mut PlantHw, t: &mut u64| {
+        run(rt, hw, t, 1);
+        rt.measured().pose.unwrap().t.x
+    };
+    let rest = x_at(&mut rt, &mut hw, &mut t);
+    // The braked motors settled a count or two off, the way that puts the measured pose
+    // furthest beyond the edge.
+    let mut best = ([0i16; 6], rest);
+    for j in 0..6 {
+        for o in [-2i16, -1, 1, 2] {
+            hw.count_offset = [0; 6];
+            hw.count_offset[j] = o;
+            let x = x_at(&mut rt, &mut hw, &mut t);
+            if x > best.1 {
+                best = (hw.count_offset, x);
+            }
+        }
+    }
+    hw.count_offset = best.0;
+    let beyond = x_at(&mut rt, &mut hw, &mut t);
+    println!(
+        "at rest x = {:.4} mm; with the counts {:?}: {:.4} mm (edge {:.1} mm)",
+        rest * 1e3,
+        best.0,
+        beyond * 1e3,
+        edge * 1e3
+    );
+    assert!(beyond > edge, "the measured pose {beyond} is not beyond the edge");
+    let before = hw.plant.joint_positions();
+    rt.command(&Command::Enable, t)
+        .expect("an enable a count beyond the edge where the robot was held");
+    run_while(&mut rt, &mut hw, &mut t, State::Enabling, 1_000);
+    assert_eq!(rt.state(), State::Enabled, "{:?}", rt.status().fault);
+    run(&mut rt, &mut hw, &mut t, 300);
+    let after = hw.plant.joint_positions();
+    let counts = [
+        LEG_COUNTS_PER_M,
+        LEG_COUNTS_PER_M,
+        LEG_COUNTS_PER_M,
+        LINK_COUNTS_PER_RAD,
+        LINK_COUNTS_PER_RAD,
+        LINK_COUNTS_PER_RAD,
+    ];
+    let moved = (0..6)
+        .map(|j| (after[j] - before[j]).abs() * counts[j])
+        .fold(0.0, f64::max);
+    println!("enabled: the joints moved at most {moved:.2} counts");
+    assert!(moved <= 3.0, "the joints moved {moved} counts");
+    // Disabled again, the motors settled ten counts beyond: refused.
+    rt.command(&Command::Disable, t).unwrap();
+    run(&mut rt, &mut hw, &mut t, 200);
+    assert_eq!(rt.state(), State::Ready);
+    hw.count_offset = best.0.map(|o| o * 5);
+    run(&mut rt, &mut hw, &mut t, 1);
+    assert_eq!(
+        rt.command(&Command::Enable, t),
+        Err(NackReason::OutOfWorkspace)
+    );
+}

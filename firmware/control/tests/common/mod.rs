@@ -28,6 +28,9 @@ pub struct PlantHw {
     pub relay_stuck_open: bool,
     /// The brakes' coils are powered (released), as the MCU drives them.
     pub brakes_released: bool,
+    /// Counts added to each encoder's reading (a braked motor settled a count away, within
+    /// its brake's play).
+    pub count_offset: [i16; 6],
 }
 
 impl PlantHw {
@@ -46,6 +49,7 @@ impl PlantHw {
             relay_welded: false,
             relay_stuck_open: false,
             brakes_released: false,
+            count_offset: [0; 6],
         }
         .wired()
     }
@@ -110,7 +114,11 @@ impl PlantHw {
 
 impl QuadratureCounter for PlantHw {
     fn counts(&mut self) -> [u16; 6] {
-        self.plant.encoder_counts()
+        let mut c = self.plant.encoder_counts();
+        for (c, o) in c.iter_mut().zip(self.count_offset) {
+            *c = c.wrapping_add_signed(o);
+        }
+        c
     }
 }
 
