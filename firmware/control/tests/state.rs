@@ -1153,7 +1153,10 @@ fn an_enable_at_the_workspace_edge_resumes_from_the_held_setpoint() {
         beyond * 1e3,
         edge * 1e3
     );
-    assert!(beyond > edge, "the measured pose {beyond} is not beyond the edge");
+    assert!(
+        beyond > edge,
+        "the measured pose {beyond} is not beyond the edge"
+    );
     let before = hw.plant.joint_positions();
     rt.command(&Command::Enable, t)
         .expect("an enable a count beyond the edge where the robot was held");
