@@ -392,7 +392,13 @@ impl Server {
                 }
                 Err(e) if e.kind() == ErrorKind::WouldBlock => break,
                 Err(e) if e.kind() == ErrorKind::Interrupted => continue,
-                Err(e) => client.close = Some(CloseReason::Io(e.to_string())),
+                Err(e) => {
+                    // A reset cuts a message as an orderly close does.
+                    if let Some(m) = client.decoder.finish() {
+                        self.counters.count_malformed(m.kind());
+                    }
+                    client.close = Some(CloseReason::Io(e.to_string()));
+                }
             }
         }
         let discarded = client.decoder.discarded_bytes();
