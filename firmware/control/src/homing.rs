@@ -549,13 +549,7 @@ impl<S: Float> Homing<S> {
         let Some(comp) = self.servo.backlash(joint) else {
             return;
         };
-        let direction = if own > S::zero() {
-            Direction::Positive
-        } else if own < S::zero() {
-            Direction::Negative
-        } else {
-            Direction::Unknown
-        };
+        let direction = Direction::of_sign(own);
         let full = comp.flank_offset(direction);
         let offset = if direction != Direction::Unknown && travel > full.abs() * lit2() {
             full

@@ -181,6 +181,17 @@ pub enum Direction {
 }
 
 impl Direction {
+    /// The direction a signed quantity points (`Unknown` for zero or NaN).
+    pub fn of_sign<S: Float>(x: S) -> Self {
+        if x > S::zero() {
+            Direction::Positive
+        } else if x < S::zero() {
+            Direction::Negative
+        } else {
+            Direction::Unknown
+        }
+    }
+
     fn sign<S: Float>(self) -> S {
         match self {
             Direction::Unknown => S::zero(),
@@ -287,14 +298,7 @@ impl<S: Float> BacklashCompensator<S> {
         } else {
             S::zero()
         };
-        let direction = if offset > S::zero() {
-            Direction::Positive
-        } else if offset < S::zero() {
-            Direction::Negative
-        } else {
-            Direction::Unknown
-        };
-        self.reset(setpoint, direction);
+        self.reset(setpoint, Direction::of_sign(offset));
         self.offset = offset;
     }
 
