@@ -823,6 +823,16 @@ fn run_while(
 }
 
 /// Boots, homes (with the park move) and enables (brake check and release).
+/// The `Target` command for `pose` (stamped 5 s on the master's clock).
+fn target_command(pose: &Pose<f64>) -> Command {
+    let (p, r) = control::wire::pose_to_wire(pose);
+    Command::Target {
+        stamp_us: 5_000_000,
+        position_m: p,
+        rotation_vector_rad: r,
+    }
+}
+
 fn home_and_enable(rt: &mut Runtime<f64, RsprGeometry<f64>>, hw: &mut PlantHw, t: &mut u64) {
     rt.boot_done(hw.counts(), *t, ResetCause::PowerOn, None)
         .unwrap();
@@ -894,13 +904,7 @@ fn runtime_boots_homes_parks_enables_and_follows() {
         t: Vector3::new(0.004, -0.003, 0.162),
         r: Rotation3::from_scaled_axis(Vector3::new(0.02, 0.0, -0.01)),
     };
-    let (p, r) = control::wire::pose_to_wire(&target);
-    let cmd = Command::Target {
-        stamp_us: 5_000_000,
-        position_m: p,
-        rotation_vector_rad: r,
-    };
-    rt.command(&cmd, t).unwrap();
+    rt.command(&target_command(&target), t).unwrap();
     run(&mut rt, &mut hw, &mut t, 1500);
     assert_eq!(rt.state(), State::Enabled);
     let err = (rt.measured().pose.unwrap().t - target.t).norm();
@@ -1003,16 +1007,7 @@ fn measured_joints_are_the_load_side_through_disable_and_enable() {
         t: Vector3::new(0.006, 0.004, 0.164),
         r: Rotation3::from_scaled_axis(Vector3::new(0.0, 0.02, 0.0)),
     };
-    let (p, r) = control::wire::pose_to_wire(&target);
-    rt.command(
-        &Command::Target {
-            stamp_us: 5_000_000,
-            position_m: p,
-            rotation_vector_rad: r,
-        },
-        t,
-    )
-    .unwrap();
+    rt.command(&target_command(&target), t).unwrap();
     run(&mut rt, &mut hw, &mut t, 1500);
     let worst = |rt: &Runtime<f64, RsprGeometry<f64>>, hw: &PlantHw| {
         let (m, truth) = (rt.measured(), hw.plant.joint_positions());
@@ -1112,16 +1107,7 @@ fn an_enable_at_the_workspace_edge_resumes_from_the_held_setpoint() {
         t: Vector3::new(edge - 1e-7, 0.0, z),
         r: Rotation3::identity(),
     };
-    let (p, r) = control::wire::pose_to_wire(&target);
-    rt.command(
-        &Command::Target {
-            stamp_us: 5_000_000,
-            position_m: p,
-            rotation_vector_rad: r,
-        },
-        t,
-    )
-    .unwrap();
+    rt.command(&target_command(&target), t).unwrap();
     run(&mut rt, &mut hw, &mut t, 4000);
     rt.command(&Command::Disable, t).unwrap();
     run(&mut rt, &mut hw, &mut t, 200);
@@ -1164,14 +1150,7 @@ fn an_enable_at_the_workspace_edge_resumes_from_the_held_setpoint() {
     assert_eq!(rt.state(), State::Enabled, "{:?}", rt.status().fault);
     run(&mut rt, &mut hw, &mut t, 300);
     let after = hw.plant.joint_positions();
-    let counts = [
-        LEG_COUNTS_PER_M,
-        LEG_COUNTS_PER_M,
-        LEG_COUNTS_PER_M,
-        LINK_COUNTS_PER_RAD,
-        LINK_COUNTS_PER_RAD,
-        LINK_COUNTS_PER_RAD,
-    ];
+    let counts = EncoderConfig::<f64>::default().counts_per_unit;
     let moved = (0..6)
         .map(|j| (after[j] - before[j]).abs() * counts[j])
         .fold(0.0, f64::max);

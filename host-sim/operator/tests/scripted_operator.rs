@@ -126,7 +126,7 @@ const BACKLASH_BOUND_M: f64 = 0.15e-3;
 /// side of its setpoint, so two counts peak to peak.
 fn hold_band_m(at: &Vector3<f64>, counts: f64) -> f64 {
     use kinematics_core::{inverse, jacobian, Branch, Pose, Robot, RsprGeometry};
-    use servo::encoder::{LEG_COUNTS_PER_M, LINK_COUNTS_PER_RAD};
+    use servo::encoder::EncoderConfig;
     let robot = Robot::Rspr(RsprGeometry::reference());
     let pose = Pose {
         t: *at,
@@ -137,14 +137,7 @@ fn hold_band_m(at: &Vector3<f64>, counts: f64) -> f64 {
         .expect("the held pose is not singular")
         .j;
     let inv = j.try_inverse().expect("J invertible at the held pose");
-    let cpu = [
-        LEG_COUNTS_PER_M,
-        LEG_COUNTS_PER_M,
-        LEG_COUNTS_PER_M,
-        LINK_COUNTS_PER_RAD,
-        LINK_COUNTS_PER_RAD,
-        LINK_COUNTS_PER_RAD,
-    ];
+    let cpu = EncoderConfig::<f64>::default().counts_per_unit;
     (0..6)
         .map(|k| inv.fixed_view::<3, 1>(0, k).norm() * counts / cpu[k])
         .sum()
