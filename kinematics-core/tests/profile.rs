@@ -8,11 +8,12 @@
 //! Bounds are relative rounding of f64 (a few ε on the quantities compared).
 
 use kinematics_core::supervisor::profile::{
-    arrived, braking_point, braking_speed, jac_times, joint_safe_accels, limit_step, speed_caps,
-    step_braking, step_towards, stop_point, ProfileLimits, BRAKING_SHARE,
+    arrived, braking_accels, braking_point, braking_speed, jac_times, joint_safe_accels,
+    limit_step, slowing_step, speed_caps, step_braking, step_scales, step_towards, stop_point,
+    ProfileLimits, StepLimits, BRAKING_SHARE, RESCALE_SHARE,
 };
 use kinematics_core::{JointKind, Pose};
-use nalgebra::{Matrix6, Rotation3, Vector3};
+use nalgebra::{Matrix6, Rotation3, Vector3, Vector6};
 use proptest::prelude::*;
 
 const EPS: f64 = 1e-12;
@@ -199,6 +200,132 @@ proptest! {
         let stated = vp * vp / (2.0 * l.tip_accel) + n * vp * dt;
         prop_assert!((ahead - stated.min(horizon_mm * 1e-3)).abs() <= 1e-12);
         prop_assert!((p.t - pose.t).dot(&dir) >= -1e-15);
+    }
+}
+
+/// Joint rates (or changes of them) up to `linear` on the legs and `angular` on the links.
+fn joint_rates(linear: f64, angular: f64) -> impl Strategy<Value = Vector6<f64>> {
+    (
+        prop::array::uniform3(-linear..linear),
+        prop::array::uniform3(-angular..angular),
+    )
+        .prop_map(|(l, a)| Vector6::new(l[0], l[1], l[2], a[0], a[1], a[2]))
+}
+
+fn step_limits() -> StepLimits<f64> {
+    StepLimits {
+        tip_accel: 0.25,
+        angular_accel: 300f64.to_radians(),
+        joint_speed: [0.06, 3.0],
+        joint_accel: [2.0, 60.0],
+    }
+}
+
+/// Whether the output β·t1 (joint rates β·c) keeps every limit `step_scales` promises,
+/// with a relative slack `tol`.
+fn step_keeps_limits(
+    beta: f64,
+    t0: &Vector6<f64>,
+    t1: &Vector6<f64>,
+    qd0: &Vector6<f64>,
+    c: &Vector6<f64>,
+    tol: f64,
+) -> bool {
+    let (l, dt, share) = (step_limits(), 1e-3, RESCALE_SHARE);
+    let dt_v = (t1.fixed_rows::<3>(0) * beta - t0.fixed_rows::<3>(0)).norm();
+    let dt_w = (t1.fixed_rows::<3>(3) * beta - t0.fixed_rows::<3>(3)).norm();
+    let mut ok =
+        dt_v <= l.tip_accel * dt * (1.0 + tol) && dt_w <= l.angular_accel * dt * (1.0 + tol);
+    for (j, k) in KINDS.iter().enumerate() {
+        let i = usize::from(*k == JointKind::Angular);
+        ok &= (beta * c[j] - qd0[j]).abs() <= share * l.joint_accel[i] * dt * (1.0 + tol);
+        ok &= (beta * c[j]).abs() <= share * l.joint_speed[i] * (1.0 + tol);
+    }
+    ok
+}
+
+proptest! {
+    #![proptest_config(proptest_config::cases(2000))]
+
+    /// The braking decelerations keep J·Δ within headroom × each joint's acceleration
+    /// limit for the change Δ of braking along the twist, and are never below the
+    /// joint-safe accelerations (which bound every direction of change).
+    #[test]
+    fn braking_accels_bound_every_joint_and_never_undercut_the_joint_safe_ones(
+        j in jacobian(), v0 in vector(0.03), w0 in vector(0.6),
+    ) {
+        let l = limits();
+        let joint_accel = [2.0, 60.0];
+        let headroom = 0.8;
+        let (at, aw) = braking_accels(&j, &KINDS, &v0, &w0, l.tip_accel, l.angular_accel, &joint_accel, headroom);
+        prop_assert!(at <= l.tip_accel && aw <= l.angular_accel);
+        let (bt, bw) = joint_safe_accels(&j, &KINDS, l.tip_accel, l.angular_accel, &joint_accel, headroom);
+        prop_assert!(at >= bt * (1.0 - 1e-12) && aw >= bw * (1.0 - 1e-12), "{at} < {bt} or {aw} < {bw}");
+        let (a, b) = (v0.normalize() * at, w0.normalize() * aw);
+        let qdd = jac_times(&j, &[a.x, a.y, a.z, b.x, b.y, b.z]);
+        for (q, k) in qdd.iter().zip(KINDS) {
+            let lim = if k == JointKind::Linear { joint_accel[0] } else { joint_accel[1] };
+            prop_assert!(q.abs() <= headroom * lim * (1.0 + 1e-9));
+        }
+    }
+
+    /// A slowing step changes each speed by at most its Cartesian acceleration in one tick,
+    /// towards the desired twist; J·Δ stays within headroom × each joint's acceleration
+    /// limit; and it moves at least as far towards the desired twist as a step at the
+    /// joint-safe accelerations (which bound every direction of change).
+    #[test]
+    fn a_slowing_step_is_joint_limited_and_never_weaker_than_the_joint_safe_one(
+        j in jacobian(), v0 in vector(0.03), w0 in vector(0.6), kv in 0.0f64..1.0, kw in 0.0f64..1.0,
+    ) {
+        let l = limits();
+        let (joint_accel, headroom, dt) = ([2.0, 60.0], 0.8, 1e-3);
+        let (vd, wd) = (v0 * kv, w0 * kw);
+        let (at, aw) = joint_safe_accels(&j, &KINDS, l.tip_accel, l.angular_accel, &joint_accel, headroom);
+        let (v1, w1) = slowing_step(&j, &KINDS, (&v0, &w0), (&vd, &wd), (at, aw), (l.tip_accel, l.angular_accel), &joint_accel, headroom, dt);
+        let (dv, dw) = (v1 - v0, w1 - w0);
+        prop_assert!(dv.norm() <= l.tip_accel * dt * (1.0 + 1e-12) && dw.norm() <= l.angular_accel * dt * (1.0 + 1e-12));
+        // Along the desired change, never past it.
+        prop_assert!(dv.dot(&(vd - v0)) >= -1e-18 && dv.norm() <= (vd - v0).norm() * (1.0 + 1e-12));
+        prop_assert!(dw.dot(&(wd - w0)) >= -1e-18 && dw.norm() <= (wd - w0).norm() * (1.0 + 1e-12));
+        let qdd = jac_times(&j, &[dv.x, dv.y, dv.z, dw.x, dw.y, dw.z]);
+        for (q, k) in qdd.iter().zip(KINDS) {
+            let lim = if k == JointKind::Linear { joint_accel[0] } else { joint_accel[1] };
+            prop_assert!(q.abs() <= headroom * lim * dt * (1.0 + 1e-9));
+        }
+        let safe_v = v0 + limit_step(vd - v0, at, dt);
+        let safe_w = w0 + limit_step(wd - w0, aw, dt);
+        prop_assert!((v1 - vd).norm() <= (safe_v - vd).norm() + 1e-15, "linear: {} > {}", (v1 - vd).norm(), (safe_v - vd).norm());
+        prop_assert!((w1 - wd).norm() <= (safe_w - wd).norm() + 1e-13, "angular: {} > {}", (w1 - wd).norm(), (safe_w - wd).norm());
+    }
+
+    /// Every scale `step_scales` returns keeps the Cartesian accelerations, and the joint
+    /// rates within the share of their speed and acceleration limits, the interval lies in
+    /// [0, 1]; and when it returns none, no scale on a fine grid of [0, 1] does. The states
+    /// are those of a step near a serial singularity: joint rates up to their
+    /// limits and changes of up to the acceleration limits in one tick.
+    #[test]
+    fn step_scales_keep_every_limit_and_miss_none(
+        v0 in vector(0.03), w0 in vector(0.6), dv in vector(0.00015), dw in vector(0.003),
+        qd0 in joint_rates(0.06, 3.0), dq in joint_rates(0.002, 0.06),
+    ) {
+        let t0 = Vector6::new(v0.x, v0.y, v0.z, w0.x, w0.y, w0.z);
+        let t1 = t0 + Vector6::new(dv.x, dv.y, dv.z, dw.x, dw.y, dw.z);
+        let c = qd0 + dq;
+        let found = step_scales(&t0, &t1, &qd0, &c, &KINDS, &step_limits(), 1e-3);
+        match found {
+            Some((lo, hi)) => {
+                prop_assert!((0.0..=1.0).contains(&lo) && lo <= hi && hi <= 1.0, "[{lo}, {hi}]");
+                for beta in [lo, 0.5 * (lo + hi), hi] {
+                    prop_assert!(step_keeps_limits(beta, &t0, &t1, &qd0, &c, 1e-9), "beta {beta}");
+                }
+            }
+            None => {
+                for k in 0..=10_000 {
+                    let beta = f64::from(k) / 10_000.0;
+                    prop_assert!(!step_keeps_limits(beta, &t0, &t1, &qd0, &c, -1e-9), "missed beta {beta}");
+                }
+            }
+        }
     }
 }
 

@@ -671,3 +671,74 @@ fn a_target_next_to_a_boundary_is_reached() {
         assert_eq!(sup.counters().brakes, 0);
     }
 }
+
+/// Regression (found by a fresh-seed run): the robot brakes along its twist towards the
+/// serial singularity of chain 2; the joint accelerations must stay within their limits,
+/// including the part J̇·twist that the Cartesian deceleration does not control.
+#[test]
+fn braking_towards_a_serial_singularity_keeps_the_joint_accelerations() {
+    let events = [
+        (
+            Event::Target(
+                [20.55242308737629, 23.158022640548538, 6.598334304459649],
+                [0.28565585000157057, -0.2506164179833699, 0.239507245020635],
+            ),
+            113,
+        ),
+        (Event::Nothing, 195),
+        (Event::Nothing, 126),
+        (Event::Nothing, 193),
+        (Event::Nothing, 128),
+        (
+            Event::Target(
+                [-10.320426214708577, -22.28751961283577, -27.830585399528807],
+                [0.0, 0.0, 0.0],
+            ),
+            4,
+        ),
+        (Event::Nothing, 95),
+        (Event::Nothing, 176),
+        (Event::Nothing, 137),
+        (Event::Nothing, 152),
+        (Event::Nothing, 92),
+        (Event::Nothing, 159),
+        (Event::Nothing, 143),
+    ];
+    run(&events).unwrap();
+}
+
+/// Regression (found by a fresh-seed run): turning back and forth near link 3's serial
+/// singularity.
+#[test]
+fn turning_near_a_serial_singularity_keeps_the_joint_accelerations() {
+    let t = |r: [f64; 3]| Event::Target([0.0, 0.0, 0.0], r);
+    let events = [
+        (
+            t([0.223389068635184, -0.22479084651756343, 0.157671242657365]),
+            101,
+        ),
+        (
+            Event::Target(
+                [17.15715101764255, -17.254897408357266, 9.793696603008812],
+                [
+                    -0.16303878527273521,
+                    -0.36777652769157937,
+                    -0.16232353003110517,
+                ],
+            ),
+            188,
+        ),
+        (Event::Nothing, 183),
+        (Event::Nothing, 171),
+        (Event::Nothing, 120),
+        (t([0.3491529511311262, -0.3390650687745866, 0.0]), 169),
+        (Event::Nothing, 20),
+        (Event::Nothing, 154),
+        (Event::Stale, 142),
+        (t([0.0, 0.24717507478661105, 0.2606301706097746]), 183),
+        (Event::Nothing, 169),
+        (Event::Nothing, 194),
+        (Event::Nothing, 178),
+    ];
+    run(&events).unwrap();
+}

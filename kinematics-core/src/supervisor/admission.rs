@@ -64,6 +64,10 @@ pub struct Counters {
     pub brakes: u32,
     pub stops: u32,
     pub warn_ticks: u32,
+    /// Ticks whose step was scaled down to keep the joints within their speed and
+    /// acceleration limits ([`super::profile::step_scales`]: J̇·twist near a serial
+    /// singularity, which the Cartesian profile does not see).
+    pub slowed: u32,
 }
 
 impl Counters {

@@ -240,6 +240,16 @@ pub(super) enum Job {
     Ahead,
 }
 
+/// One tick's step: the candidate setpoint, its twist and joint rates, what its kinematic
+/// check solved and the warn-level guard it reached.
+struct Step<T: Real> {
+    pose: Pose<T>,
+    twist: Twist<T>,
+    qdot: Joints<T>,
+    solved: Solved,
+    warn: Option<Guard>,
+}
+
 /// The motion limits scaled by (1 - 1000 ε).
 fn shaved<T: Real>(l: &Limits<T>) -> Limits<T> {
     let k = T::one() - T::default_epsilon() * lit(1000.0);
@@ -500,6 +510,74 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         }
     }
 
+    /// One tick of the profile from the twist (`v0`, `w0`) towards the desired (`vd`,
+    /// `wd`): each change limited to `l`'s accelerations (what the joints follow whatever
+    /// the direction); while it slows down (neither speed grows), the full Cartesian
+    /// accelerations scaled to what the joints follow for this change
+    /// ([`profile::slowing_step`], never less), so that the profile keeps up with speed caps
+    /// that fall as J grows towards a serial singularity. The speeds never grow faster than
+    /// `l` allows, which the braking points assume, and slow at least as fast as `l` allows,
+    /// which the braking curve assumes.
+    fn profile_step(
+        &self,
+        l: &ProfileLimits<T>,
+        (v0, w0): (&Vector3<T>, &Vector3<T>),
+        (vd, wd): (&Vector3<T>, &Vector3<T>),
+    ) -> (Vector3<T>, Vector3<T>) {
+        let dt = self.cfg.dt;
+        let slowing = norm3(vd) <= norm3(v0) && norm3(wd) <= norm3(w0);
+        match self.setpoint_jacobian() {
+            Some(j) if slowing => {
+                let full = shaved(self.guards.limits());
+                profile::slowing_step(
+                    j,
+                    &self.guards.robot().joint_kinds(),
+                    (v0, w0),
+                    (vd, wd),
+                    (l.tip_accel, l.angular_accel),
+                    (full.tip_accel, full.angular_accel),
+                    &full.joint_accel,
+                    self.cfg.joint_accel_headroom,
+                    dt,
+                )
+            }
+            _ => (
+                v0 + profile::limit_step(vd - v0, l.tip_accel, dt),
+                w0 + profile::limit_step(wd - w0, l.angular_accel, dt),
+            ),
+        }
+    }
+
+    /// The profile limits of a controlled stop along the twist (`v0`, `w0`): the full
+    /// (shaved) decelerations scaled to what the joints can follow in this direction
+    /// ([`profile::braking_accels`]), never less than `l`'s.
+    fn braking_limits(
+        &self,
+        l: &ProfileLimits<T>,
+        v0: &Vector3<T>,
+        w0: &Vector3<T>,
+    ) -> ProfileLimits<T> {
+        let full = shaved(self.guards.limits());
+        let Some(j) = self.setpoint_jacobian() else {
+            return *l;
+        };
+        let (tip_accel, angular_accel) = profile::braking_accels(
+            j,
+            &self.guards.robot().joint_kinds(),
+            v0,
+            w0,
+            full.tip_accel,
+            full.angular_accel,
+            &full.joint_accel,
+            self.cfg.joint_accel_headroom,
+        );
+        ProfileLimits {
+            tip_accel: tip_accel.max(l.tip_accel),
+            angular_accel: angular_accel.max(l.angular_accel),
+            ..*l
+        }
+    }
+
     /// Speed caps along the unit directions at the setpoint ([`profile::speed_caps`]).
     fn speed_caps(&self, l: &ProfileLimits<T>, dir_v: &Vector3<T>, dir_w: &Vector3<T>) -> (T, T) {
         match self.setpoint_jacobian() {
@@ -641,6 +719,61 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         motion_stop
     }
 
+    /// A step the motion guards refused, scaled down by β ([`profile::step_scales`]) to
+    /// keep every joint within its speed and acceleration limits: the candidate displaced
+    /// by β·twist·dt, with its own kinematic check and joint rates. While braking the least
+    /// β (the shortest stop), else the largest (the least slow-down); a slower step stays
+    /// on the stretch the braking points checked. `Err(Some(reading))` when the rescaled
+    /// candidate violates a stop level, `Err(None)` when no β keeps the limits (or the
+    /// rescaled step still does not): the caller holds.
+    fn rescaled_step(&mut self, step: &Step<T>) -> Result<Step<T>, Option<Reading<T>>> {
+        if step.solved != Solved::WithJacobian {
+            return Err(None);
+        }
+        let l = shaved(self.guards.limits());
+        let limits = profile::StepLimits {
+            tip_accel: l.tip_accel,
+            angular_accel: l.angular_accel,
+            joint_speed: l.joint_speed,
+            joint_accel: l.joint_accel,
+        };
+        let kinds = self.guards.robot().joint_kinds();
+        let dt = self.cfg.dt;
+        let (lo, hi) = profile::step_scales(
+            &self.twist,
+            &step.twist,
+            &self.qdot,
+            &step.qdot,
+            &kinds,
+            &limits,
+            dt,
+        )
+        .ok_or(None)?;
+        let beta = if self.braking { lo } else { hi };
+        let twist = step.twist * beta;
+        let (v, w) = (twist.fixed_rows::<3>(0), twist.fixed_rows::<3>(3));
+        let pose = self.pose.displaced(&(v * dt), &(w * dt));
+        let (stop, warn, solved) = self.kinematic_check(&pose);
+        if let Some(r) = stop {
+            return Err(Some(r));
+        }
+        if solved != Solved::WithJacobian {
+            return Err(None);
+        }
+        let qdot = self.candidate_rates(&twist, true);
+        if self.motion_stop(&twist, &qdot).is_some() {
+            return Err(None);
+        }
+        self.counters.slowed += 1;
+        Ok(Step {
+            pose,
+            twist,
+            qdot,
+            solved,
+            warn: warn.or(self.ahead_warn),
+        })
+    }
+
     /// Snaps onto the (verified) goal and stops: its kinematic check first (the goal was
     /// checked in full: the end of its path, first of all).
     fn arrive(&mut self, at_goal: bool) -> TickOutput<T> {
@@ -692,8 +825,9 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             Vector3::zeros()
         };
         let (vcap, wcap) = self.speed_caps(&l, &dir_v, &dir_w);
-        let mut v1 = profile::step_towards(&v0, &dir_v, d, vcap, l.tip_accel, dt);
-        let mut w1 = profile::step_towards(&w0, &dir_w, a, wcap, l.angular_accel, dt);
+        let vd = profile::desired_velocity(&dir_v, d, vcap, l.tip_accel, dt);
+        let wd = profile::desired_velocity(&dir_w, a, wcap, l.angular_accel, dt);
+        let (mut v1, mut w1) = self.profile_step(&l, (&v0, &w0), (&vd, &wd));
         if !self.braking && self.pending.is_none() && profile::arrived(d, a, &v0, &w0, &l, dt) {
             return self.arrive(d + a == T::zero());
         }
@@ -713,10 +847,11 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             }
             self.braking = true;
             self.drop_pending();
-            v1 = profile::step_braking(&v0, l.tip_accel, dt);
-            w1 = profile::step_braking(&w0, l.angular_accel, dt);
+            let b = self.braking_limits(&l, &v0, &w0);
+            v1 = profile::step_braking(&v0, b.tip_accel, dt);
+            w1 = profile::step_braking(&w0, b.angular_accel, dt);
             candidate = self.pose.displaced(&(v1 * dt), &(w1 * dt));
-            self.goal = profile::stop_point(&v1, &w1, &candidate, &l);
+            self.goal = profile::stop_point(&v1, &w1, &candidate, &b);
         }
         let (stop, warn, solved) = self.kinematic_check(&candidate);
         // A warn level of the parallel measure or a payload effort reached at the braking
@@ -728,11 +863,33 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             _ => {}
         }
         // The guards computed the candidate's Jacobians already (in the scratch): reuse them.
-        let twist = Twist::new(v1.x, v1.y, v1.z, w1.x, w1.y, w1.z);
-        let qdot = self.candidate_rates(&twist, solved == Solved::WithJacobian);
-        if let Some(r) = self.motion_stop(&twist, &qdot) {
-            return self.hold(r);
+        let mut step = Step {
+            pose: candidate,
+            twist: Twist::new(v1.x, v1.y, v1.z, w1.x, w1.y, w1.z),
+            qdot: Joints::zeros(),
+            solved,
+            warn,
+        };
+        step.qdot = self.candidate_rates(&step.twist, solved == Solved::WithJacobian);
+        if let Some(r) = self.motion_stop(&step.twist, &step.qdot) {
+            step = match self.rescaled_step(&step) {
+                Ok(s) => s,
+                Err(reason) => return self.hold(reason.unwrap_or(r)),
+            };
+            if self.braking {
+                let (v, w) = (step.twist.fixed_rows::<3>(0), step.twist.fixed_rows::<3>(3));
+                let b = self.braking_limits(&l, &v0, &w0);
+                self.goal = profile::stop_point(&v.into(), &w.into(), &step.pose, &b);
+            }
         }
+        let Step {
+            pose: candidate,
+            twist,
+            qdot,
+            solved,
+            warn,
+        } = step;
+        let (v1, w1) = (twist.fixed_rows::<3>(0), twist.fixed_rows::<3>(3));
         self.keep_candidate(&candidate, solved);
         self.qdot = qdot;
         self.twist = twist;
@@ -740,7 +897,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         if warn.is_some() {
             self.counters.warn_ticks += 1;
         }
-        if self.braking && norm3(&v1) + norm3(&w1) == T::zero() {
+        if self.braking && v1.norm() + w1.norm() == T::zero() {
             self.braking = false;
             self.goal = self.pose;
         }
