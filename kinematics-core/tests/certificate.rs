@@ -243,3 +243,25 @@ fn constraints_at_the_centre_and_a_corner() {
         }
     }
 }
+
+proptest! {
+    #![proptest_config(proptest_config::cases(512))]
+
+    /// Property: `angle_bound` bounds the rotation angle of a·bᵀ from above (conservative
+    /// region tests) and exceeds it by no more than 2·tan(θ/2) - θ (plus rounding).
+    #[test]
+    fn angle_bound_is_an_upper_bound(
+        ra in prop::array::uniform3(-1.5f64..1.5),
+        rb in prop::array::uniform3(-1.5f64..1.5),
+    ) {
+        let a = Rotation3::from_scaled_axis(Vector3::from(ra));
+        let b = Rotation3::from_scaled_axis(Vector3::from(rb));
+        let theta = kinematics_core::pose::rotation_angle(&(a * b.inverse()));
+        let bound = certificate::angle_bound(&a, &b);
+        prop_assert!(bound >= theta - 1e-12, "{bound} < {theta}");
+        if theta < 3.1 {
+            let exact = 2.0 * (theta / 2.0).tan();
+            prop_assert!(bound <= exact * (1.0 + 1e-9) + 1e-7, "{bound} vs {exact}");
+        }
+    }
+}

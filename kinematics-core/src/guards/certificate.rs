@@ -78,6 +78,7 @@ use crate::mechanism::{JointKind, Mechanism};
 use crate::pose::{rotation_angle, Pose};
 use crate::scalar::{dot3, lit, norm3, sqrt, sub3, Real};
 use crate::statics::Statics;
+use nalgebra::Rotation3;
 
 use super::{Guard, Guards};
 
@@ -158,10 +159,10 @@ impl<T: Real> Certificate<T> {
             .all(|(a, b)| *a * dt + *b * dtheta < T::one())
     }
 
-    /// Whether `pose` is inside.
+    /// Whether `pose` is inside (with [`angle_bound`] for the rotation: conservative).
     pub fn contains(&self, pose: &Pose<T>) -> bool {
-        let (dt, dr) = offset(&self.center, pose);
-        self.contains_offset(dt, dr)
+        let dt = norm3(&sub3(&pose.t, &self.center.t));
+        self.contains_offset(dt, angle_bound(&pose.r, &self.center.r))
     }
 
     /// Whether every pose of a straight motion `from` → `to` (translation and rotation
@@ -169,13 +170,34 @@ impl<T: Real> Certificate<T> {
     /// whose translation and rotation may end at different times) is inside. Uses
     /// |Δt(s)| ≤ max(|Δt_from|, |Δt_to|) (the norm is convex) and θ(s) ≤ (θ_from + θ_to +
     /// θ_from,to)/2 (the triangle inequality from either end).
+    /// The angles are bounded from above ([`angle_bound`]), so the test is conservative.
     pub fn contains_motion(&self, from: &Pose<T>, to: &Pose<T>) -> bool {
-        let (ta, ra) = offset(&self.center, from);
-        let (tb, rb) = offset(&self.center, to);
-        let r_ab = rotation_angle(&(to.r * from.r.inverse()));
+        let ta = norm3(&sub3(&from.t, &self.center.t));
+        let tb = norm3(&sub3(&to.t, &self.center.t));
+        let ra = angle_bound(&from.r, &self.center.r);
+        let rb = angle_bound(&to.r, &self.center.r);
+        let r_ab = angle_bound(&to.r, &from.r);
         let half = lit::<T>(0.5);
         self.contains_offset(ta.max(tb), (ra + rb + r_ab) * half)
     }
+}
+
+/// An upper bound of the angle of the rotation a·bᵀ, cheap (no product of the matrices,
+/// no trigonometry): with cos θ = (tr(a·bᵀ) - 1)/2 and tr(a·bᵀ) = Σ a_ij b_ij,
+/// 2·tan(θ/2) = 2·√((1 - cos θ)/(1 + cos θ)) ≥ θ on [0, π) (relative excess θ²/12: 0.1 %
+/// at 6 deg); infinite from 179 deg on (nothing is certified that far).
+pub fn angle_bound<T: Real>(a: &Rotation3<T>, b: &Rotation3<T>) -> T {
+    let (ma, mb) = (a.matrix(), b.matrix());
+    let mut tr = T::zero();
+    for (x, y) in ma.iter().zip(mb.iter()) {
+        tr += *x * *y;
+    }
+    let one = T::one();
+    let c = ((tr - one) * lit::<T>(0.5)).min(one);
+    if !(c > lit(-0.9998)) {
+        return T::max_value().unwrap_or(one / T::default_epsilon());
+    }
+    lit::<T>(2.0) * sqrt((one - c) / (one + c))
 }
 
 /// |Δt| and the rotation angle of `pose` from `center`.

@@ -17,7 +17,7 @@ use control::{Controller, ControllerConfig, PoseStatus, Sensing, TickReport, Too
 use core::hint::black_box;
 use cortex_m_rt::entry;
 use cortex_m_semihosting::debug;
-use kinematics_core::guards::{Guards, Limits, MotionSample};
+use kinematics_core::guards::{Guards, Limits, MotionSample, Staged};
 use kinematics_core::ik::{inverse_into, platform_chain, Solution};
 use kinematics_core::jacobian::{jacobian_into, Jacobians};
 use kinematics_core::lu::Lu6;
@@ -457,6 +457,29 @@ fn parts() {
             })
         });
         hprintln!("@label guards: evaluate_motion (speeds, accelerations)");
+        // The certified region of one full evaluation, and the test of a straight motion
+        // against it (the supervisor's fast path: a target's segment, a braking stretch).
+        let mut staged = Staged::new(Branch::OUTER);
+        staged.start(&pose);
+        let mut cond = ConditionEstimator::new();
+        while !staged.is_finished() {
+            guards.advance(&mut staged, &mut cond);
+        }
+        if let Some(full) = staged.full() {
+            let mut cert = None;
+            measure(&mut || cert = guards.certify(&full));
+            hprintln!("@label guards: certify (the region of one full evaluation)");
+            if let Some(c) = cert {
+                let to = pose.displaced(
+                    &Vector3::new(2e-4, -1e-4, 0.0),
+                    &Vector3::new(0.0, 0.0, 1e-4),
+                );
+                let mut inside = false;
+                measure(&mut || inside = c.contains_motion(&pose, &to));
+                hprintln!("@label   Certificate::contains_motion (one straight motion)");
+                black_box(inside);
+            }
+        }
         black_box((verdict_ok, m, det, tilts, st));
     }
     hprintln!(
