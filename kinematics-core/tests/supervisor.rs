@@ -516,6 +516,71 @@ fn fast_target_stream_is_followed_not_starved() {
     assert!(sup.counters().accepted >= 2 && sup.counters().superseded > 0);
 }
 
+/// Property: once the checker has certified the region around the goal (the idle checker
+/// evaluates it), a target whose segment lies in the region is accepted on submission,
+/// before any tick, and followed; a target beyond the region near the workspace boundary
+/// is not certified and goes through the staged path check (accepted some ticks later,
+/// or refused on a violation); the certified fast path never lets a setpoint out of the
+/// stop-level guards.
+#[test]
+fn targets_in_a_certified_region_are_accepted_at_once() {
+    let mut sup = supervisor(Limits::reference());
+    let mut now = 1_000u64;
+    // The idle checker certifies the region around the start (a full evaluation: a few
+    // ticks).
+    for _ in 0..20 {
+        now += 1000;
+        sup.tick();
+    }
+    // The region at the centre: about 1.1 mm of translation alone, 0.29 deg of rotation
+    // alone (the reference limits with the tool as payload).
+    let cert = sup.certificate().copied().unwrap();
+    assert_eq!(cert.center.t, Vector3::new(0.0, 0.0, 0.160));
+    assert!(
+        cert.reach_t > 0.5e-3 && cert.reach_r > 0.1 * DEG,
+        "{cert:?}"
+    );
+    let near = Pose {
+        t: Vector3::new(0.0002, -0.0001, 0.16005),
+        r: Rotation3::from_scaled_axis(Vector3::new(0.0, 0.0, 0.02 * DEG)),
+    };
+    assert!(cert.contains_motion(sup.setpoint(), &near));
+    sup.submit(&near, now, now).unwrap();
+    assert_eq!(sup.counters().certified, 1, "{:?}", sup.counters());
+    assert_eq!(sup.counters().accepted, 1, "accepted on submission");
+    for _ in 0..600 {
+        now += 1000;
+        let out = sup.tick();
+        assert!(!sup.guards().check_pose(&out.pose).0.is_stop());
+    }
+    assert!(
+        (sup.setpoint().t - near.t).norm() < 1e-9,
+        "{:?}",
+        sup.setpoint().t
+    );
+    // At the workspace's edge (box half 20 mm + margin 5 mm): beyond the region.
+    let edge = Pose {
+        t: Vector3::new(0.0245, 0.0, 0.1605),
+        r: Rotation3::identity(),
+    };
+    sup.submit(&edge, now, now).unwrap();
+    assert_eq!(
+        sup.counters().certified,
+        1,
+        "not certified: {:?}",
+        sup.counters()
+    );
+    assert_eq!(sup.counters().accepted, 1, "verified in stages first");
+    let mut ticks = 0;
+    while sup.counters().accepted == 1 && ticks < 2000 {
+        ticks += 1;
+        let out = sup.tick();
+        assert!(!sup.guards().check_pose(&out.pose).0.is_stop());
+    }
+    assert_eq!(sup.counters().accepted, 2, "the staged check accepted it");
+    assert!(ticks > 5, "after {ticks} ticks");
+}
+
 /// Constant bounded work per tick: whatever the master sends, a tick runs at most two
 /// inverse kinematics (the candidate's and one stage of the full evaluation in progress)
 /// and at most two Jacobians; the parallel measure's SVD and the statics are stages of

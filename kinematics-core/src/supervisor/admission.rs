@@ -61,6 +61,11 @@ pub struct Counters {
     pub path_refused: u32,
     pub refused_latched: u32,
     pub superseded: u32,
+    /// Targets accepted at once because their whole segment lies in a certified region
+    /// (also counted in `accepted`).
+    pub certified: u32,
+    /// Braking-point checks answered by a certified region instead of a full evaluation.
+    pub ahead_certified: u32,
     pub brakes: u32,
     pub stops: u32,
     pub warn_ticks: u32,
@@ -126,6 +131,16 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         }
         self.check_distance(target)?;
         self.last_stamp_us = Some(stamp_us);
+        // Inside a certified region: accepted at once, superseding a path in verification.
+        if self.accept_certified(target) {
+            if self.pending.take().is_some() || self.queued.take().is_some() {
+                self.counters.superseded += 1;
+            }
+            if matches!(self.job, Some(super::Job::Path | super::Job::PathEnd)) {
+                self.job = None;
+            }
+            return Ok(());
+        }
         if self.pending.is_some() {
             if self.queued.is_some() {
                 self.counters.superseded += 1;

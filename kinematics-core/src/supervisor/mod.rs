@@ -33,14 +33,26 @@
 //!    A stop-level violation of the candidate holds the last safe setpoint and latches the
 //!    reason until [`Supervisor::clear`].
 //!
+//! 4. **Certified regions** ([`crate::guards::certificate`]): every full evaluation
+//!    without a stop-level violation certifies a region around its pose (a Lipschitz bound
+//!    of every stop-level guard's margin along straight motions); the newest two are kept.
+//!    A target whose whole segment (from the same start as its path check) lies in one is
+//!    accepted at once, without a path check, and a braking point whose whole stretch from
+//!    the setpoint lies in one passes without an evaluation of its own: the region's
+//!    guarantee covers every pose of those straight motions, not only samples of them.
+//!    When no path or braking point waits, the checker evaluates the goal to certify the
+//!    region around it, so the region follows the stream. Near a boundary the regions
+//!    shrink and the staged checks above take over.
+//!
 //! Modules: [`admission`] (the checks at submission, refusals, counters), [`path`] (the
-//! path check and the checker's jobs), [`profile`] (the motion profile, pure functions).
+//! path check, the certified regions and the checker's jobs), [`profile`] (the motion
+//! profile, pure functions).
 
 use crate::branch::Branch;
 use crate::double_buffer::DoubleBuffer;
 use crate::guards::{
-    Depth, Evaluation, Guard, GuardSetupError, Guards, Limits, MotionSample, Reading, Severity,
-    Solved, Staged,
+    Certificate, Depth, Evaluation, Guard, GuardSetupError, Guards, Limits, MotionSample, Reading,
+    Severity, Solved, Staged,
 };
 use crate::jacobian::{jacobian_into, Jacobians};
 use crate::mechanism::{JointKind, Mechanism};
@@ -225,6 +237,13 @@ pub struct Supervisor<T: Real, M: Mechanism<T>> {
     job_for_next: bool,
     /// The parallel measure of the last full evaluation.
     parallel: T,
+    /// The regions certified by the newest two full evaluations without a stop-level
+    /// violation ([`crate::guards::certificate`]): a target whose segment lies in one is
+    /// accepted at once, and a braking point whose stretch from the setpoint does needs
+    /// no evaluation of its own.
+    certs: [Option<Certificate<T>>; 2],
+    /// The checker's finished evaluation is to be certified in its next slot.
+    certify_next: bool,
 }
 
 pub use crate::guards::MAX_STAGES;
@@ -238,6 +257,8 @@ pub(super) enum Job {
     PathEnd,
     /// The braking point.
     Ahead,
+    /// The goal, to certify the region around it (when nothing else waits).
+    Refresh,
 }
 
 /// One tick's step: the candidate setpoint, its twist and joint rates, what its kinematic
@@ -352,6 +373,8 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             next_goal: None,
             job_for_next: false,
             parallel: start_parallel,
+            certs: [None; 2],
+            certify_next: false,
         })
     }
 
@@ -402,6 +425,11 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
     /// a known tool load to the joints.
     pub fn jacobians(&self) -> Option<&Jacobians<T>> {
         self.jac_ok.then_some(&self.evals.current().jac)
+    }
+
+    /// The newest certified region, if any (see [`crate::guards::certificate`]).
+    pub fn certificate(&self) -> Option<&Certificate<T>> {
+        self.certs[0].as_ref()
     }
 
     /// The latched stop reason.
@@ -653,14 +681,33 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         let stages = self.cfg.stages_per_tick;
         let mut ahead_stop = false;
         for _ in 0..stages {
+            if self.certify_next {
+                self.certify_next = false;
+                self.keep_certificate();
+                continue;
+            }
             if self.job.is_none() {
                 let horizon = self.next_goal.unwrap_or(self.goal);
                 let for_next = self.next_goal.is_some();
-                let ahead = (moving && !self.braking).then(|| {
+                let mut ahead = (moving && !self.braking).then(|| {
                     let per_job = MAX_STAGES.div_ceil(u32::from(stages));
                     let n = lit::<T>(f64::from(3 * per_job));
                     profile::braking_point(&self.pose, v0, w0, &horizon, l, n, self.cfg.dt)
                 });
+                // A braking point whose whole stretch from the setpoint lies in a
+                // certified region passes at once (as a passed check would).
+                if let Some(a) = ahead {
+                    if let Some(warn) = self.certified(&self.pose, &a) {
+                        self.counters.ahead_certified += 1;
+                        self.ahead_warn = warn;
+                        if for_next {
+                            if let Some(next) = self.next_goal.take() {
+                                self.goal = next;
+                            }
+                        }
+                        ahead = None;
+                    }
+                }
                 self.start_job(ahead.as_ref());
                 if self.job == Some(Job::Ahead) {
                     self.job_for_next = for_next;

@@ -8,7 +8,7 @@ use nalgebra::Vector3;
 
 use super::admission::Refusal;
 use super::{Job, Supervisor};
-use crate::guards::Reading;
+use crate::guards::{Guard, Reading};
 use crate::mechanism::Mechanism;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -49,19 +49,10 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
     /// from the setpoint. The motion from the setpoint to the new goal stays within the
     /// braking-point checks. While braking, from the setpoint.
     pub(super) fn start_pending(&mut self, target: &Pose<T>) {
-        let samples_from = |from: &Pose<T>| {
-            let distance = norm3(&(target.t - from.t));
-            let angle = rotation_angle(&(target.r * from.r.inverse()));
-            (distance / self.cfg.path_step).max(angle / self.cfg.path_step_angle)
-        };
-        let goal = self.next_goal.unwrap_or(self.goal);
-        let (at_goal, at_setpoint) = (samples_from(&goal), samples_from(&self.pose));
-        // (The setpoint is within `max_segment` of the target: checked on submission.)
-        let (from, n) = if !self.braking && at_goal < at_setpoint {
-            (goal, at_goal)
-        } else {
-            (self.pose, at_setpoint)
-        };
+        if self.accept_certified(target) {
+            return;
+        }
+        let (from, n) = self.path_start(target);
         let n = n.ceil().max(T::one());
         let samples = crate::geometry::to_f64(n) as u16;
         let (dv, dw) = segment(&from, target);
@@ -74,6 +65,72 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             next: 1,
             end_checked: false,
         });
+    }
+
+    /// Where the path to `target` starts and how many samples it needs (unrounded): from
+    /// whichever of the goal the robot is heading for and the setpoint is nearer to it
+    /// (the setpoint while braking).
+    fn path_start(&self, target: &Pose<T>) -> (Pose<T>, T) {
+        let samples_from = |from: &Pose<T>| {
+            let distance = norm3(&(target.t - from.t));
+            let angle = rotation_angle(&(target.r * from.r.inverse()));
+            (distance / self.cfg.path_step).max(angle / self.cfg.path_step_angle)
+        };
+        let goal = self.next_goal.unwrap_or(self.goal);
+        let (at_goal, at_setpoint) = (samples_from(&goal), samples_from(&self.pose));
+        // (The setpoint is within `max_segment` of the target: checked on submission.)
+        if !self.braking && at_goal < at_setpoint {
+            (goal, at_goal)
+        } else {
+            (self.pose, at_setpoint)
+        }
+    }
+
+    /// Whether a certified region (the newest two) contains the whole straight motion
+    /// `from` → `to`: then no pose of it violates a stop-level guard
+    /// ([`crate::guards::certificate`]); the region's centre warning, if any.
+    pub(super) fn certified(&self, from: &Pose<T>, to: &Pose<T>) -> Option<Option<Guard>> {
+        self.certs
+            .iter()
+            .flatten()
+            .find(|c| c.contains_motion(from, to))
+            .map(|c| c.warn)
+    }
+
+    /// Accepts `target` at once when the segment its path check would sample lies in a
+    /// certified region (not while braking): it becomes the goal, or the next goal while
+    /// moving (which a braking-point check, itself certified or evaluated, promotes).
+    pub(super) fn accept_certified(&mut self, target: &Pose<T>) -> bool {
+        if self.braking {
+            return false;
+        }
+        let (from, _) = self.path_start(target);
+        if self.certified(&from, target).is_none() {
+            return false;
+        }
+        self.accept(target);
+        self.counters.certified += 1;
+        true
+    }
+
+    /// A verified target: the goal, or the next goal while moving.
+    fn accept(&mut self, target: &Pose<T>) {
+        if self.twist.iter().any(|x| *x != T::zero()) {
+            self.next_goal = Some(*target);
+        } else {
+            self.goal = *target;
+        }
+        self.braking = false;
+        self.counters.accepted += 1;
+    }
+
+    /// A full evaluation without a stop-level violation: the region it certifies becomes
+    /// the newest of the two kept.
+    pub(super) fn keep_certificate(&mut self) {
+        let cert = self.checker.full().and_then(|e| self.guards.certify(&e));
+        if let Some(c) = cert {
+            self.certs = [Some(c), self.certs[0]];
+        }
     }
 
     /// Starts the queued target, if any, once the previous check is over.
@@ -97,12 +154,19 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
 
     /// Starts the checker's next job, if there is one: a sample of the pending path or
     /// the braking point `ahead` (while moving and not braking), in turn when both wait.
+    /// With neither, the goal (or the next goal) is evaluated to certify the region around
+    /// it, unless the newest region is centred there already.
     pub(super) fn start_job(&mut self, ahead: Option<&Pose<T>>) {
         match (self.pending, ahead) {
             (Some(p), None) => self.begin_path(&p),
             (Some(p), Some(_)) if self.path_turn => self.begin_path(&p),
             (_, Some(a)) => self.begin(a, Job::Ahead),
-            (None, None) => {}
+            (None, None) => {
+                let goal = self.next_goal.unwrap_or(self.goal);
+                if self.certs[0].is_none_or(|c| c.center != goal) {
+                    self.begin(&goal, Job::Refresh);
+                }
+            }
         }
     }
 
@@ -129,7 +193,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         let Some(job) = self.job else { return false };
         let cond = match job {
             Job::Path => &mut self.cond_path,
-            Job::PathEnd => &mut self.cond_path_end,
+            Job::PathEnd | Job::Refresh => &mut self.cond_path_end,
             Job::Ahead => &mut self.cond_ahead,
         };
         self.guards.advance(&mut self.checker, cond);
@@ -141,7 +205,13 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         if let Some(x) = self.checker.inv_cond() {
             self.parallel = x;
         }
+        // The regions around the goal and the targets (not around every path sample and
+        // braking point): certified in the checker's next slot, as a stage of its own
+        // (about 3,000 instructions on the Cortex-M4), from the finished evaluation.
+        self.certify_next =
+            stop.is_none() && matches!(job, Job::Refresh | Job::PathEnd | Job::Ahead);
         match job {
+            Job::Refresh => false,
             Job::Ahead => {
                 self.ahead_warn = self.checker.late_warn();
                 if stop.is_none() && self.job_for_next {
@@ -178,13 +248,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         }
         if p.next >= p.samples {
             self.pending = None;
-            if self.twist.iter().any(|x| *x != T::zero()) {
-                self.next_goal = Some(p.to);
-            } else {
-                self.goal = p.to;
-            }
-            self.braking = false;
-            self.counters.accepted += 1;
+            self.accept(&p.to);
             self.start_queued();
             return;
         }
