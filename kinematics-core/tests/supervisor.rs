@@ -807,3 +807,118 @@ fn turning_near_a_serial_singularity_keeps_the_joint_accelerations() {
     ];
     run(&events).unwrap();
 }
+
+/// Streams targets along x from x0, one per tick, for `ticks` ticks: from rest at
+/// [`STREAM_ACCEL`] to `speed` m/s, then the same pose for `still` ticks (standing still)
+/// and then nothing for `silent` ticks. Returns the (target x, setpoint x) of every tick.
+/// The acceleration of the streams of the lead's tests, m/s² (within the robot's 0.25).
+const STREAM_ACCEL: f64 = 0.1;
+
+fn stream_along_x(
+    sup: &mut Sup,
+    now: &mut u64,
+    x0: f64,
+    speed: f64,
+    ticks: u64,
+    still: u64,
+    silent: u64,
+) -> Vec<(f64, f64)> {
+    let mut out = Vec::new();
+    let mut x = x0;
+    for k in 0..ticks + still + silent {
+        *now += 1000;
+        if k < ticks {
+            let (t, ramp) = (k as f64 * 1e-3, speed / STREAM_ACCEL);
+            x = x0
+                + if t < ramp {
+                    0.5 * STREAM_ACCEL * t * t
+                } else {
+                    speed * (t - 0.5 * ramp)
+                };
+        }
+        if k < ticks + still {
+            let target = Pose {
+                t: Vector3::new(x, 0.0, 0.160),
+                r: Rotation3::identity(),
+            };
+            sup.submit(&target, *now, *now).unwrap();
+        }
+        out.push((x, sup.tick().pose.t.x));
+    }
+    out
+}
+
+/// The lead (`supervisor::lead`): a stream inside the certified regions, accelerating
+/// within the robot's limits, is followed on the master's pose, not the braking curve's
+/// distance (1.34 mm, 54 ms at 25 mm/s) behind it: from the end of the ramp on, the
+/// setpoint stands within one tick's motion (u·dt: the setpoint after the tick against the
+/// target before it) of the newest target at 10 and 25 mm/s. Without the lead it trails by
+/// the braking curve's distance.
+#[test]
+fn a_steady_stream_is_followed_on_the_masters_pose() {
+    for (speed, lead) in [(0.010, true), (0.025, true), (0.025, false)] {
+        let cfg = SupervisorConfig {
+            lead,
+            ..SupervisorConfig::default()
+        };
+        let mut sup = Supervisor::new(
+            RsprGeometry::reference(),
+            Branch::OUTER,
+            Limits::reference(),
+            cfg,
+            &Pose::central(0.160),
+        )
+        .unwrap();
+        // Settle on the start first (the region around it is certified while idle).
+        let (start, mut now) = (-0.012, 1_000_000);
+        stream_along_x(&mut sup, &mut now, start, 0.0, 1, 1500, 0);
+        let run = stream_along_x(&mut sup, &mut now, start, speed, 900, 0, 0);
+        // From the end of the ramp (v/a: 50 and 125 ms) and a velocity window on.
+        let from = (speed / STREAM_ACCEL * 1e3) as usize + 300;
+        let worst = run[from..]
+            .iter()
+            .map(|(t, s)| t - s)
+            .fold(0.0f64, |m, e| m.max(e.abs()));
+        if lead {
+            assert!(
+                worst <= speed * 1e-3 * (1.0 + 1e-6),
+                "{speed} m/s: the setpoint trails the stream by {worst} m"
+            );
+        } else {
+            let d = kinematics_core::supervisor::lead::lead_distance(speed, 0.95 * 0.25, 1e-3);
+            assert!(worst > 0.9 * d, "without the lead it trails by {worst} m");
+        }
+    }
+}
+
+/// A stream that stops abruptly at 25 mm/s is overshot by at most the lead (the braking
+/// curve's distance, 1.34 mm, plus the tick of motion the velocity window still holds), and
+/// the robot goes back to the master's last pose once the stream has stood still for a
+/// window; when the stream falls silent instead, once it has been silent for SILENCE_US.
+/// No refusal, no stop, and the limits hold throughout (the property tests check them on
+/// random streams).
+#[test]
+fn an_abrupt_stop_of_the_stream_is_overshot_by_at_most_the_lead_and_undone() {
+    use kinematics_core::supervisor::lead::{lead_distance, SILENCE_US};
+    let d = lead_distance(0.025, 0.95 * 0.25, 1e-3);
+    for (still, silent) in [(600u64, 0u64), (1, 600 + SILENCE_US / 1000)] {
+        let mut sup = supervisor(Limits::reference());
+        let mut now = 1_000_000;
+        stream_along_x(&mut sup, &mut now, -0.012, 0.0, 1, 1500, 0);
+        let run = stream_along_x(&mut sup, &mut now, -0.012, 0.025, 700, still, silent);
+        let last = run[699].0;
+        let over = run.iter().map(|(_, s)| s - last).fold(0.0f64, f64::max);
+        assert!(
+            over <= d + 0.025e-3 && over > 0.5 * d,
+            "overshoot {over} m, lead {d} m"
+        );
+        let end = run.last().unwrap().1;
+        assert!(
+            (end - last).abs() < 1e-12,
+            "ends at {end}, the master at {last}"
+        );
+        let c = sup.counters();
+        assert_eq!((c.refused(), c.stops), (0, 0));
+        assert!(c.led > 0);
+    }
+}

@@ -211,9 +211,13 @@ pub fn report_text(s: &run::Summary) -> String {
         .collect();
     let _ = writeln!(
         o,
-        "  supervisor: {} targets sent, {} refused (path {}, too far {}, stale {}), warn {:.2} s{}, \
-         stopped {:.2} s, stops {}{}",
+        "  supervisor: {} targets sent, {} accepted ({} at once in a certified region, {} of them \
+         led), {} refused (path {}, too far {}, stale {}), warn {:.2} s{}, stopped {:.2} s, \
+         stops {}{}",
         sv.targets_sent,
+        sv.accepted,
+        sv.certified,
+        sv.led,
         sv.refused.total,
         sv.refused.path,
         sv.refused.too_far,

@@ -271,6 +271,10 @@ pub struct Refusals {
 pub struct SupervisorSummary {
     pub targets_sent: u64,
     pub accepted: u32,
+    /// Accepted at once inside a certified region (of `accepted`), and of those led along
+    /// the master's stream.
+    pub certified: u32,
+    pub led: u32,
     pub superseded: u32,
     pub refused: Refusals,
     /// Time with a warn-level guard violated at the setpoint, s.

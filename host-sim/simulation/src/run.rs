@@ -393,6 +393,8 @@ pub fn run(
     let supervisor = SupervisorSummary {
         targets_sent: master.targets_sent,
         accepted: c.accepted,
+        certified: c.certified,
+        led: c.led,
         superseded: c.superseded,
         refused: Refusals {
             total: c.stale

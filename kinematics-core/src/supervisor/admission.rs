@@ -3,9 +3,10 @@
 //! An admitted target goes to the path check ([`super::path`]).
 
 use crate::pose::{rotation_angle, Pose};
-use crate::scalar::{norm3, Real};
+use crate::scalar::{lit, norm3, Real};
 use core::fmt;
 
+use super::path::Target;
 use super::Supervisor;
 use crate::guards::Reading;
 use crate::mechanism::Mechanism;
@@ -66,6 +67,11 @@ pub struct Counters {
     pub certified: u32,
     /// Braking-point checks answered by a certified region instead of a full evaluation.
     pub ahead_certified: u32,
+    /// Targets accepted led along the master's stream (of `accepted`; see [`super::lead`]).
+    pub led: u32,
+    /// Led targets whose path check failed: the lead paused and the master's own target
+    /// was verified instead (not a refusal).
+    pub lead_dropped: u32,
     pub brakes: u32,
     pub stops: u32,
     pub warn_ticks: u32,
@@ -131,32 +137,74 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         }
         self.check_distance(target)?;
         self.last_stamp_us = Some(stamp_us);
+        self.stream.observe(target, stamp_us);
+        // Led along the stream (see `lead`), within the longest segment.
+        let t = match self.led(target) {
+            Some(led) if self.within_segment(&led) => Target {
+                to: led,
+                plain: Some(*target),
+            },
+            _ => Target::plain(target),
+        };
+        self.take_target(&t);
+        Ok(())
+    }
+
+    /// `target` led along the master's stream, when the lead is on and the stream moves.
+    fn led(&self, target: &Pose<T>) -> Option<Pose<T>> {
+        if !self.cfg.lead || self.braking {
+            return None;
+        }
+        let l = self.profile_limits();
+        self.stream.led(
+            target,
+            l.tip_speed,
+            l.tip_accel * lit::<T>(super::profile::BRAKING_SHARE),
+            self.cfg.dt,
+        )
+    }
+
+    /// A target accepted at once supersedes the path in verification and the queued one.
+    fn supersede_pending(&mut self) {
+        if self.pending.take().is_some() || self.queued.take().is_some() {
+            self.counters.superseded += 1;
+        }
+        if matches!(self.job, Some(super::Job::Path | super::Job::PathEnd)) {
+            self.job = None;
+        }
+    }
+
+    /// Takes a target that passed the checks at submission: accepted at once inside a
+    /// certified region, else verified along its path (or queued behind the path in
+    /// verification).
+    pub(super) fn take_target(&mut self, t: &Target<T>) {
         // Inside a certified region: accepted at once, superseding a path in verification.
-        if self.accept_certified(target) {
-            if self.pending.take().is_some() || self.queued.take().is_some() {
-                self.counters.superseded += 1;
-            }
-            if matches!(self.job, Some(super::Job::Path | super::Job::PathEnd)) {
-                self.job = None;
-            }
-            return Ok(());
+        if self.accept_certified(t) {
+            self.supersede_pending();
+            return;
         }
         if self.pending.is_some() {
             if self.queued.is_some() {
                 self.counters.superseded += 1;
             }
-            self.queued = Some(*target);
-            return Ok(());
+            self.queued = Some(*t);
+            return;
         }
-        self.start_pending(target);
-        Ok(())
+        self.start_pending(t);
+    }
+
+    /// Whether `target` is within the longest segment from the current setpoint.
+    pub(super) fn within_segment(&self, target: &Pose<T>) -> bool {
+        let distance = norm3(&(target.t - self.pose.t));
+        let angle = rotation_angle(&(target.r * self.pose.r.inverse()));
+        distance <= self.cfg.max_segment && angle <= self.cfg.max_segment_angle
     }
 
     /// Refuses a target too far from the current setpoint.
     pub(super) fn check_distance(&mut self, target: &Pose<T>) -> Result<(), Refusal<T>> {
-        let distance = norm3(&(target.t - self.pose.t));
-        let angle = rotation_angle(&(target.r * self.pose.r.inverse()));
-        if !(distance <= self.cfg.max_segment && angle <= self.cfg.max_segment_angle) {
+        if !self.within_segment(target) {
+            let distance = norm3(&(target.t - self.pose.t));
+            let angle = rotation_angle(&(target.r * self.pose.r.inverse()));
             self.refuse(Refusal::TooFar { distance, angle })?;
         }
         Ok(())

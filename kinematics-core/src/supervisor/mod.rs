@@ -41,12 +41,25 @@
 //!    the setpoint lies in one passes without an evaluation of its own: the region's
 //!    guarantee covers every pose of those straight motions, not only samples of them.
 //!    When no path or braking point waits, the checker evaluates the goal to certify the
-//!    region around it, so the region follows the stream. Near a boundary the regions
-//!    shrink and the staged checks above take over.
+//!    region around it, so the region follows the stream. A verified target waiting to
+//!    replace the goal takes over on the first tick the braking stretch towards it lies in
+//!    a region. Near a boundary the regions shrink and the staged checks above take over.
+//! 5. **The lead** ([`lead`], [`SupervisorConfig::lead`]): the profile stops at its goal,
+//!    so a goal moving at u is trailed by the braking curve's distance u²/2a' + u·dt (54 ms
+//!    at 25 mm/s). Each target's translation is led by that distance along the stream's
+//!    velocity; the led target is verified like any other, and a led target whose path
+//!    check fails pauses the lead (the master's own target is verified instead, no
+//!    refusal). A stream that stops abruptly is overshot by up to the lead (onto verified
+//!    poses) and the robot goes back to the master's last pose.
+//!
+//! Near serial singularities J̇·twist moves the joints at a constant twist: braking and
+//! slowing down use the Cartesian deceleration the joints follow for that change
+//! ([`profile::braking_accels`], [`profile::slowing_step`]), and a step the motion guards
+//! still refuse is scaled down ([`profile::step_scales`]) before the supervisor holds.
 //!
 //! Modules: [`admission`] (the checks at submission, refusals, counters), [`path`] (the
 //! path check, the certified regions and the checker's jobs), [`profile`] (the motion
-//! profile, pure functions).
+//! profile, pure functions), [`lead`] (the stream's velocity and the led target).
 
 use crate::branch::Branch;
 use crate::double_buffer::DoubleBuffer;
@@ -64,6 +77,7 @@ use core::fmt;
 use nalgebra::Vector3;
 
 pub mod admission;
+pub mod lead;
 pub mod path;
 pub mod profile;
 
@@ -100,6 +114,12 @@ pub struct SupervisorConfig<T: Real> {
     /// Fraction of each joint acceleration limit the motion may use (default 0.8): the
     /// Cartesian accelerations are scaled down where J would turn them into more.
     pub joint_accel_headroom: T,
+    /// Lead the master's stream (default on, see [`lead`]): a target is led along the
+    /// stream's velocity by the braking curve's distance when the led segment lies in a
+    /// certified region, so the robot is on the master's pose rather than 54 ms behind it
+    /// at 25 mm/s; a stream that stops abruptly is overshot by up to that distance (inside
+    /// the certified region) before the robot goes back to its last pose.
+    pub lead: bool,
 }
 
 impl<T: Real> Default for SupervisorConfig<T> {
@@ -114,6 +134,7 @@ impl<T: Real> Default for SupervisorConfig<T> {
             max_segment_angle: lit(45f64.to_radians()),
             joint_speed_headroom: lit(0.8),
             joint_accel_headroom: lit(0.8),
+            lead: true,
         }
     }
 }
@@ -209,7 +230,7 @@ pub struct Supervisor<T: Real, M: Mechanism<T>> {
     pending: Option<Pending<T>>,
     /// The newest target that arrived while another was being verified; it is verified
     /// next (older queued ones are superseded), so a fast stream never starves the check.
-    queued: Option<Pose<T>>,
+    queued: Option<path::Target<T>>,
     last_stamp_us: Option<u64>,
     latched: Option<Reading<T>>,
     braking: bool,
@@ -244,6 +265,10 @@ pub struct Supervisor<T: Real, M: Mechanism<T>> {
     certs: [Option<Certificate<T>>; 2],
     /// The checker's finished evaluation is to be certified in its next slot.
     certify_next: bool,
+    /// The master's stream, for the lead.
+    stream: lead::Stream<T>,
+    /// The control period, µs.
+    dt_us: u64,
 }
 
 pub use crate::guards::MAX_STAGES;
@@ -375,6 +400,8 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             parallel: start_parallel,
             certs: [None; 2],
             certify_next: false,
+            stream: lead::Stream::default(),
+            dt_us: (crate::geometry::to_f64(cfg.dt * lit(1e6)) + 0.5) as u64,
         })
     }
 
@@ -384,6 +411,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
     /// robot comes to rest. Not a latched stop: new targets are taken.
     pub fn brake(&mut self) {
         self.drop_pending();
+        self.stream.reset();
         if self.twist.iter().any(|x| *x != T::zero()) {
             self.braking = true;
         } else {
@@ -414,6 +442,11 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
     /// The joints of the current setpoint.
     pub fn setpoint_joints(&self) -> &Joints<T> {
         &self.q
+    }
+
+    /// The goal the profile heads for (a verified target, possibly led along the stream).
+    pub fn goal(&self) -> &Pose<T> {
+        &self.goal
     }
 
     /// The setpoint's twist [v; ω].
@@ -468,6 +501,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         self.latched = None;
         self.goal = self.pose;
         self.drop_pending();
+        self.stream.reset();
         self.braking = false;
         Ok(())
     }
@@ -517,7 +551,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
     /// This tick's profile limits: the motion limits a hair inside (so that rounding
     /// never trips the motion guards that check the output), the accelerations within
     /// what the joints can follow at the setpoint ([`profile::joint_safe_accels`]).
-    fn profile_limits(&self) -> ProfileLimits<T> {
+    pub(super) fn profile_limits(&self) -> ProfileLimits<T> {
         let l = shaved(self.guards.limits());
         let (mut tip_accel, mut angular_accel) = (l.tip_accel, l.angular_accel);
         if let Some(j) = self.setpoint_jacobian() {
@@ -624,6 +658,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
 
     fn hold(&mut self, reason: Reading<T>) -> TickOutput<T> {
         self.latched = Some(reason);
+        self.stream.reset();
         self.counters.stops += 1;
         self.twist = Twist::zeros();
         self.qdot = Joints::zeros();
@@ -679,6 +714,20 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         w0: &Vector3<T>,
     ) -> bool {
         let stages = self.cfg.stages_per_tick;
+        let per_job = MAX_STAGES.div_ceil(u32::from(stages));
+        let n = lit::<T>(f64::from(3 * per_job));
+        // A verified target waiting to replace the goal takes over as soon as the braking
+        // stretch towards it lies in a certified region: checked on every tick, not only
+        // between the checker's jobs, so that a led stream moves the goal on every tick.
+        if let (Some(next), true) = (self.next_goal, moving && !self.braking) {
+            let a = profile::braking_point(&self.pose, v0, w0, &next, l, n, self.cfg.dt);
+            if let Some(warn) = self.certified(&self.pose, &a) {
+                self.counters.ahead_certified += 1;
+                self.ahead_warn = warn;
+                self.goal = next;
+                self.next_goal = None;
+            }
+        }
         let mut ahead_stop = false;
         for _ in 0..stages {
             if self.certify_next {
@@ -690,8 +739,6 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
                 let horizon = self.next_goal.unwrap_or(self.goal);
                 let for_next = self.next_goal.is_some();
                 let mut ahead = (moving && !self.braking).then(|| {
-                    let per_job = MAX_STAGES.div_ceil(u32::from(stages));
-                    let n = lit::<T>(f64::from(3 * per_job));
                     profile::braking_point(&self.pose, v0, w0, &horizon, l, n, self.cfg.dt)
                 });
                 // A braking point whose whole stretch from the setpoint lies in a
@@ -849,6 +896,10 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         let dt = self.cfg.dt;
         let v0 = Vector3::new(self.twist.x, self.twist.y, self.twist.z);
         let w0 = Vector3::new(self.twist.w, self.twist.a, self.twist.b);
+        // A stream fallen silent while the goal led it: back to the master's last pose.
+        if let Some(plain) = self.stream.tick(self.dt_us) {
+            self.take_target(&path::Target::plain(&plain));
+        }
         let ahead_stop = self.run_checker(&l, moving, &v0, &w0);
         // Standing still, a verified target waiting for a braking-point check takes over
         // at once (there is no motion to look past the goal).

@@ -11,10 +11,30 @@ use super::{Job, Supervisor};
 use crate::guards::{Guard, Reading};
 use crate::mechanism::Mechanism;
 
+/// A target to verify: the pose, and the master's plain target when the pose leads it
+/// along the stream (see [`super::lead`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Target<T: Real> {
+    pub to: Pose<T>,
+    pub plain: Option<Pose<T>>,
+}
+
+impl<T: Real> Target<T> {
+    /// The master's target as it came.
+    pub fn plain(to: &Pose<T>) -> Self {
+        Target {
+            to: *to,
+            plain: None,
+        }
+    }
+}
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Pending<T: Real> {
     from: Pose<T>,
     to: Pose<T>,
+    /// The master's plain target when `to` leads it.
+    plain: Option<Pose<T>>,
     /// The whole segment ([`segment`]), computed once, not for every sample.
     dv: Vector3<T>,
     dw: Vector3<T>,
@@ -48,10 +68,11 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
     /// however far the setpoint lags behind it, and a target back towards the setpoint
     /// from the setpoint. The motion from the setpoint to the new goal stays within the
     /// braking-point checks. While braking, from the setpoint.
-    pub(super) fn start_pending(&mut self, target: &Pose<T>) {
-        if self.accept_certified(target) {
+    pub(super) fn start_pending(&mut self, t: &Target<T>) {
+        if self.accept_certified(t) {
             return;
         }
+        let target = &t.to;
         let (from, n) = self.path_start(target);
         let n = n.ceil().max(T::one());
         let samples = crate::geometry::to_f64(n) as u16;
@@ -59,6 +80,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         self.pending = Some(Pending {
             from,
             to: *target,
+            plain: t.plain,
             dv,
             dw,
             samples: samples.max(1),
@@ -100,28 +122,32 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
     /// Accepts `target` at once when the segment its path check would sample lies in a
     /// certified region (not while braking): it becomes the goal, or the next goal while
     /// moving (which a braking-point check, itself certified or evaluated, promotes).
-    pub(super) fn accept_certified(&mut self, target: &Pose<T>) -> bool {
+    pub(super) fn accept_certified(&mut self, t: &Target<T>) -> bool {
         if self.braking {
             return false;
         }
-        let (from, _) = self.path_start(target);
-        if self.certified(&from, target).is_none() {
+        let (from, _) = self.path_start(&t.to);
+        if self.certified(&from, &t.to).is_none() {
             return false;
         }
-        self.accept(target);
+        self.accept(t);
         self.counters.certified += 1;
         true
     }
 
     /// A verified target: the goal, or the next goal while moving.
-    fn accept(&mut self, target: &Pose<T>) {
+    fn accept(&mut self, t: &Target<T>) {
         if self.twist.iter().any(|x| *x != T::zero()) {
-            self.next_goal = Some(*target);
+            self.next_goal = Some(t.to);
         } else {
-            self.goal = *target;
+            self.goal = t.to;
         }
         self.braking = false;
         self.counters.accepted += 1;
+        if t.plain.is_some() {
+            self.counters.led += 1;
+        }
+        self.stream.accepted(t.plain);
     }
 
     /// A full evaluation without a stop-level violation: the region it certifies becomes
@@ -136,8 +162,18 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
     /// Starts the queued target, if any, once the previous check is over.
     pub(super) fn start_queued(&mut self) {
         if let Some(q) = self.queued.take() {
-            if self.check_distance(&q).is_ok() {
-                self.start_pending(&q);
+            match q.plain {
+                Some(_) if self.within_segment(&q.to) => self.start_pending(&q),
+                Some(plain) => {
+                    if self.check_distance(&plain).is_ok() {
+                        self.start_pending(&Target::plain(&plain));
+                    }
+                }
+                None => {
+                    if self.check_distance(&q.to).is_ok() {
+                        self.start_pending(&q);
+                    }
+                }
             }
         }
     }
@@ -234,6 +270,19 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         if let Some(reading) = stop {
             let k = if p.end_checked { p.next } else { p.samples };
             self.pending = None;
+            if let Some(plain) = p.plain {
+                // The lead ran into a boundary the master's own target may not: no
+                // refusal; the lead pauses and the plain target is verified instead
+                // (unless a newer target waits).
+                self.counters.lead_dropped += 1;
+                self.stream.hold_off();
+                if self.queued.is_some() {
+                    self.start_queued();
+                } else if self.check_distance(&plain).is_ok() {
+                    self.start_pending(&Target::plain(&plain));
+                }
+                return;
+            }
             let _ = self.refuse(Refusal::Path {
                 fraction: lit::<T>(f64::from(k)) / lit(f64::from(p.samples)),
                 reading,
@@ -248,7 +297,10 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         }
         if p.next >= p.samples {
             self.pending = None;
-            self.accept(&p.to);
+            self.accept(&Target {
+                to: p.to,
+                plain: p.plain,
+            });
             self.start_queued();
             return;
         }
