@@ -56,9 +56,10 @@ pub fn best_fitting_delay(
             a[2] + (b[2] - a[2]) * s,
         ]
     };
-    let rms = |tau: f64| -> f64 {
+    // The RMS at delay τ over every `stride`-th sample.
+    let rms_over = |tau: f64, stride: usize| -> f64 {
         let (mut sum, mut count, mut hint) = (0.0, 0usize, 0usize);
-        for (k, t) in t_s.iter().enumerate() {
+        for (k, t) in t_s.iter().enumerate().step_by(stride) {
             if *t - max_delay_s < t0 {
                 continue;
             }
@@ -73,15 +74,31 @@ pub fn best_fitting_delay(
             (sum / count as f64).sqrt()
         }
     };
+    let rms = |tau: f64| rms_over(tau, 1);
+    // Coarse to fine: every 100th step, then every 10th and every step within one coarser
+    // step of the best so far; the coarse levels over every 10th sample (the RMS is smooth
+    // in τ at those scales; about 1/30 of the evaluations of the whole fine grid).
     let steps = (max_delay_s / step_s).round() as usize;
-    let mut best = (0.0, f64::INFINITY);
-    for k in 0..=steps {
-        let tau = k as f64 * step_s;
-        let r = rms(tau);
-        if r < best.1 {
-            best = (tau, r);
+    let mut best = 0usize;
+    for (level, stride) in [(100usize, 10usize), (10, 10), (1, 1)] {
+        let (from, to) = if level == 100 {
+            (0, steps)
+        } else {
+            (
+                best.saturating_sub(level * 10),
+                (best + level * 10).min(steps),
+            )
+        };
+        let mut found = (best, f64::INFINITY);
+        for k in (from..=to).step_by(level) {
+            let r = rms_over(k as f64 * step_s, stride);
+            if r < found.1 {
+                found = (k, r);
+            }
         }
+        best = found.0;
     }
+    let best = (best as f64 * step_s, rms(best as f64 * step_s));
     Some(Lag {
         delay_s: best.0,
         rms_m: best.1,
@@ -107,5 +124,21 @@ mod tests {
         assert!(lag.rms_m < 1e-9 && lag.rms_at_zero_m > 1e-4);
         let lag = best_fitting_delay(&t, &stream, &stream, 0.2, 1e-4).unwrap();
         assert_eq!(lag.delay_s, 0.0);
+    }
+
+    /// The coarse-to-fine search finds the delay of a delayed copy anywhere on the grid
+    /// (every 0.7 ms from 0 to 199 ms, on a grid of 0.1 ms: within half a step), as the
+    /// whole fine grid would.
+    #[test]
+    fn every_delay_on_the_grid_is_found() {
+        let t: Vec<f64> = (0..4000).map(|k| k as f64 * 1e-3).collect();
+        let path = |t: f64| [0.01 * (3.0 * t).sin(), 0.008 * (5.0 * t).cos(), 0.002 * t];
+        let stream: Vec<[f64; 3]> = t.iter().map(|t| path(*t)).collect();
+        for k in 0..285 {
+            let d = k as f64 * 0.7e-3;
+            let late: Vec<[f64; 3]> = t.iter().map(|t| path(t - d)).collect();
+            let lag = best_fitting_delay(&t, &stream, &late, 0.2, 1e-4).unwrap();
+            assert!((lag.delay_s - d).abs() <= 0.5e-4 + 1e-12, "{d}: {lag:?}");
+        }
     }
 }
