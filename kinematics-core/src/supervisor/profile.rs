@@ -49,6 +49,20 @@ pub fn of_kind<T: Real>(pair: &[T; 2], kind: JointKind) -> T {
     }
 }
 
+/// The largest factor s ≤ 1 with s·|x_j| ≤ `headroom` × the limit of joint j's kind
+/// (`limits`: [prismatic, revolute]) for every joint: how far a motion whose joint rates
+/// (or changes of them) are `x` may go.
+pub fn joint_scale<T: Real>(x: &[T; 6], kinds: &[JointKind; 6], limits: &[T; 2], headroom: T) -> T {
+    let mut scale = T::one();
+    for (v, kind) in x.iter().zip(kinds.iter()) {
+        let lim = of_kind(limits, *kind) * headroom;
+        if v.abs() * scale > lim {
+            scale = lim / v.abs();
+        }
+    }
+    scale
+}
+
 /// Speed caps (m/s, rad/s) for motion along the unit directions `dir_v`, `dir_w` at the
 /// Jacobian `j`: the tip and angular speed limits, scaled down together so that
 /// q̇ = J·[v; ω] stays within `headroom` × each joint's speed limit `joint_speed`
@@ -71,14 +85,7 @@ pub fn speed_caps<T: Real>(
         dir_w.y * wmax,
         dir_w.z * wmax,
     ];
-    let qd = jac_times(j, &probe);
-    let mut scale = T::one();
-    for (v, kind) in qd.iter().zip(kinds.iter()) {
-        let lim = of_kind(joint_speed, *kind) * headroom;
-        if v.abs() * scale > lim {
-            scale = lim / v.abs();
-        }
-    }
+    let scale = joint_scale(&jac_times(j, &probe), kinds, joint_speed, headroom);
     (vmax * scale, wmax * scale)
 }
 
@@ -113,14 +120,8 @@ pub fn joint_safe_accels<T: Real>(
         halves!(4),
         halves!(5),
     ];
-    let mut scale = T::one();
-    for (kind, (v2, w2)) in kinds.iter().zip(rows.iter()) {
-        let lim = of_kind(joint_accel, *kind) * headroom;
-        let worst = sqrt(*v2) * at + sqrt(*w2) * aw;
-        if worst * scale > lim {
-            scale = lim / worst;
-        }
-    }
+    let worst = rows.map(|(v2, w2)| sqrt(v2) * at + sqrt(w2) * aw);
+    let scale = joint_scale(&worst, kinds, joint_accel, headroom);
     (at * scale, aw * scale)
 }
 
@@ -154,13 +155,7 @@ pub fn braking_accels<T: Real>(
     };
     let (dv, dw) = (unit(v0, tip_accel), unit(w0, angular_accel));
     let jd = jac_times(j, &[dv.x, dv.y, dv.z, dw.x, dw.y, dw.z]);
-    let mut scale = T::one();
-    for (x, kind) in jd.iter().zip(kinds.iter()) {
-        let lim = of_kind(joint_accel, *kind) * headroom;
-        if x.abs() * scale > lim {
-            scale = lim / x.abs();
-        }
-    }
+    let scale = joint_scale(&jd, kinds, joint_accel, headroom);
     (tip_accel * scale, angular_accel * scale)
 }
 
