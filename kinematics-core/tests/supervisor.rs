@@ -922,3 +922,50 @@ fn an_abrupt_stop_of_the_stream_is_overshot_by_at_most_the_lead_and_undone() {
         assert!(c.led > 0);
     }
 }
+
+/// A target accepted at once in a certified region supersedes both the path in
+/// verification and the target queued behind it: the robot ends on the newest target,
+/// never on an older queued one taken after it (a far target A in verification, B queued,
+/// C certified, then D verified: the robot ends on D).
+#[test]
+fn a_certified_target_supersedes_the_queued_one_too() {
+    let cfg = SupervisorConfig {
+        lead: false,
+        ..SupervisorConfig::default()
+    };
+    let start = Pose::central(0.160);
+    let mut sup = Supervisor::new(
+        RsprGeometry::reference(),
+        Branch::OUTER,
+        Limits::reference(),
+        cfg,
+        &start,
+    )
+    .unwrap();
+    let at = |x_mm: f64| Pose {
+        t: Vector3::new(x_mm * 1e-3, 0.0, 0.160),
+        r: Rotation3::identity(),
+    };
+    let mut now = 1_000_000u64;
+    let mut send = |sup: &mut Sup, p: &Pose<f64>, ticks: u32| {
+        now += 1000;
+        sup.submit(p, now, now).unwrap();
+        for _ in 0..ticks {
+            sup.tick();
+        }
+    };
+    // Idle: the region around the start is certified.
+    for _ in 0..50 {
+        sup.tick();
+    }
+    assert!(sup.certificate().is_some_and(|c| c.contains(&at(0.05))));
+    send(&mut sup, &at(12.0), 1); // A: in verification
+    send(&mut sup, &at(-12.0), 1); // B: queued
+    send(&mut sup, &at(0.05), 1); // C: certified, supersedes A and B
+    send(&mut sup, &at(6.0), 3000); // D: verified, then reached
+    assert!(
+        (sup.setpoint().t - at(6.0).t).norm() < 1e-9,
+        "ends at {:?}, not on the newest target",
+        sup.setpoint().t
+    );
+}

@@ -164,9 +164,11 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         )
     }
 
-    /// A target accepted at once supersedes the path in verification and the queued one.
+    /// A target accepted at once supersedes the path in verification and the queued one
+    /// (both: a queued target left behind would be verified and taken after the newer one).
     fn supersede_pending(&mut self) {
-        if self.pending.take().is_some() || self.queued.take().is_some() {
+        let (pending, queued) = (self.pending.take(), self.queued.take());
+        if pending.is_some() || queued.is_some() {
             self.counters.superseded += 1;
         }
         if matches!(self.job, Some(super::Job::Path | super::Job::PathEnd)) {
