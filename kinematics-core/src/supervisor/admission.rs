@@ -180,33 +180,40 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
     /// certified region, else verified along its path (or queued behind the path in
     /// verification).
     pub(super) fn take_target(&mut self, t: &Target<T>) {
-        // Inside a certified region: accepted at once, superseding a path in verification.
+        // (Accepted at once there too when certified.)
+        if self.pending.is_none() {
+            self.start_pending(t);
+            return;
+        }
+        // Inside a certified region: accepted at once, superseding the path in verification.
         if self.accept_certified(t) {
             self.supersede_pending();
             return;
         }
-        if self.pending.is_some() {
-            if self.queued.is_some() {
-                self.counters.superseded += 1;
-            }
-            self.queued = Some(*t);
-            return;
+        if self.queued.is_some() {
+            self.counters.superseded += 1;
         }
-        self.start_pending(t);
+        self.queued = Some(*t);
+    }
+
+    /// The distance and rotation angle of `target` from the current setpoint, and whether
+    /// both are within the longest segment.
+    fn segment_from_setpoint(&self, target: &Pose<T>) -> (T, T, bool) {
+        let distance = norm3(&(target.t - self.pose.t));
+        let angle = rotation_angle(&(target.r * self.pose.r.inverse()));
+        let within = distance <= self.cfg.max_segment && angle <= self.cfg.max_segment_angle;
+        (distance, angle, within)
     }
 
     /// Whether `target` is within the longest segment from the current setpoint.
     pub(super) fn within_segment(&self, target: &Pose<T>) -> bool {
-        let distance = norm3(&(target.t - self.pose.t));
-        let angle = rotation_angle(&(target.r * self.pose.r.inverse()));
-        distance <= self.cfg.max_segment && angle <= self.cfg.max_segment_angle
+        self.segment_from_setpoint(target).2
     }
 
     /// Refuses a target too far from the current setpoint.
     pub(super) fn check_distance(&mut self, target: &Pose<T>) -> Result<(), Refusal<T>> {
-        if !self.within_segment(target) {
-            let distance = norm3(&(target.t - self.pose.t));
-            let angle = rotation_angle(&(target.r * self.pose.r.inverse()));
+        let (distance, angle, within) = self.segment_from_setpoint(target);
+        if !within {
             self.refuse(Refusal::TooFar { distance, angle })?;
         }
         Ok(())
