@@ -444,11 +444,6 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         &self.q
     }
 
-    /// The goal the profile heads for (a verified target, possibly led along the stream).
-    pub fn goal(&self) -> &Pose<T> {
-        &self.goal
-    }
-
     /// The setpoint's twist [v; ω].
     pub fn twist(&self) -> &Twist<T> {
         &self.twist
