@@ -45,7 +45,7 @@ section "the operator's front ends on the simulated board: OpenIGTLink clients (
 bash host-sim/operator/tests/igtl-board.sh
 bash host-sim/masters/tests/spacenavd-daemon.sh
 
-section "the operator's front ends on the emulated board (the release image): scripted operator, latency; the console in tmux and OpenIGTLink through a serial device"
+section "the operator's front ends on the emulated board (the release image): scripted operator, latency, OpenIGTLink; the console in tmux, through a serial device on a board not homed"
 bash host-sim/operator/tests/against-emulator.sh
 
 section "fuzzing: the link's frame decoder and the board's command handling (libFuzzer, fixed seed)"

@@ -21,6 +21,10 @@ use clap::{Parser, Subcommand, ValueEnum};
 use master_link::{BoardToMaster, MasterDecoder};
 use teleop::PathChoice;
 
+/// `serve` reports a master that sent nothing for longer than this by the board's clock,
+/// s: its heartbeats are due every 20 ms, and the board holds after 100 ms without one.
+const MASTER_QUIET_S: f64 = 0.1;
+
 #[derive(Parser)]
 #[command(
     about = "The board's release image on an emulated STM32F4, in closed loop with the plant"
@@ -276,11 +280,13 @@ fn serve(
     let mut state = None;
     let mut tool_on = !with_tool;
     let mut buf = [0u8; 4096];
+    let mut last_rx_s = bench.now_s();
     loop {
         if stream.is_none() {
             if let Ok((s, _)) = listener.accept() {
                 s.set_nonblocking(true).map_err(|e| e.to_string())?;
                 println!("{:.3} s: master connected", bench.now_s());
+                last_rx_s = bench.now_s();
                 stream = Some(s);
                 pacing.master_connected();
             }
@@ -295,7 +301,18 @@ fn serve(
                     );
                     stream = None;
                 }
-                Ok(n) => bench.act(Action::Send(buf.get(..n).unwrap_or_default().to_vec())),
+                Ok(n) => {
+                    let quiet = bench.now_s() - last_rx_s;
+                    if quiet > MASTER_QUIET_S {
+                        println!(
+                            "{:.3} s: nothing from the master for {:.1} ms of the board's time",
+                            bench.now_s(),
+                            quiet * 1e3
+                        );
+                    }
+                    last_rx_s = bench.now_s();
+                    bench.act(Action::Send(buf.get(..n).unwrap_or_default().to_vec()))
+                }
                 Err(e) if e.kind() == ErrorKind::WouldBlock => {}
                 Err(e) => {
                     println!(

@@ -7,6 +7,11 @@
 //! front end sends requests, keeps polling, and receives each answer as a [`Reply`] when
 //! it comes ([`Board::poll`]). [`Board::request`] waits for one answer (the bring-up
 //! steps, the OpenIGTLink bridge's targets).
+//!
+//! The board's clock: the host's, or paced by the board's telemetry
+//! ([`Board::set_paced`], `teleop::pacing`), for an emulated board that its host may
+//! stall: the heartbeats, the stream, the target stamps, the timeouts and the arrival
+//! times recorded then follow the board's own time.
 
 use crate::conversions::wire_pose;
 use crate::error::OperatorError;
@@ -19,6 +24,7 @@ use std::collections::VecDeque;
 use std::path::Path;
 use std::time::Duration;
 use teleop::link::{self, Link, Received};
+use teleop::pacing::BoardClock;
 
 /// How long a request waits for its answer before it counts as unanswered, s.
 pub const REPLY_TIMEOUT_S: f64 = 1.0;
@@ -27,6 +33,9 @@ pub const HEARTBEAT_PERIOD_S: f64 = 0.02;
 /// How long the board refuses `Enable` with `Busy` after homing or a disable while its
 /// brakes engage, with margin, s: [`Board::enable`] sends `Enable` again within it.
 pub const ENABLE_BUSY_WINDOW_S: f64 = 1.0;
+/// On the paced clock, a board silent this long by the host's clock is given up, s (the
+/// paced clock stops with the board, so its own timeouts would never fall due).
+pub const SILENCE_LIMIT_S: f64 = 5.0;
 
 /// What a request came to.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -102,6 +111,11 @@ pub struct Board {
     backlog: VecDeque<BoardEvent>,
     deferred: VecDeque<BoardEvent>,
     statuses: u64,
+    /// The clock is paced by the board's telemetry.
+    paced: bool,
+    clock: BoardClock,
+    /// The longest interval between two heartbeats sent, s.
+    beat_gap_max_s: f64,
 }
 
 impl Board {
@@ -121,6 +135,9 @@ impl Board {
             backlog: VecDeque::new(),
             deferred: VecDeque::new(),
             statuses: 0,
+            paced: false,
+            clock: BoardClock::default(),
+            beat_gap_max_s: 0.0,
         })
     }
 
@@ -129,9 +146,18 @@ impl Board {
         &self.name
     }
 
-    /// The clock of this connection, s since it was opened.
+    /// The clock of this connection, s since it was opened: the host's, or paced by the
+    /// board ([`Board::set_paced`]).
     pub fn now_s(&self) -> f64 {
-        self.link.now_s()
+        self.clock.now_s(self.link.now_s(), self.paced)
+    }
+
+    /// Paces this connection's clock by the board's telemetry (`teleop::pacing`): for an
+    /// emulated board, whose virtual time slips behind the wall clock when its host stalls
+    /// it. A board silent for [`SILENCE_LIMIT_S`] of host time then ends every wait with an
+    /// error.
+    pub fn set_paced(&mut self, on: bool) {
+        self.paced = on;
     }
 
     /// The latest status and its arrival time.
@@ -156,7 +182,19 @@ impl Board {
 
     /// Heartbeats on (the default) or off.
     pub fn set_heartbeat(&mut self, on: bool) {
+        if on && !self.heartbeat {
+            // The pause is not a gap of this side's loop.
+            self.last_beat_s = f64::NEG_INFINITY;
+        }
         self.heartbeat = on;
+    }
+
+    /// The longest interval between two heartbeats sent so far, s (this connection's
+    /// clock; due every [`HEARTBEAT_PERIOD_S`]): how long this side's loop went without
+    /// polling. The board holds after 100 ms without a heartbeat and turns the drives off
+    /// after 500 ms.
+    pub fn heartbeat_gap_max_s(&self) -> f64 {
+        self.beat_gap_max_s
     }
 
     /// Requests sent and not answered yet.
@@ -184,7 +222,7 @@ impl Board {
     /// sequence number and stamp, µs.
     pub fn send_target(&mut self, pose: &CartesianPose) -> Result<(Seq, u64), OperatorError> {
         let (position_m, rotation_vector_rad) = wire_pose(pose);
-        let stamp = self.link.now_us().max(self.last_stamp_us + 1);
+        let stamp = ((self.now_s() * 1e6) as u64).max(self.last_stamp_us + 1);
         self.last_stamp_us = stamp;
         let seq = self.send(MasterToBoard::PoseTarget {
             timestamp_us: stamp,
@@ -197,6 +235,9 @@ impl Board {
     fn beat(&mut self) -> Result<(), OperatorError> {
         let now = self.now_s();
         if self.heartbeat && now - self.last_beat_s >= HEARTBEAT_PERIOD_S {
+            if self.last_beat_s.is_finite() {
+                self.beat_gap_max_s = self.beat_gap_max_s.max(now - self.last_beat_s);
+            }
             // Untracked: its Ack is not a front end's business.
             self.link.send(&MasterToBoard::Heartbeat)?;
             self.last_beat_s = now;
@@ -204,7 +245,12 @@ impl Board {
         Ok(())
     }
 
-    fn handle(&mut self, r: Received) {
+    fn handle(&mut self, mut r: Received) {
+        self.clock
+            .received(r.t_s, matches!(r.msg, BoardToMaster::Status(_)));
+        if self.paced {
+            r.t_s = self.now_s();
+        }
         let answer = |pending: &mut Vec<(Seq, MasterToBoard, f64)>,
                       matches: &dyn Fn(&(Seq, MasterToBoard, f64)) -> bool,
                       outcome: Outcome|
@@ -308,6 +354,14 @@ impl Board {
     /// Receives into the backlog: waits at most `wait` for the first message when nothing
     /// is there yet.
     fn receive(&mut self, wait: Duration) -> Result<(), OperatorError> {
+        if self.paced
+            && self
+                .clock
+                .silent_for_s(self.link.now_s())
+                .is_some_and(|s| s > SILENCE_LIMIT_S)
+        {
+            return Err(teleop::TeleopError::Silent(SILENCE_LIMIT_S).into());
+        }
         self.beat()?;
         if self.backlog.is_empty() {
             let wait = wait.min(Duration::from_secs_f64(HEARTBEAT_PERIOD_S / 2.0));

@@ -21,6 +21,7 @@ pub mod ci;
 pub mod error;
 pub mod faultlog;
 pub mod link;
+pub mod pacing;
 pub mod session;
 pub mod tracking;
 

@@ -3,16 +3,12 @@
 //! phase it arrived in, the targets sent (for the tracking figures) and the refusals.
 //!
 //! The session's clock: the host's (`paced = false`), or paced by the board (the default):
-//! once the telemetry flows, it advances by the board's status period (20 ms) per status
-//! received, and at most three periods beyond the last status (never backwards). The stream, the heartbeats, the
-//! target stamps and every figure then follow the board's own time: an emulated board
-//! that its host stalls (QEMU without -icount on a loaded machine) sees the master stall
-//! with it instead of a backlog of late targets and heartbeats. On a real board the two
-//! clocks agree.
-//! (A `Status` answering a `StatusRequest` would count too; the session sends none.)
+//! [`crate::pacing`]. (A `Status` answering a `StatusRequest` would count too; the session
+//! sends none.)
 
 use crate::error::TeleopError;
 use crate::link::{Link, Received};
+use crate::pacing::BoardClock;
 use kinematics_core::Pose;
 use master_link::{
     BoardToMaster, FirmwareVersion, GeometryRecord, GeometryRefusal, MasterToBoard, NackReason,
@@ -34,11 +30,6 @@ pub enum GeometryAnswer {
     Unexpected(String),
 }
 
-/// The board's telemetry period, s (`Status` every 20 ms once connected).
-pub const STATUS_PERIOD_S: f64 = 0.02;
-/// How far the paced clock runs on beyond the last status, s (heartbeats keep flowing
-/// through short gaps of the telemetry).
-const CLOCK_LEAD_S: f64 = 3.0 * STATUS_PERIOD_S;
 /// The session gives up when the board has sent nothing for this long (host time), s.
 const SILENCE_LIMIT_S: f64 = 5.0;
 
@@ -100,14 +91,10 @@ pub struct Session {
     pub acks: u64,
     /// The clock is paced by the board's telemetry.
     pub paced: bool,
-    /// The paced clock: (its value at the last status, host time of that status).
-    clock: Option<(f64, f64)>,
-    /// Host time of the last message received.
-    last_rx_host_s: f64,
+    /// The session's clock.
+    clock: BoardClock,
     /// The last target stamp sent, µs.
     last_stamp_us: u64,
-    /// The clock's last reading (it never goes back).
-    last_now_s: std::cell::Cell<f64>,
 }
 
 impl Session {
@@ -128,10 +115,8 @@ impl Session {
             requests: HashMap::new(),
             acks: 0,
             paced: true,
-            clock: None,
-            last_rx_host_s: 0.0,
+            clock: BoardClock::default(),
             last_stamp_us: 0,
-            last_now_s: std::cell::Cell::new(f64::NEG_INFINITY),
         }
     }
 
@@ -147,14 +132,7 @@ impl Session {
 
     /// The session's clock, s (see the module documentation).
     pub fn now_s(&self) -> f64 {
-        let host = self.link.now_s();
-        let t = match (self.paced, self.clock) {
-            (true, Some((board, at))) => board + (host - at).clamp(0.0, CLOCK_LEAD_S),
-            _ => host,
-        };
-        let t = t.max(self.last_now_s.get());
-        self.last_now_s.set(t);
-        t
+        self.clock.now_s(self.link.now_s(), self.paced)
     }
 
     /// The latest status.
@@ -204,13 +182,8 @@ impl Session {
 
     fn handle(&mut self, mut r: Received) {
         let phase = self.current_phase();
-        self.last_rx_host_s = r.t_s;
-        if let BoardToMaster::Status(_) = r.msg {
-            self.clock = Some(match self.clock {
-                Some((board, _)) => (board + STATUS_PERIOD_S, r.t_s),
-                None => (r.t_s, r.t_s),
-            });
-        }
+        self.clock
+            .received(r.t_s, matches!(r.msg, BoardToMaster::Status(_)));
         if self.paced {
             r.t_s = self.now_s();
         }
@@ -287,7 +260,10 @@ impl Session {
                 return Ok(());
             }
             if !self.statuses.is_empty()
-                && self.link.now_s() - self.last_rx_host_s > SILENCE_LIMIT_S
+                && self
+                    .clock
+                    .silent_for_s(self.link.now_s())
+                    .is_some_and(|s| s > SILENCE_LIMIT_S)
             {
                 return Err(TeleopError::Silent(SILENCE_LIMIT_S));
             }

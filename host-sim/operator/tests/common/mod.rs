@@ -5,6 +5,11 @@
 //! board (the board application on the plant, `simulation::serve`) in a thread of the
 //! test, paced by the wall clock.
 //!
+//! The tests' masters run on the board's clock (`Board::set_paced`, `teleop::pacing`): an
+//! emulated board whose host stalls it (a loaded machine) pauses its virtual time, and
+//! the master pauses with it, so that its stream is not stale by the board's clock and the
+//! latencies it measures are the board's, not the host's pauses.
+//!
 //! A board at `RSPR_BOARD_SOCKET` outlives each test and keeps its state between masters
 //! (homed, where the robot stands). Each test starts as on a freshly homed board: once
 //! enabled, the robot goes to the central pose, where the homing parks it (within the park
@@ -67,9 +72,11 @@ impl TestBoard {
         }
     }
 
-    /// Connects.
+    /// Connects, the master on the board's clock.
     pub fn connect(&self) -> Board {
-        Board::open(&self.socket, 1_000_000, Duration::from_secs(10)).unwrap()
+        let mut b = Board::open(&self.socket, 1_000_000, Duration::from_secs(10)).unwrap();
+        b.set_paced(true);
+        b
     }
 
     /// Connects and brings the board to Enabled (hello, homing, enable), the robot at the

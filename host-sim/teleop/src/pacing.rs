@@ -1,0 +1,120 @@
+//! The master's clock paced by the board: once the telemetry flows, it advances by the
+//! board's status period (20 ms) per status received, and at most three periods beyond the
+//! last status; it never goes back.
+//!
+//! A master on the host's clock and an emulated board that its host stalls drift apart:
+//! the board pauses (its virtual time slips behind the wall clock), the master does not,
+//! and the master's targets and heartbeats reach the board late by the board's clock
+//! (stale targets, a master seemingly lost), while every latency the master measures
+//! includes the pauses. On this clock the master pauses with the board instead: its
+//! stream, heartbeats, target stamps, timeouts and figures follow the board's own time. On
+//! a real board the two clocks agree.
+//!
+//! Used by the teleoperation session ([`crate::session::Session`]) and the operator's
+//! front ends (`operator::Board`). A paced master cannot tell a stalled board from a dead
+//! one by its own clock, which stops with the board: [`BoardClock::silent_for_s`] gives the
+//! host time since the board last sent anything, for the master's silence limit.
+
+use std::cell::Cell;
+
+/// The board's telemetry period, s (`Status` every 20 ms once connected).
+pub const STATUS_PERIOD_S: f64 = 0.02;
+/// How far the paced clock runs on beyond the last status, s (heartbeats keep flowing
+/// through short gaps of the telemetry).
+pub const CLOCK_LEAD_S: f64 = 3.0 * STATUS_PERIOD_S;
+
+/// The clock of a master: the host's, or paced by the board's telemetry.
+#[derive(Clone, Debug, Default)]
+pub struct BoardClock {
+    /// The paced clock at the last status and the host time that status arrived, s.
+    at_status: Option<(f64, f64)>,
+    /// Host time of the last message received, s.
+    last_rx_host_s: Option<f64>,
+    /// The clock's last reading (it never goes back).
+    last_read_s: Cell<Option<f64>>,
+}
+
+impl BoardClock {
+    /// A message arrived at host time `host_s`; `status`: it is a status report.
+    pub fn received(&mut self, host_s: f64, status: bool) {
+        self.last_rx_host_s = Some(host_s);
+        if status {
+            self.at_status = Some(match self.at_status {
+                Some((board, _)) => (board + STATUS_PERIOD_S, host_s),
+                None => (host_s, host_s),
+            });
+        }
+    }
+
+    /// The clock at host time `host_s`: paced by the board (`paced`) or the host's, never
+    /// less than an earlier reading. Before the first status the paced clock is the host's.
+    pub fn now_s(&self, host_s: f64, paced: bool) -> f64 {
+        let t = match (paced, self.at_status) {
+            (true, Some((board, at))) => board + (host_s - at).clamp(0.0, CLOCK_LEAD_S),
+            _ => host_s,
+        };
+        let t = self.last_read_s.get().map_or(t, |last| t.max(last));
+        self.last_read_s.set(Some(t));
+        t
+    }
+
+    /// Host time since the board last sent anything at host time `host_s`, s (None before
+    /// the first message).
+    pub fn silent_for_s(&self, host_s: f64) -> Option<f64> {
+        self.last_rx_host_s.map(|t| host_s - t)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Paced, the clock advances one status period per status, however late the statuses
+    /// arrive by the host's clock, and by at most the lead beyond the last one.
+    #[test]
+    fn paced_clock_counts_statuses_and_runs_at_most_the_lead_beyond() {
+        let mut c = BoardClock::default();
+        assert_eq!(
+            c.now_s(1.0, true),
+            1.0,
+            "the host's clock before any status"
+        );
+        c.received(2.0, true);
+        assert_eq!(c.now_s(2.0, true), 2.0);
+        // The board stalls: 1 s of host time, the clock stops at the lead.
+        assert!((c.now_s(3.0, true) - (2.0 + CLOCK_LEAD_S)).abs() < 1e-12);
+        // Five statuses arrive at once: 100 ms of board time, never back.
+        for _ in 0..5 {
+            c.received(3.0, true);
+        }
+        assert!((c.now_s(3.0, true) - 2.1).abs() < 1e-12);
+        assert!((c.now_s(3.01, true) - 2.11).abs() < 1e-12);
+        // Not paced: the host's clock (which is ahead here).
+        assert_eq!(c.now_s(3.5, false), 3.5);
+    }
+
+    /// The clock never goes back, even when a reading on the host's clock ran ahead.
+    #[test]
+    fn the_clock_never_goes_back() {
+        let mut c = BoardClock::default();
+        c.received(0.0, true);
+        assert_eq!(c.now_s(5.0, false), 5.0);
+        c.received(5.0, true);
+        assert_eq!(
+            c.now_s(5.0, true),
+            5.0,
+            "0.02 s paced, held at 5.0 read before"
+        );
+    }
+
+    /// The silence is measured on the host's clock, from any message.
+    #[test]
+    fn silence_is_host_time_since_any_message() {
+        let mut c = BoardClock::default();
+        assert_eq!(c.silent_for_s(1.0), None);
+        c.received(1.0, false);
+        assert_eq!(c.silent_for_s(3.5), Some(2.5));
+        c.received(4.0, true);
+        assert_eq!(c.silent_for_s(4.25), Some(0.25));
+    }
+}
