@@ -565,9 +565,9 @@ impl Console {
 /// Runs the console on the terminal until `q`: the board polled every 5 ms, the screen
 /// drawn every 50 ms by a thread of its own (a copy of the console's state handed over),
 /// so that a terminal slow to take the output (a remote session, a loaded machine) never
-/// holds up the link's loop: the heartbeats, the keys, the jog stream. Measured before:
-/// with another build loading both cores, drawing into tmux held the loop for up to
-/// 148 ms (the heartbeats' longest interval; the board holds after 100 ms).
+/// holds up the link's loop: the heartbeats, the keys, the jog stream. The Link line
+/// shows the loop's longest interval between two heartbeats (`beat gap`; the board holds
+/// after 100 ms without one).
 pub fn run(mut board: Board) -> Result<(), OperatorError> {
     let mut terminal = ratatui::try_init().map_err(OperatorError::Terminal)?;
     let result = std::thread::scope(|scope| {

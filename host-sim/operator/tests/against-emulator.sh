@@ -113,9 +113,9 @@ done
 # raise_priority: the emulated board and its masters (the tests, the console in tmux, the
 # bridge, socat) stand for a board with a processor of its own and the operator's PC:
 # from here on they run before the other work of the machine (nice -10, where allowed;
-# inherited by every process this script starts). A master starved by another build for
-# 100 ms misses its heartbeats, and the board rightly stops (HeartbeatTimeout): seen in
-# the console's homing while another build loaded both cores, before this.
+# inherited by every process this script starts). A master that another build holds up
+# misses its heartbeats: the board holds after 100 ms without one and stops after 500 ms
+# (HeartbeatTimeout).
 raise_priority() {
     if renice -n -10 -p $$ >/dev/null 2>&1; then
         echo "the emulated board and its masters at nice $(nice)"
