@@ -24,7 +24,7 @@ use std::collections::VecDeque;
 use std::path::Path;
 use std::time::Duration;
 use teleop::link::{self, Link, Received};
-use teleop::pacing::BoardClock;
+use teleop::pacing::{BoardClock, SILENCE_LIMIT_S};
 
 /// How long a request waits for its answer before it counts as unanswered, s.
 pub const REPLY_TIMEOUT_S: f64 = 1.0;
@@ -33,9 +33,6 @@ pub const HEARTBEAT_PERIOD_S: f64 = 0.02;
 /// How long the board refuses `Enable` with `Busy` after homing or a disable while its
 /// brakes engage, with margin, s: [`Board::enable`] sends `Enable` again within it.
 pub const ENABLE_BUSY_WINDOW_S: f64 = 1.0;
-/// On the paced clock, a board silent this long by the host's clock is given up, s (the
-/// paced clock stops with the board, so its own timeouts would never fall due).
-pub const SILENCE_LIMIT_S: f64 = 5.0;
 
 /// What a request came to.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -354,12 +351,7 @@ impl Board {
     /// Receives into the backlog: waits at most `wait` for the first message when nothing
     /// is there yet.
     fn receive(&mut self, wait: Duration) -> Result<(), OperatorError> {
-        if self.paced
-            && self
-                .clock
-                .silent_for_s(self.link.now_s())
-                .is_some_and(|s| s > SILENCE_LIMIT_S)
-        {
+        if self.paced && self.clock.silent_too_long(self.link.now_s()) {
             return Err(teleop::TeleopError::Silent(SILENCE_LIMIT_S).into());
         }
         self.beat()?;

@@ -30,6 +30,9 @@ pub const STATUS_PERIOD_S: f64 = 0.02;
 /// warm-up of `against-emulator.sh` under load); `a_stalled_board_takes_every_target`
 /// checks it.
 pub const CLOCK_LEAD_S: f64 = STATUS_PERIOD_S;
+/// A master gives up on a board that has sent nothing for this long by the host's clock,
+/// s (a paced clock stops with the board, so its own timeouts never fall due).
+pub const SILENCE_LIMIT_S: f64 = 5.0;
 
 /// The clock of a master: the host's, or paced by the board's telemetry.
 #[derive(Clone, Debug, Default)]
@@ -70,6 +73,13 @@ impl BoardClock {
     /// the first message).
     pub fn silent_for_s(&self, host_s: f64) -> Option<f64> {
         self.last_rx_host_s.map(|t| host_s - t)
+    }
+
+    /// The board, once heard from, has been silent beyond [`SILENCE_LIMIT_S`] at host time
+    /// `host_s`.
+    pub fn silent_too_long(&self, host_s: f64) -> bool {
+        self.silent_for_s(host_s)
+            .is_some_and(|s| s > SILENCE_LIMIT_S)
     }
 }
 
@@ -191,5 +201,7 @@ mod tests {
         assert_eq!(c.silent_for_s(3.5), Some(2.5));
         c.received(4.0, true);
         assert_eq!(c.silent_for_s(4.25), Some(0.25));
+        assert!(!c.silent_too_long(4.0 + SILENCE_LIMIT_S));
+        assert!(c.silent_too_long(4.0 + SILENCE_LIMIT_S + 0.01));
     }
 }

@@ -8,7 +8,7 @@
 
 use crate::error::TeleopError;
 use crate::link::{Link, Received};
-use crate::pacing::BoardClock;
+use crate::pacing::{BoardClock, SILENCE_LIMIT_S};
 use kinematics_core::Pose;
 use master_link::{
     BoardToMaster, FirmwareVersion, GeometryRecord, GeometryRefusal, MasterToBoard, NackReason,
@@ -29,9 +29,6 @@ pub enum GeometryAnswer {
     /// Another reply (a defect).
     Unexpected(String),
 }
-
-/// The session gives up when the board has sent nothing for this long (host time), s.
-const SILENCE_LIMIT_S: f64 = 5.0;
 
 /// Heartbeat period, s (the board holds after 100 ms of silence; 20 ms leaves room for
 /// the delays of a loaded host).
@@ -259,12 +256,7 @@ impl Session {
             if now >= t_end_s {
                 return Ok(());
             }
-            if !self.statuses.is_empty()
-                && self
-                    .clock
-                    .silent_for_s(self.link.now_s())
-                    .is_some_and(|s| s > SILENCE_LIMIT_S)
-            {
+            if !self.statuses.is_empty() && self.clock.silent_too_long(self.link.now_s()) {
                 return Err(TeleopError::Silent(SILENCE_LIMIT_S));
             }
             let mut wait = t_end_s - now;
