@@ -140,10 +140,13 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         self.stream.observe(target, stamp_us);
         // Led along the stream (see `lead`), within the longest segment.
         let t = match self.led(target) {
-            Some(led) if self.within_segment(&led) => Target {
-                to: led,
-                plain: Some(*target),
-            },
+            Some(led) if self.within_segment(&led) => {
+                self.stream.lead_taken();
+                Target {
+                    to: led,
+                    plain: Some(*target),
+                }
+            }
             _ => Target::plain(target),
         };
         self.take_target(&t);

@@ -60,8 +60,11 @@ pub struct Stream<T: Real> {
     v: Vector3<T>,
     /// The last window's mean velocity, m/s.
     mean: Vector3<T>,
-    /// The master's newest target while the goal leads it.
-    plain: Option<Pose<T>>,
+    /// The master's newest target.
+    newest: Option<Pose<T>>,
+    /// A led target was taken since the stream last fell silent: on silence the goal goes
+    /// back to the master's newest target.
+    leading: bool,
     /// Time since the last target, µs.
     silent_us: u64,
     /// The lead pauses this long yet, µs.
@@ -74,7 +77,8 @@ impl<T: Real> Default for Stream<T> {
             anchor: None,
             v: Vector3::zeros(),
             mean: Vector3::zeros(),
-            plain: None,
+            newest: None,
+            leading: false,
             silent_us: 0,
             hold_off_us: 0,
         }
@@ -86,6 +90,7 @@ impl<T: Real> Stream<T> {
     /// its window closes.
     pub fn observe(&mut self, target: &Pose<T>, stamp_us: u64) {
         self.silent_us = 0;
+        self.newest = Some(*target);
         let Some((from, t0)) = self.anchor else {
             self.anchor = Some((*target, stamp_us));
             return;
@@ -126,14 +131,15 @@ impl<T: Real> Stream<T> {
         (d > T::zero() && led.is_finite()).then_some(led)
     }
 
-    /// An accepted target became the goal (or the next goal); it leads `plain`, the
-    /// master's target (or leads nothing, `None`).
-    pub fn accepted(&mut self, plain: Option<Pose<T>>) {
-        self.plain = plain;
+    /// A led target was taken (to be verified, or accepted at once).
+    pub fn lead_taken(&mut self) {
+        self.leading = true;
     }
 
-    /// One control tick of `dt_us`: the master's target to go back to when the stream
-    /// has been silent for [`SILENCE_US`] while the goal leads (once).
+    /// One control tick of `dt_us`: the master's newest target to go back to when the
+    /// stream has been silent for [`SILENCE_US`] after a led target was taken (once). The
+    /// newest, not the one the last accepted led target leads: newer targets may still be
+    /// in verification, and going back to an older one would supersede them.
     pub fn tick(&mut self, dt_us: u64) -> Option<Pose<T>> {
         self.hold_off_us = self.hold_off_us.saturating_sub(dt_us);
         self.silent_us = self.silent_us.saturating_add(dt_us);
@@ -143,7 +149,10 @@ impl<T: Real> Stream<T> {
         self.anchor = None;
         self.v = Vector3::zeros();
         self.mean = Vector3::zeros();
-        self.plain.take()
+        if !core::mem::take(&mut self.leading) {
+            return None;
+        }
+        self.newest
     }
 
     /// A led target's path check failed: no lead for [`HOLD_OFF_US`].
@@ -240,17 +249,16 @@ mod tests {
     fn a_silent_stream_gives_back_the_masters_target_once() {
         let mut s = Stream::default();
         let last = stream(&mut s, 0, 20);
-        s.accepted(Some(last));
+        s.lead_taken();
         for _ in 0..SILENCE_US / 1000 - 1 {
             assert!(s.tick(1000).is_none());
         }
         assert_eq!(s.tick(1000), Some(last));
         assert!(s.tick(1000).is_none());
         assert_eq!(*s.velocity(), Vector3::zeros());
-        // A goal that does not lead gives nothing back.
+        // A stream no led target was taken from gives nothing back.
         let mut s = Stream::default();
         stream(&mut s, 0, 20);
-        s.accepted(None);
         assert!((0..100).all(|_| s.tick(1000).is_none()));
     }
 }

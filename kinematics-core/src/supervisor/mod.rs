@@ -263,8 +263,6 @@ pub struct Supervisor<T: Real, M: Mechanism<T>> {
     /// accepted at once, and a braking point whose stretch from the setpoint does needs
     /// no evaluation of its own.
     certs: [Option<Certificate<T>>; 2],
-    /// The checker's finished evaluation is to be certified in its next slot.
-    certify_next: bool,
     /// The master's stream, for the lead.
     stream: lead::Stream<T>,
     /// The control period, µs.
@@ -399,7 +397,6 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             job_for_next: false,
             parallel: start_parallel,
             certs: [None; 2],
-            certify_next: false,
             stream: lead::Stream::default(),
             dt_us: (crate::geometry::to_f64(cfg.dt * lit(1e6)) + 0.5) as u64,
         })
@@ -725,11 +722,6 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         }
         let mut ahead_stop = false;
         for _ in 0..stages {
-            if self.certify_next {
-                self.certify_next = false;
-                self.keep_certificate();
-                continue;
-            }
             if self.job.is_none() {
                 let horizon = self.next_goal.unwrap_or(self.goal);
                 let for_next = self.next_goal.is_some();
@@ -891,7 +883,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         let dt = self.cfg.dt;
         let v0 = Vector3::new(self.twist.x, self.twist.y, self.twist.z);
         let w0 = Vector3::new(self.twist.w, self.twist.a, self.twist.b);
-        // A stream fallen silent while the goal led it: back to the master's last pose.
+        // A stream fallen silent after a led target: back to the master's newest target.
         if let Some(plain) = self.stream.tick(self.dt_us) {
             self.take_target(&path::Target::plain(&plain));
         }

@@ -147,7 +147,6 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         if t.plain.is_some() {
             self.counters.led += 1;
         }
-        self.stream.accepted(t.plain);
     }
 
     /// A full evaluation without a stop-level violation: the region it certifies becomes
@@ -242,10 +241,14 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             self.parallel = x;
         }
         // The regions around the goal and the targets (not around every path sample and
-        // braking point): certified in the checker's next slot, as a stage of its own
-        // (about 3,000 instructions on the Cortex-M4), from the finished evaluation.
-        self.certify_next =
-            stop.is_none() && matches!(job, Job::Refresh | Job::PathEnd | Job::Ahead);
+        // braking point), certified in the tick of the evaluation's last stage (the
+        // statics, the cheapest stage): a region a tick sooner is a region a tick fresher.
+        // Not while braking: no target is accepted then, and the stop follows the
+        // stretch checked before.
+        let wanted = matches!(job, Job::Refresh | Job::PathEnd | Job::Ahead);
+        if stop.is_none() && wanted && !self.braking {
+            self.keep_certificate();
+        }
         match job {
             Job::Refresh => false,
             Job::Ahead => {

@@ -17,7 +17,7 @@ use control::{Controller, ControllerConfig, PoseStatus, Sensing, TickReport, Too
 use core::hint::black_box;
 use cortex_m_rt::entry;
 use cortex_m_semihosting::debug;
-use kinematics_core::guards::{Guards, Limits, MotionSample, Staged};
+use kinematics_core::guards::{Guards, Limits, MotionSample, Stage, Staged};
 use kinematics_core::ik::{inverse_into, platform_chain, Solution};
 use kinematics_core::jacobian::{jacobian_into, Jacobians};
 use kinematics_core::lu::Lu6;
@@ -463,13 +463,29 @@ fn parts() {
             })
         });
         hprintln!("@label guards: evaluate_motion (speeds, accelerations)");
-        // The certified region of one full evaluation, and the test of a straight motion
-        // against it (the supervisor's fast path: a target's segment, a braking stretch).
+        // The stages of the supervisor's staged evaluation, one per call as the supervisor
+        // runs them (the SVD warm-started by an evaluation one tick of motion earlier),
+        // then the certified region of the finished evaluation and the test of a straight
+        // motion against it (the supervisor's fast path: a target's segment, a braking
+        // stretch).
         let mut staged = Staged::new(Branch::OUTER);
-        staged.start(&pose);
         let mut cond = ConditionEstimator::new();
+        staged.start(&pose.displaced(&-step_v, &-step_w));
         while !staged.is_finished() {
             guards.advance(&mut staged, &mut cond);
+        }
+        staged.start(&pose);
+        while let Some(stage) = staged.next_stage() {
+            measure(&mut || guards.advance(&mut staged, &mut cond));
+            hprintln!(
+                "@label guards: staged evaluation, stage {}",
+                match stage {
+                    Stage::Kinematic => "Kinematic (IK, kinematic guards)",
+                    Stage::Jacobian => "Jacobian (J, SVD begin)",
+                    Stage::Parallel => "Parallel (one SVD sweep)",
+                    Stage::Statics => "Statics (payload efforts)",
+                }
+            );
         }
         if let Some(full) = staged.full() {
             let mut cert = None;
