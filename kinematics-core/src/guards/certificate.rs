@@ -76,7 +76,7 @@ use crate::ik::Solution;
 use crate::jacobian::Jacobians;
 use crate::mechanism::{JointKind, Mechanism};
 use crate::pose::{rotation_angle, Pose};
-use crate::scalar::{dot3, lit, norm3, sqrt, sub3, Real};
+use crate::scalar::{dot3, larger, lit, norm3, smaller, sqrt, sub3, Real};
 use crate::statics::Statics;
 use nalgebra::Rotation3;
 
@@ -270,32 +270,40 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
     /// module documentation), or None: not an RSPR, a margin not positive, a bound not
     /// finite.
     pub fn certify(&self, e: &FullEvaluation<'_, T>) -> Option<Certificate<T>> {
-        let cons = self.certificate_constraints(e)?;
-        let (zero, one) = (T::zero(), T::one());
+        let cons = self.certificate_constraints(e);
+        let cons = cons.as_ref()?;
+        let zero = T::zero();
         let share = lit::<T>(MARGIN_SHARE);
         let mut scaled = [(zero, zero); CONSTRAINTS];
-        let (mut reach_t, mut reach_r) = (T::max_value()?, T::max_value()?);
+        // The largest coefficients: the reaches are their reciprocals (the smallest
+        // 1/a of the constraints, as 1/x is monotone also in rounding).
+        let (mut a_max, mut b_max) = (zero, zero);
         for (s, c) in scaled.iter_mut().zip(cons.iter()) {
+            // (Also refuses a NaN: a comparison with NaN is false.)
             if !(c.margin > zero && c.rate.v >= zero && c.rate.w >= zero) {
                 return None;
             }
             let usable = c.margin * share;
             *s = (c.rate.v / usable, c.rate.w / usable);
-            if !(s.0.is_finite() && s.1.is_finite()) {
-                return None;
-            }
-            if s.0 > zero {
-                reach_t = reach_t.min(one / s.0);
-            }
-            if s.1 > zero {
-                reach_r = reach_r.min(one / s.1);
-            }
+            a_max = larger(a_max, s.0);
+            b_max = larger(b_max, s.1);
         }
+        // Every coefficient is ≥ 0 and not NaN, so all are finite when the largest are.
+        if !(a_max.is_finite() && b_max.is_finite()) {
+            return None;
+        }
+        let reach = |m: T| {
+            if m > zero {
+                Some(T::one() / m)
+            } else {
+                T::max_value()
+            }
+        };
         Some(Certificate {
             center: e.sol.pose,
             scaled,
-            reach_t,
-            reach_r,
+            reach_t: reach(a_max)?,
+            reach_r: reach(b_max)?,
             warn: e.warn,
         })
     }
@@ -324,11 +332,11 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
         let mut cn2_min = T::max_value()?;
         for c in Chain::ALL {
             let ch = &sol.chains[c];
-            rb = rb.max(norm3(&ch.lb));
-            rp = rp.max(norm3(&sub3(&ch.p, &t)));
-            bz_lo = bz_lo.min(ch.b.z);
-            bz_hi = bz_hi.max(ch.b.z);
-            cn2_min = cn2_min.min(e.jac.serial[c].a22.abs());
+            rb = larger(rb, norm3(&ch.lb));
+            rp = larger(rp, norm3(&sub3(&ch.p, &t)));
+            bz_lo = smaller(bz_lo, ch.b.z);
+            bz_hi = larger(bz_hi, ch.b.z);
+            cn2_min = smaller(cn2_min, e.jac.serial[c].a22.abs());
         }
         let (lmin, lmax) = (l.stroke[0], l.stroke[1]);
         if !(rp > zero && rb > zero && lmin > zero && cn2_min > zero) {
@@ -338,9 +346,9 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
         // |b - t| ≤ β (auxiliary; ≤ l_max + rp always).
         let mut bt_c = zero;
         for c in Chain::ALL {
-            bt_c = bt_c.max(norm3(&sub3(&sol.chains[c].b, &t)));
+            bt_c = larger(bt_c, norm3(&sub3(&sol.chains[c].b, &t)));
         }
-        let beta = (bt_c + lit(BT_SLACK)).min(lmax + rp);
+        let beta = smaller(bt_c + lit(BT_SLACK), lmax + rp);
         // Θ = (|v| + β|ω|)/κ bounds |θ̇|.
         let theta = Rate::new(one / kappa, beta / kappa);
         let vp = Rate::new(one, rp);
@@ -375,9 +383,10 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
             if !(s1z > zero) {
                 return None;
             }
-            let lever = (l.collision_plane_height - bz_lo)
-                .abs()
-                .max((l.collision_plane_height - bz_hi).abs());
+            let lever = larger(
+                (l.collision_plane_height - bz_lo).abs(),
+                (l.collision_plane_height - bz_hi).abs(),
+            );
             c(
                 Guard::Collision,
                 bdot.plus(s1dot.times(two * lever / (s1z * s1z))),
@@ -392,7 +401,7 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
         let row2 = Rate::new(one / rp, one + beta / rp).plus(bdot.times(one / rp));
         let hyp = |a: T, b: T| sqrt(a * a + b * b);
         let delta = Rate::new(hyp(row1.v, row2.v), hyp(row1.w, row2.w)).times(sqrt(lit(3.0)));
-        let sigma_row = largest_row_norm(&e.jac.jtilde, rp).max(one);
+        let sigma_row = larger(largest_row_norm(&e.jac.jtilde, rp), one);
         let ic = e.inv_cond;
         let p = l.parallel.stop;
         let sigma_min = ic * sigma_row;
@@ -441,5 +450,5 @@ fn largest_row_norm<T: Real>(jtilde: &nalgebra::Matrix6<T>, rp: T) -> T {
             *r += (*x * k) * (*x * k);
         }
     }
-    sqrt(rows.iter().fold(T::zero(), |a, x| a.max(*x)))
+    sqrt(rows.iter().fold(T::zero(), |a, x| larger(a, *x)))
 }
