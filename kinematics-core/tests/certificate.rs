@@ -186,28 +186,31 @@ proptest! {
 }
 
 /// The size of the regions over the task box (the supervisor's look-ahead needs them well
-/// above a braking distance, 1.25 mm at 25 mm/s): printed, and at least 1.5 mm of
-/// translation and 0.15 deg of rotation at every pose of the task grid.
+/// above a braking distance, 1.25 mm at 25 mm/s): printed (the figures the README
+/// quotes); more than 100 of the grid's 150 poses are certified.
 #[test]
 fn regions_over_the_task_box() {
     let g = guards(Limits::reference());
-    let (mut t_min, mut r_min, mut t_sum, mut n) = (f64::INFINITY, f64::INFINITY, 0.0, 0);
+    let (mut t, mut r) = ([f64::INFINITY, 0.0], [f64::INFINITY, 0.0]);
+    let (mut t_sum, mut n) = (0.0, 0);
     for pose in task_grid(0.160, 5, 3) {
         let st = staged(&g, &pose);
         let Some(full) = st.full() else { continue };
         let Some(cert) = g.certify(&full) else {
             continue;
         };
-        t_min = t_min.min(cert.reach_t);
-        r_min = r_min.min(cert.reach_r);
+        t = [t[0].min(cert.reach_t), t[1].max(cert.reach_t)];
+        r = [r[0].min(cert.reach_r), r[1].max(cert.reach_r)];
         t_sum += cert.reach_t;
         n += 1;
     }
     println!(
-        "{n} poses: translation reach min {:.3} mm, mean {:.3} mm; rotation reach min {:.4} deg",
-        t_min * 1e3,
+        "{n} poses: translation reach {:.3} .. {:.3} mm, mean {:.3} mm; rotation reach {:.4} .. {:.4} deg",
+        t[0] * 1e3,
+        t[1] * 1e3,
         t_sum / n as f64 * 1e3,
-        r_min.to_degrees()
+        r[0].to_degrees(),
+        r[1].to_degrees()
     );
     assert!(n > 100);
 }

@@ -532,7 +532,7 @@ fn targets_in_a_certified_region_are_accepted_at_once() {
         now += 1000;
         sup.tick();
     }
-    // The region at the centre: about 1.1 mm of translation alone, 0.29 deg of rotation
+    // The region at the centre: about 1.5 mm of translation alone, 0.44 deg of rotation
     // alone (the reference limits with the tool as payload).
     let cert = sup.certificate().copied().unwrap();
     assert_eq!(cert.center.t, Vector3::new(0.0, 0.0, 0.160));

@@ -49,9 +49,11 @@
 //!   circle, i.e. where Cn2 = 0 (the circle's tangent z0 × l_b lies in the plane of normal
 //!   ŝ2). With Cn2 ≥ κ > 0 on the motion the root persists (and stays the same branch).
 //! - the parallel measure (inverse condition number of A): the rows of A change at most
-//!   at |dŝ1|(1 + rp/rp) + |ω| (the ŝ1 lines through p) and |ω|(1 + (l_max + rp)/rp) +
-//!   (|ḃ| + |v|)/rp (the ŝ2 lines through b), so ‖A(x) - A(c)‖_F ≤ δ, the integral of
-//!   √3·√(r1² + r2²). By Weyl's inequality σ_min(x) ≥ σ_min(c) - δ and σ_max(x) ≤
+//!   at r1 = |(|dŝ1|, |ω| + |dŝ1|)| (the ŝ1 lines through p: the direction and the
+//!   moment (p - t) × ŝ1 / rp, with |ṗ - v| ≤ rp|ω|) and r2 = |(|ω|, (|ḃ| + |v| +
+//!   β|ω|)/rp)| (the ŝ2 lines through b: (b - t) × ŝ2 / rp), each the norm of a pair of
+//!   rate bounds by the Minkowski inequality (see the efforts below), so ‖A(x) - A(c)‖_F ≤
+//!   δ, the integral of √3·√(r1² + r2²). By Weyl's inequality σ_min(x) ≥ σ_min(c) - δ and σ_max(x) ≤
 //!   σ_max(c) + δ, so the measure stays ≥ the stop level p while δ ≤ σ_max(c)(ic - p)/(1 +
 //!   p), ic the measure at c; σ_max(c) ≥ the largest row norm of A(c) (≥ 1: each row has a
 //!   unit direction part), which is what is used.
@@ -59,8 +61,11 @@
 //!   forces f = A⁻ᵀ D s_e (D s_e = [f_e; m_e/rp]), τ_leg = f1_i, τ_link = a12 f1_i + a22 f2_i
 //!   (|a12|, |a22| ≤ rb). With |f| ≤ F (auxiliary, F = 1.5|f(c)| + 1 N) and σ_min(A) ≥
 //!   σ_lo = 0.8 σ_min(c) (auxiliary): |ḟ| ≤ (|D ṡ_e| + ‖Ȧ‖ F)/σ_lo, |D ṡ_e| ≤ |ω| |c_p| |f_e|/rp
-//!   for a payload force f_e through the platform point c_p; |τ̇_link| ≤ (|ȧ12| + |ȧ22|)F +
-//!   2 rb |ḟ| with |ȧ12| ≤ rb(|dŝ1| + Θ), |ȧ22| ≤ rb(|ω| + Θ).
+//!   for a payload force f_e through the platform point c_p. Per chain, τ̇_link = ȧ12 f1 +
+//!   ȧ22 f2 + a12 ḟ1 + a22 ḟ2, and by Cauchy-Schwarz on each pair |τ̇_link| ≤
+//!   |(ȧ12, ȧ22)| F + √2 rb |ḟ| (|(a12, a22)| ≤ √2 rb, |(ḟ1, ḟ2)| ≤ |ḟ|, |(f1, f2)| ≤ F),
+//!   with |ȧ12| ≤ rb(|dŝ1| + Θ), |ȧ22| ≤ rb(|ω| + Θ); the norm of the pair of rate bounds
+//!   a·|v| + b·|ω| is bounded by the Minkowski inequality: |(a1, a2)|·|v| + |(b1, b2)|·|ω|.
 //!
 //! κ is 0.8 × the smallest |Cn2| at c and σ_lo 0.8 × the smallest singular value bound at
 //! c: each auxiliary bound is one more constraint of the region, with the rest as margin.
@@ -397,10 +402,14 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
         // The serial measure (relative: |Cn2|/rb) and the auxiliary |Cn2| ≥ κ.
         let cn2dot = omega.plus(theta);
         // The parallel measure through δ = ‖A(x) - A(c)‖_F.
-        let row1 = s1dot.times(two).plus(omega);
-        let row2 = Rate::new(one / rp, one + beta / rp).plus(bdot.times(one / rp));
-        let hyp = |a: T, b: T| sqrt(a * a + b * b);
-        let delta = Rate::new(hyp(row1.v, row2.v), hyp(row1.w, row2.w)).times(sqrt(lit(3.0)));
+        // The norm of a pair of rate bounds (Minkowski: |v·a + w·b| ≤ |v||a| + |w||b|).
+        let hyp = |x: Rate<T>, y: Rate<T>| {
+            Rate::new(sqrt(x.v * x.v + y.v * y.v), sqrt(x.w * x.w + y.w * y.w))
+        };
+        // Each row's direction part and moment part (over rp).
+        let row1 = hyp(s1dot, s1dot.plus(omega));
+        let row2 = hyp(omega, Rate::new(one, beta).plus(bdot).times(one / rp));
+        let delta = hyp(row1, row2).times(sqrt(lit(3.0)));
         let sigma_row = larger(largest_row_norm(&e.jac.jtilde, rp), one);
         let ic = e.inv_cond;
         let p = l.parallel.stop;
@@ -416,7 +425,9 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
         let fdot = se_dot.plus(delta.times(big_f)).times(one / sigma_lo);
         let a12dot = s1dot.plus(theta).times(rb);
         let a22dot = omega.plus(theta).times(rb);
-        let torque = a12dot.plus(a22dot).times(big_f).plus(fdot.times(two * rb));
+        let torque = hyp(a12dot, a22dot)
+            .times(big_f)
+            .plus(fdot.times(sqrt(two) * rb));
         Some([
             c(Guard::Workspace, vel),
             c(Guard::TiltCone, omega),
