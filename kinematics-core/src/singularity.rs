@@ -92,6 +92,8 @@ pub struct ConditionEstimator<T: Real> {
     /// Squared column norm below which a column of W counts as zero.
     floor: T,
     sweeps: u8,
+    /// The largest singular value of the last decomposition that converged (0 before).
+    sigma_max: T,
     /// A decomposition was begun and has not finished.
     running: bool,
 }
@@ -114,8 +116,15 @@ impl<T: Real> ConditionEstimator<T> {
             w: [[T::zero(); 6]; 6],
             floor: T::zero(),
             sweeps: 0,
+            sigma_max: T::zero(),
             running: false,
         }
+    }
+
+    /// The largest singular value of the scaled Jtilde of the last decomposition that
+    /// converged to a finite, nonzero inverse condition number (0 before the first).
+    pub fn sigma_max(&self) -> T {
+        self.sigma_max
     }
 
     /// Sweeps the last call needed (the confirming sweep included).
@@ -239,6 +248,7 @@ impl<T: Real> ConditionEstimator<T> {
             }
         }
         if max > T::zero() && min.is_finite() {
+            self.sigma_max = max;
             Some(Ok(min / max))
         } else if max == T::zero() {
             Some(Ok(T::zero()))

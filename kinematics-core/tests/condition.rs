@@ -13,25 +13,37 @@ use proptest::prelude::*;
 
 /// σ_min / σ_max of the column-scaled matrix by nalgebra's SVD (f64).
 fn reference_inv_cond(jtilde: &Matrix6<f64>, rp: f64) -> f64 {
+    let (min, max) = reference_extremes(jtilde, rp);
+    min / max
+}
+
+/// σ_min and σ_max of the column-scaled matrix by nalgebra's SVD (f64).
+fn reference_extremes(jtilde: &Matrix6<f64>, rp: f64) -> (f64, f64) {
     let mut a = *jtilde;
     for mut c in a.column_iter_mut().skip(3) {
         c /= rp;
     }
     let sv = a.svd(false, false).singular_values;
-    sv.min() / sv.max()
+    (sv.min(), sv.max())
 }
 
 proptest! {
     #![proptest_config(proptest_config::cases(256))]
 
     /// Random matrices (entries in [-1, 1]): cold Jacobi = nalgebra's SVD to 1e-12
-    /// relative in f64, and to 2e-5 in f32 (both against the f64 reference).
+    /// relative in f64 (the inverse condition number and σ_max), and to 2e-5 in f32 (both
+    /// against the f64 reference).
     #[test]
     fn cold_start_matches_nalgebra(entries in proptest::collection::vec(-1.0f64..1.0, 36)) {
         let m = Matrix6::from_column_slice(&entries);
         let want = reference_inv_cond(&m, 0.05);
         let got = parallel_inv_cond(&m, 0.05).unwrap();
         prop_assert!((got - want).abs() <= 1e-12 * want.max(1e-3), "f64 {got} vs {want}");
+        // The estimator's σ_max (the certified regions use it): nalgebra's, to 1e-12 relative.
+        let mut est = ConditionEstimator::new();
+        est.inv_cond(&m, 0.05).unwrap();
+        let (_, max) = reference_extremes(&m, 0.05);
+        prop_assert!((est.sigma_max() - max).abs() <= 1e-12 * max, "σ_max {} vs {max}", est.sigma_max());
         let m32 = m.map(|x| x as f32);
         let got32 = f64::from(parallel_inv_cond(&m32, 0.05f32).unwrap());
         // f32 relative accuracy of σ_min degrades with the condition number.

@@ -55,8 +55,9 @@
 //!   rate bounds by the Minkowski inequality (see the efforts below), so ‖A(x) - A(c)‖_F ≤
 //!   δ, the integral of √3·√(r1² + r2²). By Weyl's inequality σ_min(x) ≥ σ_min(c) - δ and σ_max(x) ≤
 //!   σ_max(c) + δ, so the measure stays ≥ the stop level p while δ ≤ σ_max(c)(ic - p)/(1 +
-//!   p), ic the measure at c; σ_max(c) ≥ the largest row norm of A(c) (≥ 1: each row has a
-//!   unit direction part), which is what is used.
+//!   p), ic the measure at c; σ_max(c) is the SVD's (the one that gave ic), and never less
+//!   than the largest row norm of A(c), a lower bound of it (≥ 1: each row has a unit
+//!   direction part).
 //! - the actuator efforts of the declared payload (Eq. 7.10, 7.15, 7.16, 7.20): the line
 //!   forces f = A⁻ᵀ D s_e (D s_e = [f_e; m_e/rp]), τ_leg = f1_i, τ_link = a12 f1_i + a22 f2_i
 //!   (|a12|, |a22| ≤ rb). With |f| ≤ F (auxiliary, F = 1.5|f(c)| + 1 N) and σ_min(A) ≥
@@ -262,6 +263,9 @@ pub struct FullEvaluation<'a, T: Real> {
     pub jac: &'a Jacobians<T>,
     /// The parallel measure (inverse condition number of the scaled Jtilde).
     pub inv_cond: T,
+    /// The largest singular value of the scaled Jtilde, from the same SVD (0 if unknown:
+    /// the largest row norm is used then).
+    pub sigma_max: T,
     /// The payload statics.
     pub statics: &'a Statics<T>,
     /// The smallest margin of each guard.
@@ -410,10 +414,14 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
         let row1 = hyp(s1dot, s1dot.plus(omega));
         let row2 = hyp(omega, Rate::new(one, beta).plus(bdot).times(one / rp));
         let delta = hyp(row1, row2).times(sqrt(lit(3.0)));
-        let sigma_row = larger(largest_row_norm(&e.jac.jtilde, rp), one);
+        // σ_max(c): the SVD's, at least the largest row norm (a lower bound of it, ≥ 1).
+        let sigma_c = larger(
+            larger(largest_row_norm(&e.jac.jtilde, rp), one),
+            e.sigma_max,
+        );
         let ic = e.inv_cond;
         let p = l.parallel.stop;
-        let sigma_min = ic * sigma_row;
+        let sigma_min = ic * sigma_c;
         let sigma_lo = sigma_min * lit(AUX_SHARE);
         // The payload efforts.
         let f = e.statics;
@@ -440,7 +448,7 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
             aux(beta - bt_c, bdot.plus(vel)),
             Constraint {
                 guard: Some(Guard::ParallelSingularity),
-                margin: sigma_row * (ic - p) / (one + p),
+                margin: sigma_c * (ic - p) / (one + p),
                 rate: delta,
             },
             aux(sigma_min - sigma_lo, delta),

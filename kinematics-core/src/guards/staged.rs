@@ -48,6 +48,8 @@ pub struct Staged<T: Real> {
     jac_ok: bool,
     inv_cond: T,
     inv_cond_ok: bool,
+    /// The SVD's largest singular value of the scaled Jtilde (with `inv_cond`).
+    sigma_max: T,
     stop: Option<Reading<T>>,
     warn: bool,
     next: Option<Stage>,
@@ -68,6 +70,7 @@ impl<T: Real> Staged<T> {
             jac_ok: false,
             inv_cond: T::zero(),
             inv_cond_ok: false,
+            sigma_max: T::zero(),
             stop: None,
             warn: false,
             next: None,
@@ -81,6 +84,7 @@ impl<T: Real> Staged<T> {
         self.pose = *pose;
         self.jac_ok = false;
         self.inv_cond_ok = false;
+        self.sigma_max = T::zero();
         self.stop = None;
         self.warn = false;
         self.next = Some(Stage::Kinematic);
@@ -126,6 +130,7 @@ impl<T: Real> Staged<T> {
                 sol: &self.eval.sol,
                 jac: &self.eval.jac,
                 inv_cond: self.inv_cond,
+                sigma_max: self.sigma_max,
                 statics,
                 minima: &self.minima,
                 warn: self.late_warn,
@@ -148,6 +153,7 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
             jac_ok,
             inv_cond,
             inv_cond_ok,
+            sigma_max,
             stop,
             warn,
             next,
@@ -212,6 +218,7 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
                     if let Some(x) = value {
                         *inv_cond = x;
                         *inv_cond_ok = true;
+                        *sigma_max = cond.sigma_max();
                     }
                     match value {
                         Some(_) if *jac_ok => Some(Stage::Statics),
