@@ -59,8 +59,65 @@ fn to_edge(cert: &Certificate<f64>, dt: f64, dr: f64) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
-/// Checks the bound (1) of every guard constraint between the centre and `x`, and that
-/// `x` violates no stop-level guard.
+/// The quantities the auxiliary bounds of a region keep (the serial measure's smallest
+/// |Cn2|, the largest |b - t|, the smallest and largest singular values of the scaled
+/// Jtilde by nalgebra's SVD, and |f| of the payload statics), from a full evaluation.
+fn aux_quantities(g: &G, pose: &Pose<f64>) -> Option<[f64; 5]> {
+    let st = staged(g, pose);
+    let full = st.full()?;
+    let t = full.sol.pose.t;
+    let (mut cn2, mut bt, mut rp) = (f64::INFINITY, 0.0f64, 0.0f64);
+    for c in Chain::ALL {
+        let ch = &full.sol.chains[c];
+        cn2 = cn2.min(full.jac.serial[c].a22.abs());
+        bt = bt.max((ch.b - t).norm());
+        rp = rp.max((ch.p - t).norm());
+    }
+    let mut a = full.jac.jtilde;
+    for mut col in a.column_iter_mut().skip(3) {
+        col /= rp;
+    }
+    let sv = a.svd(false, false).singular_values;
+    let f = (full.statics.f1.norm_squared() + full.statics.f2.norm_squared()).sqrt();
+    Some([cn2, bt, sv.min(), sv.max(), f])
+}
+
+/// Checks the auxiliary bounds of the region between the centre and `x` (they are not
+/// guards, so a stop level cannot reveal a wrong one): |Cn2| and σ_min fall, |b - t|,
+/// σ_max and |f| grow, each at most by its constraint's rate over the motion (the
+/// constraints' order of `certificate_constraints`).
+fn check_aux(
+    g: &G,
+    cons: &[Constraint<f64>],
+    c: &Pose<f64>,
+    x: &Pose<f64>,
+    dt: f64,
+    dr: f64,
+) -> Result<(), TestCaseError> {
+    let (Some(qc), Some(qx)) = (aux_quantities(g, c), aux_quantities(g, x)) else {
+        return Err(TestCaseError::fail("no full evaluation inside the region"));
+    };
+    let by = |k: usize| cons[k].rate.over(dt, dr);
+    let checks = [
+        ("|Cn2| min", qc[0] - qx[0], by(7)),
+        ("|b - t| max", qx[1] - qc[1], by(8)),
+        ("sigma_min", qc[2] - qx[2], by(10)),
+        ("sigma_max", qx[3] - qc[3], by(9)),
+        ("|f|", qx[4] - qc[4], by(11)),
+    ];
+    for (name, change, bound) in checks {
+        prop_assert!(
+            change <= bound + 1e-12,
+            "{name} changed by {change:e} over {:.4} mm, {:.5} rad: above the bound {bound:e}",
+            dt * 1e3,
+            dr
+        );
+    }
+    Ok(())
+}
+
+/// Checks the bound (1) of every guard constraint between the centre and `x`, that `x`
+/// violates no stop-level guard, and the auxiliary bounds ([`check_aux`]).
 fn check_bounds(
     g: &G,
     cons: &[Constraint<f64>],
@@ -93,7 +150,7 @@ fn check_bounds(
             k.margin
         );
     }
-    Ok(())
+    check_aux(g, cons, c, x, dt, dr)
 }
 
 fn unit() -> impl Strategy<Value = Vector3<f64>> {
