@@ -53,9 +53,9 @@
 //!   moment (p - t) × ŝ1 / rp, with |ṗ - v| ≤ rp|ω|) and r2 = |(|ω|, (|ḃ| + |v| +
 //!   β|ω|)/rp)| (the ŝ2 lines through b: (b - t) × ŝ2 / rp), each the norm of a pair of
 //!   rate bounds by the Minkowski inequality (see the efforts below), so ‖A(x) - A(c)‖_F ≤
-//!   δ, the integral of √3·√(r1² + r2²). By Weyl's inequality σ_min(x) ≥ σ_min(c) - δ and σ_max(x) ≤
-//!   σ_max(c) + δ, so the measure stays ≥ the stop level p while δ ≤ σ_max(c)(ic - p)/(1 +
-//!   p), ic the measure at c; σ_max(c) is the SVD's (the one that gave ic), and never less
+//!   δ, the integral of √3·√(r1² + r2²). By Weyl's inequality σ_min(x) ≥ σ_min(c) - δ
+//!   and σ_max(x) ≤ σ_max(c) + δ, so the measure stays ≥ the stop level p while
+//!   δ ≤ σ_max(c)(ic - p)/(1 + p), ic the measure at c; σ_max(c) is the SVD's (the one that gave ic), and never less
 //!   than the largest row norm of A(c), a lower bound of it (≥ 1: each row has a unit
 //!   direction part).
 //! - the actuator efforts of the declared payload (Eq. 7.10, 7.15, 7.16, 7.20): the line
@@ -64,9 +64,10 @@
 //!   σ_lo = 0.8 σ_min(c) (auxiliary): |ḟ| ≤ (|D ṡ_e| + ‖Ȧ‖ F)/σ_lo, |D ṡ_e| ≤ |ω| |c_p| |f_e|/rp
 //!   for a payload force f_e through the platform point c_p. Per chain, τ̇_link = ȧ12 f1 +
 //!   ȧ22 f2 + a12 ḟ1 + a22 ḟ2, and by Cauchy-Schwarz on each pair |τ̇_link| ≤
-//!   |(ȧ12, ȧ22)| F + √2 rb |ḟ| (|(a12, a22)| ≤ √2 rb, |(ḟ1, ḟ2)| ≤ |ḟ|, |(f1, f2)| ≤ F),
-//!   with |ȧ12| ≤ rb(|dŝ1| + Θ), |ȧ22| ≤ rb(|ω| + Θ); the norm of the pair of rate bounds
-//!   a·|v| + b·|ω| is bounded by the Minkowski inequality: |(a1, a2)|·|v| + |(b1, b2)|·|ω|.
+//!   |(ȧ12, ȧ22)| F + √2 rb |ḟ| (|(a12, a22)| ≤ √2 rb, |(ḟ1, ḟ2)| ≤ |ḟ|,
+//!   |(f1, f2)| ≤ F), with |ȧ12| ≤ rb(|dŝ1| + Θ), |ȧ22| ≤ rb(|ω| + Θ); the norm of the
+//!   pair of rate bounds a·|v| + b·|ω| is bounded by the Minkowski inequality:
+//!   |(a1, a2)|·|v| + |(b1, b2)|·|ω|.
 //!
 //! κ is 0.8 × the smallest |Cn2| at c and σ_lo 0.8 × the smallest singular value bound at
 //! c: each auxiliary bound is one more constraint of the region, with the rest as margin.

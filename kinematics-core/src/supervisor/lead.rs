@@ -8,8 +8,9 @@
 //!
 //! Only the translation is led. The rotation follows the master's own orientation: a
 //! rotation lead of ω/2α' (1.1 deg at 25 deg/s) reaches far beyond the certified regions
-//! (at most about 0.5 deg), so led rotations would be path-checked one by one, and in the default
-//! simulation the lag at 25 mm/s was 33 ms with it against 28 ms without.
+//! (at most about 0.5 deg), so led rotations would be path-checked one by one, and in the
+//! default simulation the lag at 25 mm/s was 33 ms with it against 28 ms without (with
+//! the smaller regions of the time).
 //!
 //! Safety is unchanged: a led target is a target like any other (accepted at once inside a
 //! certified region, else verified along its path, see the supervisor). A led target
