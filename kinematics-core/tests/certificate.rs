@@ -325,3 +325,91 @@ proptest! {
         }
     }
 }
+
+proptest! {
+    #![proptest_config(proptest_config::cases(512))]
+
+    /// Property: `contains_motion` holds what it claims for a straight motion at any
+    /// relative pace of its translation and rotation: when it accepts `from` → `to`, every
+    /// pose with the translation at fraction `st` and the rotation at fraction `sr` of
+    /// the segment keeps every constraint, a·|Δt| + b·θ < 1 with the true angle θ from
+    /// the centre. This is the geodesic convexity of the rotation balls (the angle from the
+    /// centre along the segment never exceeds its larger end), which the test checks
+    /// directly too, with ends up to 80 deg from the centre.
+    #[test]
+    fn a_contained_motion_keeps_every_constraint_at_any_pace(
+        wc in prop::array::uniform3(-1.0f64..1.0),
+        wa in prop::array::uniform3(-0.8f64..0.8),
+        wb in prop::array::uniform3(-0.8f64..0.8),
+        ta in prop::array::uniform3(-2e-3f64..2e-3),
+        tb in prop::array::uniform3(-2e-3f64..2e-3),
+        coeffs in prop::array::uniform4(0.0f64..2.0),
+        paces in prop::collection::vec((0.0f64..=1.0, 0.0f64..=1.0), 16),
+    ) {
+        use kinematics_core::pose::rotation_angle;
+        let rc = Rotation3::from_scaled_axis(Vector3::from(wc));
+        let center = Pose { t: Vector3::zeros(), r: rc };
+        // Ends within 0.8·√3 rad ≈ 79 deg of the centre (rotation vectors relative to it).
+        let end = |w: [f64; 3], t: [f64; 3]| Pose {
+            t: Vector3::from(t),
+            r: Rotation3::from_scaled_axis(Vector3::from(w)) * rc,
+        };
+        let (from, to) = (end(wa, ta), end(wb, tb));
+        let (th_a, th_b) = (
+            rotation_angle(&(from.r * rc.inverse())),
+            rotation_angle(&(to.r * rc.inverse())),
+        );
+        // Two constraints, per mm and per rad, scaled so that the ends lie near the edge.
+        let mut scaled = [(0.0, 0.0); certificate::CONSTRAINTS];
+        let size = (ta.iter().chain(tb.iter()).map(|x| x.abs()).fold(0.0, f64::max) * 1e3)
+            .max(th_a.max(th_b));
+        scaled[0] = (coeffs[0] * 1e3 / size / 2.0, coeffs[1] / size / 2.0);
+        scaled[1] = (coeffs[2] * 1e3 / size / 2.0, coeffs[3] / size / 2.0);
+        let cert = Certificate { center, scaled, reach_t: 0.0, reach_r: 0.0, warn: None };
+        let inside = cert.contains_motion(&from, &to);
+        for (st, sr) in paces {
+            let t = from.t + (to.t - from.t) * st;
+            let r = kinematics_core::supervisor::interpolate(&from, &to, sr).r;
+            let theta = rotation_angle(&(r * rc.inverse()));
+            prop_assert!(
+                theta <= th_a.max(th_b) + 1e-12,
+                "angle {theta} at fraction {sr} beyond the ends' {th_a}, {th_b}"
+            );
+            if inside {
+                for (a, b) in cert.scaled {
+                    prop_assert!(a * t.norm() + b * theta < 1.0 + 1e-12);
+                }
+            }
+        }
+    }
+}
+
+/// A motion with a NaN or infinite end is never contained (a NaN must not pass as a
+/// distance or angle of 0), and `angle_bound` of a matrix with a NaN is beyond any reach.
+#[test]
+fn a_motion_with_a_nan_end_is_not_contained() {
+    let center = Pose::central(0.160);
+    let cert = Certificate {
+        center,
+        scaled: [(1.0, 1.0); certificate::CONSTRAINTS],
+        reach_t: 1.0,
+        reach_r: 1.0,
+        warn: None,
+    };
+    let near = Pose {
+        t: center.t + Vector3::new(1e-4, 0.0, 0.0),
+        r: center.r,
+    };
+    assert!(cert.contains_motion(&center, &near));
+    for bad in [f64::NAN, f64::INFINITY] {
+        let mut t = near;
+        t.t.y = bad;
+        assert!(!cert.contains_motion(&center, &t));
+        assert!(!cert.contains_motion(&t, &center));
+        let mut r = near;
+        r.r = Rotation3::from_matrix_unchecked(center.r.matrix().map(|_| bad));
+        assert!(!cert.contains_motion(&center, &r));
+        assert!(!cert.contains_motion(&r, &center));
+        assert!(certificate::angle_bound(&r.r, &center.r) > 1e300);
+    }
+}

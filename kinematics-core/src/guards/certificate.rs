@@ -175,24 +175,35 @@ impl<T: Real> Certificate<T> {
     /// Whether every pose of a straight motion `from` → `to` (translation and rotation
     /// each linear, at any relative pace: a segment of the supervisor or a braking path,
     /// whose translation and rotation may end at different times) is inside. Uses
-    /// |Δt(s)| ≤ max(|Δt_from|, |Δt_to|) (the norm is convex) and θ(s) ≤ (θ_from + θ_to +
-    /// θ_from,to)/2 (the triangle inequality from either end).
-    /// The angles are bounded from above ([`angle_bound`]), so the test is conservative.
+    /// |Δt(s)| ≤ max(|Δt_from|, |Δt_to|) (the norm is convex) and θ(s) ≤ max(θ_from,
+    /// θ_to): the rotation about a fixed world axis is a geodesic of SO(3), and a ball of
+    /// SO(3) of radius below π is geodesically convex. (With unit quaternions q(s) on the
+    /// great-circle arc from q_from to q_to, of length θ_from,to/2 < π/2, and the centre's
+    /// q_c, signs chosen so that q_c·q > 0 at the ends: q_c·q(s) = K cos(s - s₀) is
+    /// positive at both ends of an interval shorter than π, so positive and concave on
+    /// it, and its least value, the largest angle θ = 2 acos(q_c·q), is at an end.) The
+    /// angles are bounded from above ([`angle_bound`]), so the test is conservative. Ends
+    /// θ ≥ π/2 from the centre are refused outright: below that the signs above exist
+    /// (the two ends are then within π of each other, their arc shorter than π/2).
     pub fn contains_motion(&self, from: &Pose<T>, to: &Pose<T>) -> bool {
         let ta = norm3(&sub3(&from.t, &self.center.t));
         let tb = norm3(&sub3(&to.t, &self.center.t));
         let ra = angle_bound(&from.r, &self.center.r);
         let rb = angle_bound(&to.r, &self.center.r);
-        let r_ab = angle_bound(&to.r, &from.r);
-        let half = lit::<T>(0.5);
-        self.contains_offset(ta.max(tb), (ra + rb + r_ab) * half)
+        // (A NaN or infinite end is refused: `larger` alone would pass over a NaN.)
+        if !(ta + tb + ra + rb).is_finite() {
+            return false;
+        }
+        let r = larger(ra, rb);
+        r < lit(core::f64::consts::FRAC_PI_2) && self.contains_offset(larger(ta, tb), r)
     }
 }
 
 /// An upper bound of the angle of the rotation a·bᵀ, cheap (no product of the matrices,
 /// no trigonometry): with cos θ = (tr(a·bᵀ) - 1)/2 and tr(a·bᵀ) = Σ a_ij b_ij,
 /// 2·tan(θ/2) = 2·√((1 - cos θ)/(1 + cos θ)) ≥ θ on [0, π) (relative excess θ²/12: 0.1 %
-/// at 6 deg); infinite from 179 deg on (nothing is certified that far).
+/// at 6 deg); infinite from 179 deg on (nothing is certified that far) and for a matrix
+/// with a NaN.
 pub fn angle_bound<T: Real>(a: &Rotation3<T>, b: &Rotation3<T>) -> T {
     let (ma, mb) = (a.matrix(), b.matrix());
     let mut tr = T::zero();
@@ -200,7 +211,7 @@ pub fn angle_bound<T: Real>(a: &Rotation3<T>, b: &Rotation3<T>) -> T {
         tr += *x * *y;
     }
     let one = T::one();
-    let c = ((tr - one) * lit::<T>(0.5)).min(one);
+    let c = smaller((tr - one) * lit::<T>(0.5), one);
     if !(c > lit(-0.9998)) {
         return T::max_value().unwrap_or(one / T::default_epsilon());
     }
