@@ -413,3 +413,107 @@ fn a_motion_with_a_nan_end_is_not_contained() {
         assert!(certificate::angle_bound(&r.r, &center.r) > 1e300);
     }
 }
+
+/// The scaled Jtilde (moment columns over rp) of a full evaluation at `pose`.
+fn scaled_jtilde(g: &G, pose: &Pose<f64>) -> Option<nalgebra::Matrix6<f64>> {
+    let st = staged(g, pose);
+    let full = st.full()?;
+    let t = full.sol.pose.t;
+    let rp = Chain::ALL
+        .iter()
+        .map(|c| (full.sol.chains[*c].p - t).norm())
+        .fold(0.0, f64::max);
+    let mut a = full.jac.jtilde;
+    for mut col in a.column_iter_mut().skip(3) {
+        col /= rp;
+    }
+    Some(a)
+}
+
+proptest! {
+    #![proptest_config(proptest_config::cases(256))]
+
+    /// Property: anywhere in a certified region, the scaled Jtilde changes along the
+    /// region's straight motions no faster than the rate δ the region's parallel-measure
+    /// constraints use (‖dA/ds‖_F by central differences against δ_v|v| + δ_w|ω|): the
+    /// first-order check of the bound, which the singular values' changes
+    /// ([`check_aux`]) see only through Weyl's inequality. Random directions, from the
+    /// centre to 99.9 % of the edge.
+    #[test]
+    fn jtilde_changes_no_faster_than_delta_in_the_region(
+        c in pose_near_box(0.160),
+        dir_t in unit(), dir_r in unit(), mix in 0.0f64..=1.0, edge in 0.0f64..0.999,
+    ) {
+        let g = guards(Limits::reference());
+        let st = staged(&g, &c);
+        let Some(full) = st.full() else { return Ok(()) };
+        let Some(cert) = g.certify(&full) else { return Ok(()) };
+        let delta = g.certificate_constraints(&full).unwrap()[9].rate;
+        let (dt, dr) = (mix, (1.0 - mix) * 0.2);
+        let k = to_edge(&cert, dt, dr) * edge;
+        let (v, w) = (dir_t * dt, dir_r * dr);
+        let x = moved(&c, &(v * k), &(w * k));
+        let h = 1e-6;
+        let (Some(a1), Some(a0)) = (
+            scaled_jtilde(&g, &moved(&x, &(v * h), &(w * h))),
+            scaled_jtilde(&g, &moved(&x, &(-v * h), &(-w * h))),
+        ) else {
+            return Err(TestCaseError::fail("no full evaluation inside the region"));
+        };
+        let rate = (a1 - a0).norm() / (2.0 * h);
+        let bound = delta.over(dt, dr);
+        prop_assert!(
+            rate <= bound * (1.0 + 1e-6),
+            "|dA/ds| {rate} above delta {bound} at {:.3} of the way to the edge ({dt}, {dr})",
+            edge
+        );
+    }
+}
+
+/// δ against the largest rate of the scaled Jtilde at the centre and at a corner of the
+/// task, over 400 directions of translation and 400 of rotation (a Fibonacci sphere;
+/// central differences): never below it (soundness at the centre), and within 2x of it
+/// for translation and 3x for rotation (printed: the bound's looseness, which sets the
+/// regions' size).
+#[test]
+fn delta_against_the_largest_rate_of_jtilde() {
+    let g = guards(Limits::reference());
+    let n = 400;
+    let sphere = |i: usize| {
+        let z = 1.0 - (2.0 * i as f64 + 1.0) / n as f64;
+        let phi = i as f64 * std::f64::consts::PI * (3.0 - 5f64.sqrt());
+        let r = (1.0 - z * z).sqrt();
+        Vector3::new(r * phi.cos(), r * phi.sin(), z)
+    };
+    for (name, c) in [
+        ("centre", Pose::central(0.160)),
+        ("corner", task_grid(0.160, 5, 3)[120]),
+    ] {
+        let st = staged(&g, &c);
+        let full = st.full().unwrap();
+        let delta = g.certificate_constraints(&full).unwrap()[9].rate;
+        let h = 1e-6;
+        let (mut worst_v, mut worst_w) = (0.0f64, 0.0f64);
+        for i in 0..n {
+            let d = sphere(i);
+            let rate = |v: Vector3<f64>, w: Vector3<f64>| {
+                let a1 = scaled_jtilde(&g, &moved(&c, &(v * h), &(w * h))).unwrap();
+                let a0 = scaled_jtilde(&g, &moved(&c, &(-v * h), &(-w * h))).unwrap();
+                (a1 - a0).norm() / (2.0 * h)
+            };
+            worst_v = worst_v.max(rate(d, Vector3::zeros()));
+            worst_w = worst_w.max(rate(Vector3::zeros(), d));
+        }
+        println!(
+            "{name}: delta {:.2} per m/s, {:.3} per rad/s; largest |dA/ds|_F {:.2}, {:.3}: {:.2}x, {:.2}x",
+            delta.v,
+            delta.w,
+            worst_v,
+            worst_w,
+            delta.v / worst_v,
+            delta.w / worst_w
+        );
+        assert!(worst_v <= delta.v && worst_w <= delta.w);
+        assert!(delta.v <= 2.0 * worst_v && delta.w <= 3.0 * worst_w);
+    }
+}

@@ -871,7 +871,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         self.output(self.warning)
     }
 
-    /// One control tick: the checker's stages ([`Self::run_checker`]), the profile's step
+    /// One control tick: the checker's stages (`run_checker`), the profile's step
     /// towards the goal or a controlled stop ([`profile`]), the candidate setpoint's
     /// kinematic guards and the motion guards on the output.
     pub fn tick(&mut self) -> TickOutput<T> {
