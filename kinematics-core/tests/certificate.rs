@@ -59,17 +59,19 @@ fn to_edge(cert: &Certificate<f64>, dt: f64, dr: f64) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
-/// The quantities the auxiliary bounds of a region keep (the serial measure's smallest
-/// |Cn2|, the largest |b - t|, the smallest and largest singular values of the scaled
-/// Jtilde by nalgebra's SVD, and |f| of the payload statics), from a full evaluation.
+/// The quantities the auxiliary bounds of a region keep (the largest angle ψ between
+/// z0 × l_b and ŝ2, from |Cn2| = |z0 × l_b| cos ψ, the largest |b - t|, the smallest and
+/// largest singular values of the scaled Jtilde by nalgebra's SVD, and |f| of the
+/// payload statics), from a full evaluation.
 fn aux_quantities(g: &G, pose: &Pose<f64>) -> Option<[f64; 5]> {
     let st = staged(g, pose);
     let full = st.full()?;
     let t = full.sol.pose.t;
-    let (mut cn2, mut bt, mut rp) = (f64::INFINITY, 0.0f64, 0.0f64);
+    let (mut psi, mut bt, mut rp) = (0.0f64, 0.0f64, 0.0f64);
     for c in Chain::ALL {
         let ch = &full.sol.chains[c];
-        cn2 = cn2.min(full.jac.serial[c].a22.abs());
+        let u = Vector3::z().cross(&ch.lb).norm();
+        psi = psi.max((full.jac.serial[c].a22.abs() / u).min(1.0).acos());
         bt = bt.max((ch.b - t).norm());
         rp = rp.max((ch.p - t).norm());
     }
@@ -79,13 +81,13 @@ fn aux_quantities(g: &G, pose: &Pose<f64>) -> Option<[f64; 5]> {
     }
     let sv = a.svd(false, false).singular_values;
     let f = (full.statics.f1.norm_squared() + full.statics.f2.norm_squared()).sqrt();
-    Some([cn2, bt, sv.min(), sv.max(), f])
+    Some([psi, bt, sv.min(), sv.max(), f])
 }
 
 /// Checks the auxiliary bounds of the region between the centre and `x` (they are not
-/// guards, so a stop level cannot reveal a wrong one): |Cn2| and σ_min fall, |b - t|,
-/// σ_max and |f| grow, each at most by its constraint's rate over the motion (the
-/// constraints' order of `certificate_constraints`).
+/// guards, so a stop level cannot reveal a wrong one): σ_min falls, ψ, |b - t|, σ_max and
+/// |f| grow, each at most by its constraint's rate over the motion (the constraints'
+/// order of `certificate_constraints`).
 fn check_aux(
     g: &G,
     cons: &[Constraint<f64>],
@@ -99,7 +101,7 @@ fn check_aux(
     };
     let by = |k: usize| cons[k].rate.over(dt, dr);
     let checks = [
-        ("|Cn2| min", qc[0] - qx[0], by(7)),
+        ("psi max", qx[0] - qc[0], by(7)),
         ("|b - t| max", qx[1] - qc[1], by(8)),
         ("sigma_min", qc[2] - qx[2], by(10)),
         ("sigma_max", qx[3] - qc[3], by(9)),

@@ -16,8 +16,9 @@
 //!
 //! The bounds hold wherever every stop-level guard holds (the safe set S: the stroke is
 //! within its range, the platform within the task box and the tilt cone, ...) and where
-//! two auxiliary lower bounds hold (the serial measure |Cn2| ≥ κ and the smallest singular
-//! value of the scaled Jtilde ≥ σ_lo, themselves certified by (1) like guards). Why the
+//! the auxiliary bounds hold (the angle ψ ≤ ψ_max below, which keeps the serial measure
+//! |Cn2| ≥ κ, the smallest singular value of the scaled Jtilde ≥ σ_lo, and two more,
+//! themselves certified by (1) like guards). Why the
 //! region lies in S (the first-exit argument): on the straight motion from c to a pose x of
 //! the region, let y be the first pose where a guard or an auxiliary bound fails; before
 //! y every bound below holds, so by (1) each margin at y is still positive; the margins are
@@ -35,14 +36,19 @@
 //!   the bound |b - t| ≤ |b - p| + |p - t|; |d|b - t|| ≤ |ḃ| + |v|), so |θ̇| ≤ Θ = (|v| +
 //!   β|ω|)/κ.
 //! - ḃ = θ̇ u, u = z0 × l_b: |ḃ| ≤ rb Θ. l̇ ≤ |ṗ - ḃ| ≤ V_p + rb Θ (stroke).
-//! - u across ŝ2: u = Cn2 ŝ2 + w⊥ with |u| ≤ rb, so |w⊥| ≤ √(rb² - Cn2²) and, where
-//!   |Cn2| ≥ κ, |w⊥|/|Cn2| ≤ k = √((rb/κ)² - 1) (the ratio falls as |Cn2| grows).
+//! - u across ŝ2: with ψ the angle between u and ŝ2 (as lines), Cn2 = ŝ2·u = ±|u| cos ψ
+//!   and u = Cn2 ŝ2 + w⊥ with |w⊥| = |u| sin ψ; |u| ≤ rb is constant (l_b turns about z0).
+//!   ψ changes at most at |dŝ2| + |du/|u|| ≤ |ω| + Θ. The auxiliary bound ψ ≤ ψ_max =
+//!   ψ_c + 0.1 rad (ψ_c the largest over the chains at c; ψ_max < π/2) gives |Cn2| ≥ κ =
+//!   |u|_min cos ψ_max and |w⊥|/|Cn2| = tan ψ ≤ k = tan ψ_max, √(1 + k²) = 1/cos ψ_max.
+//!   (Before: κ = 0.8 |Cn2|_min(c), which lets ψ grow from 0 to 37 deg at the centre, and
+//!   k = √((rb/κ)² - 1) = 0.75 there; now k = 0.1.)
 //! - ŝ1 = (p - b)/l: dŝ1 = (I - ŝ1ŝ1ᵀ)(ṗ - ḃ)/l. The leg is normal to the upper revolute
 //!   axis (ŝ2·(p - b) = 0, the constraint whose derivative gives θ̇ above), so (ŝ1, ŝ2,
 //!   n = ŝ1 × ŝ2) is orthonormal. The ŝ2 part of ṗ - ḃ is -ṡ2·(p - b) = l ω·n (ṡ2 = ω ×
 //!   ŝ2); the n part is γ = n·ṗ - θ̇ n·w⊥ = (n - (n·w⊥/Cn2) ŝ2)·v + n·(ω × (p - t)) -
 //!   (n·w⊥/Cn2) ŝ2·(ω × (b - t)), and as n ⊥ ŝ2, |γ| ≤ √(1 + k²)|v| + (rp + kβ)|ω| =
-//!   (rb/κ)|v| + (rp + kβ)|ω|. So |dŝ1| ≤ |(|ω|, |γ|/l_min)| (Minkowski, below: the
+//!   |v|/cos ψ_max + (rp + kβ)|ω|. So |dŝ1| ≤ |(|ω|, |γ|/l_min)| (Minkowski, below: the
 //!   bound (V_p + rb Θ)/l_min of the triangle inequality is up to 2.7x larger at the
 //!   centre). ŝ2 = R r_i: |dŝ2| ≤ |ω|.
 //! - the spherical-joint tilt, the angle between ŝ1 and the socket axis fixed to the link
@@ -56,10 +62,10 @@
 //! - reach: the inverse kinematics of Eq. 6.22 has a real root while its discriminant is
 //!   positive, and the discriminant vanishes exactly where the leg plane touches the link
 //!   circle, i.e. where Cn2 = 0 (the circle's tangent z0 × l_b lies in the plane of normal
-//!   ŝ2). With Cn2 ≥ κ > 0 on the motion the root persists (and stays the same branch).
+//!   ŝ2). With |Cn2| ≥ κ > 0 on the motion the root persists (and stays the same branch).
 //! - the parallel measure (inverse condition number of A): the rows of A change at most
 //!   at r1 = |(|dŝ1|, |ω| + |dŝ1|)| (the ŝ1 lines through p: the direction and the
-//!   moment (p - t) × ŝ1 / rp, with |ṗ - v| ≤ rp|ω|) and r2 = |(|ω|, ((rb/κ)|v| +
+//!   moment (p - t) × ŝ1 / rp, with |ṗ - v| ≤ rp|ω|) and r2 = |(|ω|, (|v|/cos ψ_max +
 //!   (1 + k)β|ω|)/rp)| (the ŝ2 lines through b: the moment (b - t) × ŝ2 / rp changes at
 //!   ((ḃ - v) × ŝ2 + (b - t) × ṡ2)/rp, where ḃ × ŝ2 = θ̇ w⊥ × ŝ2 and v × ŝ2 = v⊥ × ŝ2 for
 //!   v = v∥ ŝ2 + v⊥: |(ŝ2·v/Cn2) w⊥ × ŝ2 - v⊥ × ŝ2| ≤ k|v∥| + |v⊥| ≤ √(1 + k²)|v|), each
@@ -81,8 +87,8 @@
 //!   pair of rate bounds a·|v| + b·|ω| is bounded by the Minkowski inequality:
 //!   |(a1, a2)|·|v| + |(b1, b2)|·|ω|.
 //!
-//! κ is 0.8 × the smallest |Cn2| at c and σ_lo 0.8 × the smallest singular value bound at
-//! c: each auxiliary bound is one more constraint of the region, with the rest as margin.
+//! ψ_max is ψ_c + 0.1 rad and σ_lo 0.8 × the smallest singular value bound at c: each
+//! auxiliary bound is one more constraint of the region, with the rest as margin.
 //!
 //! The bounds are derived for the RSPR chain (a rotating link about z0 on the base plane, a
 //! prismatic leg, a revolute joint on the platform); [`Guards::certify`] gives no region
@@ -107,7 +113,15 @@ pub const CONSTRAINTS: usize = 14;
 /// The share of each margin a region uses (5 % kept in hand).
 pub const MARGIN_SHARE: f64 = 0.95;
 
-/// κ and σ_lo as a share of their values at the centre.
+/// How far ψ, the angle between z0 × l_b and ŝ2, may grow beyond its largest value at
+/// the centre in a region, rad (auxiliary: it bounds |Cn2| from below and the part of
+/// z0 × l_b across ŝ2).
+const PSI_SLACK: f64 = 0.1;
+/// cos and sin of [`PSI_SLACK`] (written out: no trigonometry in `no_std` constants).
+const PSI_SLACK_COS: f64 = 0.995_004_165_278_025_8;
+const PSI_SLACK_SIN: f64 = 0.099_833_416_646_828_15;
+
+/// σ_lo as a share of its value at the centre.
 const AUX_SHARE: f64 = 0.8;
 /// β = |b - t| at the centre plus this, m.
 const BT_SLACK: f64 = 0.01;
@@ -143,7 +157,8 @@ impl<T: Real> Rate<T> {
 /// centre and the bound on the margin's rate.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Constraint<T: Real> {
-    /// The guard; None for the auxiliary bounds (|Cn2| ≥ κ, σ_min ≥ σ_lo, |f| ≤ F).
+    /// The guard; None for the auxiliary bounds (ψ ≤ ψ_max, |b - t| ≤ β, σ_min ≥ σ_lo,
+    /// |f| ≤ F).
     pub guard: Option<Guard>,
     /// The margin at the centre, in the guard's unit.
     pub margin: T,
@@ -362,20 +377,35 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
         // Per-chain constants read off the solution: rb = |l_b|, rp = |p - t|, b_z.
         let (mut rb, mut rp) = (zero, zero);
         let (mut bz_lo, mut bz_hi) = (T::max_value()?, -T::max_value()?);
-        let mut cn2_min = T::max_value()?;
+        // ψ, the angle between u = z0 × l_b and ŝ2: |Cn2| = |u| cos ψ (|u| is constant:
+        // l_b turns about z0); the largest ψ over the chains, by its cosine.
+        let (mut u_min, mut cos_c) = (T::max_value()?, one);
         for c in Chain::ALL {
             let ch = &sol.chains[c];
             rb = larger(rb, norm3(&ch.lb));
             rp = larger(rp, norm3(&sub3(&ch.p, &t)));
             bz_lo = smaller(bz_lo, ch.b.z);
             bz_hi = larger(bz_hi, ch.b.z);
-            cn2_min = smaller(cn2_min, e.jac.serial[c].a22.abs());
+            let u = sqrt(ch.lb.x * ch.lb.x + ch.lb.y * ch.lb.y);
+            u_min = smaller(u_min, u);
+            cos_c = smaller(cos_c, e.jac.serial[c].a22.abs() / u);
         }
         let (lmin, lmax) = (l.stroke[0], l.stroke[1]);
-        if !(rp > zero && rb > zero && lmin > zero && cn2_min > zero) {
+        if !(rp > zero && rb > zero && lmin > zero && cos_c > zero && u_min > zero) {
             return None;
         }
-        let kappa = cn2_min * lit(AUX_SHARE);
+        // ψ ≤ ψ_max = ψ_c + PSI_SLACK (auxiliary): cos and sin of the sum, no trigonometry.
+        let sin_c = sqrt(larger(one - cos_c * cos_c, zero));
+        let (cd, sd) = (lit::<T>(PSI_SLACK_COS), lit::<T>(PSI_SLACK_SIN));
+        let cos_max = cos_c * cd - sin_c * sd;
+        let sin_max = sin_c * cd + cos_c * sd;
+        if !(cos_max > zero) {
+            return None;
+        }
+        // |Cn2| ≥ κ and |w⊥|/|Cn2| = tan ψ ≤ k on the region.
+        let kappa = u_min * cos_max;
+        let k = sin_max / cos_max;
+        let sec = one / cos_max;
         // |b - t| ≤ β (auxiliary; ≤ l_max + rp always).
         let mut bt_c = zero;
         for c in Chain::ALL {
@@ -392,11 +422,8 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
         let hyp = |x: Rate<T>, y: Rate<T>| {
             Rate::new(sqrt(x.v * x.v + y.v * y.v), sqrt(x.w * x.w + y.w * y.w))
         };
-        // |w⊥|/|Cn2| ≤ k = √((rb/κ)² - 1), w⊥ the part of z0 × l_b across ŝ2.
-        let rk = rb / kappa;
-        let k = sqrt(larger(rk * rk - one, zero));
-        // dŝ1 = (ω·n) ŝ2 + (γ/l) n, n = ŝ1 × ŝ2, |γ| ≤ (rb/κ)|v| + (rp + kβ)|ω|.
-        let s1dot = hyp(omega, Rate::new(rk, rp + k * beta).times(one / lmin));
+        // dŝ1 = (ω·n) ŝ2 + (γ/l) n, n = ŝ1 × ŝ2, |γ| ≤ √(1 + k²)|v| + (rp + kβ)|ω|.
+        let s1dot = hyp(omega, Rate::new(sec, rp + k * beta).times(one / lmin));
         let vel = Rate::new(one, zero);
         let nothing = Constraint {
             guard: None,
@@ -435,13 +462,14 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
         } else {
             nothing
         };
-        // The serial measure (relative: |Cn2|/rb) and the auxiliary |Cn2| ≥ κ.
+        // The serial measure (relative: |Cn2|/rb) and the auxiliary ψ ≤ ψ_max (ψ's rate is
+        // at most |ω| + Θ as well).
         let cn2dot = omega.plus(theta);
         // The parallel measure through δ = ‖A(x) - A(c)‖_F.
         // Each row's direction part and moment part (over rp); the ŝ2 rows' moment
-        // changes at most at (rb/κ)|v| + (1 + k)β|ω|.
+        // changes at most at |v|/cos ψ_max + (1 + k)β|ω|.
         let row1 = hyp(s1dot, s1dot.plus(omega));
-        let row2 = hyp(omega, Rate::new(rk, (one + k) * beta).times(one / rp));
+        let row2 = hyp(omega, Rate::new(sec, (one + k) * beta).times(one / rp));
         let delta = hyp(row1, row2).times(sqrt(lit(3.0)));
         // σ_max(c): the SVD's, at least the largest row norm (a lower bound of it, ≥ 1).
         let sigma_c = larger(
@@ -473,7 +501,7 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
             c(Guard::Tilt, s1dot.plus(theta)),
             collision,
             c(Guard::SerialSingularity, cn2dot),
-            aux(cn2_min - kappa, cn2dot.times(rb)),
+            aux(lit(PSI_SLACK), cn2dot),
             aux(beta - bt_c, bdot.plus(vel)),
             Constraint {
                 guard: Some(Guard::ParallelSingularity),
@@ -499,4 +527,17 @@ fn largest_row_norm<T: Real>(jtilde: &nalgebra::Matrix6<T>, rp: T) -> T {
         }
     }
     sqrt(rows.iter().fold(T::zero(), |a, x| larger(a, *x)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The written-out cosine and sine of the ψ slack are those of the slack.
+    #[test]
+    fn psi_slack_constants() {
+        let (sin, cos) = crate::scalar::sin_cos(PSI_SLACK);
+        assert!((cos - PSI_SLACK_COS).abs() < 1e-16);
+        assert!((sin - PSI_SLACK_SIN).abs() < 1e-16);
+    }
 }
