@@ -135,8 +135,11 @@ pub fn report_text(s: &run::Summary) -> String {
     let lag = |l: &Option<metrics::LagSummary>| {
         l.map_or("-".to_string(), |l| {
             format!(
-                "{:.1} ms (setpoint vs delayed stream RMS {:.4} mm; at no delay {:.4} mm)",
-                l.delay_ms, l.rms_at_delay_mm, l.rms_at_zero_mm
+                "{:.1} ms{} (setpoint vs delayed stream RMS {:.4} mm; at no delay {:.4} mm)",
+                l.delay_ms,
+                if l.delay_ms < 0.0 { ", ahead" } else { "" },
+                l.rms_at_delay_mm,
+                l.rms_at_zero_mm
             )
         })
     };

@@ -512,9 +512,11 @@ pub struct Metrics {
 }
 
 /// The setpoint's lag behind the master's stream (JSON): the best-fitting delay
-/// ([`trajectory::best_fitting_delay`], searched from 0 to 200 ms by 0.1 ms).
+/// ([`trajectory::best_fitting_delay`], searched from -50 to 200 ms by 0.1 ms: a led
+/// setpoint can run ahead).
 #[derive(Clone, Copy, Debug, Serialize, PartialEq)]
 pub struct LagSummary {
+    /// The best-fitting delay, ms (negative: the setpoint runs ahead of the stream).
     pub delay_ms: f64,
     /// RMS distance of the setpoint from the delayed stream, mm.
     pub rms_at_delay_mm: f64,
@@ -531,7 +533,7 @@ fn lag_over(series: &[(f64, [f64; 3], [f64; 3])], from: f64, to: f64) -> Option<
     let t: Vec<f64> = part.iter().map(|x| x.0).collect();
     let stream: Vec<[f64; 3]> = part.iter().map(|x| x.1).collect();
     let follower: Vec<[f64; 3]> = part.iter().map(|x| x.2).collect();
-    trajectory::best_fitting_delay(&t, &stream, &follower, 0.2, 1e-4).map(|l| LagSummary {
+    trajectory::best_fitting_delay(&t, &stream, &follower, -0.05, 0.2, 1e-4).map(|l| LagSummary {
         delay_ms: l.delay_s * 1e3,
         rms_at_delay_mm: l.rms_m * 1e3,
         rms_at_zero_mm: l.rms_at_zero_m * 1e3,

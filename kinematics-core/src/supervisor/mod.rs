@@ -47,7 +47,8 @@
 //! 5. **The lead** ([`lead`], [`SupervisorConfig::lead`]): the profile stops at its goal,
 //!    so a goal moving at u is trailed by the braking curve's distance u²/2a' + u·dt (54 ms
 //!    at 25 mm/s). Each target's translation is led by that distance along the stream's
-//!    velocity; the led target is verified like any other, and a led target whose path
+//!    path (predicted to second order); the led target is verified like any other, and a
+//!    led target whose path
 //!    check fails pauses the lead (the master's own target is verified instead, no
 //!    refusal). A stream that stops abruptly is overshot by up to the lead (onto verified
 //!    poses) and the robot goes back to the master's last pose.
@@ -115,7 +116,7 @@ pub struct SupervisorConfig<T: Real> {
     /// Cartesian accelerations are scaled down where J would turn them into more.
     pub joint_accel_headroom: T,
     /// Lead the master's stream (default on, see [`lead`]): a target is led along the
-    /// stream's velocity by the braking curve's distance when the led segment lies in a
+    /// stream's path by the braking curve's distance when the led segment lies in a
     /// certified region, so the robot is on the master's pose rather than 54 ms behind it
     /// at 25 mm/s; a stream that stops abruptly is overshot by up to that distance (inside
     /// the certified region) before the robot goes back to its last pose.

@@ -160,7 +160,8 @@ pub fn attach_tool(run: &mut Run) -> Result<(), ScenarioError> {
 }
 
 /// The best-fitting delay between the master's targets and the board's setpoints: the
-/// delay `d` (0..300 ms, 0.1 ms steps) that minimises the RMS distance between each status's
+/// delay `d` (-50..300 ms, 0.1 ms steps; negative: the setpoint runs ahead, as a led one
+/// can) that minimises the RMS distance between each status's
 /// setpoint position and the streamed path at the status's arrival minus `d`; that RMS;
 /// the RMS at no delay (the target error).
 pub fn best_fitting_delay(
@@ -186,7 +187,7 @@ pub fn best_fitting_delay(
         (n > 0).then(|| (ss / n as f64).sqrt())
     };
     let mut best: Option<(f64, f64)> = None;
-    for k in 0..=3000 {
+    for k in -500..=3000 {
         let d = f64::from(k) * 1e-4;
         if let Some(e) = rms(d) {
             if best.is_none_or(|(_, be)| e < be) {
@@ -372,12 +373,13 @@ mod tests {
     proptest! {
         #![proptest_config(proptest_config::cases(32))]
 
-        /// A setpoint that is the streamed path delayed by `d` (0..250 ms) gives back `d`
+        /// A setpoint that is the streamed path delayed by `d` (-40..250 ms; negative: ahead)
+        /// gives back `d`
         /// within the search's 0.1 ms step and an RMS at that delay far below the path's
         /// motion, at any speed of the stream (0.5..25 mm/s, a circle of 10 mm).
         #[test]
         fn the_best_fitting_delay_of_a_delayed_path_is_its_delay(
-            d in 0.0f64..0.25,
+            d in -0.04f64..0.25,
             speed_mm_s in 0.5f64..25.0,
         ) {
             let r = 0.010;
