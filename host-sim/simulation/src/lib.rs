@@ -159,6 +159,27 @@ pub fn report_text(s: &run::Summary) -> String {
             p.target.tip_max_mm,
             lag(&p.lag)
         );
+        if let Some(b) = p
+            .beyond_limits
+            .as_ref()
+            .filter(|b| !b.intervals_s.is_empty())
+        {
+            let spans: Vec<String> = b
+                .intervals_s
+                .iter()
+                .map(|[a, z]| format!("{a:.3}-{z:.3}"))
+                .collect();
+            let _ = writeln!(
+                o,
+                "    the stream asks more than the tip acceleration limit ({} m/s²; peak {:.3}) at {} s: the limits do not allow the path there; target error elsewhere (without {} s after each) RMS {:.4} mm over {:.0} % of the pass",
+                b.tip_accel_limit_m_s2,
+                b.peak_accel_m_s2,
+                spans.join(", "),
+                metrics::CATCH_UP_S,
+                b.target_rms_elsewhere_mm,
+                b.elsewhere_share * 100.0
+            );
+        }
     }
     if let Some(a) = &s.accuracy {
         let _ = writeln!(

@@ -185,7 +185,36 @@ pub struct PhaseSummary {
     pub joints: Vec<JointErrorSummary>,
     /// The setpoint's lag behind the master's stream over the phase.
     pub lag: Option<LagSummary>,
+    /// Where the master's stream asks more than the robot's tip acceleration limit, and
+    /// the target error elsewhere.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub beyond_limits: Option<BeyondLimits>,
 }
+
+/// Where the master's stream itself asks for more than the limits allow (JSON): its
+/// acceleration (central differences over ±[`ACCEL_HALF_SPAN_S`]) above the tip
+/// acceleration limit. A robot on its limits cannot follow the path there, and at the
+/// tip speed limit it cannot make up afterwards for what it lost; the target error is
+/// also given without those ticks and the [`CATCH_UP_S`] after each.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct BeyondLimits {
+    /// The stream's tip acceleration limit, m/s².
+    pub tip_accel_limit_m_s2: f64,
+    /// The stream's largest acceleration over the phase, m/s².
+    pub peak_accel_m_s2: f64,
+    /// The intervals where it is above the limit, [start, end] s.
+    pub intervals_s: Vec<[f64; 2]>,
+    /// The target error (true vs master, tip) RMS over the rest of the phase, mm, and
+    /// the share of the phase's ticks that is.
+    pub target_rms_elsewhere_mm: f64,
+    pub elsewhere_share: f64,
+}
+
+/// Half the span of the stream's acceleration differences, s.
+pub const ACCEL_HALF_SPAN_S: f64 = 0.005;
+/// After the stream was beyond the limits, this long is left to the robot to come back
+/// onto the path before the target error counts again, s.
+pub const CATCH_UP_S: f64 = 0.2;
 
 /// The accuracy target, judged on the tracking error (JSON).
 #[derive(Clone, Debug, Serialize, PartialEq)]
@@ -507,6 +536,10 @@ pub struct Metrics {
     pub targets_sent: u64,
     /// Per tick: time, the last target's position and the setpoint's (for the lag).
     lag_series: Vec<(f64, [f64; 3], [f64; 3])>,
+    /// Per tick: the target error at the tip (true vs master), mm.
+    target_tip_mm: Vec<f64>,
+    /// The robot's tip acceleration limit, m/s² (for [`BeyondLimits`]; infinite: none).
+    tip_accel_limit: f64,
     /// Ticks with the warning flag, by the guard that raised it.
     warn_by_guard: std::collections::BTreeMap<&'static str, u64>,
 }
@@ -574,6 +607,8 @@ impl Metrics {
             first_refusal: None,
             targets_sent: 0,
             lag_series: Vec::new(),
+            target_tip_mm: Vec::new(),
+            tip_accel_limit: f64::INFINITY,
             warn_by_guard: Default::default(),
         }
     }
@@ -646,6 +681,7 @@ impl Metrics {
         }
         let xyz = |p: &Pose<f64>| [p.t.x, p.t.y, p.t.z];
         self.lag_series.push((t, xyz(target), xyz(&sp.pose)));
+        self.target_tip_mm.push(target_err.0);
         let m = match sp.mode {
             Mode::Holding => 0,
             Mode::Verifying => 1,
@@ -708,6 +744,64 @@ impl Metrics {
         self.all.joint_summaries()
     }
 
+    /// The robot's tip acceleration limit, m/s², against which the stream is judged.
+    pub fn set_tip_accel_limit(&mut self, limit_m_s2: f64) {
+        self.tip_accel_limit = limit_m_s2;
+    }
+
+    /// Where the stream is beyond the tip acceleration limit within [from, to] s
+    /// ([`BeyondLimits`]); None with no limit set or no samples.
+    fn beyond_limits(&self, from: f64, to: f64) -> Option<BeyondLimits> {
+        let limit = self.tip_accel_limit;
+        if !limit.is_finite() || self.lag_series.len() < 3 {
+            return None;
+        }
+        let k = ((ACCEL_HALF_SPAN_S / self.dt).round() as usize).max(1);
+        let s = &self.lag_series;
+        let (mut peak, mut intervals) = (0.0f64, Vec::<[f64; 2]>::new());
+        for i in k..s.len().saturating_sub(k) {
+            let t = s[i].0;
+            if t < from || t > to {
+                continue;
+            }
+            let h = s[i + k].0 - t;
+            let a: f64 = (0..3)
+                .map(|c| ((s[i + k].1[c] - 2.0 * s[i].1[c] + s[i - k].1[c]) / (h * h)).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            peak = peak.max(a);
+            if a > limit {
+                match intervals.last_mut() {
+                    Some(last) if t - last[1] <= 1.5 * self.dt => last[1] = t,
+                    _ => intervals.push([t, t]),
+                }
+            }
+        }
+        let (mut sum, mut n, mut total) = (0.0, 0usize, 0usize);
+        for (x, e) in s.iter().zip(&self.target_tip_mm) {
+            let t = x.0;
+            if t < from || t > to {
+                continue;
+            }
+            total += 1;
+            if intervals
+                .iter()
+                .any(|[a, b]| t >= *a && t <= b + CATCH_UP_S)
+            {
+                continue;
+            }
+            sum += e * e;
+            n += 1;
+        }
+        (total > 0).then(|| BeyondLimits {
+            tip_accel_limit_m_s2: limit,
+            peak_accel_m_s2: peak,
+            intervals_s: intervals,
+            target_rms_elsewhere_mm: if n > 0 { (sum / n as f64).sqrt() } else { 0.0 },
+            elsewhere_share: n as f64 / total as f64,
+        })
+    }
+
     /// The judged windows.
     pub fn phase_summaries(&self) -> Vec<PhaseSummary> {
         self.phases
@@ -720,6 +814,7 @@ impl Metrics {
                 tracking: w.tracking.summary(),
                 target: w.target.summary(),
                 lag: lag_over(&self.lag_series, p.start_s, p.end_s),
+                beyond_limits: self.beyond_limits(p.start_s, p.end_s),
                 joints: w.joint_summaries(),
             })
             .collect()
@@ -792,5 +887,58 @@ impl Metrics {
 
     pub fn servo_fault(&self) -> Option<ServoFaultSummary> {
         self.trip.as_ref().map(|t| t.summary.clone())
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    /// A stream at 25 mm/s along a straight line, then around a circle of R = 2 mm (0.3125
+    /// m/s² across it, above a 0.25 m/s² limit) for 50 ms, then straight again: the
+    /// interval found is the circle's (within the differences' half span), its peak the
+    /// circle's acceleration, and the target error elsewhere leaves out the circle and the
+    /// catch-up after it.
+    #[test]
+    fn the_stream_beyond_the_acceleration_limit_is_found() {
+        let (u, r, dt) = (0.025, 0.002, 1e-3);
+        let mut m = Metrics::new(dt, &[], &[], [1.0; 6]);
+        m.set_tip_accel_limit(0.25);
+        let w = u / r;
+        let (t_in, t_out) = (0.5, 0.55);
+        let mut p = [0.0f64, 0.0, 0.16];
+        let mut heading = 0.0f64;
+        for k in 0..1000 {
+            let t = k as f64 * dt;
+            if (t_in..t_out).contains(&t) {
+                heading += w * dt;
+            }
+            p[0] += u * dt * heading.cos();
+            p[1] += u * dt * heading.sin();
+            m.lag_series.push((t, p, p));
+            // A target error of 1 mm on the circle and the catch-up, 0.01 mm elsewhere.
+            let near = t >= t_in - 0.01 && t <= t_out + CATCH_UP_S + 0.01;
+            m.target_tip_mm.push(if near { 1.0 } else { 0.01 });
+        }
+        let b = m.beyond_limits(0.0, 1.0).unwrap();
+        assert_eq!(b.intervals_s.len(), 1, "{b:?}");
+        let [a, z] = b.intervals_s[0];
+        assert!(
+            (a - t_in).abs() <= 0.006 && (z - t_out).abs() <= 0.006,
+            "{b:?}"
+        );
+        assert!(
+            (b.peak_accel_m_s2 - u * u / r).abs() < 0.01 * u * u / r,
+            "{b:?}"
+        );
+        // Elsewhere: 0.01 mm, but for the 10 ms either side the interval's ends may miss.
+        assert!(b.target_rms_elsewhere_mm < 0.2, "{b:?}");
+        assert!(b.elsewhere_share > 0.7 && b.elsewhere_share < 0.8, "{b:?}");
+        // Without a limit: nothing judged.
+        let mut m2 = Metrics::new(dt, &[], &[], [1.0; 6]);
+        m2.lag_series = m.lag_series.clone();
+        m2.target_tip_mm = m.target_tip_mm.clone();
+        assert!(m2.beyond_limits(0.0, 1.0).is_none());
     }
 }

@@ -286,6 +286,7 @@ pub fn run(
         ]
     };
     let mut m = Metrics::new(dt, &scenario.phases, &scenario.steps, nominal);
+    m.set_tip_accel_limit(limits.tip_accel);
     let mut faults = scenario.faults.clone();
     faults.sort_by(|a, b| a.at_s.total_cmp(&b.at_s));
     let mut next_fault = 0;
