@@ -635,7 +635,8 @@ impl Metrics {
         });
     }
 
-    /// Adds one tick; `target` is the last target the master sent.
+    /// Adds one tick; `target` is the master's own pose at the tick (`Stream::master_pose`:
+    /// not the last target received, which left the master a latency earlier).
     pub fn add(&mut self, s: &TickSample, target: &Pose<f64>) -> TickErrors {
         let t = s.t_s;
         let sp = &s.setpoint;

@@ -169,8 +169,9 @@ const PIPELINE_CHUNKS: usize = 4;
 #[derive(Clone, Copy, Debug)]
 struct Planned {
     plan: Plan<f64>,
-    /// The last target sent (for the target error).
-    last_target: Pose<f64>,
+    /// The master's own pose at the tick (for the target error and the lag; the last
+    /// target sent before the first).
+    master: Pose<f64>,
 }
 
 /// The master's side of a run: the target stream and the controller's planning half
@@ -252,7 +253,11 @@ impl<'a> MasterSide<'a> {
         }
         Planned {
             plan,
-            last_target: self.last_target,
+            master: self
+                .scenario
+                .stream
+                .master_pose(t)
+                .unwrap_or(self.last_target),
         }
     }
 }
@@ -315,13 +320,13 @@ pub fn run(
             next_fault += 1;
         }
         let s = sim.tick_with(&planned.plan)?;
-        let e = m.add(&s, &planned.last_target);
+        let e = m.add(&s, &planned.master);
         if tick.is_multiple_of(every) {
             trace.push(TraceRow {
                 t_s: s.t_s,
                 mode: mode_name(s.setpoint.mode),
                 warning: s.setpoint.warning,
-                target: edge_pose(&planned.last_target),
+                target: edge_pose(&planned.master),
                 setpoint: edge_pose(&s.setpoint.pose),
                 truth: edge_pose(&s.true_pose),
                 tip_error_mm: e.tracking.0,

@@ -23,6 +23,18 @@ pub enum Stream {
     Jumps(Vec<Jump>),
 }
 
+impl Stream {
+    /// The master's own pose at `t` (s): the path's (held at its end), or the last single
+    /// target sent by then; None before the first. What the robot is compared with: a
+    /// target reaches it a latency after its stamp, the master is already elsewhere.
+    pub fn master_pose(&self, t: f64) -> Option<Pose<f64>> {
+        match self {
+            Stream::Path(traj) => traj.pose(t.min(traj.end_s())),
+            Stream::Jumps(jumps) => jumps.iter().rev().find(|j| j.at_s <= t).map(|j| j.pose),
+        }
+    }
+}
+
 /// The master's sampling of a [`Stream`]: sample k of a path is the pose at its stamp
 /// k * period (up to the path's end); a target reaches the robot once its stamp plus the
 /// latency has passed (within 1 ns).
@@ -122,5 +134,37 @@ mod tests {
         assert_eq!(got, vec![(0.5, 0.16)]);
         s.due(&jumps, 0.75, |ts, p| got.push((ts, p.t.z)));
         assert_eq!(got, vec![(0.5, 0.16), (0.7, 0.17)]);
+    }
+
+    /// The master's own pose at t: the path's at t (held at its end), whatever the
+    /// latency; a single target from its stamp on, nothing before the first.
+    #[test]
+    fn the_masters_pose_is_the_streams_at_the_instant() {
+        let mut traj = Trajectory::default();
+        traj.push(Piece::Line {
+            from: Pose::central(0.16),
+            to: Pose::central(0.17),
+            profile: crate::profile::Profile::new(0.01, 0.1, 1.0),
+        });
+        let end = traj.end_s();
+        let stream = Stream::Path(traj.clone());
+        for t in [0.0, 0.3 * end, 0.9 * end] {
+            assert_eq!(stream.master_pose(t), traj.pose(t));
+        }
+        assert_eq!(stream.master_pose(end + 1.0), traj.pose(end));
+        let jumps = Stream::Jumps(vec![
+            Jump {
+                at_s: 0.5,
+                pose: Pose::central(0.16),
+            },
+            Jump {
+                at_s: 0.7,
+                pose: Pose::central(0.17),
+            },
+        ]);
+        assert_eq!(jumps.master_pose(0.4), None);
+        assert_eq!(jumps.master_pose(0.5).map(|p| p.t.z), Some(0.16));
+        assert_eq!(jumps.master_pose(0.69).map(|p| p.t.z), Some(0.16));
+        assert_eq!(jumps.master_pose(0.8).map(|p| p.t.z), Some(0.17));
     }
 }

@@ -73,6 +73,10 @@ pub struct Stream<T: Real> {
     accel: Vector3<T>,
     /// The newest target's time after the end of the last closed window, s.
     age_s: T,
+    /// Targets in the current window, and the stream's period over the last closed one
+    /// (its span over its targets), s.
+    count: u32,
+    period_s: T,
     /// The master's newest target.
     newest: Option<Pose<T>>,
     /// A led target was taken since the stream last fell silent: on silence the goal goes
@@ -93,6 +97,8 @@ impl<T: Real> Default for Stream<T> {
             span_s: T::zero(),
             accel: Vector3::zeros(),
             age_s: T::zero(),
+            count: 0,
+            period_s: T::zero(),
             newest: None,
             leading: false,
             silent_us: 0,
@@ -109,15 +115,19 @@ impl<T: Real> Stream<T> {
         self.newest = Some(*target);
         let Some((from, t0)) = self.anchor else {
             self.anchor = Some((*target, stamp_us));
+            self.count = 0;
             return;
         };
         let span = stamp_us.saturating_sub(t0);
         let span_s = lit::<T>(span as f64 * 1e-6);
+        self.count = self.count.saturating_add(1);
         if span < WINDOW_US {
             self.age_s = span_s;
             return;
         }
         self.age_s = T::zero();
+        self.period_s = span_s / lit::<T>(f64::from(self.count));
+        self.count = 0;
         if span > GAP_US {
             self.v = Vector3::zeros();
             self.mean = Vector3::zeros();
@@ -158,19 +168,26 @@ impl<T: Real> Stream<T> {
     /// deceleration `a` ([`lead_distance`]); `None` while the stream stands still or the
     /// lead pauses.
     ///
-    /// The path ahead is predicted to second order: τ = D/u ahead, the stream's velocity
-    /// carried on to the target's time and bent by its acceleration across the velocity
-    /// (at most `a`, more than any curve the robot can follow at its speed): on a curve
-    /// of radius R a lead along the tangent alone would sit D²/2R outside it, and move
-    /// faster than the stream by the factor √(1 + (D/R)²), which a robot at its speed
-    /// limit cannot follow.
-    pub fn led(&self, target: &Pose<T>, cap: T, a: T, dt: T) -> Option<Pose<T>> {
+    /// The master has moved on since the target's stamp: by its age on arrival,
+    /// `age_s` (the link's latency), and until the next target by a period of the
+    /// stream, half a period on average. The lead covers that too: τ = D/u + age + T/2
+    /// ahead of the target's stamp (at most [`MAX_LEAD_S`]), so that the robot is on the
+    /// master's pose of the moment, not of the stamp.
+    ///
+    /// The path ahead is predicted to second order: the stream's velocity carried on to
+    /// the target's time and bent by its acceleration across the velocity (at most `a`,
+    /// more than any curve the robot can follow at its speed): on a curve of radius R a
+    /// lead along the tangent alone would sit D²/2R outside it, and move faster than the
+    /// stream by the factor √(1 + (D/R)²), which a robot at its speed limit cannot
+    /// follow.
+    pub fn led(&self, target: &Pose<T>, cap: T, a: T, dt: T, age_s: T) -> Option<Pose<T>> {
         let u = norm3(&self.v);
         if !(u > T::zero()) || self.hold_off_us > 0 {
             return None;
         }
         let d = lead_distance(u.min(cap), a, dt);
-        let tau = d / u;
+        let late = if age_s > T::zero() { age_s } else { T::zero() };
+        let tau = (d / u + late + self.period_s * lit::<T>(0.5)).min(lit(MAX_LEAD_S));
         let bend = norm3(&self.accel);
         let across = if bend > a {
             self.accel * (a / bend)
@@ -202,6 +219,8 @@ impl<T: Real> Stream<T> {
         self.mean = Vector3::zeros();
         self.span_s = T::zero();
         self.accel = Vector3::zeros();
+        self.count = 0;
+        self.period_s = T::zero();
         if !core::mem::take(&mut self.leading) {
             return None;
         }
@@ -265,22 +284,41 @@ mod tests {
         let last = stream(&mut s, 1_000_000, 25);
         assert!((s.velocity() - Vector3::new(0.025, 0.0, 0.0)).norm() < 1e-12);
         let (a, dt) = (0.2375, 1e-3);
-        let led = s.led(&last, 0.025, a, dt).unwrap();
+        // One target per ms: half a period (0.5 ms) beyond the braking curve's distance.
+        assert!((s.period_s - 1e-3).abs() < 1e-15);
+        let led = s.led(&last, 0.025, a, dt, 0.0).unwrap();
         let ahead = led.t - last.t;
-        assert!((ahead.x - lead_distance(0.025, a, dt)).abs() < 1e-15);
+        assert!((ahead.x - (lead_distance(0.025, a, dt) + 0.025 * 0.5e-3)).abs() < 1e-15);
         assert!(ahead.y.abs() + ahead.z.abs() < 1e-18 && led.r == last.r);
+        // A target 3 ms old on arrival: 3 ms more.
+        let late = s.led(&last, 0.025, a, dt, 3e-3).unwrap();
+        let more = (late.t - last.t).x - ahead.x;
+        assert!((more - 0.025 * 3e-3).abs() < 1e-15, "{more}");
         // A stream faster than the robot is led by the robot's distance.
-        let fast = s.led(&last, 0.010, a, dt).unwrap();
-        assert!(((fast.t - last.t).x - lead_distance(0.010, a, dt)).abs() < 1e-15);
+        let fast = s.led(&last, 0.010, a, dt, 0.0).unwrap();
+        let expected = lead_distance(0.010, a, dt) + 0.025 * 0.5e-3;
+        assert!(((fast.t - last.t).x - expected).abs() < 1e-15);
+        // Never more than MAX_LEAD_S ahead of the stamp, however old the target.
+        let old = s.led(&last, 0.025, a, dt, 1.0).unwrap();
+        assert!(((old.t - last.t).x - 0.025 * MAX_LEAD_S).abs() < 1e-15);
+        // A stream at 100 Hz: half its period, 5 ms.
+        let mut slow = Stream::default();
+        for k in 0..5u64 {
+            slow.observe(&at(0.25 * k as f64), 1_000_000 + k * 10_000);
+        }
+        assert!((slow.period_s - 10e-3).abs() < 1e-15);
+        let led = slow.led(&at(1.0), 0.025, a, dt, 0.0).unwrap();
+        let expected = lead_distance(0.025, a, dt) + 0.025 * 5e-3;
+        assert!(((led.t - at(1.0).t).x - expected).abs() < 1e-12);
         // Paused: no lead.
         s.hold_off();
-        assert!(s.led(&last, 0.025, a, dt).is_none());
+        assert!(s.led(&last, 0.025, a, dt, 0.0).is_none());
         for _ in 0..HOLD_OFF_US / 1000 {
-            assert!(s.led(&last, 0.025, a, dt).is_none());
+            assert!(s.led(&last, 0.025, a, dt, 0.0).is_none());
             s.tick(1000);
             s.silent_us = 0; // (the stream goes on)
         }
-        assert!(s.led(&last, 0.025, a, dt).is_some());
+        assert!(s.led(&last, 0.025, a, dt, 0.0).is_some());
     }
 
     /// A stream on a circle of radius R at 25 mm/s, one target per ms: the led target
@@ -308,7 +346,7 @@ mod tests {
                 if k < 40 {
                     continue;
                 }
-                let led = s.led(&target, u, a, dt).unwrap();
+                let led = s.led(&target, u, a, dt, 0.0).unwrap();
                 let radial = (led.t.xy().norm() - r).abs();
                 let along = (led.t - target.t).norm();
                 // The second-order prediction's own error, R θ⁴/8 (θ = D/R), and 4 µm for
@@ -319,8 +357,10 @@ mod tests {
                     radial < bound,
                     "R {r_mm} mm, target {k}: {radial:e} m off the circle"
                 );
+                // D and half the 1-ms period ahead.
+                let lead = d + u * 0.5e-3;
                 assert!(
-                    (along - d).abs() < 0.02 * d,
+                    (along - lead).abs() < 0.02 * lead,
                     "R {r_mm} mm: {along} m ahead, D {d}"
                 );
             }
@@ -338,8 +378,8 @@ mod tests {
             s.observe(&last, k * 1000);
         }
         assert!((norm3(&s.accel) - u * u / r).abs() < 0.1 * u * u / r);
-        let led = s.led(&last, u, a, dt).unwrap();
-        let tau = d / norm3(s.velocity());
+        let led = s.led(&last, u, a, dt, 0.0).unwrap();
+        let tau = d / norm3(s.velocity()) + 0.5 * s.period_s;
         let straight = last.t + s.velocity() * tau;
         let bent = (led.t - straight).norm();
         assert!(bent <= a * (s.age_s * tau + 0.5 * tau * tau) * (1.0 + 1e-12));
@@ -352,7 +392,7 @@ mod tests {
         for k in 0..30 {
             s.observe(&p, 1_000_000 + k * 1000);
         }
-        assert!(s.led(&p, 0.025, 0.2375, 1e-3).is_none());
+        assert!(s.led(&p, 0.025, 0.2375, 1e-3, 0.0).is_none());
         // A window longer than GAP_US: the velocity is zero.
         let mut s = Stream::default();
         s.observe(&at(0.0), 0);
