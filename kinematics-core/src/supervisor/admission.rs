@@ -139,8 +139,8 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         self.last_stamp_us = Some(stamp_us);
         self.stream.observe(target, stamp_us);
         // Led along the stream (see `lead`), within the longest segment.
-        let age_s = lit::<T>(now_us.saturating_sub(stamp_us) as f64 * 1e-6);
-        let t = match self.led(target, age_s) {
+        let delay_s = lit::<T>(now_us.saturating_sub(stamp_us) as f64 * 1e-6);
+        let t = match self.led(target, delay_s) {
             Some(led) if self.within_segment(&led) => {
                 self.stream.lead_taken();
                 Target {
@@ -154,9 +154,9 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         Ok(())
     }
 
-    /// `target`, `age_s` old on arrival, led along the master's stream, when the lead is on
-    /// and the stream moves.
-    fn led(&self, target: &Pose<T>, age_s: T) -> Option<Pose<T>> {
+    /// `target`, arrived `delay_s` after its stamp, led along the master's stream, when the
+    /// lead is on and the stream moves.
+    fn led(&self, target: &Pose<T>, delay_s: T) -> Option<Pose<T>> {
         if !self.cfg.lead || self.braking {
             return None;
         }
@@ -166,7 +166,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             l.tip_speed,
             l.tip_accel * lit::<T>(super::profile::BRAKING_SHARE),
             self.cfg.dt,
-            age_s,
+            delay_s,
         )
     }
 

@@ -8,8 +8,11 @@
 //! order (the velocity and its change across it, measured over windows of the stream): on
 //! a curve, a lead along the tangent alone would sit D²/2R outside the path and move
 //! faster than the stream, and a robot at its speed limit fell behind it on every curve
-//! (in the default simulation the lag at 25 mm/s went from 6.5 to 0.0 ms with the second
-//! order).
+//! (in the default simulation the lag at 25 mm/s went from 6.5 ms to 0.4 ms ahead of the
+//! last target received with the second order). The master has also moved on since the
+//! target's stamp, by the target's delay on arrival and, until the next target, by up to
+//! a period of the stream: the lead covers the delay and half the period (in the default
+//! simulation the robot is then 0.9 ms ahead of the master's own pose at 25 mm/s).
 //!
 //! Only the translation is led. The rotation follows the master's own orientation: a
 //! rotation lead of ω/2α' (1.1 deg at 25 deg/s) reaches far beyond the certified regions
@@ -168,9 +171,9 @@ impl<T: Real> Stream<T> {
     /// deceleration `a` ([`lead_distance`]); `None` while the stream stands still or the
     /// lead pauses.
     ///
-    /// The master has moved on since the target's stamp: by its age on arrival,
-    /// `age_s` (the link's latency), and until the next target by a period of the
-    /// stream, half a period on average. The lead covers that too: τ = D/u + age + T/2
+    /// The master has moved on since the target's stamp: by its delay on arrival,
+    /// `delay_s` (the link's latency), and until the next target by a period of the
+    /// stream, half a period on average. The lead covers that too: τ = D/u + delay + T/2
     /// ahead of the target's stamp (at most [`MAX_LEAD_S`]), so that the robot is on the
     /// master's pose of the moment, not of the stamp.
     ///
@@ -180,13 +183,17 @@ impl<T: Real> Stream<T> {
     /// lead along the tangent alone would sit D²/2R outside it, and move faster than the
     /// stream by the factor √(1 + (D/R)²), which a robot at its speed limit cannot
     /// follow.
-    pub fn led(&self, target: &Pose<T>, cap: T, a: T, dt: T, age_s: T) -> Option<Pose<T>> {
+    pub fn led(&self, target: &Pose<T>, cap: T, a: T, dt: T, delay_s: T) -> Option<Pose<T>> {
         let u = norm3(&self.v);
         if !(u > T::zero()) || self.hold_off_us > 0 {
             return None;
         }
         let d = lead_distance(u.min(cap), a, dt);
-        let late = if age_s > T::zero() { age_s } else { T::zero() };
+        let late = if delay_s > T::zero() {
+            delay_s
+        } else {
+            T::zero()
+        };
         let tau = (d / u + late + self.period_s * lit::<T>(0.5)).min(lit(MAX_LEAD_S));
         let bend = norm3(&self.accel);
         let across = if bend > a {
