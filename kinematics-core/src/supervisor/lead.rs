@@ -11,8 +11,8 @@
 //! (in the default simulation the lag at 25 mm/s went from 6.5 ms to 0.4 ms ahead of the
 //! last target received with the second order). The master has also moved on since the
 //! target's stamp, by the target's delay on arrival and, until the next target, by up to
-//! a period of the stream: the lead covers the delay and half the period (in the default
-//! simulation the robot is then 0.9 ms ahead of the master's own pose at 25 mm/s).
+//! a period of the stream: the lead covers the delay and the target's mean age at the
+//! ticks it is the newest, (T - dt)/2 for a period T (nothing for a target every tick).
 //!
 //! Only the translation is led. The rotation follows the master's own orientation: a
 //! rotation lead of ω/2α' (1.1 deg at 25 deg/s) reaches far beyond the certified regions
@@ -172,10 +172,11 @@ impl<T: Real> Stream<T> {
     /// lead pauses.
     ///
     /// The master has moved on since the target's stamp: by its delay on arrival,
-    /// `delay_s` (the link's latency), and until the next target by a period of the
-    /// stream, half a period on average. The lead covers that too: τ = D/u + delay + T/2
-    /// ahead of the target's stamp (at most [`MAX_LEAD_S`]), so that the robot is on the
-    /// master's pose of the moment, not of the stamp.
+    /// `delay_s` (the link's latency), and, at the ticks until the next target, by 0, dt,
+    /// .., T - dt more for a stream period T: (T - dt)/2 on average. The lead covers that
+    /// too: τ = D/u + delay + (T - dt)/2 ahead of the target's stamp (at most
+    /// [`MAX_LEAD_S`]), so that the robot is on the master's pose of the moment, not of
+    /// the stamp.
     ///
     /// The path ahead is predicted to second order: the stream's velocity carried on to
     /// the target's time and bent by its acceleration across the velocity (at most `a`,
@@ -194,7 +195,12 @@ impl<T: Real> Stream<T> {
         } else {
             T::zero()
         };
-        let tau = (d / u + late + self.period_s * lit::<T>(0.5)).min(lit(MAX_LEAD_S));
+        let held = if self.period_s > dt {
+            (self.period_s - dt) * lit::<T>(0.5)
+        } else {
+            T::zero()
+        };
+        let tau = (d / u + late + held).min(lit(MAX_LEAD_S));
         let bend = norm3(&self.accel);
         let across = if bend > a {
             self.accel * (a / bend)
@@ -291,11 +297,11 @@ mod tests {
         let last = stream(&mut s, 1_000_000, 25);
         assert!((s.velocity() - Vector3::new(0.025, 0.0, 0.0)).norm() < 1e-12);
         let (a, dt) = (0.2375, 1e-3);
-        // One target per ms: half a period (0.5 ms) beyond the braking curve's distance.
+        // One target per ms, one per tick: the braking curve's distance.
         assert!((s.period_s - 1e-3).abs() < 1e-15);
         let led = s.led(&last, 0.025, a, dt, 0.0).unwrap();
         let ahead = led.t - last.t;
-        assert!((ahead.x - (lead_distance(0.025, a, dt) + 0.025 * 0.5e-3)).abs() < 1e-15);
+        assert!((ahead.x - lead_distance(0.025, a, dt)).abs() < 1e-15);
         assert!(ahead.y.abs() + ahead.z.abs() < 1e-18 && led.r == last.r);
         // A target 3 ms old on arrival: 3 ms more.
         let late = s.led(&last, 0.025, a, dt, 3e-3).unwrap();
@@ -303,19 +309,19 @@ mod tests {
         assert!((more - 0.025 * 3e-3).abs() < 1e-15, "{more}");
         // A stream faster than the robot is led by the robot's distance.
         let fast = s.led(&last, 0.010, a, dt, 0.0).unwrap();
-        let expected = lead_distance(0.010, a, dt) + 0.025 * 0.5e-3;
+        let expected = lead_distance(0.010, a, dt);
         assert!(((fast.t - last.t).x - expected).abs() < 1e-15);
         // Never more than MAX_LEAD_S ahead of the stamp, however old the target.
         let old = s.led(&last, 0.025, a, dt, 1.0).unwrap();
         assert!(((old.t - last.t).x - 0.025 * MAX_LEAD_S).abs() < 1e-15);
-        // A stream at 100 Hz: half its period, 5 ms.
+        // A stream at 100 Hz: its mean age over the ticks it is the newest, 4.5 ms.
         let mut slow = Stream::default();
         for k in 0..5u64 {
             slow.observe(&at(0.25 * k as f64), 1_000_000 + k * 10_000);
         }
         assert!((slow.period_s - 10e-3).abs() < 1e-15);
         let led = slow.led(&at(1.0), 0.025, a, dt, 0.0).unwrap();
-        let expected = lead_distance(0.025, a, dt) + 0.025 * 5e-3;
+        let expected = lead_distance(0.025, a, dt) + 0.025 * 4.5e-3;
         assert!(((led.t - at(1.0).t).x - expected).abs() < 1e-12);
         // Paused: no lead.
         s.hold_off();
@@ -364,8 +370,8 @@ mod tests {
                     radial < bound,
                     "R {r_mm} mm, target {k}: {radial:e} m off the circle"
                 );
-                // D and half the 1-ms period ahead.
-                let lead = d + u * 0.5e-3;
+                // D ahead (one target per tick).
+                let lead = d;
                 assert!(
                     (along - lead).abs() < 0.02 * lead,
                     "R {r_mm} mm: {along} m ahead, D {d}"
@@ -386,7 +392,7 @@ mod tests {
         }
         assert!((norm3(&s.accel) - u * u / r).abs() < 0.1 * u * u / r);
         let led = s.led(&last, u, a, dt, 0.0).unwrap();
-        let tau = d / norm3(s.velocity()) + 0.5 * s.period_s;
+        let tau = d / norm3(s.velocity());
         let straight = last.t + s.velocity() * tau;
         let bent = (led.t - straight).norm();
         assert!(bent <= a * (s.age_s * tau + 0.5 * tau * tau) * (1.0 + 1e-12));
