@@ -171,7 +171,7 @@ pub fn report_text(s: &run::Summary) -> String {
                 .collect();
             let _ = writeln!(
                 o,
-                "    the stream asks more than the tip acceleration limit ({} m/s²; peak {:.3}) at {} s: the limits do not allow the path there; target error elsewhere (without {} s after each) RMS {:.4} mm over {:.0} % of the pass",
+                "    the stream asks more than the tip acceleration limit ({} m/s²; peak {:.3}) at {} s: the limits do not allow the path there; target error elsewhere (without {} s after each) RMS {:.4} mm over {:.0} % of the phase",
                 b.tip_accel_limit_m_s2,
                 b.peak_accel_m_s2,
                 spans.join(", "),

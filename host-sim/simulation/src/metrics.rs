@@ -534,7 +534,7 @@ pub struct Metrics {
     pub injected: Vec<InjectedFault>,
     pub first_refusal: Option<(f64, String)>,
     pub targets_sent: u64,
-    /// Per tick: time, the last target's position and the setpoint's (for the lag).
+    /// Per tick: time, the master's own position and the setpoint's (for the lag).
     lag_series: Vec<(f64, [f64; 3], [f64; 3])>,
     /// Per tick: the target error at the tip (true vs master), mm.
     target_tip_mm: Vec<f64>,

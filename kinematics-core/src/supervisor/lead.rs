@@ -139,8 +139,13 @@ impl<T: Real> Stream<T> {
         } else {
             let mean = (target.t - from.t) * (T::one() / span_s);
             // Mean velocities half a window apart at each end: the change over the last
-            // window carried on by half a window.
-            self.v = mean + (mean - self.mean) * lit::<T>(0.5);
+            // window carried on by half a window (the mean alone after a gap or for the
+            // first window: there is no earlier mean to take the change from).
+            self.v = if self.span_s > T::zero() {
+                mean + (mean - self.mean) * lit::<T>(0.5)
+            } else {
+                mean
+            };
             // The change of the mean velocity between the windows' middles, its part
             // across the velocity (the part along it changes the speed, which the braking
             // curve follows on its own).
@@ -293,6 +298,11 @@ mod tests {
 
     #[test]
     fn the_stream_velocity_is_measured_over_windows_and_the_target_led_along_it() {
+        // After the first window the velocity is its mean (no earlier window to carry a
+        // change on from: not 1.5x the mean, as the change from zero would give).
+        let mut first = Stream::default();
+        stream(&mut first, 1_000_000, 11);
+        assert!((first.velocity() - Vector3::new(0.025, 0.0, 0.0)).norm() < 1e-12);
         let mut s = Stream::default();
         let last = stream(&mut s, 1_000_000, 25);
         assert!((s.velocity() - Vector3::new(0.025, 0.0, 0.0)).norm() < 1e-12);
