@@ -808,12 +808,23 @@ fn turning_near_a_serial_singularity_keeps_the_joint_accelerations() {
     run(&events).unwrap();
 }
 
-/// Streams targets along x from x0, one per tick, for `ticks` ticks: from rest at
-/// [`STREAM_ACCEL`] to `speed` m/s, then the same pose for `still` ticks (standing still)
-/// and then nothing for `silent` ticks. Returns the (target x, setpoint x) of every tick.
 /// The acceleration of the streams of the lead's tests, m/s² (within the robot's 0.25).
 const STREAM_ACCEL: f64 = 0.1;
 
+/// The stream's x at tick `k` (1 ms each) from `x0`: up to `speed` at STREAM_ACCEL, then
+/// on at `speed`.
+fn ramped_x(x0: f64, speed: f64, k: u64) -> f64 {
+    let (t, ramp) = (k as f64 * 1e-3, speed / STREAM_ACCEL);
+    x0 + if t < ramp {
+        0.5 * STREAM_ACCEL * t * t
+    } else {
+        speed * (t - 0.5 * ramp)
+    }
+}
+
+/// Streams targets along x from x0, one per tick, for `ticks` ticks: from rest at
+/// [`STREAM_ACCEL`] to `speed` m/s, then the same pose for `still` ticks (standing still)
+/// and then nothing for `silent` ticks. Returns the (target x, setpoint x) of every tick.
 fn stream_along_x(
     sup: &mut Sup,
     now: &mut u64,
@@ -828,13 +839,7 @@ fn stream_along_x(
     for k in 0..ticks + still + silent {
         *now += 1000;
         if k < ticks {
-            let (t, ramp) = (k as f64 * 1e-3, speed / STREAM_ACCEL);
-            x = x0
-                + if t < ramp {
-                    0.5 * STREAM_ACCEL * t * t
-                } else {
-                    speed * (t - 0.5 * ramp)
-                };
+            x = ramped_x(x0, speed, k);
         }
         if k < ticks + still {
             let target = Pose {
@@ -921,6 +926,54 @@ fn an_abrupt_stop_of_the_stream_is_overshot_by_at_most_the_lead_and_undone() {
         assert_eq!((c.refused(), c.stops), (0, 0));
         assert!(c.led > 0);
     }
+}
+
+/// The same abrupt stop of a stream at 100 Hz whose targets arrive 3 ms after their
+/// stamps: the lead then also covers that delay and the target's mean age while it is the
+/// newest ((T - dt)/2 = 4.5 ms), 0.19 mm more at 25 mm/s, and the overshoot stays within
+/// that lead (plus a tick of motion; 1.20 mm against 1.53 mm); the robot goes back to the
+/// master's last pose.
+#[test]
+fn an_abrupt_stop_of_a_late_100_hz_stream_is_overshot_by_at_most_its_lead() {
+    use kinematics_core::supervisor::lead::lead_distance;
+    let (speed, delay_us, every) = (0.025, 3_000u64, 10u64);
+    let lead = lead_distance(speed, 0.95 * 0.25, 1e-3) + speed * (3e-3 + 4.5e-3);
+    let mut sup = supervisor(Limits::reference());
+    let mut now = 1_000_000u64;
+    let x0 = -0.012;
+    let at = |x: f64| Pose {
+        t: Vector3::new(x, 0.0, 0.160),
+        r: Rotation3::identity(),
+    };
+    // Settle on the start first (the region around it is certified while idle).
+    stream_along_x(&mut sup, &mut now, x0, 0.0, 1, 1500, 0);
+    // (The late stamps start after the settling ones: stamps only go forward.)
+    now += delay_us;
+    let (mut x, mut over) = (x0, 0.0f64);
+    let (ticks, still) = (700u64, 600u64);
+    for k in 0..ticks + still {
+        now += 1000;
+        if k < ticks {
+            x = ramped_x(x0, speed, k);
+        }
+        if k % every == 0 {
+            sup.submit(&at(x), now - delay_us, now).unwrap();
+        }
+        let s = sup.tick().pose.t.x;
+        if k >= ticks {
+            over = over.max(s - x);
+        }
+    }
+    println!("overshoot {:.4} mm, lead {:.4} mm", over * 1e3, lead * 1e3);
+    assert!(
+        over <= lead + speed * 1e-3 && over > 0.5 * lead,
+        "overshoot {over} m, lead {lead} m"
+    );
+    let end = sup.tick().pose.t.x;
+    assert!((end - x).abs() < 1e-12, "ends at {end}, the master at {x}");
+    let c = sup.counters();
+    assert_eq!((c.refused(), c.stops), (0, 0));
+    assert!(c.led > 0);
 }
 
 /// A target accepted at once in a certified region supersedes both the path in
