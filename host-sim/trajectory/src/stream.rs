@@ -97,6 +97,20 @@ mod tests {
     use super::*;
     use crate::path::Piece;
 
+    /// Two single targets, at 0.5 s (z 0.16 m) and 0.7 s (z 0.17 m).
+    fn two_jumps() -> Stream {
+        Stream::Jumps(vec![
+            Jump {
+                at_s: 0.5,
+                pose: Pose::central(0.16),
+            },
+            Jump {
+                at_s: 0.7,
+                pose: Pose::central(0.17),
+            },
+        ])
+    }
+
     /// A 1-s hold sampled every 0.1 s with 0.05 s latency: by t the robot has every sample
     /// stamped at or before t - latency, each once, and nothing after the path's end.
     #[test]
@@ -118,16 +132,7 @@ mod tests {
         s.due(&stream, 10.0, |ts, _| stamps.push(ts));
         assert_eq!(stamps.len(), 11);
         assert_eq!(s.next_sample(), 11);
-        let jumps = Stream::Jumps(vec![
-            Jump {
-                at_s: 0.5,
-                pose: Pose::central(0.16),
-            },
-            Jump {
-                at_s: 0.7,
-                pose: Pose::central(0.17),
-            },
-        ]);
+        let jumps = two_jumps();
         let mut s = Sampler::new(0.1, 0.05);
         let mut got = Vec::new();
         s.due(&jumps, 0.6, |ts, p| got.push((ts, p.t.z)));
@@ -152,16 +157,7 @@ mod tests {
             assert_eq!(stream.master_pose(t), traj.pose(t));
         }
         assert_eq!(stream.master_pose(end + 1.0), traj.pose(end));
-        let jumps = Stream::Jumps(vec![
-            Jump {
-                at_s: 0.5,
-                pose: Pose::central(0.16),
-            },
-            Jump {
-                at_s: 0.7,
-                pose: Pose::central(0.17),
-            },
-        ]);
+        let jumps = two_jumps();
         assert_eq!(jumps.master_pose(0.4), None);
         assert_eq!(jumps.master_pose(0.5).map(|p| p.t.z), Some(0.16));
         assert_eq!(jumps.master_pose(0.69).map(|p| p.t.z), Some(0.16));
