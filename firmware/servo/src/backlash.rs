@@ -33,7 +33,7 @@
 use num_traits::Float;
 
 use crate::config::{is_leg, Check, ConfigError};
-use crate::num::{clamp_sym, lit, max_of, valid_dt};
+use crate::num::{bound, lit, max_of, valid_dt};
 use crate::NUM_JOINTS;
 
 /// How the offset is brought in after a reversal.
@@ -340,6 +340,13 @@ impl<S: Float> BacklashCompensator<S> {
                 offset_rate: S::zero(),
             };
         }
+        self.update_checked(setpoint, dt)
+    }
+
+    /// [`update`](Self::update) of a finite `setpoint` and a valid `dt` (as
+    /// [`JointServo`](crate::JointServo) makes sure).
+    #[inline(always)]
+    pub(crate) fn update_checked(&mut self, setpoint: S, dt: S) -> BacklashOutput<S> {
         if !self.primed {
             self.extreme = setpoint;
             self.last_setpoint = setpoint;
@@ -389,9 +396,38 @@ impl<S: Float> BacklashCompensator<S> {
         } else {
             S::zero()
         };
+        let old = self.offset;
+        let gap = target - old;
+        // Towards the target by at most the ramp's step. At the target (where the offset
+        // stays but for a ramp after a reversal) the step is 0 whatever its limit, which
+        // is then not computed. (`bound`, not the NaN-safe `clamp_sym`: the differences
+        // of finite values and their quotient by a finite `dt > 0` cannot be NaN.)
+        let step = if gap == S::zero() {
+            gap
+        } else {
+            bound(gap, self.max_step(setpoint, dt))
+        };
+        self.offset = old + step;
+        self.last_setpoint = setpoint;
+        BacklashOutput {
+            offset: self.offset,
+            offset_rate: bound((self.offset - old) / dt, S::max_value()),
+        }
+    }
+
+    /// The largest change of the offset in a sample from `last_setpoint` to `setpoint`
+    /// lasting `dt`: finite and `>= 0`.
+    #[inline(always)]
+    fn max_step(&self, setpoint: S, dt: S) -> S {
         // Largest change this sample: b per ramp distance of setpoint travel, or b per
         // ramp time (at least b/2 per ramp when b = 0 so a disabled joint still ramps out).
-        let b = max_of(self.half_width() * lit(2.0), self.offset.abs());
+        // (Neither can be NaN: a plain comparison.)
+        let full = self.half_width() * lit(2.0);
+        let b = if self.offset.abs() > full {
+            self.offset.abs()
+        } else {
+            full
+        };
         let travel = (setpoint - self.last_setpoint).abs();
         let by_distance = |d: S| if d > S::zero() { b / d * travel } else { b };
         let by_time = |t: S| if t > S::zero() { b / t * dt } else { b };
@@ -399,16 +435,21 @@ impl<S: Float> BacklashCompensator<S> {
             BacklashRamp::Distance(d) => by_distance(d),
             BacklashRamp::Time(t) => by_time(t),
             BacklashRamp::DistanceOrTime { distance, time } => {
-                max_of(by_distance(distance), by_time(time))
+                // The larger, or the time's when the distance's is NaN (`b / d` infinite
+                // and no travel); the time's cannot be NaN (`dt > 0`), so one comparison
+                // does what `max_of` does.
+                let (d, t) = (by_distance(distance), by_time(time));
+                if d >= t {
+                    d
+                } else {
+                    t
+                }
             }
         };
-        let max_step = if max_step.is_finite() { max_step } else { b };
-        let old = self.offset;
-        self.offset = old + clamp_sym(target - old, max_step);
-        self.last_setpoint = setpoint;
-        BacklashOutput {
-            offset: self.offset,
-            offset_rate: clamp_sym((self.offset - old) / dt, S::max_value()),
+        if max_step.is_finite() {
+            max_step
+        } else {
+            b
         }
     }
 }

@@ -51,6 +51,51 @@ struct Channel<S> {
     tracking: TrackingMonitor<S>,
 }
 
+impl<S: Float> Channel<S> {
+    /// A sample (`[setpoint, velocity, acceleration, measured]`, motor side) whose
+    /// setpoint or velocity is not finite: the PID rejects it (duty 0, its state kept),
+    /// which latches a [`FaultKind::NonFiniteInput`] fault (into `fault` unless one is
+    /// latched already), and the monitor sees it. Out of line: it never runs with sane
+    /// inputs.
+    #[cold]
+    #[inline(never)]
+    fn reject(
+        &mut self,
+        [setpoint, setpoint_velocity, setpoint_acceleration, measured]: [S; 4],
+        joint: usize,
+        dt: S,
+        time_us: u64,
+        fault: &mut Option<TrackingFault<S>>,
+    ) {
+        let input = PidInput {
+            setpoint,
+            setpoint_velocity,
+            setpoint_acceleration,
+            measured,
+        };
+        let p = self.pid.update(&input, dt);
+        if p.error.is_some() && fault.is_none() {
+            *fault = Some(self.tracking.latch(TrackingFault {
+                kind: FaultKind::NonFiniteInput,
+                joint: Some(joint),
+                error: S::zero(),
+                duration: S::zero(),
+                time_us,
+            }));
+        }
+        let sample = TrackingSample {
+            setpoint: input.setpoint,
+            setpoint_velocity: input.setpoint_velocity,
+            measured: input.measured,
+            duty: p.duty,
+        };
+        let f = self.tracking.update(&sample, dt, time_us);
+        if fault.is_none() {
+            *fault = f;
+        }
+    }
+}
+
 /// The position servos of the six joints.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct JointServo<S> {
@@ -179,16 +224,18 @@ impl<S: Float> JointServo<S> {
             .zip(setpoint_qdot)
             .zip(setpoint_qddot)
             .zip(measured_q);
-        for (j, (((r, v), a), y)) in inputs.clone().enumerate() {
-            if !(r.is_finite() && v.is_finite() && a.is_finite() && y.is_finite()) {
-                let error = *r - *y;
-                return self.trip(TrackingFault {
-                    kind: FaultKind::NonFiniteInput,
-                    joint: Some(j),
-                    error: if error.is_finite() { error } else { S::zero() },
-                    duration: S::zero(),
-                    time_us,
-                });
+        if !all_finite(setpoint_q, setpoint_qdot, setpoint_qddot, measured_q) {
+            for (j, (((r, v), a), y)) in inputs.clone().enumerate() {
+                if !(r.is_finite() && v.is_finite() && a.is_finite() && y.is_finite()) {
+                    let error = *r - *y;
+                    return self.trip(TrackingFault {
+                        kind: FaultKind::NonFiniteInput,
+                        joint: Some(j),
+                        error: if error.is_finite() { error } else { S::zero() },
+                        duration: S::zero(),
+                        time_us,
+                    });
+                }
             }
         }
 
@@ -201,10 +248,16 @@ impl<S: Float> JointServo<S> {
             .zip(outputs)
             .enumerate()
         {
-            // Backlash: motor-side setpoint and velocity.
-            let b = ch.backlash.update(*r, dt);
+            // Backlash: motor-side setpoint and velocity (`r` and `dt` are checked).
+            let b = ch.backlash.update_checked(*r, dt);
             let r_m = *r + b.offset;
             let v_m = *v + b.offset_rate;
+            if !(r_m.is_finite() && v_m.is_finite()) {
+                // The offset took a huge finite input beyond the range (cannot happen
+                // with sane inputs; kept as a safety net).
+                ch.reject([r_m, v_m, *a, *y], j, dt, time_us, &mut self.fault);
+                continue;
+            }
             // Position loop.
             let input = PidInput {
                 setpoint: r_m,
@@ -212,17 +265,8 @@ impl<S: Float> JointServo<S> {
                 setpoint_acceleration: *a,
                 measured: *y,
             };
-            let p = ch.pid.update(&input, dt);
-            if p.error.is_some() && self.fault.is_none() {
-                // Cannot happen with the inputs checked above; kept as a safety net.
-                self.fault = Some(ch.tracking.latch(TrackingFault {
-                    kind: FaultKind::NonFiniteInput,
-                    joint: Some(j),
-                    error: S::zero(),
-                    duration: S::zero(),
-                    time_us,
-                }));
-            }
+            // Every value of `input` and `dt` is checked, the duty is finite.
+            let p = ch.pid.update_checked(&input, dt);
             *duty = p.duty;
             *sat = p.saturated;
             // Monitor, on what the loop actually tracks.
@@ -232,9 +276,8 @@ impl<S: Float> JointServo<S> {
                 measured: *y,
                 duty: p.duty,
             };
-            let f = ch.tracking.update(&sample, dt, time_us);
-            if self.fault.is_none() {
-                self.fault = f;
+            if ch.tracking.update_checked(&sample, dt, time_us) && self.fault.is_none() {
+                self.fault = ch.tracking.fault();
             }
         }
         match self.fault {
@@ -344,5 +387,50 @@ impl<S: Float> JointServo<S> {
     /// One joint's tracking monitor (for diagnostics).
     pub fn tracking(&self, joint: usize) -> Option<&TrackingMonitor<S>> {
         self.channels.get(joint).map(|c| &c.tracking)
+    }
+}
+
+/// Every value of the four arrays is finite. One multiply-add per value: `x * 0` is 0
+/// for a finite `x` and NaN for an infinite or NaN one, and a NaN stays in the sum.
+#[inline(always)]
+fn all_finite<S: Float>(
+    a: &[S; NUM_JOINTS],
+    b: &[S; NUM_JOINTS],
+    c: &[S; NUM_JOINTS],
+    d: &[S; NUM_JOINTS],
+) -> bool {
+    let zero = S::zero();
+    let sum = |x: &[S; NUM_JOINTS]| x.iter().fold(zero, |acc, v| acc + *v * zero);
+    sum(a) + sum(b) + sum(c) + sum(d) == zero
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+
+    use super::*;
+
+    /// Finite inputs that the backlash offset carries beyond the range (a huge offset
+    /// a previous servo left ramps out at once: a rate of -f32::MAX, added to a huge
+    /// negative desired velocity) latch a non-finite-input fault on that joint, zero
+    /// every duty and leave that joint's PID untouched.
+    #[test]
+    fn a_motor_velocity_beyond_the_range_latches_a_non_finite_input_fault() {
+        let mut servo = JointServo::<f32>::new(&ServoConfig::default()).unwrap();
+        let q = [0.17, 0.17, 0.17, 0.0, 0.0, 0.0];
+        servo.reset(&q);
+        let mut offsets = [0.0; NUM_JOINTS];
+        offsets[2] = 3e38;
+        servo.resume_backlash(&q, &offsets);
+        let mut qdot = [0.0; NUM_JOINTS];
+        qdot[2] = -3e38;
+        let pid_before = *servo.pid(2).unwrap();
+        let out = servo.update(&q, &qdot, &q, 1e-3);
+        let fault = out.fault.unwrap();
+        assert_eq!(fault.kind, FaultKind::NonFiniteInput);
+        assert_eq!(fault.joint, Some(2));
+        assert_eq!(out.duty, [0.0; NUM_JOINTS]);
+        assert_eq!(servo.tracking(2).unwrap().fault(), Some(fault));
+        assert_eq!(*servo.pid(2).unwrap(), pid_before);
     }
 }

@@ -31,10 +31,13 @@ pub(crate) fn clamp<S: Float>(x: S, lo: S, hi: S) -> S {
 /// joint and tick).
 #[inline]
 pub(crate) fn bound<S: Float>(x: S, b: S) -> S {
-    if x > b {
-        b
-    } else if x < -b {
-        -b
+    // One test on |x| in the usual case where nothing is cut (|NaN| > b is false).
+    if x.abs() > b {
+        if x > S::zero() {
+            b
+        } else {
+            -b
+        }
     } else {
         x
     }

@@ -339,8 +339,9 @@ pub struct Pid<S> {
     /// `prev_measured` holds a measurement.
     primed: bool,
     /// The exponential coefficients for the last sample time (the control rate is
-    /// fixed, and `exp` is ~60 instructions per call on the Cortex-M4).
-    coefficients: Option<Coefficients<S>>,
+    /// fixed, and `exp` is ~60 instructions per call on the Cortex-M4); unprepared
+    /// ([`Coefficients::unprepared`]) until the first sample after new gains.
+    coefficients: Coefficients<S>,
 }
 
 /// What one sample needs of the gains and the sample time, prepared once per gains and
@@ -349,6 +350,7 @@ pub struct Pid<S> {
 /// per-field rule of [`sane_limit`]), so that a sample only multiplies, adds and compares.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Coefficients<S> {
+    /// The sample time they are for; 0 (never a valid one) while unprepared.
     dt: S,
     a: S,
     b: S,
@@ -364,6 +366,23 @@ struct Coefficients<S> {
     inv_band: S,
 }
 
+impl<S: Float> Coefficients<S> {
+    /// Coefficients of no sample time (`dt` 0): the next sample prepares them.
+    fn unprepared() -> Self {
+        let zero = S::zero();
+        Coefficients {
+            dt: zero,
+            a: zero,
+            b: zero,
+            inv_dt: zero,
+            limit: zero,
+            deadband: zero,
+            integral_limit: zero,
+            inv_band: zero,
+        }
+    }
+}
+
 impl<S: Float> Pid<S> {
     /// A controller with `gains` (use [`PidGains::validate`] first; invalid gains never
     /// produce an invalid duty, but their behaviour is unspecified). The first update
@@ -375,7 +394,7 @@ impl<S: Float> Pid<S> {
             prev_measured: S::zero(),
             velocity: S::zero(),
             primed: false,
-            coefficients: None,
+            coefficients: Coefficients::unprepared(),
         }
     }
 
@@ -387,7 +406,7 @@ impl<S: Float> Pid<S> {
     /// Replaces the gains, keeping the state (bumpless: the integral is stored as duty).
     pub fn set_gains(&mut self, gains: PidGains<S>) {
         self.gains = gains;
-        self.coefficients = None;
+        self.coefficients = Coefficients::unprepared();
         let limit = sane_limit(gains.integral_limit, S::max_value());
         self.integral = clamp_sym(self.integral, limit);
     }
@@ -420,46 +439,47 @@ impl<S: Float> Pid<S> {
         self.velocity
     }
 
-    /// The filter and back-calculation coefficients for `dt`, computed once per sample time.
-    fn coefficients(&mut self, dt: S) -> Coefficients<S> {
-        match self.coefficients {
-            Some(c) if c.dt == dt => c,
-            _ => {
-                let g = &self.gains;
-                let kt = match g.anti_windup {
-                    AntiWindup::BackCalculation { tracking_gain } => {
-                        sane_limit(tracking_gain, S::max_value())
-                    }
-                    _ => S::zero(),
-                };
-                let max = S::max_value();
-                let band = if g.friction_band > S::zero() {
-                    g.friction_band
-                } else {
-                    S::one()
-                };
-                let c = Coefficients {
-                    dt,
-                    // a = 1 - exp(-2 pi fc dt), in [0, 1] for every dt > 0 (stable at any
-                    // rate).
-                    a: clamp(
-                        S::one()
-                            - (-lit::<S>(core::f64::consts::TAU) * g.derivative_cutoff_hz * dt)
-                                .exp(),
-                        S::zero(),
-                        S::one(),
-                    ),
-                    b: clamp(S::one() - (-kt * dt).exp(), S::zero(), S::one()),
-                    inv_dt: sane_limit(S::one() / dt, max),
-                    limit: sane_limit(g.output_limit, S::one()),
-                    deadband: sane_limit(g.deadband, max),
-                    integral_limit: sane_limit(g.integral_limit, max),
-                    inv_band: sane_limit(S::one() / band, max),
-                };
-                self.coefficients = Some(c);
-                c
-            }
+    /// Makes the kept coefficients those of `dt` (computed once per gains and sample
+    /// time: a valid `dt` is never 0, the `dt` of the unprepared coefficients).
+    #[inline(always)]
+    fn prepare_for(&mut self, dt: S) {
+        if self.coefficients.dt != dt {
+            self.prepare(dt);
         }
+    }
+
+    /// Computes and keeps the coefficients of `dt` (out of line: it runs once per gains
+    /// and sample time, and its two `exp` need not be inlined in every caller).
+    #[inline(never)]
+    fn prepare(&mut self, dt: S) {
+        let g = &self.gains;
+        let kt = match g.anti_windup {
+            AntiWindup::BackCalculation { tracking_gain } => {
+                sane_limit(tracking_gain, S::max_value())
+            }
+            _ => S::zero(),
+        };
+        let max = S::max_value();
+        let band = if g.friction_band > S::zero() {
+            g.friction_band
+        } else {
+            S::one()
+        };
+        self.coefficients = Coefficients {
+            dt,
+            // a = 1 - exp(-2 pi fc dt), in [0, 1] for every dt > 0 (stable at any rate).
+            a: clamp(
+                S::one() - (-lit::<S>(core::f64::consts::TAU) * g.derivative_cutoff_hz * dt).exp(),
+                S::zero(),
+                S::one(),
+            ),
+            b: clamp(S::one() - (-kt * dt).exp(), S::zero(), S::one()),
+            inv_dt: sane_limit(S::one() / dt, max),
+            limit: sane_limit(g.output_limit, S::one()),
+            deadband: sane_limit(g.deadband, max),
+            integral_limit: sane_limit(g.integral_limit, max),
+            inv_band: sane_limit(S::one() / band, max),
+        };
     }
 
     /// One sample: computes the duty from `input` with sample time `dt` (s).
@@ -468,23 +488,173 @@ impl<S: Float> Pid<S> {
     /// (the coefficients are sanitized, each product is of two finite factors), so the
     /// intermediate bounds are plain comparisons ([`bound`]); the one NaN that invalid
     /// gains could make is caught on the sum, which then gives duty 0 and keeps the state.
+    /// (The bounds only act for absurd values: a sample is first computed without them,
+    /// and again with them when one of them could act; the result is the same.)
     pub fn update(&mut self, input: &PidInput<S>, dt: S) -> PidOutput<S> {
         if let Some(error) = input.check(dt) {
             return PidOutput::rejected(error);
         }
-        let coef = self.coefficients(dt);
-        let g = &self.gains;
-        let big = lit::<S>(TERM_BOUND);
-        let max = S::max_value();
-        let limit = coef.limit;
-        let y = input.measured;
-        let r_dot = input.setpoint_velocity;
+        self.update_checked(input, dt)
+    }
+
+    /// [`update`](Self::update) of an input that passed [`PidInput::check`] with `dt`
+    /// (finite values, valid `dt`); for [`JointServo`](crate::JointServo), which checks
+    /// its inputs once for the whole chain. Inlined there, so that the terms it does not
+    /// use are never stored.
+    ///
+    /// The law's bounds on the terms and on the intermediate values only act for absurd
+    /// values (beyond `1e9` duty or the scalar's range), so the sample is first computed
+    /// without them ([`Pid::terms_unbounded`]) and one test on the sum of the terms'
+    /// magnitudes shows that none of them could have acted; otherwise (never for a sane
+    /// configuration and sane inputs) it is computed again with every bound
+    /// ([`Pid::terms_bounded`]). Both give the same values, to the bit.
+    #[inline(always)]
+    pub(crate) fn update_checked(&mut self, input: &PidInput<S>, dt: S) -> PidOutput<S> {
+        self.sample::<true>(input, dt)
+    }
+
+    /// One sample of a checked input; `UNBOUNDED_FIRST`: try the terms without their
+    /// bounds first (`false` only in the tests, which compare the two ways).
+    #[inline(always)]
+    fn sample<const UNBOUNDED_FIRST: bool>(&mut self, input: &PidInput<S>, dt: S) -> PidOutput<S> {
+        self.prepare_for(dt);
         if !self.primed {
             // First sample: no previous measurement, so no velocity yet (no kick).
-            self.prev_measured = y;
+            self.prev_measured = input.measured;
             self.velocity = S::zero();
             self.primed = true;
         }
+        let unbounded = if UNBOUNDED_FIRST {
+            self.terms_unbounded(input, dt)
+        } else {
+            None
+        };
+        let t = match unbounded {
+            Some(t) => t,
+            None => match self.terms_bounded(input, dt) {
+                Some(t) => t,
+                // Only invalid (non-finite) gains get here: the safe output, state kept.
+                None => {
+                    return PidOutput {
+                        duty: S::zero(),
+                        saturated: false,
+                        error: None,
+                        terms: PidTerms {
+                            p: S::zero(),
+                            i: S::zero(),
+                            d: S::zero(),
+                            ff: S::zero(),
+                        },
+                    }
+                }
+            },
+        };
+        let coef = &self.coefficients;
+        let limit = coef.limit;
+        let i = self.integral;
+        let u_raw = t.p + i + t.d + t.ff;
+        self.prev_measured = input.measured;
+        self.velocity = t.velocity;
+        // (`u_raw` is not NaN: one test on its magnitude for both the bound and the flag.)
+        let saturated = u_raw.abs() > limit;
+        let u = if !saturated {
+            u_raw
+        } else if u_raw > S::zero() {
+            limit
+        } else {
+            -limit
+        };
+
+        // Integral update (forward Euler) with the chosen anti-windup.
+        let next = match self.gains.anti_windup {
+            AntiWindup::None => i + t.step,
+            // Conditional integration: skip an update that pushes further into saturation.
+            AntiWindup::Clamp => {
+                if saturated && sign(t.e_db) == sign(u_raw) {
+                    i
+                } else {
+                    i + t.step
+                }
+            }
+            // Back-calculation: I += ki e dt + (1 - exp(-kt dt)) (u - u_raw).
+            AntiWindup::BackCalculation { .. } => i + t.step + coef.b * (u - u_raw),
+        };
+        // Within the limit (the usual case) at one test; else bounded (NaN, which invalid
+        // gains can make of the step, gives 0).
+        self.integral = if next.abs() <= coef.integral_limit {
+            next
+        } else {
+            clamp_sym(next, coef.integral_limit)
+        };
+
+        PidOutput {
+            duty: u,
+            saturated,
+            error: None,
+            terms: PidTerms {
+                p: t.p,
+                i,
+                d: t.d,
+                ff: t.ff,
+            },
+        }
+    }
+
+    /// The terms of the law without its bounds, when none of the bounds would act: every
+    /// term within `TERM_BOUND` (tested on the sum of their magnitudes, which is at least
+    /// each of them) implies that every intermediate value was finite (an infinite one
+    /// makes a term infinite or NaN: each is a product with a finite factor, and a NaN
+    /// fails the test), so that [`Pid::terms_bounded`] would give the same values.
+    #[inline(always)]
+    fn terms_unbounded(&self, input: &PidInput<S>, dt: S) -> Option<Terms<S>> {
+        let g = &self.gains;
+        let coef = &self.coefficients;
+        let y = input.measured;
+        let r_dot = input.setpoint_velocity;
+        let e = input.setpoint - y;
+        let e_db = if coef.deadband > S::zero() {
+            sign(e) * bound_below(e.abs() - coef.deadband, S::zero())
+        } else {
+            e
+        };
+        let p = g.kp * e_db;
+        let v_raw = (y - self.prev_measured) * coef.inv_dt;
+        let velocity = self.velocity + coef.a * (v_raw - self.velocity);
+        let v_ref = if g.derivative_uses_setpoint_velocity {
+            r_dot
+        } else {
+            S::zero()
+        };
+        let d = g.kd * (v_ref - velocity);
+        let ff_v = g.kv * r_dot;
+        let ff_a = g.ka * input.setpoint_acceleration;
+        let ff_f = g.friction_ff * bound(r_dot * coef.inv_band, S::one());
+        let step = g.ki * e_db * dt;
+        let size = p.abs() + d.abs() + ff_v.abs() + ff_a.abs() + ff_f.abs() + step.abs();
+        if size <= lit(TERM_BOUND) {
+            Some(Terms {
+                e_db,
+                p,
+                velocity,
+                d,
+                ff: ff_v + ff_a + ff_f,
+                step,
+            })
+        } else {
+            None
+        }
+    }
+
+    /// The terms of the law with every bound; `None` when the sum of the terms is NaN
+    /// (only invalid gains can make it so).
+    #[inline(never)]
+    fn terms_bounded(&self, input: &PidInput<S>, dt: S) -> Option<Terms<S>> {
+        let g = &self.gains;
+        let coef = &self.coefficients;
+        let big = lit::<S>(TERM_BOUND);
+        let max = S::max_value();
+        let y = input.measured;
+        let r_dot = input.setpoint_velocity;
 
         // Position error, kept finite for finite inputs of opposite huge values.
         let e = bound(input.setpoint - y, max);
@@ -516,50 +686,252 @@ impl<S: Float> Pid<S> {
             + bound(g.ka * input.setpoint_acceleration, big)
             + bound(g.friction_ff * bound(r_dot * coef.inv_band, S::one()), big);
 
-        // Output with the integral of the previous samples, then saturation.
-        let i = self.integral;
-        let u_raw = p + i + d + ff;
-        if u_raw.is_nan() {
-            // Only invalid (non-finite) gains get here: the safe output, state kept.
-            return PidOutput {
-                duty: S::zero(),
-                saturated: false,
-                error: None,
-                terms: PidTerms {
-                    p: S::zero(),
-                    i: S::zero(),
-                    d: S::zero(),
-                    ff: S::zero(),
-                },
-            };
-        }
-        self.prev_measured = y;
-        self.velocity = velocity;
-        let u = bound(u_raw, limit);
-        let saturated = u_raw > limit || u_raw < -limit;
-
-        // Integral update (forward Euler) with the chosen anti-windup.
+        // The integral step (forward Euler).
         let step = bound(g.ki * e_db * dt, big);
-        let next = match g.anti_windup {
-            AntiWindup::None => i + step,
-            // Conditional integration: skip an update that pushes further into saturation.
-            AntiWindup::Clamp => {
-                if saturated && sign(e_db) == sign(u_raw) {
-                    i
-                } else {
-                    i + step
-                }
-            }
-            // Back-calculation: I += ki e dt + (1 - exp(-kt dt)) (u - u_raw).
-            AntiWindup::BackCalculation { .. } => i + step + coef.b * (u - u_raw),
-        };
-        self.integral = clamp_sym(next, coef.integral_limit);
 
-        PidOutput {
-            duty: u,
-            saturated,
-            error: None,
-            terms: PidTerms { p, i, d, ff },
+        if (p + self.integral + d + ff).is_nan() {
+            return None;
+        }
+        Some(Terms {
+            e_db,
+            p,
+            velocity,
+            d,
+            ff,
+            step,
+        })
+    }
+}
+
+/// What one sample computes before the output and the integral: the error after the
+/// deadband, the P, D and feed-forward terms, the new filtered velocity and the integral
+/// step (duty; velocity in u/s).
+#[derive(Clone, Copy)]
+struct Terms<S> {
+    e_db: S,
+    p: S,
+    velocity: S,
+    d: S,
+    ff: S,
+    step: S,
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, clippy::indexing_slicing)]
+
+    use super::*;
+    use proptest::prelude::*;
+
+    /// [`Pid::update`] with every bound applied (the law as written), for comparison.
+    fn update_bounded<S: Float>(pid: &mut Pid<S>, input: &PidInput<S>, dt: S) -> PidOutput<S> {
+        match input.check(dt) {
+            Some(error) => PidOutput::rejected(error),
+            None => pid.sample::<false>(input, dt),
+        }
+    }
+
+    /// The output and the state, bit for bit (so that `-0.0 != 0.0` and NaN == NaN).
+    fn bits(out: &PidOutput<f64>, pid: &Pid<f64>) -> [u64; 9] {
+        [
+            out.duty.to_bits(),
+            u64::from(out.saturated),
+            u64::from(out.error.is_some()),
+            out.terms.p.to_bits(),
+            out.terms.i.to_bits(),
+            out.terms.d.to_bits(),
+            out.terms.ff.to_bits(),
+            pid.integral().to_bits(),
+            pid.filtered_velocity().to_bits(),
+        ]
+    }
+
+    fn bits32(out: &PidOutput<f32>, pid: &Pid<f32>) -> [u32; 9] {
+        [
+            out.duty.to_bits(),
+            u32::from(out.saturated),
+            u32::from(out.error.is_some()),
+            out.terms.p.to_bits(),
+            out.terms.i.to_bits(),
+            out.terms.d.to_bits(),
+            out.terms.ff.to_bits(),
+            pid.integral().to_bits(),
+            pid.filtered_velocity().to_bits(),
+        ]
+    }
+
+    /// Moderate values most of the time, any finite one (huge, tiny) sometimes: both the
+    /// unbounded and the bounded way are taken.
+    fn value() -> impl Strategy<Value = f64> {
+        prop_oneof![
+            4 => -1.0f64..1.0,
+            2 => -1e4f64..1e4,
+            1 => prop::num::f64::NORMAL | prop::num::f64::SUBNORMAL | prop::num::f64::ZERO,
+        ]
+    }
+
+    /// A gain: 0, moderate, or any positive finite value.
+    fn gain() -> impl Strategy<Value = f64> {
+        prop_oneof![
+            1 => Just(0.0),
+            4 => 0.0f64..1e4,
+            1 => prop::num::f64::POSITIVE.prop_filter("finite", |x| x.is_finite()),
+        ]
+    }
+
+    fn gains() -> impl Strategy<Value = PidGains<f64>> {
+        (
+            (gain(), gain(), gain(), 1e-3f64..1e6, gain(), gain(), gain()),
+            (
+                1e-9f64..10.0,
+                0.01f64..=1.0,
+                gain(),
+                0.0f64..1e-3,
+                0u8..3,
+                gain(),
+            ),
+            any::<bool>(),
+        )
+            .prop_map(
+                |((kp, ki, kd, fc, kv, ka, ff), (band, limit, ilimit, db, aw, kt), dusv)| {
+                    PidGains {
+                        kp,
+                        ki,
+                        kd,
+                        derivative_cutoff_hz: fc,
+                        derivative_uses_setpoint_velocity: dusv,
+                        kv,
+                        ka,
+                        friction_ff: ff,
+                        friction_band: band,
+                        output_limit: limit,
+                        integral_limit: ilimit,
+                        deadband: db,
+                        anti_windup: match aw {
+                            0 => AntiWindup::None,
+                            1 => AntiWindup::Clamp,
+                            _ => AntiWindup::BackCalculation { tracking_gain: kt },
+                        },
+                    }
+                },
+            )
+    }
+
+    fn gains32(g: &PidGains<f64>) -> PidGains<f32> {
+        PidGains {
+            kp: g.kp as f32,
+            ki: g.ki as f32,
+            kd: g.kd as f32,
+            derivative_cutoff_hz: g.derivative_cutoff_hz as f32,
+            derivative_uses_setpoint_velocity: g.derivative_uses_setpoint_velocity,
+            kv: g.kv as f32,
+            ka: g.ka as f32,
+            friction_ff: g.friction_ff as f32,
+            friction_band: g.friction_band as f32,
+            output_limit: g.output_limit as f32,
+            integral_limit: g.integral_limit as f32,
+            deadband: g.deadband as f32,
+            anti_windup: match g.anti_windup {
+                AntiWindup::None => AntiWindup::None,
+                AntiWindup::Clamp => AntiWindup::Clamp,
+                AntiWindup::BackCalculation { tracking_gain } => AntiWindup::BackCalculation {
+                    tracking_gain: tracking_gain as f32,
+                },
+            },
+        }
+    }
+
+    proptest! {
+        #![proptest_config(proptest_config::cases(512))]
+
+        /// Property: computing the terms without their bounds when none of them would
+        /// act gives the law with every bound, to the bit: output, terms and state, for
+        /// any valid gains and any finite inputs and time steps (f64 and f32, where the
+        /// values overflow much sooner).
+        #[test]
+        fn the_unbounded_terms_give_the_bounded_law_to_the_bit(
+            g in gains(),
+            samples in prop::collection::vec(
+                (value(), value(), value(), value(), prop_oneof![
+                    4 => Just(1e-3),
+                    1 => 1e-5f64..1.0,
+                    1 => prop::num::f64::POSITIVE.prop_filter("finite", |x| x.is_finite()),
+                ]),
+                1..40,
+            ),
+        ) {
+            prop_assert!(g.validate(0).is_ok());
+            let (mut fast, mut law) = (Pid::new(g), Pid::new(g));
+            let g32 = gains32(&g);
+            let (mut fast32, mut law32) = (Pid::new(g32), Pid::new(g32));
+            for (r, v, a, y, dt) in samples {
+                let input = PidInput { setpoint: r, setpoint_velocity: v, setpoint_acceleration: a, measured: y };
+                let out = fast.update(&input, dt);
+                let expected = update_bounded(&mut law, &input, dt);
+                prop_assert_eq!(bits(&out, &fast), bits(&expected, &law));
+                prop_assert_eq!(fast, law);
+
+                let input = PidInput {
+                    setpoint: r as f32,
+                    setpoint_velocity: v as f32,
+                    setpoint_acceleration: a as f32,
+                    measured: y as f32,
+                };
+                let out = fast32.update(&input, dt as f32);
+                let expected = update_bounded(&mut law32, &input, dt as f32);
+                prop_assert_eq!(bits32(&out, &fast32), bits32(&expected, &law32));
+                prop_assert_eq!(fast32, law32);
+            }
+        }
+    }
+
+    /// Inputs for the refresh tests: a moving setpoint and measurement.
+    fn input(k: usize) -> PidInput<f64> {
+        let t = k as f64;
+        PidInput::new(2e-3 * (0.3 * t).sin(), 1.6e-3 * (0.3 * t - 0.4).sin())
+            .with_velocity(2e-3 * (0.3 * t).cos())
+            .with_acceleration(0.5 * (0.2 * t).sin())
+    }
+
+    /// The coefficients kept per gains and sample time are those of the current gains
+    /// and `dt`: after new gains, or a new `dt`, a controller that ran before gives what
+    /// a new one in the same state gives.
+    #[test]
+    fn new_gains_and_a_new_time_step_take_effect_at_once() {
+        let first = PidGains::<f64>::leg();
+        let mut second = PidGains::link();
+        second.derivative_cutoff_hz = 35.0;
+        second.output_limit = 0.004;
+        second.integral_limit = 0.01;
+        second.deadband = 2e-4;
+        second.friction_band = 3e-3;
+        second.anti_windup = AntiWindup::BackCalculation {
+            tracking_gain: 40.0,
+        };
+        for (gains_then, dt_then, dt_now) in [
+            (first, 1e-3, 1e-3),    // new gains, same dt
+            (second, 1e-3, 2.5e-4), // same gains, new dt
+            (first, 1e-4, 3e-3),    // new gains and new dt
+        ] {
+            let mut pid = Pid::new(gains_then);
+            for k in 0..30 {
+                pid.update(&input(k), dt_then);
+            }
+            // The same state as a new controller's (the kept coefficients aside).
+            if gains_then != second {
+                pid.set_gains(second);
+            }
+            pid.reset(input(30).measured);
+            let mut fresh = Pid::new(second);
+            fresh.reset(input(30).measured);
+            for k in 31..200 {
+                let (out, expected) = (
+                    pid.update(&input(k), dt_now),
+                    fresh.update(&input(k), dt_now),
+                );
+                assert_eq!(out, expected, "sample {k}");
+            }
+            assert_eq!(pid.integral(), fresh.integral());
         }
     }
 }

@@ -280,17 +280,43 @@ impl<S: Float> TrackingMonitor<S> {
                 time_us,
             }));
         }
-        let error = s.setpoint - s.measured;
-        if !(error.is_finite() && s.setpoint_velocity.is_finite() && s.duty.is_finite()) {
-            return Some(self.latch(TrackingFault {
-                kind: FaultKind::NonFiniteInput,
-                joint: Some(self.joint),
-                error: zero,
-                duration: zero,
-                time_us,
-            }));
+        if !(s.setpoint_velocity.is_finite() && s.duty.is_finite()) {
+            return Some(self.latch(self.non_finite(time_us)));
         }
-        let l = self.limits;
+        if self.update_checked(s, dt, time_us) {
+            self.latched
+        } else {
+            None
+        }
+    }
+
+    /// The fault of a non-finite sample at servo time `time_us`.
+    fn non_finite(&self, time_us: u64) -> TrackingFault<S> {
+        TrackingFault {
+            kind: FaultKind::NonFiniteInput,
+            joint: Some(self.joint),
+            error: S::zero(),
+            duration: S::zero(),
+            time_us,
+        }
+    }
+
+    /// [`update`](Self::update) of a sample whose `dt` is valid and whose desired
+    /// velocity and duty are finite (as [`JointServo`](crate::JointServo) makes sure);
+    /// returns whether a fault is latched (then [`fault`](Self::fault) is it), so that
+    /// no fault is copied out when nothing trips.
+    #[inline(always)]
+    pub(crate) fn update_checked(&mut self, s: &TrackingSample<S>, dt: S, time_us: u64) -> bool {
+        if self.latched.is_some() {
+            return true;
+        }
+        let zero = S::zero();
+        let error = s.setpoint - s.measured;
+        if !error.is_finite() {
+            self.latch(self.non_finite(time_us));
+            return true;
+        }
+        let l = &self.limits;
         // "Longer than" with half a sample of margin against rounding in the sums of dt.
         let half_dt = dt * lit(0.5);
 
@@ -298,13 +324,14 @@ impl<S: Float> TrackingMonitor<S> {
         if error.abs() > l.window {
             self.over_window_for = self.over_window_for + dt;
             if self.over_window_for > l.time_to_fault + half_dt {
-                return Some(self.latch(TrackingFault {
+                self.latch(TrackingFault {
                     kind: FaultKind::FollowingError,
                     joint: Some(self.joint),
                     error,
                     duration: self.over_window_for,
                     time_us,
-                }));
+                });
+                return true;
             }
         } else {
             self.over_window_for = zero;
@@ -312,10 +339,10 @@ impl<S: Float> TrackingMonitor<S> {
 
         // No motion: driving hard towards a commanded motion (same direction throughout)
         // while the measurement stays within stuck_motion of where the timer started.
-        let dir = sign(s.setpoint_velocity);
         let suspect = s.setpoint_velocity.abs() >= l.stuck_min_speed
             && s.duty.abs() >= l.stuck_duty
-            && sign(s.duty) == dir;
+            && sign(s.duty) == sign(s.setpoint_velocity);
+        let dir = sign(s.setpoint_velocity);
         if !suspect {
             self.stuck_dir = zero;
             self.stuck_for = zero;
@@ -328,15 +355,16 @@ impl<S: Float> TrackingMonitor<S> {
         } else {
             self.stuck_for = self.stuck_for + dt;
             if self.stuck_for > l.stuck_time + half_dt {
-                return Some(self.latch(TrackingFault {
+                self.latch(TrackingFault {
                     kind: FaultKind::NoMotion,
                     joint: Some(self.joint),
                     error,
                     duration: self.stuck_for,
                     time_us,
-                }));
+                });
+                return true;
             }
         }
-        None
+        false
     }
 }
