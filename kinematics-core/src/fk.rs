@@ -14,7 +14,7 @@ use crate::jacobian::tripod_jacobian;
 use crate::lu::Lu6;
 use crate::mechanism::{JointKind, Mechanism};
 use crate::pose::Pose;
-use crate::scalar::{lit, wrap_angle, Real};
+use crate::scalar::{larger, lit, wrap_angle, Real};
 use crate::Joints;
 use core::fmt;
 use nalgebra::{Matrix6, Vector3, Vector6};
@@ -110,33 +110,46 @@ pub struct FkSolution<T: Real> {
 }
 
 /// Residual q_target - q(x), angles wrapped; returns it and whether it meets the tolerances.
+/// (Inlined: where the caller knows the joint kinds, each component is its kind's
+/// arithmetic alone.)
+#[inline(always)]
 fn residual<T: Real>(
     kinds: &[JointKind; 6],
     target: &Joints<T>,
     q: &Joints<T>,
     cfg: &FkConfig<T>,
 ) -> (Joints<T>, bool, T) {
-    // Over plain arrays (nalgebra's iterators cost several times the arithmetic on the
+    // Over plain arrays, the six components written out: the robot's joint kinds are
+    // constants, so each component compiles to its own kind's arithmetic (nalgebra's
+    // iterators, or a loop matching on the kind, cost several times that on the
     // Cortex-M4).
-    let [t] = target.data.0;
-    let [q] = q.data.0;
-    let mut r = [T::zero(); 6];
+    let [t] = &target.data.0;
+    let [q] = &q.data.0;
     let mut ok = true;
     let mut worst = T::zero();
-    for (((ri, ti), qi), kind) in r.iter_mut().zip(t.iter()).zip(q.iter()).zip(kinds.iter()) {
+    let mut component = |k: usize| {
+        let (Some(ti), Some(qi), Some(kind)) = (t.get(k), q.get(k), kinds.get(k)) else {
+            return T::zero();
+        };
         let d = *ti - *qi;
         let (d, tol) = match kind {
             JointKind::Linear => (d, cfg.tol_linear),
             JointKind::Angular => (wrap_angle(d), cfg.tol_angular),
         };
-        *ri = d;
         let a = d.abs();
         ok &= a <= tol;
         // (A NaN residual already makes `ok` false.)
-        if a > worst {
-            worst = a;
-        }
-    }
+        worst = larger(worst, a);
+        d
+    };
+    let r = [
+        component(0),
+        component(1),
+        component(2),
+        component(3),
+        component(4),
+        component(5),
+    ];
     (Joints::from(r), ok, worst)
 }
 
@@ -302,9 +315,12 @@ fn serial_rhs<T: Real, M: Mechanism<T> + ?Sized>(
 fn limited_step<T: Real>(dx: &Vector6<T>, cfg: &FkConfig<T>) -> (Vector3<T>, Vector3<T>) {
     let dv = Vector3::new(dx.x, dx.y, dx.z);
     let dw = Vector3::new(dx.w, dx.a, dx.b);
-    let shrink = (crate::scalar::norm3(&dv) / cfg.max_step_linear)
-        .max(crate::scalar::norm3(&dw) / cfg.max_step_angular)
-        .max(T::one());
+    // (`larger`, not `max`, which is a call to libm's fmaxf on the Cortex-M4: the same
+    // value, a NaN ratio left out as fmaxf leaves it.)
+    let shrink = larger(
+        larger(T::one(), crate::scalar::norm3(&dv) / cfg.max_step_linear),
+        crate::scalar::norm3(&dw) / cfg.max_step_angular,
+    );
     (dv / shrink, dw / shrink)
 }
 
@@ -377,15 +393,13 @@ pub const TRACK_RESIDUAL_MAX: f64 = 1e-6;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FkTracker<T: Real> {
     branch: Branch,
-    pose: Pose<T>,
-    /// The estimate's solution and a trial's: a step solves its trial pose into the spare
-    /// and, when it is kept, the two swap roles (no copies).
+    /// The estimate's solution (its pose is the estimate) and a trial's: a step solves its
+    /// trial pose into the spare and, when it is kept, the two swap roles (no copies).
     sols: DoubleBuffer<Solution<T>>,
     residual: T,
-    /// LU factors of Jtilde at a recent estimate, the matrix of the steps.
-    lu: Option<Lu6<T>>,
-    /// Jtilde taken at the estimate, to be factorised on the next update.
-    fresh: Option<Matrix6<T>>,
+    /// The matrix of the steps: Jtilde's LU factors at a recent estimate, or Jtilde taken
+    /// at the estimate and to be factorised on the next update.
+    factors: Factors<T>,
     /// Steps taken with factors older than the estimate, and refreshes of the factors.
     counts: TrackerCounts,
     /// The last update factorised Jtilde (or ran the full solver): its heavy ticks.
@@ -405,6 +419,26 @@ pub struct TrackerCounts {
     pub full_solves: u32,
 }
 
+/// The matrix of the tracker's steps. A refresh's Jtilde and the factors it replaces are
+/// never both needed: the next update that steps factorises it before its first step, so
+/// the two share one slot (the tracker is 148 bytes smaller).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Factors<T: Real> {
+    /// None yet (after the full solver), or Jtilde was singular.
+    None,
+    /// Jtilde taken at the estimate, to be factorised on the next update.
+    Pending(Matrix6<T>),
+    /// LU factors of Jtilde at a recent estimate.
+    Ready(Lu6<T>),
+}
+
+impl<T: Real> Factors<T> {
+    /// The factors of `jt`, or None when it is singular.
+    fn of(jt: &Matrix6<T>) -> Self {
+        Lu6::new(jt).map_or(Factors::None, Factors::Ready)
+    }
+}
+
 /// A kept step leaves more than this fraction of [`TRACK_RESIDUAL_MAX`] (or of the
 /// tolerance, when larger): the factors are taken again (on the next tick's budget).
 const TRACK_REFRESH_FRACTION: f64 = 0.125;
@@ -421,11 +455,9 @@ impl<T: Real> FkTracker<T> {
         let s = forward(m, q, branch, guess, cfg)?;
         Ok(FkTracker {
             branch,
-            pose: s.pose,
             sols: DoubleBuffer::new(s.solution, s.solution),
             residual: s.residual,
-            lu: None,
-            fresh: None,
+            factors: Factors::None,
             counts: TrackerCounts {
                 full_solves: 1,
                 ..TrackerCounts::default()
@@ -436,7 +468,7 @@ impl<T: Real> FkTracker<T> {
 
     /// The current estimate of the pose.
     pub fn pose(&self) -> &Pose<T> {
-        &self.pose
+        &self.solution().pose
     }
 
     /// Its inverse-kinematics solution.
@@ -479,23 +511,23 @@ impl<T: Real> FkTracker<T> {
             return Ok(Tracked::Unchanged);
         }
         // The second half of a refresh: factorise the Jtilde taken on the last tick.
-        if let Some(jt) = self.fresh.take() {
-            self.lu = Lu6::new(&jt);
+        if let Factors::Pending(jt) = &self.factors {
+            self.factors = Factors::of(jt);
             self.factorised = true;
         }
-        let accept = cfg
-            .tol_angular
-            .max(cfg.tol_linear)
-            .max(lit(TRACK_RESIDUAL_MAX));
+        let accept = larger(
+            larger(lit(TRACK_RESIDUAL_MAX), cfg.tol_angular),
+            cfg.tol_linear,
+        );
         let scale = m.length_scale();
         let (mut r, mut current) = (r, worst);
         for steps in 1..=TRACK_STEPS {
             // The first step with the factors in hand; a second one with fresh factors.
-            let chord = steps == 1 && self.lu.is_some();
+            let chord = steps == 1 && matches!(self.factors, Factors::Ready(_));
             if chord {
                 self.counts.chord_steps += 1;
             } else {
-                self.lu = Lu6::new(&tripod_jacobian(self.solution()));
+                self.factors = Factors::of(&tripod_jacobian(self.solution()));
                 self.counts.newton_steps += 1;
                 self.factorised = true;
             }
@@ -518,28 +550,26 @@ impl<T: Real> FkTracker<T> {
                 if worst > accept * lit(TRACK_REFRESH_FRACTION) {
                     // The residual no longer drops well: take Jtilde here (factorised on
                     // the next tick).
-                    self.fresh = Some(tripod_jacobian(self.solution()));
+                    self.factors = Factors::Pending(tripod_jacobian(self.solution()));
                     self.counts.refreshes += 1;
                 }
                 return Ok(Tracked::Stepped { steps });
             }
         }
-        let from = self.pose;
+        let from = *self.pose();
         self.factorised = true;
         let s = forward(m, q, self.branch, &from, cfg)?;
         self.counts.full_solves += 1;
-        self.pose = s.pose;
         *self.sols.spare_mut() = s.solution;
         self.sols.swap();
         self.residual = s.residual;
-        self.lu = None;
-        self.fresh = None;
+        self.factors = Factors::None;
         Ok(Tracked::Solved {
             iterations: s.iterations,
         })
     }
 
-    /// One step with the factors in `self.lu` from the estimate (joint residual `r`):
+    /// One step with the factors in `self.factors` from the estimate (joint residual `r`):
     /// Jtilde Δx = Js Δq with Js at the estimate, limited in length and halved (up to
     /// [`TRACK_HALVINGS`] trials) while it leaves the branch or does not lower the
     /// residual. A kept step becomes the estimate; returns its residual and the largest
@@ -553,8 +583,10 @@ impl<T: Real> FkTracker<T> {
         cfg: &FkConfig<T>,
         scale: T,
     ) -> Option<(Joints<T>, T)> {
-        let rhs = serial_rhs(m, self.solution(), r);
-        let dx = self.lu.as_ref()?.solve(&rhs);
+        let Factors::Ready(lu) = &self.factors else {
+            return None;
+        };
+        let dx = lu.solve(&serial_rhs(m, self.solution(), r));
         if !dx.iter().all(|x| x.is_finite()) {
             return None;
         }
@@ -563,12 +595,11 @@ impl<T: Real> FkTracker<T> {
         let half = lit::<T>(0.5);
         let branch = self.branch;
         for _ in 0..TRACK_HALVINGS {
-            let trial = self.pose.displaced(&dv, &dw);
+            let trial = self.pose().displaced(&dv, &dw);
             let slot = self.sols.spare_mut();
             if inverse_into(m, &trial, branch, slot).is_ok() {
                 let (rt, _, worst) = residual(kinds, q, &slot.q(), cfg);
                 if weighted_norm(kinds, &rt, scale) < current {
-                    self.pose = trial;
                     self.sols.swap();
                     return Some((rt, worst));
                 }

@@ -59,8 +59,20 @@ impl<T: Real> Pose<T> {
 
     /// True when every component is finite.
     pub fn is_finite(&self) -> bool {
-        crate::scalar::all_finite(self.t.as_slice())
-            && crate::scalar::all_finite(self.r.matrix().as_slice())
+        // x·0 is 0 for a finite x and NaN for an infinity or a NaN (no compiler may fold
+        // it), so the sum of the twelve products is 0 exactly when all twelve are finite:
+        // one test where a test per component costs four instructions each on the
+        // Cortex-M4 (every inverse kinematics checks its pose).
+        let z = T::zero();
+        let [t] = &self.t.data.0;
+        let [c0, c1, c2] = &self.r.matrix().data.0;
+        let acc = t
+            .iter()
+            .chain(c0.iter())
+            .chain(c1.iter())
+            .chain(c2.iter())
+            .fold(z, |acc, x| acc + *x * z);
+        acc == z
     }
 
     /// This pose moved by a small twist displacement `[dv; dω]`: t + dv, exp(\[dω\]×) R.
