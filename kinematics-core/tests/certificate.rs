@@ -196,6 +196,58 @@ proptest! {
         check_bounds(&g, &cons, &c, &x, dt * k, dr * k)?;
     }
 
+    /// Inside a certified region the supervisor solves a setpoint with
+    /// `Guards::solve_certified` instead of the kinematic guards: at the same poses as
+    /// above, the kinematic evaluation finds no stop-level reading, and the shortcut gives
+    /// the same outcome (what was solved, the joints, the Jacobian J, the first warn-level
+    /// guard), bit for bit.
+    #[test]
+    fn a_setpoint_in_the_region_is_solved_as_the_kinematic_check_would(
+        c in pose_near_box(0.160),
+        dir_t in unit(), dir_r in unit(), mix in 0.0f64..1.0, edge in 0.0f64..0.999,
+        design in any::<bool>(),
+    ) {
+        let limits = if design { Limits::reference().with_thesis_design_wrench() } else { Limits::reference() };
+        let g = guards(limits);
+        let st = staged(&g, &c);
+        let Some(full) = st.full() else { return Ok(()) };
+        let Some(cert) = g.certify(&full) else { return Ok(()) };
+        let (dt, dr) = (mix, (1.0 - mix) * 0.2);
+        let k = to_edge(&cert, dt, dr) * edge;
+        let x = moved(&c, &(dir_t * dt * k), &(dir_r * dr * k));
+        prop_assert!(cert.contains(&x));
+        let first_warn = |stop: &mut bool, warn: &mut Option<Guard>, r: &Reading<f64>| {
+            match r.severity {
+                Some(Severity::Stop) => *stop = true,
+                Some(Severity::Warn) if warn.is_none() => *warn = Some(r.guard),
+                _ => {}
+            }
+        };
+        let (mut stop_full, mut warn_full) = (false, None);
+        let mut full_eval = Evaluation::new(Branch::OUTER);
+        let solved_full = g.evaluate_pose_into(
+            &x,
+            &mut |r| first_warn(&mut stop_full, &mut warn_full, r),
+            &mut ConditionEstimator::new(),
+            &mut full_eval,
+            Depth::Kinematic,
+        );
+        let (mut stop_cert, mut warn_cert) = (false, None);
+        let mut cert_eval = Evaluation::new(Branch::OUTER);
+        let solved_cert = g.solve_certified(
+            &x,
+            &mut |r| first_warn(&mut stop_cert, &mut warn_cert, r),
+            &mut cert_eval,
+        );
+        prop_assert!(!stop_full && !stop_cert, "a stop-level reading in the region");
+        prop_assert_eq!(solved_full, solved_cert);
+        prop_assert_eq!(full_eval.sol.q(), cert_eval.sol.q());
+        prop_assert_eq!(warn_full, warn_cert);
+        if solved_full == Solved::WithJacobian {
+            prop_assert_eq!(full_eval.jac.j, cert_eval.jac.j);
+        }
+    }
+
     /// The same in the direction in which the most constraining guard's margin falls
     /// fastest (its gradient by central differences at the centre), to the edge: the worst
     /// case the bounds must cover.

@@ -1022,3 +1022,63 @@ fn a_certified_target_supersedes_the_queued_one_too() {
         sup.setpoint().t
     );
 }
+
+/// The step and the evaluation phase are two calls: a step that finds the evaluation phase
+/// did not run since the step before (a scheduling fault) brakes a moving robot at once, on
+/// the stretch checked before, counts it, and stops within the braking distance; a robot
+/// standing still only counts it. Once the evaluation runs again, targets are taken.
+#[test]
+fn a_step_without_the_evaluation_phase_before_it_brakes() {
+    let mut sup = supervisor(Limits::reference());
+    let far = Pose {
+        t: Vector3::new(0.018, 0.0, 0.160),
+        r: Rotation3::identity(),
+    };
+    sup.submit(&far, 1000, 1000).unwrap();
+    let mut v = 0.0;
+    for _ in 0..600 {
+        v = sup.tick().twist.fixed_rows::<3>(0).norm();
+        if v > 0.0249 {
+            break;
+        }
+    }
+    assert!(v > 0.0249, "at the speed limit: {v}");
+    // Steps alone from here: the first follows the last tick's evaluation phase and moves
+    // on; the second finds none since and brakes.
+    assert_eq!(sup.step().mode, Mode::Moving);
+    assert_eq!(sup.counters().evaluations_missed, 0);
+    let v = sup.twist().fixed_rows::<3>(0).norm();
+    let at = sup.setpoint().t.x;
+    let out = sup.step();
+    assert_eq!(out.mode, Mode::Braking);
+    assert_eq!(sup.counters().evaluations_missed, 1);
+    assert!(out.twist.fixed_rows::<3>(0).norm() < v);
+    let mut ticks = 1;
+    while sup.step().twist != Twist::zeros() {
+        ticks += 1;
+        assert!(ticks < 200, "still moving");
+    }
+    let travel = sup.setpoint().t.x - at;
+    let bound = v * v / (2.0 * 0.25) + v * 1e-3;
+    assert!(travel > 0.0 && travel <= bound, "{travel} > {bound}");
+    assert!(sup.counters().evaluations_missed >= ticks);
+    // Standing still, a missing evaluation phase moves nothing.
+    let missed = sup.counters().evaluations_missed;
+    let still = sup.step();
+    assert_eq!(still.twist, Twist::zeros());
+    assert_eq!(sup.counters().evaluations_missed, missed + 1);
+    assert_eq!(
+        sup.counters().stops,
+        0,
+        "a controlled stop, not a latched one"
+    );
+    // With the evaluation phase back, a new target is verified and reached.
+    let back = Pose::central(0.160);
+    sup.submit(&back, 2_000_000, 2_000_000).unwrap();
+    for _ in 0..3000 {
+        sup.tick();
+    }
+    assert!((sup.setpoint().t - back.t).norm() < 1e-9);
+    // (The first tick's step still followed a step alone.)
+    assert_eq!(sup.counters().evaluations_missed, missed + 2);
+}

@@ -230,12 +230,18 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Controller<S, M> {
         self.drive.reset(motor);
     }
 
-    /// One control tick on the tick's measurements: advance the supervisor and run the six
+    /// The real-time tick on the tick's measurements: the supervisor's step and the six
     /// PIDs; the duties are in the report (the runtime limits them and writes the outputs;
-    /// [`TickReport::apply`] writes them as they are).
+    /// [`TickReport::apply`] writes them as they are). Once the outputs are written,
+    /// [`Controller::evaluate`] must run before the next tick (else the supervisor brakes).
     pub fn tick(&mut self, measured: &Measured<S>) -> TickReport<S> {
-        // Optional work of the planner (the tool's flanks) off the heavy FK ticks.
-        let plan = self.planner.tick_with_budget(!measured.factorised);
+        let plan = self.planner.step();
         self.drive.act(measured, &plan)
+    }
+
+    /// The evaluation phase of the period, after the tick's outputs: the supervisor's
+    /// checker stages and the tool's flanks ([`Planner::evaluate`]).
+    pub fn evaluate(&mut self) {
+        self.planner.evaluate();
     }
 }

@@ -121,52 +121,60 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Planner<S, M> {
         self.supervisor.brake();
     }
 
-    /// The setpoint of this tick and the tool's flanks at it.
+    /// One control period: the step ([`Planner::step`]), then the evaluation phase
+    /// ([`Planner::evaluate`]).
     pub fn tick(&mut self) -> Plan<S> {
-        self.tick_with_budget(true)
+        let plan = self.step();
+        self.evaluate();
+        plan
     }
 
-    /// [`Planner::tick`] on a budget per tick: the tool's flanks (optional work, the
-    /// supervisor never waits for them) are left for the next tick when `spare` is false,
-    /// e.g. on a tick where the forward kinematics factorised its Jacobian
-    /// ([`crate::sensing::Measured::factorised`]), so that the two never add up in one tick.
-    pub fn tick_with_budget(&mut self, spare: bool) -> Plan<S> {
-        let setpoint = self.supervisor.tick();
+    /// The real-time step of a period: the supervisor's setpoint
+    /// ([`Supervisor::step`]) and the tool's flanks as the evaluation phases before it
+    /// found them.
+    pub fn step(&mut self) -> Plan<S> {
+        Plan {
+            setpoint: self.supervisor.step(),
+            flanks: self.flanks,
+        }
+    }
+
+    /// The evaluation phase of a period, after its step's outputs are written: the
+    /// supervisor's checker stages ([`Supervisor::evaluate`]) and the tool's flanks at
+    /// the step's setpoint, which the next step carries.
+    pub fn evaluate(&mut self) {
+        self.supervisor.evaluate();
         // A known tool presses each lead screw against one flank: tell the backlash
         // compensation which (τ = J⁻ᵀ s_e at the setpoint; the motor pushes along τ), every
-        // other tick: Jtildeᵀ factorised on one, τ solved on the next (the setpoint has
+        // other period: Jtildeᵀ factorised on one, τ solved on the next (the setpoint has
         // moved by one tick, some 25 µm: nothing for a threshold on τ). Where τ cannot be
         // computed the flanks stay as they were.
-        if let (Some(tool), true) = (self.tool, spare) {
-            match self.tool_map.take() {
-                None => self.tool_map = self.supervisor.jacobians().map(EffortMap::new),
-                Some(map) => {
-                    if let Some(st) = map.forces(&tool.wrench(&setpoint.pose), S::one()) {
-                        for ((f, tau), k) in self
-                            .flanks
-                            .iter_mut()
-                            .zip(st.tau.iter())
-                            .zip(self.kinds.iter())
-                        {
-                            let threshold = match k {
-                                JointKind::Linear => tool.flank_threshold[0],
-                                JointKind::Angular => tool.flank_threshold[1],
-                            };
-                            *f = if *tau > threshold {
-                                Direction::Positive
-                            } else if *tau < -threshold {
-                                Direction::Negative
-                            } else {
-                                Direction::Unknown
-                            };
-                        }
+        let Some(tool) = self.tool else { return };
+        match self.tool_map.take() {
+            None => self.tool_map = self.supervisor.jacobians().map(EffortMap::new),
+            Some(map) => {
+                let wrench = tool.wrench(self.supervisor.setpoint());
+                if let Some(st) = map.forces(&wrench, S::one()) {
+                    for ((f, tau), k) in self
+                        .flanks
+                        .iter_mut()
+                        .zip(st.tau.iter())
+                        .zip(self.kinds.iter())
+                    {
+                        let threshold = match k {
+                            JointKind::Linear => tool.flank_threshold[0],
+                            JointKind::Angular => tool.flank_threshold[1],
+                        };
+                        *f = if *tau > threshold {
+                            Direction::Positive
+                        } else if *tau < -threshold {
+                            Direction::Negative
+                        } else {
+                            Direction::Unknown
+                        };
                     }
                 }
             }
-        }
-        Plan {
-            setpoint,
-            flanks: self.flanks,
         }
     }
 }

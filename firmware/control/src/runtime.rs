@@ -705,7 +705,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
 
     /// Reads the inputs and runs the monitors: every new finding becomes a fault.
     fn sense_and_monitor<H: Hardware<S>>(&mut self, hw: &mut H, now_us: u64) {
-        self.sensing.update(hw);
+        self.sensing.read(hw);
         self.inputs = Inputs {
             currents: hw.currents(),
             supply_v: hw.supply_voltage(),
@@ -799,7 +799,9 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
 
     /// One control tick: the sensing and the monitors first (every state), then homing,
     /// enabling or the controller as the state and the stop in force say, then the
-    /// outputs (duties within the current limit, brakes, torque).
+    /// outputs (duties within the current limit, brakes, torque); after them the measured
+    /// pose ([`Sensing::follow_pose`]) and the controller's evaluation phase
+    /// ([`Controller::evaluate`]) when it ran.
     pub fn tick<H: Hardware<S>>(&mut self, hw: &mut H, now_us: u64) -> RuntimeTick<S> {
         self.sense_and_monitor(hw, now_us);
         let mut out = self.stopper.outputs(self.sm.drives_on());
@@ -857,6 +859,15 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             self.controller = None;
         }
         self.write_outputs(hw, &mut duty, now_us);
+        // Once the outputs are written, what does not feed them: the measured pose, and
+        // the controller's evaluation phase. Neither adds to the latency from the
+        // readings to the outputs.
+        self.sensing.follow_pose();
+        if control.is_some() {
+            if let Some(ctl) = self.controller.as_mut() {
+                ctl.evaluate();
+            }
+        }
         self.update_warnings(now_us);
         RuntimeTick {
             state: self.sm.state(),

@@ -1,11 +1,12 @@
 //! Sensing: the single owner of the measured joints and pose.
 //!
-//! Every control tick, in every state, starts with [`Sensing::update`]: the six raw
+//! Every control tick, in every state, starts with [`Sensing::read`]: the six raw
 //! counters are read once, extended once (`servo::encoder`), converted to the motors'
-//! positions, less the backlash compensation's offsets to the joints' positions, and,
-//! once the robot is homed, the measured pose follows the joints through the forward
-//! kinematics ([`FkTracker`]: one Newton step per tick while the joints move, nothing
-//! while they stand).
+//! positions, less the backlash compensation's offsets to the joints' positions. Once
+//! the tick's outputs are written, [`Sensing::follow_pose`] makes the measured pose
+//! follow those joints through the forward kinematics, once the robot is homed
+//! ([`FkTracker`]: one Newton step per tick while the joints move, nothing while they
+//! stand); nothing between the readings and the outputs uses it.
 //!
 //! The encoders sit on the motors. Where the backlash compensation holds a motor `o`
 //! beyond its joint's setpoint to keep the lead screw's gap taken up (`servo::backlash`),
@@ -62,9 +63,6 @@ pub struct Measured<S: Scalar> {
     pub pose: Option<Pose<S>>,
     /// What the forward kinematics did on this tick.
     pub status: PoseStatus,
-    /// The forward kinematics factorised its Jacobian on this tick (its heavy ticks: the
-    /// planner defers optional work off them).
-    pub factorised: bool,
 }
 
 /// Counts kept by the sensing.
@@ -136,7 +134,6 @@ impl<S: Scalar, M: Mechanism<S>> Sensing<S, M> {
                 q: encoders.positions(),
                 pose: None,
                 status: PoseStatus::NotHomed,
-                factorised: false,
             },
             encoders,
             tracker: None,
@@ -180,18 +177,32 @@ impl<S: Scalar, M: Mechanism<S>> Sensing<S, M> {
         self.measured.status = PoseStatus::NotHomed;
     }
 
-    /// Reads the counters once and updates the joints and, once homed, the pose: the
-    /// start of every tick.
+    /// A whole tick's sensing: [`Sensing::read`], then [`Sensing::follow_pose`].
     pub fn update<H: QuadratureCounter + ?Sized>(&mut self, hw: &mut H) -> &Measured<S> {
+        self.read(hw);
+        self.follow_pose()
+    }
+
+    /// Reads the counters once and updates the joints: the start of every tick.
+    pub fn read<H: QuadratureCounter + ?Sized>(&mut self, hw: &mut H) -> &Measured<S> {
         self.counters.ticks += 1;
         let raw = hw.counts();
         let motor = self.encoders.update(&raw);
         let m = &mut self.measured;
         m.raw = raw;
         m.motor = motor;
-        let q = minus(&motor, &m.backlash);
-        m.q = q;
-        m.factorised = false;
+        m.q = minus(&motor, &m.backlash);
+        &self.measured
+    }
+
+    /// The measured pose follows the joints of the last [`Sensing::read`] (once homed:
+    /// a tracker update). The runtime calls it once the tick's outputs are written:
+    /// nothing on the way from the readings to the outputs uses the pose (the servos
+    /// close their loops on the joints); the monitors, the telemetry and the next
+    /// controller's start do.
+    pub fn follow_pose(&mut self) -> &Measured<S> {
+        let m = &mut self.measured;
+        let q = m.q;
         let Some(tracker) = self.tracker.as_mut() else {
             m.status = PoseStatus::NotHomed;
             return &self.measured;
@@ -219,7 +230,6 @@ impl<S: Scalar, M: Mechanism<S>> Sensing<S, M> {
         if matches!(m.status, PoseStatus::Stepped(_) | PoseStatus::Solved(_)) {
             m.pose = Some(*tracker.pose());
         }
-        m.factorised = tracker.factorised();
         &self.measured
     }
 

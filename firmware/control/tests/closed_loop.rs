@@ -42,6 +42,7 @@ fn follows_a_target_in_closed_loop() {
         hw.set_brakes_released(true);
         let r = ctl.tick(sensing.update(&mut hw));
         r.apply(&mut hw);
+        ctl.evaluate();
         assert!(r.servo.fault.is_none(), "{:?}", r.servo.fault);
         hw.step_ms();
         let q = hw.plant.joint_positions();
@@ -86,6 +87,7 @@ fn stuck_encoder_trips_the_tracking_fault() {
         hw.set_brakes_released(true);
         let r = ctl.tick(sensing.update(&mut hw));
         r.apply(&mut hw);
+        ctl.evaluate();
         if r.servo.fault.is_some() && tripped_at.is_none() {
             tripped_at = Some(k);
         }

@@ -18,6 +18,9 @@ FNR == NR {
     n = counts[nl++]
     if (!(label in calls)) { order[no++] = label; min[label] = n; max[label] = n }
     calls[label]++; sum[label] += n
+    # The period: a tick and the evaluation phase that follows it (raw counts).
+    if (label ~ /^Controller::tick/) last_tick = n
+    if (label ~ /^after the outputs/ && last_tick + n > period_max) period_max = last_tick + n
     if (n < min[label]) min[label] = n
     if (n > max[label]) max[label] = n
     next
@@ -44,11 +47,19 @@ END {
         printf "%-58s %6d %9d %9.0f %9d %6.1f%% %6.1f%%\n", l, calls[l], mn, me, mx, pct(me), pct(mx)
         if (l ~ /^Controller::tick/) { tick_sum += sum[l] - calls[l] * overhead; tick_calls += calls[l]
             if (mx > tick_max) tick_max = mx }
+        if (l ~ /^after the outputs/) { ev_sum += sum[l] - calls[l] * overhead; ev_calls += calls[l]
+            if (mx > ev_max) ev_max = mx }
     }
     print line
     if (tick_calls > 0) {
-        printf "Full tick over the scenario: mean %.0f, max %d instructions (target: <= 20000%s);\n", tick_sum / tick_calls, tick_max, budget != "" ? (tick_max <= budget + 0 ? ", met" : ", NOT MET") : ""
+        printf "Full tick over the scenario (readings to outputs): mean %.0f, max %d instructions (target: <= %d%s);\n", tick_sum / tick_calls, tick_max, budget != "" ? budget : 20000, budget != "" ? (tick_max <= budget + 0 ? ", met" : ", NOT MET") : ""
         printf "at the max: %.1f%% of the CPU at %d Hz, %.1f%% at 5 kHz.\n", pct(tick_max), rate, pct(tick_max) * 5000 / rate
+    }
+    if (ev_calls > 0) {
+        printf "After the outputs (measured pose, checker stages, tool flanks): mean %.0f, max %d;\n", ev_sum / ev_calls, ev_max
+        printf "the whole period (tick + after the outputs): mean %.0f, max %d instructions, %.1f%% of the CPU at %d Hz at the max.\n", (tick_sum + ev_sum) / tick_calls, period_max - 2 * overhead, pct(period_max - 2 * overhead), rate
+    }
+    if (tick_calls > 0) {
         if (budget != "" && tick_max > budget + 0) {
             printf "tick-cost: the worst full tick (%d) exceeds TICK_BUDGET=%d\n", tick_max, budget > "/dev/stderr"
             over = 1

@@ -127,6 +127,29 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
         }
     }
 
+    /// At a pose whose motion from a safe setpoint a certificate covers
+    /// ([`crate::guards::certificate`]): no stop-level guard can be violated there, so only
+    /// what a setpoint needs is computed into `out`: the inverse kinematics, the serial
+    /// singularity readings (their warn level, which the certificate does not carry) and
+    /// the Jacobians. What [`Self::evaluate_pose_into`] at [`Depth::Kinematic`] would solve.
+    pub fn solve_certified(
+        &self,
+        pose: &Pose<T>,
+        visit: &mut impl FnMut(&Reading<T>),
+        out: &mut Evaluation<T>,
+    ) -> Solved {
+        if let Err(e) = inverse_into(&self.robot, pose, self.branch, &mut out.sol) {
+            visit(&unreachable(e.chain));
+            return Solved::No;
+        }
+        self.serial_readings(&out.sol, visit);
+        if jacobian_into(&self.robot, &out.sol, &mut out.jac).is_ok() {
+            Solved::WithJacobian
+        } else {
+            Solved::WithoutJacobian
+        }
+    }
+
     /// The kinematic guard margins of a solution the caller has (e.g. the supervisor's
     /// setpoint): no inverse kinematics, no SVD; each the smallest over the chains, as a
     /// fraction of its range ([`GuardMargins`]).
@@ -310,12 +333,17 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
         // Singularities (CONVENTIONS.md measures): serial per chain from the serial
         // blocks, parallel from the SVD of the scaled Jtilde, which the Jacobian computes
         // anyway (it is only recomputed alone at a serial singularity, where J is not).
+        self.serial_readings(sol, visit);
+    }
+
+    /// The serial singularity measure of each chain (from its serial block).
+    fn serial_readings(&self, sol: &Solution<T>, visit: &mut impl FnMut(&Reading<T>)) {
         for (chain, c) in sol.chains.iter() {
             visit(&lower(
                 Guard::SerialSingularity,
                 Subject::Chain(chain),
                 self.robot.serial_measure(c).1,
-                l.serial,
+                self.limits.serial,
             ));
         }
     }

@@ -79,6 +79,12 @@ pub struct Counters {
     /// acceleration limits ([`super::profile::step_scales`]: J̇·twist near a serial
     /// singularity, which the Cartesian profile does not see).
     pub slowed: u32,
+    /// Steps that found the evaluation phase had not run since the step before (a
+    /// scheduling fault): a moving robot brakes on the stretch checked before.
+    pub evaluations_missed: u32,
+    /// Kinematic checks of a setpoint (the candidate, a rescaled step, the goal on
+    /// arrival) answered inside a certified region ([`crate::guards::Guards::solve_certified`]).
+    pub setpoints_certified: u32,
 }
 
 impl Counters {

@@ -1,14 +1,21 @@
 //! The setpoint supervisor: turns a stream of master targets (pose, timestamp) into joint
 //! setpoints at the control rate, so that no setpoint ever violates a stop-level guard.
 //!
-//! Per tick, with constant bounded work: one stage of a full guard evaluation (see
-//! [`Staged`]: the inverse kinematics with the kinematic guards, the Jacobians with the
-//! start of the parallel measure's SVD, one sweep of that SVD, or the payload statics) and,
-//! while moving, the kinematic guards and the Jacobian of the candidate setpoint. A full
-//! evaluation of a pose thus takes a few ticks (five when the SVD starts warm, at most
-//! [`MAX_STAGES`]). The
-//! checker works on one pose at a time, taking turns between the pending path and the
-//! braking point; each kind of pose keeps its own warm-started SVD
+//! Each control period has two phases, with constant bounded work in each:
+//! - **the step** ([`Supervisor::step`], real time): the profile's step and, while moving,
+//!   the kinematic guards and the Jacobian of the candidate setpoint; its output feeds the
+//!   joint servos at once;
+//! - **the evaluation** ([`Supervisor::evaluate`], after the outputs are written):
+//!   `stages_per_tick` stages of a full guard evaluation (see [`Staged`]: the inverse
+//!   kinematics with the kinematic guards, the Jacobians with the start of the parallel
+//!   measure's SVD, one sweep of that SVD, or the payload statics), whose verdicts the next
+//!   step acts on. A step that finds the evaluation did not run since the step before
+//!   brakes ([`Counters::evaluations_missed`]): the braking points' horizon assumes it
+//!   runs every period. [`Supervisor::tick`] is the two in that order.
+//!
+//! A full evaluation of a pose thus takes a few periods (five when the SVD starts warm, at
+//! most [`MAX_STAGES`]). The checker works on one pose at a time, taking turns between the
+//! pending path and the braking point; each kind of pose keeps its own warm-started SVD
 //! ([`ConditionEstimator`]).
 //! 1. **Verify** the pending target: the straight segment to it from whichever of the goal
 //!    the robot is heading for (a verified target) and the setpoint is nearer is sampled at
@@ -268,6 +275,13 @@ pub struct Supervisor<T: Real, M: Mechanism<T>> {
     stream: lead::Stream<T>,
     /// The control period, µs.
     dt_us: u64,
+    /// A braking point the evaluation phase found unsafe: the next step brakes.
+    ahead_stop: bool,
+    /// The evaluation phase ran since the last step.
+    evaluated: bool,
+    /// The profile limits at the setpoint, as the evaluation phase computed them for the
+    /// next step (the setpoint does not change in between).
+    next_limits: Option<ProfileLimits<T>>,
 }
 
 pub use crate::guards::MAX_STAGES;
@@ -400,6 +414,9 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             certs: [None; 2],
             stream: lead::Stream::default(),
             dt_us: (crate::geometry::to_f64(cfg.dt * lit(1e6)) + 0.5) as u64,
+            ahead_stop: false,
+            evaluated: true,
+            next_limits: None,
         })
     }
 
@@ -496,29 +513,39 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         self.drop_pending();
         self.stream.reset();
         self.braking = false;
+        self.ahead_stop = false;
         Ok(())
     }
 
     /// Evaluates the kinematic guards at `pose` into the spare of `self.evals`
     /// (the solution and its Jacobians; [`Self::keep_candidate`] makes it the setpoint's):
     /// the first stop-level reading, whether a warn level is reached, and what was solved.
+    ///
+    /// A pose inside a certified region violates no stop-level guard (the region's
+    /// guarantee, [`crate::guards::certificate`]): there only what the setpoint needs is
+    /// solved ([`Guards::solve_certified`]: the inverse kinematics, the serial measures'
+    /// warn level, the Jacobians), which is the same outcome at less cost.
     fn kinematic_check(&mut self, pose: &Pose<T>) -> (Option<Reading<T>>, Option<Guard>, Solved) {
         let mut stop = None;
         let mut warn = None;
+        let mut visit = |r: &Reading<T>| match r.severity {
+            Some(Severity::Stop) if stop.is_none() => stop = Some(*r),
+            Some(Severity::Warn) if warn.is_none() => warn = Some(r.guard),
+            _ => {}
+        };
+        let certified = self.certs.iter().flatten().any(|c| c.contains(pose));
+        if certified {
+            self.counters.setpoints_certified += 1;
+        }
         // (The kinematic depth has no SVD to warm-start.)
         let cond = &mut self.cond_setpoint;
         let scratch = self.evals.spare_mut();
-        let solved = self.guards.evaluate_pose_into(
-            pose,
-            &mut |r| match r.severity {
-                Some(Severity::Stop) if stop.is_none() => stop = Some(*r),
-                Some(Severity::Warn) if warn.is_none() => warn = Some(r.guard),
-                _ => {}
-            },
-            cond,
-            scratch,
-            Depth::Kinematic,
-        );
+        let solved = if certified {
+            self.guards.solve_certified(pose, &mut visit, scratch)
+        } else {
+            self.guards
+                .evaluate_pose_into(pose, &mut visit, cond, scratch, Depth::Kinematic)
+        };
         (stop, warn, solved)
     }
 
@@ -651,6 +678,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
 
     fn hold(&mut self, reason: Reading<T>) -> TickOutput<T> {
         self.latched = Some(reason);
+        self.ahead_stop = false;
         self.stream.reset();
         self.counters.stops += 1;
         self.twist = Twist::zeros();
@@ -684,9 +712,35 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         }
     }
 
+    /// The braking points' horizon n in ticks (see [`Self::run_checker`]).
+    fn horizon_ticks(&self) -> T {
+        let per_job = MAX_STAGES.div_ceil(u32::from(self.cfg.stages_per_tick));
+        lit::<T>(f64::from(3 * per_job))
+    }
+
+    /// A verified target waiting to replace the goal takes over as soon as the braking
+    /// stretch towards it lies in a certified region: checked on every step, not only
+    /// between the checker's jobs, so that a led stream moves the goal on every tick.
+    fn take_over_certified(&mut self, l: &ProfileLimits<T>, v0: &Vector3<T>, w0: &Vector3<T>) {
+        if let Some(next) = self.next_goal {
+            let n = self.horizon_ticks();
+            let a = profile::braking_point(&self.pose, v0, w0, &next, l, n, self.cfg.dt);
+            if let Some(warn) = self.certified(&self.pose, &a) {
+                self.counters.ahead_certified += 1;
+                self.ahead_warn = warn;
+                self.goal = next;
+                self.next_goal = None;
+            }
+        }
+    }
+
     /// Runs `stages_per_tick` stages of the checker: a path sample or the braking point in
     /// turn (the braking point only while moving and not braking). Returns whether a
     /// braking point was found unsafe.
+    ///
+    /// It runs in the evaluation phase after step k, on the state step k left, which is
+    /// the state step k + 1 starts from: a verdict found here is acted on by step k + 1,
+    /// as if the stage had run at its start. The timing below counts in those periods.
     ///
     /// The braking point checked by a job that starts on this tick must cover what can
     /// happen until the next braking-point job has finished: a job takes at most L ticks
@@ -707,20 +761,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         w0: &Vector3<T>,
     ) -> bool {
         let stages = self.cfg.stages_per_tick;
-        let per_job = MAX_STAGES.div_ceil(u32::from(stages));
-        let n = lit::<T>(f64::from(3 * per_job));
-        // A verified target waiting to replace the goal takes over as soon as the braking
-        // stretch towards it lies in a certified region: checked on every tick, not only
-        // between the checker's jobs, so that a led stream moves the goal on every tick.
-        if let (Some(next), true) = (self.next_goal, moving && !self.braking) {
-            let a = profile::braking_point(&self.pose, v0, w0, &next, l, n, self.cfg.dt);
-            if let Some(warn) = self.certified(&self.pose, &a) {
-                self.counters.ahead_certified += 1;
-                self.ahead_warn = warn;
-                self.goal = next;
-                self.next_goal = None;
-            }
-        }
+        let n = self.horizon_ticks();
         let mut ahead_stop = false;
         for _ in 0..stages {
             if self.job.is_none() {
@@ -872,23 +913,59 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         self.output(self.warning)
     }
 
-    /// One control tick: the checker's stages (`run_checker`), the profile's step
-    /// towards the goal or a controlled stop ([`profile`]), the candidate setpoint's
-    /// kinematic guards and the motion guards on the output.
+    /// One control period: the step ([`Self::step`]), then the evaluation phase
+    /// ([`Self::evaluate`]). Callers that write the step's output to the drives before
+    /// the evaluation call the two themselves.
     pub fn tick(&mut self) -> TickOutput<T> {
+        let out = self.step();
+        self.evaluate();
+        out
+    }
+
+    /// The evaluation phase of a period, after its step: `stages_per_tick` stages of the
+    /// checker (`run_checker`). A braking point found unsafe is acted on by the next step.
+    pub fn evaluate(&mut self) {
+        self.evaluated = true;
+        if self.latched.is_some() {
+            return;
+        }
+        let moving = self.twist.iter().any(|x| *x != T::zero());
+        let l = self.profile_limits();
+        self.next_limits = Some(l);
+        let v0 = Vector3::new(self.twist.x, self.twist.y, self.twist.z);
+        let w0 = Vector3::new(self.twist.w, self.twist.a, self.twist.b);
+        if self.run_checker(&l, moving, &v0, &w0) {
+            self.ahead_stop = true;
+        }
+    }
+
+    /// The real-time step of a period: the profile's step towards the goal or a
+    /// controlled stop ([`profile`]), the candidate setpoint's kinematic guards and the
+    /// motion guards on the output. It acts on the verdicts of the evaluation phase
+    /// before it; when that phase did not run (a scheduling fault), a moving robot brakes
+    /// on the stretch checked before.
+    pub fn step(&mut self) -> TickOutput<T> {
+        let limits = self.next_limits.take();
         if self.latched.is_some() {
             return self.output(None);
         }
         let moving = self.twist.iter().any(|x| *x != T::zero());
-        let l = self.profile_limits();
+        let l = limits.unwrap_or_else(|| self.profile_limits());
         let dt = self.cfg.dt;
         let v0 = Vector3::new(self.twist.x, self.twist.y, self.twist.z);
         let w0 = Vector3::new(self.twist.w, self.twist.a, self.twist.b);
+        let mut ahead_stop = core::mem::take(&mut self.ahead_stop);
+        if !core::mem::replace(&mut self.evaluated, false) {
+            self.counters.evaluations_missed += 1;
+            ahead_stop |= moving;
+        }
         // A stream fallen silent after a led target: back to the master's newest target.
         if let Some(plain) = self.stream.tick(self.dt_us) {
             self.take_target(&path::Target::plain(&plain));
         }
-        let ahead_stop = self.run_checker(&l, moving, &v0, &w0);
+        if moving && !self.braking && !ahead_stop {
+            self.take_over_certified(&l, &v0, &w0);
+        }
         // Standing still, a verified target waiting for a braking-point check takes over
         // at once (there is no motion to look past the goal).
         if !moving {

@@ -841,6 +841,7 @@ fn controller_follows_a_target_with_the_motor_stub(ctx: &mut Ctx) {
             let m = sensing.update(&mut plant);
             let r = ctl.tick(m);
             r.apply(&mut plant);
+            ctl.evaluate();
             plant.step(1e-3);
             let fk = sensing.measured().status;
             if matches!(fk, PoseStatus::Failed(_)) || r.servo.fault.is_some() {
@@ -960,6 +961,7 @@ fn controller_disables_the_outputs_on_a_stuck_encoder(ctx: &mut Ctx) {
         let m = sensing.update(&mut hw);
         let r = ctl.tick(m);
         r.apply(&mut hw);
+        ctl.evaluate();
         plant.step(1e-3);
         if r.servo.fault.is_some() {
             tripped = Some(k);

@@ -191,20 +191,33 @@ fn full_tick() {
         }
         let verifying_before = submitted || prev_mode == Mode::Verifying;
         let mut report: Option<TickReport<f32>> = None;
-        // The full tick: the sensing (counters, FK tracker), then the planner and the drive.
+        // The full tick, from the readings to the outputs: the counters, then the planner's
+        // step and the drive.
         measure(&mut || {
-            let measured = sensing.update(&mut plant);
+            let measured = sensing.read(&mut plant);
             let r = ctl.tick(measured);
             r.apply(&mut plant);
             report = Some(r);
         });
         ticks_run = k + 1;
         let Some(r) = report else { break };
-        hprintln!(
-            "@label Controller::tick: {}{}",
-            tick_kind(verifying_before, r.mode, moving(ctl.supervisor().twist())),
-            if k >= 200 { ", with the tool" } else { "" }
-        );
+        let kind = tick_kind(verifying_before, r.mode, moving(ctl.supervisor().twist()));
+        let tool = if k >= 200 { ", with the tool" } else { "" };
+        hprintln!("@label Controller::tick: {}{}", kind, tool);
+        // The rest of the period, after the outputs (out of the tick's profile): the
+        // measured pose (FK tracker) and the controller's evaluation phase.
+        let profiling = (window.0..window.1).contains(&k);
+        if profiling {
+            bench_profile_off();
+        }
+        measure(&mut || {
+            sensing.follow_pose();
+            ctl.evaluate();
+        });
+        if profiling {
+            bench_profile_on();
+        }
+        hprintln!("@label after the outputs: {}{}", kind, tool);
         match sensing.measured().status {
             PoseStatus::Unchanged => fk_ticks += 1,
             PoseStatus::Stepped(it) | PoseStatus::Solved(it) => {
@@ -261,12 +274,12 @@ fn supervisor_tick() {
         }
         let verifying_before = submitted || prev_mode == Mode::Verifying;
         let mut out = None;
-        measure(&mut || out = Some(sup.tick()));
+        measure(&mut || out = Some(sup.step()));
         let Some(o) = out else { break };
-        hprintln!(
-            "@label Supervisor::tick: {}",
-            tick_kind(verifying_before, o.mode, moving(&o.twist))
-        );
+        let kind = tick_kind(verifying_before, o.mode, moving(&o.twist));
+        hprintln!("@label Supervisor::step: {}", kind);
+        measure(&mut || sup.evaluate());
+        hprintln!("@label Supervisor::evaluate: {}", kind);
         prev_mode = o.mode;
     }
 }
