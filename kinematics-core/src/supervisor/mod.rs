@@ -719,18 +719,29 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
     }
 
     /// A verified target waiting to replace the goal takes over as soon as the braking
-    /// stretch towards it lies in a certified region: checked on every step, not only
-    /// between the checker's jobs, so that a led stream moves the goal on every tick.
-    fn take_over_certified(&mut self, l: &ProfileLimits<T>, v0: &Vector3<T>, w0: &Vector3<T>) {
-        if let Some(next) = self.next_goal {
-            let n = self.horizon_ticks();
-            let a = profile::braking_point(&self.pose, v0, w0, &next, l, n, self.cfg.dt);
-            if let Some(warn) = self.certified(&self.pose, &a) {
-                self.counters.ahead_certified += 1;
-                self.ahead_warn = warn;
-                self.goal = next;
-                self.next_goal = None;
-            }
+    /// stretch towards it lies in a certified region. Tried when the target is accepted
+    /// and at the end of every evaluation phase, on the state the next step starts from
+    /// (its pose, twist and profile limits): the same check as at the start of that step,
+    /// off the real-time step, so that a led stream moves the goal on every tick.
+    pub(super) fn try_take_over(&mut self) {
+        let Some(next) = self.next_goal else { return };
+        let moving = self.twist.iter().any(|x| *x != T::zero());
+        if !moving || self.braking || self.ahead_stop {
+            return;
+        }
+        let l = match self.next_limits {
+            Some(l) => l,
+            None => self.profile_limits(),
+        };
+        let v0 = Vector3::new(self.twist.x, self.twist.y, self.twist.z);
+        let w0 = Vector3::new(self.twist.w, self.twist.a, self.twist.b);
+        let n = self.horizon_ticks();
+        let a = profile::braking_point(&self.pose, &v0, &w0, &next, &l, n, self.cfg.dt);
+        if let Some(warn) = self.certified(&self.pose, &a) {
+            self.counters.ahead_certified += 1;
+            self.ahead_warn = warn;
+            self.goal = next;
+            self.next_goal = None;
         }
     }
 
@@ -937,6 +948,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         if self.run_checker(&l, moving, &v0, &w0) {
             self.ahead_stop = true;
         }
+        self.try_take_over();
     }
 
     /// The real-time step of a period: the profile's step towards the goal or a
@@ -963,9 +975,6 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         if let Some(plain) = self.stream.tick(self.dt_us) {
             self.take_target(&path::Target::plain(&plain));
         }
-        if moving && !self.braking && !ahead_stop {
-            self.take_over_certified(&l, &v0, &w0);
-        }
         // Standing still, a verified target waiting for a braking-point check takes over
         // at once (there is no motion to look past the goal).
         if !moving {
@@ -977,20 +986,6 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         let e_t = self.goal.t - self.pose.t;
         let e_r = rotation_vector(&(self.goal.r * self.pose.r.inverse()));
         let (d, a) = (norm3(&e_t), norm3(&e_r));
-        let dir_v = if d > T::zero() {
-            e_t / d
-        } else {
-            Vector3::zeros()
-        };
-        let dir_w = if a > T::zero() {
-            e_r / a
-        } else {
-            Vector3::zeros()
-        };
-        let (vcap, wcap) = self.speed_caps(&l, &dir_v, &dir_w);
-        let vd = profile::desired_velocity(&dir_v, d, vcap, l.tip_accel, dt);
-        let wd = profile::desired_velocity(&dir_w, a, wcap, l.angular_accel, dt);
-        let (mut v1, mut w1) = self.profile_step(&l, (&v0, &w0), (&vd, &wd));
         if !self.braking && self.pending.is_none() && profile::arrived(d, a, &v0, &w0, &l, dt) {
             return self.arrive(d + a == T::zero());
         }
@@ -1001,7 +996,8 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             self.qdot = Joints::zeros();
             return self.output(self.warning);
         }
-        let mut candidate = self.pose.displaced(&(v1 * dt), &(w1 * dt));
+        let candidate;
+        let (v1, w1);
         if ahead_stop || self.braking {
             // Brake on the stretch checked before: decelerate along the current twist, at
             // the full deceleration on every tick until the robot stands.
@@ -1015,6 +1011,22 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             w1 = profile::step_braking(&w0, b.angular_accel, dt);
             candidate = self.pose.displaced(&(v1 * dt), &(w1 * dt));
             self.goal = profile::stop_point(&v1, &w1, &candidate, &b);
+        } else {
+            let dir_v = if d > T::zero() {
+                e_t / d
+            } else {
+                Vector3::zeros()
+            };
+            let dir_w = if a > T::zero() {
+                e_r / a
+            } else {
+                Vector3::zeros()
+            };
+            let (vcap, wcap) = self.speed_caps(&l, &dir_v, &dir_w);
+            let vd = profile::desired_velocity(&dir_v, d, vcap, l.tip_accel, dt);
+            let wd = profile::desired_velocity(&dir_w, a, wcap, l.angular_accel, dt);
+            (v1, w1) = self.profile_step(&l, (&v0, &w0), (&vd, &wd));
+            candidate = self.pose.displaced(&(v1 * dt), &(w1 * dt));
         }
         let (stop, warn, solved) = self.kinematic_check(&candidate);
         // A warn level of the parallel measure or a payload effort reached at the braking
@@ -1052,7 +1064,6 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             solved,
             warn,
         } = step;
-        let (v1, w1) = (twist.fixed_rows::<3>(0), twist.fixed_rows::<3>(3));
         self.keep_candidate(&candidate, solved);
         self.qdot = qdot;
         self.twist = twist;
@@ -1060,7 +1071,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         if warn.is_some() {
             self.counters.warn_ticks += 1;
         }
-        if self.braking && v1.norm() + w1.norm() == T::zero() {
+        if self.braking && twist.iter().all(|x| *x == T::zero()) {
             self.braking = false;
             self.goal = self.pose;
         }

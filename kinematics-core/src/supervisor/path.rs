@@ -147,6 +147,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         if t.plain.is_some() {
             self.counters.led += 1;
         }
+        self.try_take_over();
     }
 
     /// A full evaluation without a stop-level violation: the region it certifies becomes
