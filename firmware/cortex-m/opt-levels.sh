@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The optimisation level chosen by measurement (issue 18): for each cargo profile of this
-# workspace, the instructions per full control tick of the on-target scenario (QEMU,
-# instruction count) against the board image's text size.
+# workspace, the instructions per control tick (readings to outputs) and per whole period
+# of the on-target scenario (QEMU, instruction count) against the board image's text size.
 #
 #   firmware/cortex-m/opt-levels.sh [PROFILE ...]   default: release os o3 hot3
 #
@@ -19,7 +19,7 @@ TARGET_DIR="$(target_dir)"
 rows=()
 for p in "${profiles[@]}"; do
     echo "==> profile $p: tick cost"
-    PROFILE="$p" TICK_BUDGET= bash on-target/run.sh cost >"$TARGET_DIR/opt-$p.log" 2>&1 || {
+    PROFILE="$p" TICK_BUDGET= PERIOD_BUDGET= bash on-target/run.sh cost >"$TARGET_DIR/opt-$p.log" 2>&1 || {
         tail -30 "$TARGET_DIR/opt-$p.log"
         echo "error: the tick-cost run of profile $p failed" >&2
         exit 1
@@ -27,10 +27,13 @@ for p in "${profiles[@]}"; do
     line=$(grep '^Full tick over the scenario' "$TARGET_DIR/qemu-run/tick-cost.txt")
     mean=$(sed -n 's/.*mean \([0-9]*\), max.*/\1/p' <<<"$line")
     max=$(sed -n 's/.*max \([0-9]*\) instructions.*/\1/p' <<<"$line")
+    line=$(grep '^the whole period' "$TARGET_DIR/qemu-run/tick-cost.txt")
+    pmean=$(sed -n 's/.*mean \([0-9]*\), max.*/\1/p' <<<"$line")
+    pmax=$(sed -n 's/.*max \([0-9]*\) instructions.*/\1/p' <<<"$line")
     echo "==> profile $p: board image"
     cargo build --profile "$p" -p board --quiet
     read -r text data bss _ < <(arm-none-eabi-size "$TARGET_DIR/$TARGET/$p/rspr-board" | awk 'NR == 2')
-    rows+=("$(printf '%-8s %12s %12s %12s %8s %8s' "$p" "$mean" "$max" "$text" "$data" "$bss")")
+    rows+=("$(printf '%-8s %10s %10s %12s %12s %12s %8s %8s' "$p" "$mean" "$max" "$pmean" "$pmax" "$text" "$data" "$bss")")
 done
-printf '\n%-8s %12s %12s %12s %8s %8s\n' profile "tick mean" "tick max" "board text" data bss
+printf '\n%-8s %10s %10s %12s %12s %12s %8s %8s\n' profile "tick mean" "tick max" "period mean" "period max" "board text" data bss
 printf '%s\n' "${rows[@]}"

@@ -402,8 +402,6 @@ pub struct FkTracker<T: Real> {
     factors: Factors<T>,
     /// Steps taken with factors older than the estimate, and refreshes of the factors.
     counts: TrackerCounts,
-    /// The last update factorised Jtilde (or ran the full solver): its heavy ticks.
-    factorised: bool,
 }
 
 /// What the tracker did over its life, by name.
@@ -462,7 +460,6 @@ impl<T: Real> FkTracker<T> {
                 full_solves: 1,
                 ..TrackerCounts::default()
             },
-            factorised: true,
         })
     }
 
@@ -486,12 +483,6 @@ impl<T: Real> FkTracker<T> {
         &self.counts
     }
 
-    /// Whether the last update factorised Jtilde or ran the full solver (the ticks that
-    /// cost the most; a caller with a budget per tick defers optional work off them).
-    pub fn factorised(&self) -> bool {
-        self.factorised
-    }
-
     /// Follows new joint readings. On error the estimate is kept (and stays valid for the
     /// readings it was computed from).
     pub fn update<M: Mechanism<T> + ?Sized>(
@@ -504,7 +495,6 @@ impl<T: Real> FkTracker<T> {
             return Err(FkError::NonFiniteInput { index: k as u8 });
         }
         let kinds = m.joint_kinds();
-        self.factorised = false;
         let (r, ok, worst) = residual(&kinds, q, &self.solution().q(), cfg);
         if ok {
             self.residual = worst;
@@ -513,7 +503,6 @@ impl<T: Real> FkTracker<T> {
         // The second half of a refresh: factorise the Jtilde taken on the last tick.
         if let Factors::Pending(jt) = &self.factors {
             self.factors = Factors::of(jt);
-            self.factorised = true;
         }
         let accept = larger(
             larger(lit(TRACK_RESIDUAL_MAX), cfg.tol_angular),
@@ -529,7 +518,6 @@ impl<T: Real> FkTracker<T> {
             } else {
                 self.factors = Factors::of(&tripod_jacobian(self.solution()));
                 self.counts.newton_steps += 1;
-                self.factorised = true;
             }
             let Some((left, worst)) = self.step(m, q, &r, &kinds, cfg, scale) else {
                 // No progress: at the rounding level already, keep what there is.
@@ -557,7 +545,6 @@ impl<T: Real> FkTracker<T> {
             }
         }
         let from = *self.pose();
-        self.factorised = true;
         let s = forward(m, q, self.branch, &from, cfg)?;
         self.counts.full_solves += 1;
         *self.sols.spare_mut() = s.solution;

@@ -1,6 +1,9 @@
-//! The control application of one tick, hardware-agnostic: the [`Planner`] (setpoint
+//! The control application of one period, hardware-agnostic: the [`Planner`] (setpoint
 //! supervisor, the tool's flanks) and the [`Drive`] (joint servos, outputs), fed by the
-//! tick's measurements ([`crate::sensing::Measured`]).
+//! tick's measurements ([`crate::sensing::Measured`]). [`Controller::tick`] runs from the
+//! readings to the outputs (the supervisor's step, the servos); [`Controller::evaluate`],
+//! after the outputs are written, runs the rest of the period (the supervisor's checker
+//! stages, the flanks).
 
 use core::fmt;
 use kinematics_core::guards::Limits;

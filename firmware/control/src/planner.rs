@@ -57,9 +57,10 @@ impl<S: Scalar> ToolLoad<S> {
 pub struct Planner<S: Scalar, M: Mechanism<S> + Clone> {
     pub(crate) supervisor: Supervisor<S, M>,
     tool: Option<ToolLoad<S>>,
-    /// With a tool: Jtildeᵀ factorised at the last tick's setpoint. The flanks are updated
-    /// every other tick, the factorisation on one and the solve on the next, so that no
-    /// tick pays for both (about 1,500 and 700 instructions on the Cortex-M4).
+    /// With a tool: Jtildeᵀ factorised at the last period's setpoint. The flanks are
+    /// updated in the evaluation phase every other period, the factorisation on one and the
+    /// solve on the next, so that no period pays for both (about 1,100 and 700
+    /// instructions on the Cortex-M4).
     tool_map: Option<EffortMap<S>>,
     kinds: [JointKind; NUM_JOINTS],
     flanks: [Direction; NUM_JOINTS],

@@ -16,9 +16,11 @@
 #
 # Environment: CPI (cycles per instruction assumed for the % column, default 1.3), MHZ
 # (default 168), RATE_HZ (default 1000), PROFILE (cargo profile, default release; `os`,
-# `o3`, `hot3`: see opt-levels.sh), QEMU_TIMEOUT (seconds per QEMU run, default 300), TICK_BUDGET (the script
-# fails when the worst full tick of the scenario exceeds it; default 20000, the issue's
-# target; set it empty to turn the check off).
+# `o3`, `hot3`: see opt-levels.sh), QEMU_TIMEOUT (seconds per QEMU run, default 300),
+# TICK_BUDGET (the script fails when the worst control tick of the scenario, from the
+# readings to the outputs, exceeds it; default 8000, issue 18's target) and PERIOD_BUDGET
+# (the same for the whole period: the tick and the work after its outputs; default 20000);
+# set either empty to turn its check off.
 set -euo pipefail
 
 HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
@@ -111,7 +113,8 @@ if [ "$WHAT" = all ] || [ "$WHAT" = cost ]; then
             cost_ok=0
         fi
         awk -f report.awk -v cpi="$CPI" -v mhz="$MHZ" -v rate="$RATE_HZ" -v top=25 \
-            -v build="cargo profile $PROFILE ($(opt_level))" -v budget="${TICK_BUDGET-20000}" "$WORK/counts1.txt" "$WORK/cost1.log" | tee "$WORK/tick-cost.txt" ||
+            -v build="cargo profile $PROFILE ($(opt_level))" -v budget="${TICK_BUDGET-8000}" \
+            -v period_budget="${PERIOD_BUDGET-20000}" "$WORK/counts1.txt" "$WORK/cost1.log" | tee "$WORK/tick-cost.txt" ||
             cost_ok=0
     fi
     if [ "$cost_ok" != 1 ]; then

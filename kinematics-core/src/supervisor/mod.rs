@@ -29,7 +29,7 @@
 //!    would turn them into more than the joints' acceleration limits.
 //! 3. **Check**, in turn with the path samples, the braking point: where braking would stop
 //!    if it began only when the check after this one has finished, the robot accelerating
-//!    until then, but no farther than the goal (see [`Supervisor::tick`] for the bound). A
+//!    until then, but no farther than the goal (the bound is in `run_checker`). A
 //!    target verified while moving replaces the goal once such a check has looked past the
 //!    goal towards it. A stop-level violation there
 //!    turns the motion into a controlled stop (full deceleration along the current twist on
@@ -49,8 +49,11 @@
 //!    guarantee covers every pose of those straight motions, not only samples of them.
 //!    When no path or braking point waits, the checker evaluates the goal to certify the
 //!    region around it, so the region follows the stream. A verified target waiting to
-//!    replace the goal takes over on the first tick the braking stretch towards it lies in
-//!    a region. Near a boundary the regions shrink and the staged checks above take over.
+//!    replace the goal takes over as soon as the braking stretch towards it lies in a
+//!    region: tried when it is accepted and after every evaluation phase, on the state the
+//!    next step starts from. A setpoint inside a region is solved without the kinematic
+//!    guards ([`Guards::solve_certified`]): the region's guarantee already covers them.
+//!    Near a boundary the regions shrink and the staged checks above take over.
 //! 5. **The lead** ([`lead`], [`SupervisorConfig::lead`]): the profile stops at its goal,
 //!    so a goal moving at u is trailed by the braking curve's distance u²/2a' + u·dt (54 ms
 //!    at 25 mm/s). Each target's translation is led by that distance along the stream's
