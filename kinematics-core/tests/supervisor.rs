@@ -59,8 +59,18 @@ fn event() -> impl Strategy<Value = Event> {
 
 /// Runs a stream of events, one per `hold` ticks, and checks every output.
 fn run(events: &[(Event, u16)]) -> Result<Counters, TestCaseError> {
+    run_scheduled(events, &mut |_| true)
+}
+
+/// [`run`], with the evaluation phase of tick k run only when `evaluates(k)` says so (the
+/// step always runs): what a scheduling fault looks like to the supervisor.
+fn run_scheduled(
+    events: &[(Event, u16)],
+    evaluates: &mut dyn FnMut(u64) -> bool,
+) -> Result<Counters, TestCaseError> {
     let limits = Limits::reference();
     let mut sup = supervisor(limits);
+    let mut k: u64 = 0;
     let dt = 1e-3;
     let mut now_us: u64 = 1_000_000;
     let mut last = sup.tick();
@@ -105,7 +115,11 @@ fn run(events: &[(Event, u16)]) -> Result<Counters, TestCaseError> {
         }
         for _ in 0..*hold {
             now_us += 1000;
-            let out = sup.tick();
+            let out = sup.step();
+            k += 1;
+            if evaluates(k) {
+                sup.evaluate();
+            }
             // Never a stop-level violation at the output.
             let (verdict, _) = sup.guards().check_pose(&out.pose);
             prop_assert!(
@@ -169,6 +183,32 @@ proptest! {
         prop_assert_eq!(c.non_finite, nan);
         let jumps = events.iter().filter(|(e, _)| matches!(e, Event::Jump)).count() as u32;
         prop_assert!(c.too_far >= jumps);
+        prop_assert_eq!(c.evaluations_missed, 0);
+    }
+
+    /// The same when the evaluation phase does not run after some steps (a scheduling
+    /// fault: single periods at random, one in `every`, and outages of `outage` periods
+    /// from tick `at`): a step that finds it missing brakes a moving robot on the stretch
+    /// checked before, so the output still never violates a stop-level guard nor exceeds
+    /// the limits, and no stop latches.
+    #[test]
+    fn output_is_safe_and_limited_when_evaluations_are_missed(
+        events in prop::collection::vec((event(), 1u16..200), 1..40),
+        every in 2u64..40, at in 0u64..2000, outage in 1u64..300, seed in any::<u64>(),
+    ) {
+        let mut state = seed | 1;
+        let mut evaluates = |k: u64| {
+            // xorshift: a fixed pseudo-random pattern per case.
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            !(state % every == 0 || (at..at + outage).contains(&k))
+        };
+        let c = run_scheduled(&events, &mut evaluates)?;
+        let ticks: u64 = events.iter().map(|(_, h)| u64::from(*h)).sum();
+        if ticks > at + outage {
+            prop_assert!(c.evaluations_missed > 0);
+        }
     }
 }
 
