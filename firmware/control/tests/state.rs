@@ -907,6 +907,10 @@ fn runtime_boots_homes_parks_enables_and_follows() {
     rt.command(&target_command(&target), t).unwrap();
     run(&mut rt, &mut hw, &mut t, 1500);
     assert_eq!(rt.state(), State::Enabled);
+    // The runtime ran the controller's evaluation phase after every tick's outputs.
+    let sup = rt.controller().unwrap().supervisor();
+    assert_eq!(sup.counters().evaluations_missed, 0);
+    assert_eq!(sup.counters().accepted, 1);
     let err = (rt.measured().pose.unwrap().t - target.t).norm();
     assert!(
         err < 0.2e-3,
