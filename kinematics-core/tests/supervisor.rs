@@ -680,31 +680,37 @@ fn prop_assert_ok(ok: bool, tick: u64, what: &str, n: u32) {
     assert!(ok, "tick {tick}: {n} {what} (at most 6: two evaluations)");
 }
 
+/// Sends a target 18 mm along x and ticks until the setpoint moves at the 25 mm/s limit
+/// (asserted); returns its speed.
+fn at_the_speed_limit_along_x(sup: &mut Sup) -> f64 {
+    let far = Pose {
+        t: Vector3::new(0.018, 0.0, 0.160),
+        r: Rotation3::identity(),
+    };
+    sup.submit(&far, 1000, 1000).unwrap();
+    let mut v = 0.0;
+    for _ in 0..600 {
+        v = sup.tick().twist.fixed_rows::<3>(0).norm();
+        if v > 0.0249 {
+            break;
+        }
+    }
+    assert!(v > 0.0249, "at the speed limit: {v}");
+    v
+}
+
 /// `brake` (the firmware's hold when the master falls silent) stops the robot at full
 /// deceleration: moving at the 25 mm/s limit it comes to rest within v²/2a (1.25 mm) plus
 /// one tick, without a latched stop, and takes new targets afterwards.
 #[test]
 fn brake_stops_within_the_braking_distance_and_takes_new_targets() {
     let mut sup = supervisor(Limits::reference());
-    let far = Pose {
-        t: Vector3::new(0.018, 0.0, 0.160),
-        r: Rotation3::identity(),
-    };
-    sup.submit(&far, 1000, 1000).unwrap();
-    let mut out = sup.tick();
-    for _ in 0..600 {
-        out = sup.tick();
-        if out.twist.fixed_rows::<3>(0).norm() > 0.0249 {
-            break;
-        }
-    }
-    let v = out.twist.fixed_rows::<3>(0).norm();
-    assert!(v > 0.0249, "at the speed limit: {v}");
+    let v = at_the_speed_limit_along_x(&mut sup);
     let at = sup.setpoint().t.x;
     sup.brake();
     let mut ticks = 0;
     loop {
-        out = sup.tick();
+        let out = sup.tick();
         ticks += 1;
         assert_ne!(out.mode, Mode::Stopped);
         if out.twist == Twist::zeros() {
@@ -1070,19 +1076,7 @@ fn a_certified_target_supersedes_the_queued_one_too() {
 #[test]
 fn a_step_without_the_evaluation_phase_before_it_brakes() {
     let mut sup = supervisor(Limits::reference());
-    let far = Pose {
-        t: Vector3::new(0.018, 0.0, 0.160),
-        r: Rotation3::identity(),
-    };
-    sup.submit(&far, 1000, 1000).unwrap();
-    let mut v = 0.0;
-    for _ in 0..600 {
-        v = sup.tick().twist.fixed_rows::<3>(0).norm();
-        if v > 0.0249 {
-            break;
-        }
-    }
-    assert!(v > 0.0249, "at the speed limit: {v}");
+    at_the_speed_limit_along_x(&mut sup);
     // Steps alone from here: the first follows the last tick's evaluation phase and moves
     // on; the second finds none since and brakes.
     assert_eq!(sup.step().mode, Mode::Moving);
