@@ -430,7 +430,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
     pub fn brake(&mut self) {
         self.drop_pending();
         self.stream.reset();
-        if self.twist.iter().any(|x| *x != T::zero()) {
+        if self.moving() {
             self.braking = true;
         } else {
             self.goal = self.pose;
@@ -691,7 +691,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
     }
 
     fn output(&self, warning: Option<Guard>) -> TickOutput<T> {
-        let moving = self.twist.iter().any(|x| *x != T::zero());
+        let moving = self.moving();
         let mode = if self.latched.is_some() {
             Mode::Stopped
         } else if self.braking {
@@ -715,6 +715,17 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         }
     }
 
+    /// The setpoint moves (its twist is not zero).
+    fn moving(&self) -> bool {
+        self.twist.iter().any(|x| *x != T::zero())
+    }
+
+    /// The setpoint's twist as its translational and angular velocities (v, ω).
+    fn twist_parts(&self) -> (Vector3<T>, Vector3<T>) {
+        let t = &self.twist;
+        (Vector3::new(t.x, t.y, t.z), Vector3::new(t.w, t.a, t.b))
+    }
+
     /// The braking points' horizon n in ticks (see [`Self::run_checker`]).
     fn horizon_ticks(&self) -> T {
         let per_job = MAX_STAGES.div_ceil(u32::from(self.cfg.stages_per_tick));
@@ -728,7 +739,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
     /// off the real-time step, so that a led stream moves the goal on every tick.
     pub(super) fn try_take_over(&mut self) {
         let Some(next) = self.next_goal else { return };
-        let moving = self.twist.iter().any(|x| *x != T::zero());
+        let moving = self.moving();
         if !moving || self.braking || self.ahead_stop {
             return;
         }
@@ -736,8 +747,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             Some(l) => l,
             None => self.profile_limits(),
         };
-        let v0 = Vector3::new(self.twist.x, self.twist.y, self.twist.z);
-        let w0 = Vector3::new(self.twist.w, self.twist.a, self.twist.b);
+        let (v0, w0) = self.twist_parts();
         let n = self.horizon_ticks();
         let a = profile::braking_point(&self.pose, &v0, &w0, &next, &l, n, self.cfg.dt);
         if let Some(warn) = self.certified(&self.pose, &a) {
@@ -943,11 +953,10 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         if self.latched.is_some() {
             return;
         }
-        let moving = self.twist.iter().any(|x| *x != T::zero());
+        let moving = self.moving();
         let l = self.profile_limits();
         self.next_limits = Some(l);
-        let v0 = Vector3::new(self.twist.x, self.twist.y, self.twist.z);
-        let w0 = Vector3::new(self.twist.w, self.twist.a, self.twist.b);
+        let (v0, w0) = self.twist_parts();
         if self.run_checker(&l, moving, &v0, &w0) {
             self.ahead_stop = true;
         }
@@ -964,11 +973,10 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         if self.latched.is_some() {
             return self.output(None);
         }
-        let moving = self.twist.iter().any(|x| *x != T::zero());
+        let moving = self.moving();
         let l = limits.unwrap_or_else(|| self.profile_limits());
         let dt = self.cfg.dt;
-        let v0 = Vector3::new(self.twist.x, self.twist.y, self.twist.z);
-        let w0 = Vector3::new(self.twist.w, self.twist.a, self.twist.b);
+        let (v0, w0) = self.twist_parts();
         let mut ahead_stop = core::mem::take(&mut self.ahead_stop);
         if !core::mem::replace(&mut self.evaluated, false) {
             self.counters.evaluations_missed += 1;

@@ -137,7 +137,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
 
     /// A verified target: the goal, or the next goal while moving.
     fn accept(&mut self, t: &Target<T>) {
-        if self.twist.iter().any(|x| *x != T::zero()) {
+        if self.moving() {
             self.next_goal = Some(t.to);
         } else {
             self.goal = t.to;
