@@ -1094,6 +1094,11 @@ fn a_step_without_the_evaluation_phase_before_it_brakes() {
     }
     let travel = sup.setpoint().t.x - at;
     let bound = v * v / (2.0 * 0.25) + v * 1e-3;
+    println!(
+        "no evaluation phase: braked from {v} m/s in {ticks} ticks over {:.3} mm (bound {:.3})",
+        travel * 1e3,
+        bound * 1e3
+    );
     assert!(travel > 0.0 && travel <= bound, "{travel} > {bound}");
     assert!(sup.counters().evaluations_missed >= ticks);
     // Standing still, a missing evaluation phase moves nothing.
