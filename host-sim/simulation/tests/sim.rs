@@ -435,3 +435,68 @@ fn two_threads_give_the_results_of_one() {
         );
     }
 }
+
+/// FNV-1a over the bits of every number of a trace row and the summary's
+/// machine-independent figures (not the wall-clock ones): a fingerprint of a run.
+fn digest(out: &Outcome) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut eat = |bits: u64| {
+        for b in bits.to_le_bytes() {
+            h ^= u64::from(b);
+            h = h.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    };
+    for r in &out.trace {
+        eat(r.t_s.to_bits());
+        for b in r.mode.bytes() {
+            eat(u64::from(b));
+        }
+        eat(u64::from(r.warning));
+        for x in r
+            .target
+            .iter()
+            .chain(&r.setpoint)
+            .chain(&r.truth)
+            .chain(&[
+                r.tip_error_mm,
+                r.orientation_error_deg,
+                r.target_tip_error_mm,
+                r.target_orientation_error_deg,
+            ])
+            .chain(&r.joint_error)
+            .chain(&r.duty)
+            .chain(&r.current_a)
+            .chain(&r.load)
+        {
+            eat(x.to_bits());
+        }
+    }
+    let s = &out.summary;
+    eat(s.control_ticks);
+    eat(s.supervisor.targets_sent as u64);
+    eat(s.supervisor.accepted as u64);
+    eat(s.supervisor.refused.total as u64);
+    h
+}
+
+/// The default run (`host-sim sim`: the laparoscope scenario with the shipped settings)
+/// is the same to the bit as the recorded one: its trace (every tick's target, setpoint,
+/// true pose, errors, duties, currents and loads) and its counts. A change that moves
+/// code without changing the physics or the control keeps it; a change that does change
+/// them updates the recorded digest in the same commit and says why.
+#[test]
+fn the_default_run_is_the_recorded_one_to_the_bit() {
+    let cfg = config("[output]\ntrace_every_ticks = 1\n");
+    let sc = Scenario::from_config("laparoscope", &cfg, robot().hc).unwrap();
+    let out = simulate(&cfg, &sc);
+    let d = digest(&out);
+    println!(
+        "default run: {} ticks, {} trace rows, digest {d:#018x}",
+        out.summary.control_ticks,
+        out.trace.len()
+    );
+    assert_eq!(d, DEFAULT_RUN_DIGEST, "digest {d:#018x}");
+}
+
+/// The digest of the default run (see `the_default_run_is_the_recorded_one_to_the_bit`).
+const DEFAULT_RUN_DIGEST: u64 = 0x2071_1a99_b2c1_6081;
