@@ -33,14 +33,15 @@ use std::sync::OnceLock;
 
 use arbitrary::Arbitrary;
 use control::estop::{emergency_stop_isr, emergency_stop_message, EStopLatch};
-use control::link::{Command, Inbound, LinkRx, LinkTx, Request, FIRMWARE_VERSION};
+use control::link::{Inbound, LinkRx, LinkTx, Request, FIRMWARE_VERSION};
+use control::modes::{State, ALL_STATES};
 use control::runtime::RuntimeTick;
 use control::service::{ServiceConfig, TickService};
-use control::state_machine::{State, ALL_STATES};
 use control::stops::StopPhase;
 use control::telemetry::with_link;
 use hal::NUM_JOINTS;
 use kinematics_core::RsprGeometry;
+use master_link::MasterToBoard as Command;
 use master_link::{
     decode_frame, encode, BoardToMaster, FaultCause, Header, MasterDecoder, MasterToBoard,
     NackReason, ResetCause, SeqCounter, MAX_FRAME_LEN, PROTOCOL_VERSION,
@@ -664,7 +665,7 @@ impl Board {
                 matches!(
                     inbound.as_slice(),
                     [Inbound::Request(Request {
-                        command: Command::EmergencyStop,
+                        message: Command::EmergencyStop,
                         ..
                     })]
                 ),
@@ -723,7 +724,7 @@ impl Board {
                     }
                 }
                 Inbound::Request(req) => {
-                    if req.command == Command::EmergencyStop {
+                    if req.message == Command::EmergencyStop {
                         emergency_stop_message(&mut self.hw, &self.latch);
                     }
                     self.queue.push(*req);
@@ -834,7 +835,7 @@ impl Board {
         self.hw.over_range = [false; NUM_JOINTS];
         let before = (
             self.service.runtime().state(),
-            self.service.runtime().machine().homed(),
+            self.service.runtime().homed(),
         );
         let tick = self.service.tick(&mut self.hw, now);
         self.outcome.ticks += 1;
@@ -853,8 +854,8 @@ impl Board {
         let seq = req.seq;
         let ack = *reply == BoardToMaster::Ack { seq };
         let ack_or_nack = ack || matches!(reply, BoardToMaster::Nack { seq: s, .. } if *s == seq);
-        let fits = match req.command {
-            Command::Hello { session } => matches!(
+        let fits = match req.message {
+            Command::Hello { nonce: session, .. } => matches!(
                 reply,
                 BoardToMaster::HelloReply { session: s, protocol_version, .. }
                     if *s == session && *protocol_version == PROTOCOL_VERSION
@@ -864,9 +865,9 @@ impl Board {
             Command::EmergencyStop | Command::Heartbeat | Command::AcknowledgeReset => ack,
             _ => ack_or_nack,
         };
-        assert!(fits, "{:?} answered {reply:?}", req.command);
+        assert!(fits, "{:?} answered {reply:?}", req.message);
         assert_eq!(rt.status().state, rt.state(), "status state");
-        match req.command {
+        match req.message {
             Command::EmergencyStop => {
                 assert_eq!(rt.state(), State::Fault, "state after an EmergencyStop");
                 self.estop_pending = true;
@@ -894,7 +895,7 @@ impl Board {
         // Finding 1 (README): the current limit can move a duty outside [-1, 1]. Unless
         // the checks are strict, a duty outside is accepted only where the current limit
         // set it this tick; anything else writing one is still caught.
-        let limited = rt.current().limited();
+        let limited = rt.monitors().current.limited();
         for (j, (over, lim)) in hw.over_range.iter().zip(limited.iter()).enumerate() {
             if *over {
                 assert!(

@@ -8,15 +8,16 @@
 //! board, so that a copy continues with the service's timing (the first tick after a
 //! snapshot is checked against the last one before it).
 
-use control::link::{Command, Request};
+use control::link::Request;
+use control::modes::State;
 use control::runtime::{reference_config_for, reference_mechanics, Runtime};
 use control::service::{ServiceConfig, TickService};
-use control::state_machine::State;
 use hal::{
     Brakes, CurrentSense, LimitSwitches, MotorOutputs, PowerStage, QuadratureCounter, SafetyChain,
     NUM_JOINTS,
 };
 use kinematics_core::{inverse, Branch, Pose, RsprGeometry};
+use master_link::MasterToBoard as Command;
 use master_link::{BoardToMaster, ResetCause};
 use plant::{Plant, PlantConfig};
 
@@ -175,7 +176,7 @@ fn step(sv: &mut Service, hw: &mut PlantHw, t: &mut u64, cycles: u32) {
     sv.begin(*t, 0, control::estop::EStopTrip::NONE);
     let beat = Request {
         seq: 0,
-        command: Command::Heartbeat,
+        message: Command::Heartbeat,
     };
     let _ = sv.request(&beat, *t);
     sv.tick(hw, *t);
@@ -259,12 +260,12 @@ pub fn build(cfg_service: ServiceConfig, cycles: u32) -> Snapshots {
     let take = |sv: &Service, hw: &mut PlantHw, t: u64| snap(Some(sv), sv.runtime(), hw, t);
     let state = |sv: &Service| sv.runtime().state();
     let fault = |sv: &Service| sv.runtime().status().fault;
-    let request = |sv: &mut Service, command: Command, t: u64| {
-        let reply = sv.request(&Request { seq: 0, command }, t);
+    let request = |sv: &mut Service, message: Command, t: u64| {
+        let reply = sv.request(&Request { seq: 0, message }, t);
         assert_eq!(
             reply,
             BoardToMaster::Ack { seq: 0 },
-            "snapshots: {command:?}"
+            "snapshots: {message:?}"
         );
     };
     let booted = take(&sv, &mut hw, t);

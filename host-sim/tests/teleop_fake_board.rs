@@ -11,7 +11,8 @@
 //!
 //! The same master against the board's release image runs in `firmware/board-emulator`.
 
-use control::link::{Answer, Command, Inbound, LinkRx, LinkTx};
+use control::link::{Answer, Inbound, LinkRx, LinkTx};
+use master_link::MasterToBoard as Command;
 use master_link::{
     BoardToMaster, FaultCause, FaultRecord, FirmwareVersion, ResetStatus, RobotState, StatusReport,
     StopStatus, Warnings, MAX_FRAME_LEN,
@@ -70,7 +71,7 @@ impl Board {
                 }
                 Ok(())
             }
-            Command::Target {
+            Command::PoseTarget {
                 position_m,
                 rotation_vector_rad,
                 ..
@@ -173,9 +174,9 @@ fn fake_board(mut stream: UnixStream) {
             Ok(n) => rx.feed(&buf[..n], |inbound| match inbound {
                 Inbound::Reply(r) => out.push(r),
                 Inbound::Request(req) => {
-                    let result = match req.command {
-                        Command::Hello { session } => Ok(Answer::Hello {
-                            session,
+                    let result = match req.message {
+                        Command::Hello { nonce, .. } => Ok(Answer::Hello {
+                            session: nonce,
                             reset: ResetStatus::default(),
                             geometry_version: 0,
                         }),

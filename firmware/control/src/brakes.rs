@@ -4,6 +4,7 @@
 //! time), then the robot follows. Applying them is the stop sequencer's ([`crate::stops`]).
 //! Spring-applied brakes: unpowered = holding, so a dead board or a cut cable holds.
 
+use crate::scalar::lit;
 use num_traits::Float;
 use servo::NUM_JOINTS;
 
@@ -36,10 +37,6 @@ pub struct BrakeCheckConfig<S> {
 
 /// The window over which the joints must be still before the check pushes, µs.
 const STILL_WINDOW_US: u64 = 10_000;
-
-fn lit<S: Float>(x: f64) -> S {
-    S::from(x).unwrap_or_else(S::zero)
-}
 
 impl<S: Float> Default for BrakeCheckConfig<S> {
     fn default() -> Self {
@@ -162,35 +159,8 @@ impl<S: Float> BrakeCheck<S> {
             window_us,
         } = self.phase
         {
-            let zero = [S::zero(); NUM_JOINTS];
-            if now_us < until_us {
-                self.phase = EnablePhase::Engaging {
-                    until_us,
-                    deadline_us,
-                    window_q: *q,
-                    window_us: now_us,
-                };
-                return EnableStep::Push(zero);
-            }
-            if now_us < deadline_us {
-                if now_us.saturating_sub(window_us) < STILL_WINDOW_US {
-                    return EnableStep::Push(zero);
-                }
-                let half = lit::<S>(0.5);
-                let still = q
-                    .iter()
-                    .zip(window_q.iter())
-                    .zip(self.cfg.max_motion.iter())
-                    .all(|((x, w), m)| (*x - *w).abs() <= *m * half);
-                if !still {
-                    self.phase = EnablePhase::Engaging {
-                        until_us,
-                        deadline_us,
-                        window_q: *q,
-                        window_us: now_us,
-                    };
-                    return EnableStep::Push(zero);
-                }
+            if self.engaging(q, now_us, until_us, deadline_us, window_q, window_us) {
+                return EnableStep::Push([S::zero(); NUM_JOINTS]);
             }
             self.phase = EnablePhase::Checking {
                 positive: true,
@@ -204,37 +174,7 @@ impl<S: Float> BrakeCheck<S> {
                 positive,
                 since_us,
                 start,
-            } => {
-                for (j, ((x, s), m)) in q
-                    .iter()
-                    .zip(start.iter())
-                    .zip(self.cfg.max_motion.iter())
-                    .enumerate()
-                {
-                    let motion = (*x - *s).abs();
-                    if !(motion <= *m) {
-                        return EnableStep::Failed { joint: j, motion };
-                    }
-                }
-                if now_us.saturating_sub(since_us) >= self.cfg.push_us {
-                    if positive {
-                        self.phase = EnablePhase::Checking {
-                            positive: false,
-                            since_us: now_us,
-                            start,
-                        };
-                    } else {
-                        self.phase = EnablePhase::Releasing { since_us: now_us };
-                        return EnableStep::Hold;
-                    }
-                }
-                let sign = if matches!(self.phase, EnablePhase::Checking { positive: true, .. }) {
-                    S::one()
-                } else {
-                    -S::one()
-                };
-                EnableStep::Push(self.cfg.duty.map(|d| d * sign))
-            }
+            } => self.checking(q, now_us, positive, since_us, start),
             EnablePhase::Releasing { since_us } => {
                 if now_us.saturating_sub(since_us) >= self.cfg.release_us {
                     self.phase = EnablePhase::Released;
@@ -245,6 +185,85 @@ impl<S: Float> BrakeCheck<S> {
             }
             EnablePhase::Released => EnableStep::Released,
         }
+    }
+
+    /// While the brakes engage: true while it must still wait (the engage time, then
+    /// until the joints have stood still for `STILL_WINDOW_US`, at most until the
+    /// deadline); the window restarts whenever they moved.
+    fn engaging(
+        &mut self,
+        q: &[S; NUM_JOINTS],
+        now_us: u64,
+        until_us: u64,
+        deadline_us: u64,
+        window_q: [S; NUM_JOINTS],
+        window_us: u64,
+    ) -> bool {
+        let restart = EnablePhase::Engaging {
+            until_us,
+            deadline_us,
+            window_q: *q,
+            window_us: now_us,
+        };
+        if now_us < until_us {
+            self.phase = restart;
+            return true;
+        }
+        if now_us >= deadline_us {
+            return false;
+        }
+        if now_us.saturating_sub(window_us) < STILL_WINDOW_US {
+            return true;
+        }
+        let half = lit::<S>(0.5);
+        let still = q
+            .iter()
+            .zip(window_q.iter())
+            .zip(self.cfg.max_motion.iter())
+            .all(|((x, w), m)| (*x - *w).abs() <= *m * half);
+        if !still {
+            self.phase = restart;
+        }
+        !still
+    }
+
+    /// The check's push against the closed brakes, one way then the other: a joint that
+    /// moves more than its limit fails it.
+    fn checking(
+        &mut self,
+        q: &[S; NUM_JOINTS],
+        now_us: u64,
+        positive: bool,
+        since_us: u64,
+        start: [S; NUM_JOINTS],
+    ) -> EnableStep<S> {
+        for (j, ((x, s), m)) in q
+            .iter()
+            .zip(start.iter())
+            .zip(self.cfg.max_motion.iter())
+            .enumerate()
+        {
+            let motion = (*x - *s).abs();
+            if !(motion <= *m) {
+                return EnableStep::Failed { joint: j, motion };
+            }
+        }
+        let mut positive = positive;
+        if now_us.saturating_sub(since_us) >= self.cfg.push_us {
+            if positive {
+                positive = false;
+                self.phase = EnablePhase::Checking {
+                    positive,
+                    since_us: now_us,
+                    start,
+                };
+            } else {
+                self.phase = EnablePhase::Releasing { since_us: now_us };
+                return EnableStep::Hold;
+            }
+        }
+        let sign = if positive { S::one() } else { -S::one() };
+        EnableStep::Push(self.cfg.duty.map(|d| d * sign))
     }
 }
 

@@ -8,8 +8,7 @@
 use core::fmt;
 use kinematics_core::guards::Limits;
 use kinematics_core::supervisor::{Refusal, Supervisor, SupervisorConfig, SupervisorError};
-use kinematics_core::{forward, scalar, Branch, FkConfig, Joints, Mechanism, Pose, Real};
-use num_traits::Float;
+use kinematics_core::{forward, scalar, Branch, FkConfig, Joints, Mechanism, Pose};
 use servo::config::{ConfigError, ServoConfig};
 use servo::encoder::EncoderConfig;
 use servo::NUM_JOINTS;
@@ -18,10 +17,7 @@ use crate::drive::{Drive, TickReport};
 use crate::planner::{Planner, ToolLoad};
 use crate::sensing::Measured;
 
-/// The scalar of the control application: a nalgebra real that is also a `num_traits`
-/// float (in practice `f32` on the MCU, `f64` on the host).
-pub trait Scalar: Real + Float {}
-impl<S: Real + Float> Scalar for S {}
+pub use crate::scalar::Scalar;
 
 /// Everything the controller needs. `Default` gives the reference robot's values.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -20,6 +20,7 @@
 //! a current above the trip level of the monitor (1.5 × the peak: a short, a failed driver)
 //! is an overcurrent fault.
 
+use crate::scalar::lit;
 use num_traits::Float;
 use servo::NUM_JOINTS;
 
@@ -39,10 +40,6 @@ pub struct MotorModel<S> {
     pub continuous_a: S,
     /// Thermal time constant of the winding, s.
     pub thermal_time_s: S,
-}
-
-fn lit<S: Float>(x: f64) -> S {
-    S::from(x).unwrap_or_else(S::zero)
 }
 
 impl<S: Float> MotorModel<S> {

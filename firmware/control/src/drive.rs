@@ -10,8 +10,8 @@ use servo::config::ConfigError;
 use servo::joint_servo::{JointServo, ServoOutput};
 use servo::{ServoConfig, NUM_JOINTS};
 
-use crate::controller::Scalar;
 use crate::planner::Plan;
+use crate::scalar::Scalar;
 use crate::sensing::Measured;
 
 /// What one tick did (the setpoint itself is the planner's [`Plan`], and the supervisor's

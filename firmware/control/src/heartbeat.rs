@@ -1,4 +1,4 @@
-//! The master's heartbeat: no heartbeat for `hold_after_us` -> [`Event::HeartbeatLost`]
+//! The master's heartbeat: no heartbeat for `hold_after_us` -> [`Event::HeartbeatLate`]
 //! (the robot holds); for `disable_after_us` -> the fault `HeartbeatTimeout` (SS1: the
 //! robot stops, then brakes and torque off).
 //! A heartbeat after a hold ends it ([`Event::HeartbeatRestored`]); after a disable the
@@ -6,7 +6,7 @@
 
 use master_link::FaultCause;
 
-use crate::state_machine::Event;
+use crate::modes::Event;
 
 /// Heartbeat timing, µs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -105,7 +105,7 @@ impl HeartbeatMonitor {
         } else if silence >= self.cfg.hold_after_us && self.level == HeartbeatLevel::Alive {
             self.level = HeartbeatLevel::Late;
             self.holds = self.holds.wrapping_add(1);
-            Some(Event::HeartbeatLost)
+            Some(Event::HeartbeatLate)
         } else {
             None
         }

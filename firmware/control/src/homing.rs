@@ -19,6 +19,8 @@ use servo::config::ConfigError;
 use servo::joint_servo::JointServo;
 use servo::{ServoConfig, NUM_JOINTS};
 
+use crate::scalar::lit;
+
 /// The encoders as the homing sees them (the runtime's sensing): this tick's joints,
 /// motors and counts, the reference of a joint, and the backlash offsets of the homing's
 /// servo.
@@ -118,7 +120,6 @@ impl<S: Float> HomingConfig<S> {
         rest: &[S; NUM_JOINTS],
         park: Option<[S; NUM_JOINTS]>,
     ) -> Self {
-        let lit = |x: f64| S::from(x).unwrap_or_else(S::zero);
         let at = |a: &[S; NUM_JOINTS], j: usize| a.get(j).copied().unwrap_or_else(S::zero);
         let leg = |j: usize| JointHoming {
             method: HomeMethod::Switch,
@@ -551,7 +552,7 @@ impl<S: Float> Homing<S> {
         };
         let direction = Direction::of_sign(own);
         let full = comp.flank_offset(direction);
-        let offset = if direction != Direction::Unknown && travel > full.abs() * lit2() {
+        let offset = if direction != Direction::Unknown && travel > full.abs() * lit(2.0) {
             full
         } else {
             mj - qj
@@ -577,9 +578,7 @@ impl<S: Float> Homing<S> {
         let (q, motor, counts) = (sensing.joints(), sensing.motors(), sensing.counts());
         self.q = q;
         self.counts = counts;
-        let switches = hw.switches();
-        let currents = hw.currents();
-        let elapsed = now_us.saturating_sub(self.phase_start_us);
+        let (switches, currents) = (hw.switches(), hw.currents());
         let zero = [S::zero(); NUM_JOINTS];
         let joint = match self.phase {
             HomingPhase::Idle => return (HomingStatus::Running(HomingPhase::Idle), zero),
@@ -603,93 +602,132 @@ impl<S: Float> Homing<S> {
             return (self.fail(HomingError::Config { joint }), zero);
         };
         let fresh = core::mem::replace(&mut self.fresh, false);
-        if elapsed > self.cfg.phase_timeout_us {
+        if now_us.saturating_sub(self.phase_start_us) > self.cfg.phase_timeout_us {
             return (self.fail(HomingError::Timeout { joint }), zero);
         }
-        // Motion / stall tracking.
-        if (cj - self.motion_count).abs() >= self.cfg.stall_counts {
-            self.motion_count = cj;
+        let stalled = self.watch_motion(&h, cj, ij, now_us);
+        let travel = (qj - self.phase_start_q).abs();
+        let seen = Seen {
+            joint,
+            qj,
+            switch: sw,
+            fresh,
+            stalled,
+            travel,
+        };
+        let own = match self.phase_duty(&h, &seen, sensing, now_us) {
+            Ok(own) => own,
+            Err(e) => return (self.fail(e), zero),
+        };
+        (self.status(), self.duties(joint, own, travel, dt, sensing))
+    }
+
+    /// Tracks the joint's motion and current: whether it has stalled (no motion of
+    /// `stall_counts` for the stall time, or at 90 % of the current limit for as long).
+    /// Above the limit the duty is scaled down for the tick, then relaxed back slowly.
+    fn watch_motion(&mut self, h: &JointHoming<S>, count: i64, current: S, now_us: u64) -> bool {
+        if (count - self.motion_count).abs() >= self.cfg.stall_counts {
+            self.motion_count = count;
             self.motion_us = now_us;
         }
-        // Current limit: scale the duty down while above it, relax back slowly; running at
-        // (90 % of) the limit for the stall time counts as a stall.
-        let i_abs = ij.abs();
+        let i_abs = current.abs();
         if i_abs > h.current_limit {
             self.duty_scale = (self.duty_scale * h.current_limit / i_abs).min(S::one());
         } else {
-            let relax = S::from(1.05).unwrap_or_else(S::one);
-            self.duty_scale = (self.duty_scale * relax).min(S::one());
+            self.duty_scale = (self.duty_scale * lit(1.05)).min(S::one());
         }
-        let near = S::from(0.9).unwrap_or_else(S::one);
-        if i_abs >= h.current_limit * near {
+        if i_abs >= h.current_limit * lit(0.9) {
             self.over_current_since.get_or_insert(now_us);
         } else {
             self.over_current_since = None;
         }
-        let stalled = now_us.saturating_sub(self.motion_us) >= self.cfg.stall_time_us
+        now_us.saturating_sub(self.motion_us) >= self.cfg.stall_time_us
             || self
                 .over_current_since
-                .is_some_and(|t| now_us.saturating_sub(t) >= self.cfg.stall_time_us);
-        let scale = self.duty_scale;
-        let travel = (qj - self.phase_start_q).abs();
+                .is_some_and(|t| now_us.saturating_sub(t) >= self.cfg.stall_time_us)
+    }
+
+    /// The phase's decision for the joint being homed: the duty it drives with, the next
+    /// phase, or why homing failed.
+    fn phase_duty<R: JointReferences<S>>(
+        &mut self,
+        h: &JointHoming<S>,
+        seen: &Seen<S>,
+        sensing: &mut R,
+        now_us: u64,
+    ) -> Result<S, HomingError> {
+        let joint = seen.joint;
         let sign = if h.towards_positive {
             S::one()
         } else {
             -S::one()
         };
         let limit = self.cfg.duty_limit;
-        let mut own = S::zero();
+        let switch = h.method == HomeMethod::Switch;
         match self.phase {
             HomingPhase::Approach { .. } => {
-                if h.method == HomeMethod::Switch && sw && fresh {
+                if switch && seen.switch && seen.fresh {
                     // Already on the switch at the start: leave it first.
                     self.enter(HomingPhase::LeaveSwitch { joint }, now_us);
-                } else if h.method == HomeMethod::Switch && sw {
+                } else if switch && seen.switch {
                     // The reference: the position where the switch closes.
                     self.reference(sensing, joint, h.home_position);
                     self.enter(HomingPhase::BackOff { joint }, now_us);
-                } else if stalled {
-                    if h.method == HomeMethod::Switch {
-                        return (self.fail(HomingError::StalledBeforeSwitch { joint }), zero);
+                } else if seen.stalled {
+                    if switch {
+                        return Err(HomingError::StalledBeforeSwitch { joint });
                     }
                     // A stall is the hard stop only within the expected travel.
                     let rest = self.rest.get(joint).copied().unwrap_or(h.rest_position);
                     let expected = (rest - h.home_position).abs();
-                    let from_start = (qj - self.approach_start_q).abs();
+                    let from_start = (seen.qj - self.approach_start_q).abs();
                     if (from_start - expected).abs() > h.travel_tolerance {
-                        return (self.fail(HomingError::StalledOutsideWindow { joint }), zero);
+                        return Err(HomingError::StalledOutsideWindow { joint });
                     }
                     self.reference(sensing, joint, h.home_position);
                     self.enter(HomingPhase::BackOff { joint }, now_us);
-                } else if travel > h.max_travel {
-                    return (self.fail(HomingError::NotFound { joint }), zero);
+                } else if seen.travel > h.max_travel {
+                    return Err(HomingError::NotFound { joint });
                 } else {
-                    own = sign * h.approach_duty.min(limit) * scale;
+                    return Ok(sign * h.approach_duty.min(limit) * self.duty_scale);
                 }
             }
             HomingPhase::LeaveSwitch { .. } => {
-                if !sw {
+                if !seen.switch {
                     self.enter(HomingPhase::Approach { joint }, now_us);
-                } else if travel > h.max_travel || stalled {
-                    return (self.fail(HomingError::SwitchStuck { joint }), zero);
+                } else if seen.travel > h.max_travel || seen.stalled {
+                    return Err(HomingError::SwitchStuck { joint });
                 } else {
-                    own = -sign * h.backoff_duty.min(limit) * scale;
+                    return Ok(-sign * h.backoff_duty.min(limit) * self.duty_scale);
                 }
             }
             _ => {
                 // Back off.
-                if travel >= h.backoff_distance {
-                    if h.method == HomeMethod::Switch && sw {
-                        return (self.fail(HomingError::SwitchStuck { joint }), zero);
+                if seen.travel >= h.backoff_distance {
+                    if switch && seen.switch {
+                        return Err(HomingError::SwitchStuck { joint });
                     }
                     self.next_joint(joint, now_us);
-                } else if stalled {
-                    return (self.fail(HomingError::Timeout { joint }), zero);
+                } else if seen.stalled {
+                    return Err(HomingError::Timeout { joint });
                 } else {
-                    own = -sign * h.backoff_duty.min(limit) * scale;
+                    return Ok(-sign * h.backoff_duty.min(limit) * self.duty_scale);
                 }
             }
         }
+        Ok(S::zero())
+    }
+
+    /// The duties of the tick: the others held under servo, the joint being homed (if one
+    /// still is) at `own`, its backlash flank following its motion.
+    fn duties<R: JointReferences<S>>(
+        &mut self,
+        joint: usize,
+        own: S,
+        travel: S,
+        dt: S,
+        sensing: &mut R,
+    ) -> [S; NUM_JOINTS] {
         let (q_now, motor_now) = (self.q, sensing.motors());
         let moving = match self.phase {
             HomingPhase::Referenced => None,
@@ -701,12 +739,31 @@ impl<S: Float> Homing<S> {
             self.moving_flank(joint, own, travel, &q_now, &motor_now);
         }
         sensing.set_backlash(&self.servo.backlash_offsets());
-        let status = match self.phase {
+        duty
+    }
+
+    /// The status of the phase now.
+    fn status(&self) -> HomingStatus {
+        match self.phase {
             HomingPhase::Referenced => HomingStatus::Referenced,
             p => HomingStatus::Running(p),
-        };
-        (status, duty)
+        }
     }
+}
+
+/// What a homing step saw of the joint being homed.
+struct Seen<S> {
+    joint: usize,
+    /// Its position.
+    qj: S,
+    /// Its switch is actuated.
+    switch: bool,
+    /// The phase's first step.
+    fresh: bool,
+    /// It has stalled.
+    stalled: bool,
+    /// Its travel in the phase.
+    travel: S,
 }
 
 /// Why a [`Homing`] or [`crate::runtime::Runtime`] cannot be set up.
@@ -716,9 +773,4 @@ pub enum HomingSetupError {
     Homing(HomingError),
     /// Servo or encoder settings.
     Servo(ConfigError),
-}
-
-/// 2 in the scalar type.
-fn lit2<S: Float>() -> S {
-    S::one() + S::one()
 }

@@ -24,73 +24,13 @@ use master_link::{
     Seq, SeqCounter, StatusReport, PROTOCOL_VERSION,
 };
 
-/// A master request for the runtime.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Command {
-    /// A `Hello` with the board's protocol version opened a session.
-    Hello {
-        /// The session (the master's nonce).
-        session: u32,
-    },
-    /// Enable the drives.
-    Enable,
-    /// Drives off.
-    Disable,
-    /// Start homing (`rehome`: confirms homing a homed robot again).
-    Home {
-        /// Confirms rehoming.
-        rehome: bool,
-    },
-    /// Clutch pedal: engaged, the master is decoupled and the robot holds.
-    Clutch {
-        /// Pressed.
-        engaged: bool,
-    },
-    /// Operator presence (dead-man): absent, the robot holds.
-    OperatorPresent {
-        /// Present.
-        present: bool,
-    },
-    /// The master acknowledges the board's last reset.
-    AcknowledgeReset,
-    /// A page of the fault log from entry `first`.
-    FaultLogRequest {
-        /// First entry.
-        first: u16,
-    },
-    /// Emergency stop.
-    EmergencyStop,
-    /// Clear the latched fault.
-    ClearFault,
-    /// Keep-alive.
-    Heartbeat,
-    /// One `Status` reply.
-    StatusRequest,
-    /// Pose target (wire units: m, rotation vector rad; master clock µs).
-    Target {
-        /// Master timestamp, µs.
-        stamp_us: u64,
-        /// Position, m.
-        position_m: [f32; 3],
-        /// Rotation vector, rad.
-        rotation_vector_rad: [f32; 3],
-    },
-    /// Jog one joint.
-    Jog {
-        /// Joint index.
-        joint: u8,
-        /// m/s or rad/s.
-        velocity: f32,
-    },
-}
-
 /// A request with the sequence number its reply carries.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Request {
     /// Sequence number of the master frame.
     pub seq: Seq,
-    /// What to do.
-    pub command: Command,
+    /// The master's message (never a `StoreGeometry`: that is [`Inbound::Geometry`]).
+    pub message: MasterToBoard,
 }
 
 /// What the runtime answers to a request it accepted.
@@ -224,23 +164,19 @@ impl LinkRx {
     }
 
     fn dispatch(&mut self, seq: Seq, msg: MasterToBoard) -> Inbound {
-        let command = match msg {
+        match msg {
             MasterToBoard::Hello {
-                protocol_version,
-                nonce,
+                protocol_version, ..
             } => {
-                if protocol_version == PROTOCOL_VERSION {
-                    self.connected = true;
-                    Command::Hello { session: nonce }
-                } else {
-                    self.connected = false;
+                self.connected = protocol_version == PROTOCOL_VERSION;
+                if !self.connected {
                     return Inbound::Reply(BoardToMaster::Nack {
                         seq,
                         reason: NackReason::UnsupportedVersion,
                     });
                 }
             }
-            MasterToBoard::EmergencyStop => Command::EmergencyStop,
+            MasterToBoard::EmergencyStop => {}
             _ if !self.connected => {
                 self.refused_not_connected = self.refused_not_connected.wrapping_add(1);
                 return Inbound::Reply(BoardToMaster::Nack {
@@ -248,29 +184,10 @@ impl LinkRx {
                     reason: NackReason::NotConnected,
                 });
             }
-            MasterToBoard::Enable => Command::Enable,
-            MasterToBoard::Disable => Command::Disable,
-            MasterToBoard::Home { rehome } => Command::Home { rehome },
-            MasterToBoard::PoseTarget {
-                timestamp_us,
-                position_m,
-                rotation_vector_rad,
-            } => Command::Target {
-                stamp_us: timestamp_us,
-                position_m,
-                rotation_vector_rad,
-            },
-            MasterToBoard::Jog { joint, velocity } => Command::Jog { joint, velocity },
-            MasterToBoard::Clutch { engaged } => Command::Clutch { engaged },
-            MasterToBoard::Heartbeat => Command::Heartbeat,
-            MasterToBoard::ClearFault => Command::ClearFault,
-            MasterToBoard::StatusRequest => Command::StatusRequest,
-            MasterToBoard::OperatorPresent { present } => Command::OperatorPresent { present },
-            MasterToBoard::AcknowledgeReset => Command::AcknowledgeReset,
-            MasterToBoard::FaultLogRequest { first } => Command::FaultLogRequest { first },
             MasterToBoard::StoreGeometry(record) => return Inbound::Geometry { seq, record },
-        };
-        Inbound::Request(Request { seq, command })
+            _ => {}
+        }
+        Inbound::Request(Request { seq, message: msg })
     }
 
     /// A `Hello` with the right version was received.

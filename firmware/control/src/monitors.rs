@@ -10,6 +10,7 @@ use num_traits::Float;
 use servo::NUM_JOINTS;
 
 use crate::current::MotorModel;
+use crate::scalar::lit;
 
 /// A fault a monitor found: cause, joint (None: not a joint's) and value.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -51,10 +52,6 @@ impl Finding {
             time_ms: u32::try_from(now_us / 1000).unwrap_or(u32::MAX),
         }
     }
-}
-
-fn lit<S: Float>(x: f64) -> S {
-    S::from(x).unwrap_or_else(S::zero)
 }
 
 /// Encoder plausibility settings.

@@ -21,7 +21,8 @@ use kinematics_core::{Branch, Joints, Mechanism, Pose};
 use num_traits::Float;
 use servo::NUM_JOINTS;
 
-use crate::controller::Scalar;
+use crate::scalar::lit;
+use crate::scalar::Scalar;
 
 /// Park move settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -38,10 +39,6 @@ pub struct ParkConfig<S> {
     /// Time allowed after the profile's end to settle within the tolerance, µs
     /// (default 500 ms).
     pub settle_us: u64,
-}
-
-fn lit<S: Float>(x: f64) -> S {
-    S::from(x).unwrap_or_else(S::zero)
 }
 
 impl<S: Float> Default for ParkConfig<S> {

@@ -9,7 +9,7 @@ use kinematics_core::{scalar, JointKind, Mechanism, Pose};
 use servo::backlash::Direction;
 use servo::NUM_JOINTS;
 
-use crate::controller::Scalar;
+use crate::scalar::Scalar;
 
 /// A tool fixed to the platform: a mass at a point given in the platform frame.
 #[derive(Clone, Copy, Debug, PartialEq)]

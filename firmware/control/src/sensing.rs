@@ -27,8 +27,8 @@ use servo::config::ConfigError;
 use servo::encoder::{EncoderConfig, Encoders};
 use servo::NUM_JOINTS;
 
-use crate::controller::Scalar;
 use crate::homing::JointReferences;
+use crate::scalar::Scalar;
 
 /// What the forward kinematics did on this tick.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -16,12 +16,12 @@ use hal::Hardware;
 use kinematics_core::Mechanism;
 use master_link::{BoardToMaster, FirmwareVersion, StatusReport, Warnings};
 
-use crate::controller::Scalar;
 use crate::estop::EStopTrip;
 use crate::link::Request;
+use crate::modes::State;
 use crate::monitors::Finding;
 use crate::runtime::{Runtime, RuntimeTick};
-use crate::state_machine::State;
+use crate::scalar::Scalar;
 use crate::watchdog::{TickTiming, WatchdogConfig, WatchdogPolicy};
 
 /// The tick service's settings.
@@ -209,7 +209,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> TickService<S, M> {
 
     /// One queued master request: its reply.
     pub fn request(&mut self, req: &Request, now_us: u64) -> BoardToMaster {
-        let result = self.runtime.command(&req.command, now_us);
+        let result = self.runtime.command(&req.message, now_us);
         req.reply(result, &self.runtime.status(), self.cfg.firmware)
     }
 

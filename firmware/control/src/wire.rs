@@ -7,7 +7,7 @@ use kinematics_core::{scalar, Pose};
 use master_link::{Faults, NackReason};
 use nalgebra::Vector3;
 
-use crate::controller::Scalar;
+use crate::scalar::Scalar;
 
 /// `f32` of a scalar (NaN if it does not convert).
 pub fn to_f32<S: Scalar>(x: S) -> f32 {

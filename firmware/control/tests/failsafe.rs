@@ -12,14 +12,14 @@
 use control::estop::{emergency_stop_isr, EStopLatch};
 use control::faults::{FaultLog, Persisted};
 use control::heartbeat::{HeartbeatConfig, HeartbeatLevel, HeartbeatMonitor};
-use control::link::Command;
+use control::modes::{Event, ModeKind, State};
 use control::monitors::Finding;
 use control::runtime::Runtime;
 use control::service::{ServiceConfig, TickService};
-use control::state_machine::{Event, State};
 use control::watchdog::{FeedDecision, TickTiming, WatchdogConfig, WatchdogPolicy};
 use hal::{QuadratureCounter, SafeOutputs};
 use kinematics_core::{Pose, RsprGeometry};
+use master_link::MasterToBoard;
 use master_link::{FaultCause, Faults, NackReason, ResetCause, StopStatus, Warnings};
 
 mod common;
@@ -40,7 +40,7 @@ const HB: HeartbeatConfig = HeartbeatConfig {
 fn tick(rt: &mut Rt, hw: &mut PlantHw, t: &mut u64, beat: bool) {
     *t += 1000;
     if beat {
-        rt.command(&Command::Heartbeat, *t).unwrap();
+        rt.command(&MasterToBoard::Heartbeat, *t).unwrap();
     }
     rt.tick(hw, *t);
     hw.step_ms();
@@ -59,7 +59,8 @@ fn snapshots() -> Vec<(State, Rt, PlantHw, u64)> {
     rt.boot_done(hw.counts(), t, ResetCause::PowerOn, None)
         .unwrap();
     out.push((State::Disabled, rt.clone(), hw.clone(), t));
-    rt.command(&Command::Home { rehome: false }, t).unwrap();
+    rt.command(&MasterToBoard::Home { rehome: false }, t)
+        .unwrap();
     for _ in 0..50 {
         tick(&mut rt, &mut hw, &mut t, true);
     }
@@ -74,7 +75,7 @@ fn snapshots() -> Vec<(State, Rt, PlantHw, u64)> {
         tick(&mut rt, &mut hw, &mut t, true);
     }
     out.push((State::Ready, rt.clone(), hw.clone(), t));
-    rt.command(&Command::Enable, t).unwrap();
+    rt.command(&MasterToBoard::Enable, t).unwrap();
     tick(&mut rt, &mut hw, &mut t, true);
     assert_eq!(rt.state(), State::Enabling);
     out.push((State::Enabling, rt.clone(), hw.clone(), t));
@@ -110,7 +111,7 @@ fn heartbeat_monitor_escalates_once_at_the_configured_times() {
     .validate()
     .is_err());
     assert_eq!(m.poll(1_000 + 29_999), None);
-    assert_eq!(m.poll(1_000 + 30_000), Some(Event::HeartbeatLost));
+    assert_eq!(m.poll(1_000 + 30_000), Some(Event::HeartbeatLate));
     assert_eq!(m.poll(1_000 + 31_000), None, "once");
     assert_eq!(m.level(), HeartbeatLevel::Late);
     assert_eq!(m.poll(1_000 + 119_999), None);
@@ -140,8 +141,8 @@ fn heartbeat_loss_holds_then_stops_with_brakes() {
     };
     let (p, r) = control::wire::pose_to_wire(&target);
     rt.command(
-        &Command::Target {
-            stamp_us: 1_000,
+        &MasterToBoard::PoseTarget {
+            timestamp_us: 1_000,
             position_m: p,
             rotation_vector_rad: r,
         },
@@ -156,12 +157,12 @@ fn heartbeat_loss_holds_then_stops_with_brakes() {
     while t - last_beat < 250_000 {
         tick(&mut rt, &mut hw, &mut t, false);
         let since = t - last_beat;
-        if held_at.is_none() && rt.machine().hold().is_some() {
+        if held_at.is_none() && (rt.mode().kind() == ModeKind::Holding) {
             held_at = Some(since);
             z_at_hold = common::true_pose(&hw).t.z;
             assert!(rt.status().warnings.contains(Warnings::HEARTBEAT_LATE));
-            let cmd = Command::Target {
-                stamp_us: 2_000,
+            let cmd = MasterToBoard::PoseTarget {
+                timestamp_us: 2_000,
                 position_m: p,
                 rotation_vector_rad: r,
             };
@@ -186,16 +187,16 @@ fn heartbeat_loss_holds_then_stops_with_brakes() {
     let (braked, off) = (braked_at.unwrap(), off_at.unwrap());
     assert!(braked <= HB.disable_after_us + 2_000, "brakes at {braked}");
     // The first tick strictly after the brakes' engage time.
-    assert_eq!(off - braked, rt.stopper().config().brake_engage_us + 1000);
+    assert_eq!(off - braked, rt.config().stops.brake_engage_us + 1000);
     let z_end = common::true_pose(&hw).t.z;
     assert!((z_end - z_at_hold).abs() < 0.5e-3, "{z_at_hold} -> {z_end}");
     assert!(z_end < 0.165 - 1e-3, "did not carry on to the target");
-    assert!(rt.machine().homed());
+    assert!(rt.homed());
     // Heartbeats again: clear, then the master enables again.
-    rt.command(&Command::Heartbeat, t).unwrap();
-    rt.command(&Command::ClearFault, t).unwrap();
+    rt.command(&MasterToBoard::Heartbeat, t).unwrap();
+    rt.command(&MasterToBoard::ClearFault, t).unwrap();
     assert_eq!(rt.state(), State::Ready);
-    rt.command(&Command::Enable, t).unwrap();
+    rt.command(&MasterToBoard::Enable, t).unwrap();
     assert_eq!(rt.state(), State::Enabling);
 }
 
@@ -205,10 +206,10 @@ fn heartbeat_hold_ends_with_a_heartbeat() {
     for _ in 0..40 {
         tick(&mut rt, &mut hw, &mut t, false);
     }
-    assert!(rt.machine().hold().is_some_and(|h| h.heartbeat));
+    assert!((rt.mode().kind() == ModeKind::Holding && rt.session().hold().heartbeat));
     assert_eq!(rt.status().stop, StopStatus::SafeOperatingStop);
-    rt.command(&Command::Heartbeat, t).unwrap();
-    assert!(rt.machine().following());
+    rt.command(&MasterToBoard::Heartbeat, t).unwrap();
+    assert!((rt.mode().kind() == ModeKind::Following));
     tick(&mut rt, &mut hw, &mut t, true);
     assert_eq!(rt.state(), State::Enabled);
     assert_eq!(rt.status().stop, StopStatus::None);
@@ -263,7 +264,7 @@ fn emergency_stop_from_every_state() {
         let rt = svc.runtime();
         assert_eq!(rt.state(), State::Fault, "from {state:?}");
         assert!(!hw.enabled && !hw.brakes_released, "from {state:?}");
-        assert!(rt.machine().faults().contains(Faults::EMERGENCY_STOP));
+        assert!(rt.status().faults.contains(Faults::EMERGENCY_STOP));
         let st = rt.status();
         assert_eq!(st.stop, StopStatus::SafeTorqueOff, "from {state:?}");
         // The status reports the first fault since the last clear; the log has them all.
@@ -276,7 +277,7 @@ fn emergency_stop_from_every_state() {
         // The message path too.
         let mut rt2 = rt.clone();
         assert_eq!(
-            rt2.command(&Command::EmergencyStop, t),
+            rt2.command(&MasterToBoard::EmergencyStop, t),
             Ok(control::link::Answer::Ack)
         );
         assert_eq!(rt2.state(), State::Fault);
@@ -317,9 +318,9 @@ fn the_estop_path_forcing_outputs_safe_is_seen_by_the_next_enable() {
     svc.begin(now, 0, latch.take());
     let rt = svc.runtime_mut();
     assert_eq!(rt.state(), State::Fault);
-    rt.command(&Command::Heartbeat, now).unwrap();
-    rt.command(&Command::ClearFault, now).unwrap();
-    rt.command(&Command::Enable, now).unwrap();
+    rt.command(&MasterToBoard::Heartbeat, now).unwrap();
+    rt.command(&MasterToBoard::ClearFault, now).unwrap();
+    rt.command(&MasterToBoard::Enable, now).unwrap();
     let mut now = now;
     // The brakes' engage and settle wait, the check's two 40 ms pushes, the 60 ms release.
     for _ in 0..400 {
@@ -335,7 +336,9 @@ fn the_estop_path_forcing_outputs_safe_is_seen_by_the_next_enable() {
         );
         hw.step_ms();
         now += 1000;
-        svc.runtime_mut().command(&Command::Heartbeat, now).unwrap();
+        svc.runtime_mut()
+            .command(&MasterToBoard::Heartbeat, now)
+            .unwrap();
         svc.begin(now, 0, latch.take());
     }
     let st = svc.runtime().status();
@@ -364,16 +367,19 @@ fn the_hard_wired_estop_stops_without_the_mcu_and_blocks_clearing() {
     assert_eq!(rt.status().fault.cause, FaultCause::EmergencyStopButton);
     assert!(!hw.enabled && !hw.brakes_released);
     assert_eq!(
-        rt.command(&Command::ClearFault, t),
+        rt.command(&MasterToBoard::ClearFault, t),
         Err(NackReason::FaultStillActive)
     );
-    assert_eq!(rt.command(&Command::Enable, t), Err(NackReason::Faulted));
+    assert_eq!(
+        rt.command(&MasterToBoard::Enable, t),
+        Err(NackReason::Faulted)
+    );
     hw.press_estop(false);
     tick(&mut rt, &mut hw, &mut t, true);
-    rt.command(&Command::ClearFault, t).unwrap();
+    rt.command(&MasterToBoard::ClearFault, t).unwrap();
     assert_eq!(rt.state(), State::Ready);
     assert!(rt.status().faults.is_empty());
-    rt.command(&Command::Enable, t).unwrap();
+    rt.command(&MasterToBoard::Enable, t).unwrap();
     assert_eq!(rt.state(), State::Enabling);
 }
 
@@ -405,7 +411,7 @@ fn a_safety_relay_that_disagrees_with_the_button_is_a_fault() {
     hw.relay_stuck_open = true;
     tick(&mut rt, &mut hw, &mut t, true);
     assert_eq!(
-        rt.command(&Command::Enable, t),
+        rt.command(&MasterToBoard::Enable, t),
         Err(NackReason::SafetyRelayMismatch)
     );
     for _ in 0..=debounce {
@@ -415,7 +421,7 @@ fn a_safety_relay_that_disagrees_with_the_button_is_a_fault() {
     assert_eq!(rt.status().fault.cause, FaultCause::SafetyRelayMismatch);
     assert_eq!(rt.status().fault.value, 2.0);
     assert_eq!(
-        rt.command(&Command::ClearFault, t),
+        rt.command(&MasterToBoard::ClearFault, t),
         Err(NackReason::FaultStillActive)
     );
 }
@@ -436,8 +442,8 @@ fn a_stuck_encoder_stops_with_sto_and_brakes() {
         r: nalgebra::Rotation3::identity(),
     });
     rt.command(
-        &Command::Target {
-            stamp_us: 10,
+        &MasterToBoard::PoseTarget {
+            timestamp_us: 10,
             position_m: p,
             rotation_vector_rad: r,
         },
@@ -466,7 +472,7 @@ fn a_stuck_encoder_stops_with_sto_and_brakes() {
     assert_eq!(st.fault.joint, 0);
     assert_eq!(st.stop, StopStatus::SafeTorqueOff);
     // The homing is lost: clearing goes to Disabled.
-    rt.command(&Command::ClearFault, t).unwrap();
+    rt.command(&MasterToBoard::ClearFault, t).unwrap();
     assert_eq!(rt.state(), State::Disabled);
     assert!(rt.status().warnings.contains(Warnings::NOT_HOMED));
 }
@@ -504,7 +510,9 @@ fn a_missed_deadline_is_a_fault_and_starves_the_watchdog() {
     let mut t = t0;
     for _ in 0..5 {
         t += 1000;
-        svc.runtime_mut().command(&Command::Heartbeat, t).unwrap();
+        svc.runtime_mut()
+            .command(&MasterToBoard::Heartbeat, t)
+            .unwrap();
         svc.begin(t, 0, control::estop::EStopTrip::NONE);
         svc.tick(&mut hw, t);
         assert!(svc.finish(t, cycles(300)).feed_watchdog);
@@ -534,7 +542,9 @@ fn a_missed_deadline_is_a_fault_and_starves_the_watchdog() {
     let mut t = t0;
     for k in 0..3 {
         t += 1000;
-        svc.runtime_mut().command(&Command::Heartbeat, t).unwrap();
+        svc.runtime_mut()
+            .command(&MasterToBoard::Heartbeat, t)
+            .unwrap();
         svc.begin(t, 0, control::estop::EStopTrip::NONE);
         svc.tick(&mut hw, t);
         let out = svc.finish(t, cycles(900));

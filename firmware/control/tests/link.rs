@@ -10,9 +10,9 @@
 //! session rules; the clutch, the reset acknowledgement and the fault log at the wire
 //! level; timestamps; status contents.
 
-use control::link::{geometry_reply, Command, Inbound, LinkRx, LinkTx, Request, FIRMWARE_VERSION};
+use control::link::{geometry_reply, Inbound, LinkRx, LinkTx, Request, FIRMWARE_VERSION};
+use control::modes::State;
 use control::runtime::Runtime;
-use control::state_machine::State;
 use control::targets::{TargetClock, TargetClockConfig};
 use control::telemetry::with_link;
 use control::wire::{guard_reason, pose_from_wire, refusal_reason};
@@ -114,7 +114,7 @@ impl<H> Board<H> {
             let reply = match inbound {
                 Inbound::Reply(r) => r,
                 Inbound::Request(req) => {
-                    let result = self.rt.command(&req.command, self.now);
+                    let result = self.rt.command(&req.message, self.now);
                     let mut status = self.rt.status();
                     status.link = self.rx.counters();
                     req.reply(result, &status, FIRMWARE_VERSION)
@@ -538,7 +538,7 @@ fn bad_frames_are_counted_and_dropped() {
         got,
         vec![Inbound::Request(Request {
             seq: 2,
-            command: Command::Heartbeat
+            message: MasterToBoard::Heartbeat
         })]
     );
     assert!(feed(&mut rx, &hb).is_empty());
@@ -578,7 +578,7 @@ fn bad_frames_do_not_reach_the_runtime() {
     let out = b.receive(&home);
     assert_eq!(m.receive(&out).len(), 1);
     assert_eq!(b.rt.state(), State::Homing);
-    b.rt.command(&Command::Disable, 0).unwrap();
+    b.rt.command(&MasterToBoard::Disable, 0).unwrap();
     assert!(b.receive(&home).is_empty(), "replay ignored");
     assert_eq!(b.rt.state(), State::Disabled);
     assert_eq!(b.rx.counters().out_of_order, 1);

@@ -4,330 +4,26 @@
     clippy::indexing_slicing,
     clippy::needless_range_loop
 )]
-//! The state machine (every state x every event), the homing procedure (fake joints and
-//! the plant model) and the runtime from boot to following a target.
+//! The homing procedure (fake joints and the plant model) and the runtime from boot to
+//! following a target.
 
 use control::homing::{
     HomeMethod, Homing, HomingConfig, HomingError, HomingPhase, HomingStatus, JointHoming,
     JointReferences, Mechanics,
 };
-use control::link::Command;
+use control::modes::{ModeKind, State};
 use control::runtime::Runtime;
-use control::state_machine::{next_state, Event, Refusal, State, StateMachine, ALL_STATES};
 use control::Sensing;
 use hal::{Brakes, CurrentSense, LimitSwitches, MotorOutputs, QuadratureCounter};
 use kinematics_core::{Branch, Pose, RsprGeometry};
-use master_link::{FaultCause, Faults, NackReason, ResetCause};
+use master_link::MasterToBoard;
+use master_link::{NackReason, ResetCause};
 use nalgebra::{Rotation3, Vector3};
 use servo::encoder::{EncoderConfig, LEG_COUNTS_PER_M, LINK_COUNTS_PER_RAD};
 use servo::ServoConfig;
 
 mod common;
 use common::PlantHw;
-
-// ---------------------------------------------------------------------------------------
-// The transition table
-// ---------------------------------------------------------------------------------------
-
-/// A machine in `state`; `Fault` reached from `Ready` (homed) or `Disabled` (not homed).
-fn machine_in(state: State, homed: bool) -> StateMachine {
-    let mut m = StateMachine::new();
-    let home = Event::Home { rehome: false };
-    let estop = Event::Fault(FaultCause::EmergencyStopButton);
-    let path: &[Event] = match (state, homed) {
-        (State::Boot, _) => &[],
-        (State::Disabled, _) => &[Event::BootDone],
-        (State::Homing, _) => &[Event::BootDone, home],
-        (State::Ready, _) => &[Event::BootDone, home, Event::HomingDone],
-        (State::Enabling, _) => &[Event::BootDone, home, Event::HomingDone, Event::Enable],
-        (State::Enabled, _) => &[
-            Event::BootDone,
-            home,
-            Event::HomingDone,
-            Event::Enable,
-            Event::EnableDone,
-        ],
-        (State::Fault, true) => &[Event::BootDone, home, Event::HomingDone, estop],
-        (State::Fault, false) => &[Event::BootDone, estop],
-    };
-    for ev in path {
-        m.handle(*ev).unwrap();
-    }
-    assert_eq!(m.state(), state);
-    m
-}
-
-/// The expected table, written out independently of `next_state`, one row per entry of
-/// `Event::ALL`. Columns: Boot, Disabled, Homing, Ready (homed), Enabling, Enabled,
-/// Fault (homed), Fault (not homed). `=` keeps the state, `!X` refuses with X.
-const TABLE: [(&str, [&str; 8]); 19] = [
-    (
-        "BootDone",
-        ["Dis", "!NA", "!NA", "!NA", "!NA", "!NA", "!NA", "!NA"],
-    ),
-    (
-        "Enable",
-        [
-            "!Boot",
-            "!NotHomed",
-            "!Busy",
-            "Enb",
-            "=",
-            "=",
-            "!Faulted",
-            "!Faulted",
-        ],
-    ),
-    (
-        "EnableDone",
-        ["!Boot", "!NA", "!NA", "!NA", "Ena", "!NA", "!NA", "!NA"],
-    ),
-    (
-        "Disable",
-        [
-            "!Boot", "=", "Dis", "=", "Rdy", "Rdy", "!Faulted", "!Faulted",
-        ],
-    ),
-    (
-        "Home",
-        [
-            "!Boot", "Hom", "!Busy", "!Homed", "!NA", "!NA", "!Faulted", "!Faulted",
-        ],
-    ),
-    (
-        "Home rehome",
-        [
-            "!Boot", "Hom", "!Busy", "Hom", "!NA", "!NA", "!Faulted", "!Faulted",
-        ],
-    ),
-    (
-        "HomingDone",
-        ["!Boot", "!NA", "Rdy", "!NA", "!NA", "!NA", "!NA", "!NA"],
-    ),
-    ("Clutch on", ["="; 8]),
-    ("Clutch off", ["="; 8]),
-    ("OperatorPresent", ["="; 8]),
-    ("OperatorAbsent", ["="; 8]),
-    ("HeartbeatLost", ["="; 8]),
-    ("HeartbeatRestored", ["="; 8]),
-    ("Fault e-stop", ["Flt"; 8]),
-    ("Fault following", ["Flt"; 8]),
-    ("Fault homing", ["Flt"; 8]),
-    (
-        "Fault heartbeat",
-        ["=", "=", "Flt", "=", "Flt", "Flt", "Flt", "Flt"],
-    ),
-    (
-        "ClearFault",
-        ["!Boot", "=", "=", "=", "=", "=", "Rdy", "Dis"],
-    ),
-    (
-        "ClearFault active",
-        [
-            "!Boot",
-            "=",
-            "=",
-            "=",
-            "=",
-            "=",
-            "!StillActive",
-            "!StillActive",
-        ],
-    ),
-];
-
-fn parse(code: &str, state: State) -> Result<State, Refusal> {
-    Ok(match code {
-        "=" => state,
-        "Dis" => State::Disabled,
-        "Hom" => State::Homing,
-        "Rdy" => State::Ready,
-        "Enb" => State::Enabling,
-        "Ena" => State::Enabled,
-        "Flt" => State::Fault,
-        "!NA" => return Err(Refusal::NotAllowed),
-        "!Boot" => return Err(Refusal::Booting),
-        "!NotHomed" => return Err(Refusal::NotHomed),
-        "!Homed" => return Err(Refusal::AlreadyHomed),
-        "!Busy" => return Err(Refusal::Busy),
-        "!Faulted" => return Err(Refusal::Faulted),
-        "!StillActive" => return Err(Refusal::FaultStillActive),
-        other => panic!("bad table code {other}"),
-    })
-}
-
-/// Property: every state times every event gives the written-out table's state or
-/// refusal; a refusal changes nothing but the refusal count; only homing, enabling and
-/// enabled drive; faults are latched exactly in `Fault`.
-#[test]
-fn every_state_times_every_event() {
-    let columns = [
-        (State::Boot, false),
-        (State::Disabled, false),
-        (State::Homing, false),
-        (State::Ready, true),
-        (State::Enabling, true),
-        (State::Enabled, true),
-        (State::Fault, true),
-        (State::Fault, false),
-    ];
-    let mut checked = 0;
-    assert_eq!(TABLE.len(), Event::ALL.len());
-    for ((name, row), event) in TABLE.iter().zip(Event::ALL) {
-        for ((state, homed), code) in columns.iter().zip(row.iter()) {
-            let expected = parse(code, *state);
-            let mut m = machine_in(*state, *homed);
-            let before = m;
-            let got = m.handle(event);
-            let ctx = format!("{name} in {state:?} (homed {homed})");
-            match (expected, got) {
-                (Ok(to), Ok(t)) => {
-                    assert_eq!(t.to, to, "{ctx}");
-                    assert_eq!(t.from, *state, "{ctx}");
-                    assert_eq!(m.state(), to, "{ctx}");
-                }
-                (Err(r), Err(g)) => {
-                    assert_eq!(g, r, "{ctx}");
-                    assert_eq!(m.state(), before.state(), "{ctx}");
-                    assert_eq!(m.faults(), before.faults(), "{ctx}");
-                    assert_eq!(m.refusals(), before.refusals() + 1, "{ctx}");
-                }
-                (e, g) => panic!("{ctx}: expected {e:?}, got {g:?}"),
-            }
-            assert_eq!(
-                next_state(*state, event, *homed),
-                got.map(|t| t.to),
-                "{ctx}"
-            );
-            assert_eq!(
-                m.drives_on(),
-                matches!(m.state(), State::Homing | State::Enabling | State::Enabled),
-                "{ctx}"
-            );
-            if m.state() == State::Fault {
-                assert!(!m.faults().is_empty(), "{ctx}");
-            } else {
-                assert!(m.faults().is_empty(), "{ctx}");
-            }
-            checked += 1;
-        }
-    }
-    assert_eq!(checked, 19 * 8);
-    assert_eq!(ALL_STATES.len(), 7);
-}
-
-#[test]
-fn refusals_map_to_nack_reasons() {
-    let pairs = [
-        (Refusal::Booting, NackReason::Busy),
-        (Refusal::Busy, NackReason::Busy),
-        (Refusal::NotHomed, NackReason::NotHomed),
-        (Refusal::AlreadyHomed, NackReason::AlreadyHomed),
-        (Refusal::Faulted, NackReason::Faulted),
-        (Refusal::FaultStillActive, NackReason::FaultStillActive),
-        (Refusal::NotAllowed, NackReason::InvalidState),
-        (Refusal::Holding, NackReason::InvalidState),
-        (Refusal::OperatorAbsent, NackReason::OperatorAbsent),
-        (Refusal::UnsafeStart, NackReason::OutOfWorkspace),
-        (
-            Refusal::ResetNotAcknowledged,
-            NackReason::ResetNotAcknowledged,
-        ),
-        (
-            Refusal::SafetyRelayMismatch,
-            NackReason::SafetyRelayMismatch,
-        ),
-    ];
-    for (r, n) in pairs {
-        assert_eq!(NackReason::from(r), n);
-    }
-}
-
-/// Property: every fault cause latches its own bit; the causes that make the encoder
-/// reference doubtful lose the homing, the others keep it.
-#[test]
-fn fault_bits_and_homing_validity() {
-    for cause in FaultCause::ALL {
-        let mut m = machine_in(State::Enabled, true);
-        m.handle(Event::Fault(cause)).unwrap();
-        assert_eq!(m.state(), State::Fault, "{cause:?}");
-        assert_eq!(m.faults(), cause.bit(), "{cause:?}");
-        let loses = cause.bit().intersects(
-            Faults::FOLLOWING_ERROR | Faults::ENCODER | Faults::HOMING_FAILED | Faults::INTERNAL,
-        );
-        assert_eq!(m.homed(), !loses, "{cause:?}");
-        m.handle(Event::ClearFault {
-            cause_active: false,
-        })
-        .unwrap();
-        let back = if loses { State::Disabled } else { State::Ready };
-        assert_eq!((m.state(), m.faults()), (back, Faults::NONE), "{cause:?}");
-    }
-    // Faults add up while latched.
-    let mut m = machine_in(State::Enabled, true);
-    m.handle(Event::Fault(FaultCause::EmergencyStopButton))
-        .unwrap();
-    m.handle(Event::Fault(FaultCause::Overcurrent)).unwrap();
-    assert_eq!(m.faults(), Faults::EMERGENCY_STOP | Faults::OVERCURRENT);
-    assert_eq!(
-        m.handle(Event::ClearFault { cause_active: true }),
-        Err(Refusal::FaultStillActive)
-    );
-    // `None` latches INTERNAL.
-    let mut m = machine_in(State::Ready, true);
-    m.handle(Event::Fault(FaultCause::None)).unwrap();
-    assert_eq!(m.faults(), Faults::INTERNAL);
-}
-
-#[test]
-fn clutch_operator_and_heartbeat_hold_while_enabled() {
-    let mut m = machine_in(State::Ready, true);
-    // The pedal is remembered in any state; it only holds while enabled.
-    m.handle(Event::Clutch { engaged: true }).unwrap();
-    assert!(m.clutch_engaged());
-    assert_eq!(m.hold(), None);
-    m.handle(Event::Enable).unwrap();
-    assert_eq!(m.hold(), None, "enabling: no hold yet");
-    m.handle(Event::EnableDone).unwrap();
-    let h = m.hold().unwrap();
-    assert!(h.clutch && !h.heartbeat && !h.operator_absent);
-    assert_eq!(m.target_gate(), Err(Refusal::Holding));
-    m.handle(Event::Clutch { engaged: false }).unwrap();
-    assert!(m.following());
-    assert_eq!(m.target_gate(), Ok(()));
-    // The operator lets go: hold, with its own refusal.
-    m.handle(Event::OperatorPresent { present: false }).unwrap();
-    assert!(m.hold().unwrap().operator_absent);
-    assert_eq!(m.target_gate(), Err(Refusal::OperatorAbsent));
-    m.handle(Event::OperatorPresent { present: true }).unwrap();
-    assert!(m.following());
-    // Heartbeat hold, ended by a heartbeat.
-    m.handle(Event::HeartbeatLost).unwrap();
-    assert!(m.hold().unwrap().heartbeat);
-    assert_eq!(m.state(), State::Enabled);
-    m.handle(Event::HeartbeatRestored).unwrap();
-    assert!(m.following());
-    // Hold then loss: a fault (its stop is SS1), homing kept.
-    m.handle(Event::HeartbeatLost).unwrap();
-    m.handle(Event::Fault(FaultCause::HeartbeatTimeout))
-        .unwrap();
-    assert_eq!(m.state(), State::Fault);
-    assert_eq!(m.faults(), Faults::HEARTBEAT_TIMEOUT);
-    assert!(m.homed());
-    assert_eq!(m.hold(), None);
-    let gates = [
-        (State::Boot, Err(Refusal::Booting)),
-        (State::Disabled, Err(Refusal::NotHomed)),
-        (State::Homing, Err(Refusal::Busy)),
-        (State::Ready, Err(Refusal::NotAllowed)),
-        (State::Enabling, Err(Refusal::Busy)),
-        (State::Enabled, Ok(())),
-        (State::Fault, Err(Refusal::Faulted)),
-    ];
-    for (s, g) in gates {
-        assert_eq!(machine_in(s, true).target_gate(), g, "{s:?}");
-    }
-}
 
 // ---------------------------------------------------------------------------------------
 // Homing against fake joints
@@ -801,7 +497,7 @@ fn runtime_and_plant() -> (Runtime<f64, RsprGeometry<f64>>, PlantHw) {
 fn run(rt: &mut Runtime<f64, RsprGeometry<f64>>, hw: &mut PlantHw, t: &mut u64, ms: u64) {
     for _ in 0..ms {
         *t += 1000;
-        rt.command(&Command::Heartbeat, *t).unwrap();
+        rt.command(&MasterToBoard::Heartbeat, *t).unwrap();
         rt.tick(hw, *t);
         hw.step_ms();
     }
@@ -824,10 +520,10 @@ fn run_while(
 
 /// Boots, homes (with the park move) and enables (brake check and release).
 /// The `Target` command for `pose` (stamped 5 s on the master's clock).
-fn target_command(pose: &Pose<f64>) -> Command {
+fn target_command(pose: &Pose<f64>) -> MasterToBoard {
     let (p, r) = control::wire::pose_to_wire(pose);
-    Command::Target {
-        stamp_us: 5_000_000,
+    MasterToBoard::PoseTarget {
+        timestamp_us: 5_000_000,
         position_m: p,
         rotation_vector_rad: r,
     }
@@ -836,13 +532,17 @@ fn target_command(pose: &Pose<f64>) -> Command {
 fn home_and_enable(rt: &mut Runtime<f64, RsprGeometry<f64>>, hw: &mut PlantHw, t: &mut u64) {
     rt.boot_done(hw.counts(), *t, ResetCause::PowerOn, None)
         .unwrap();
-    rt.command(&Command::Home { rehome: false }, *t).unwrap();
+    rt.command(&MasterToBoard::Home { rehome: false }, *t)
+        .unwrap();
     run_while(rt, hw, t, State::Homing, 60_000);
     assert_eq!(rt.state(), State::Ready, "{:?}", rt.status().fault);
     // An enable while the stop after homing still applies the brakes is refused.
-    assert_eq!(rt.command(&Command::Enable, *t), Err(NackReason::Busy));
+    assert_eq!(
+        rt.command(&MasterToBoard::Enable, *t),
+        Err(NackReason::Busy)
+    );
     run(rt, hw, t, 100);
-    rt.command(&Command::Enable, *t).unwrap();
+    rt.command(&MasterToBoard::Enable, *t).unwrap();
     assert_eq!(rt.state(), State::Enabling);
     run_while(rt, hw, t, State::Enabling, 1_000);
     assert_eq!(rt.state(), State::Enabled, "{:?}", rt.status().fault);
@@ -854,14 +554,18 @@ fn runtime_boots_homes_parks_enables_and_follows() {
     let mut t = 0;
     assert_eq!(rt.state(), State::Boot);
     assert_eq!(
-        rt.command(&Command::Home { rehome: false }, t),
+        rt.command(&MasterToBoard::Home { rehome: false }, t),
         Err(NackReason::Busy)
     );
     rt.boot_done(hw.counts(), t, ResetCause::PowerOn, None)
         .unwrap();
     assert_eq!(rt.state(), State::Disabled);
-    assert_eq!(rt.command(&Command::Enable, t), Err(NackReason::NotHomed));
-    rt.command(&Command::Home { rehome: false }, t).unwrap();
+    assert_eq!(
+        rt.command(&MasterToBoard::Enable, t),
+        Err(NackReason::NotHomed)
+    );
+    rt.command(&MasterToBoard::Home { rehome: false }, t)
+        .unwrap();
     run_while(&mut rt, &mut hw, &mut t, State::Homing, 60_000);
     assert_eq!(rt.state(), State::Ready, "{:?}", rt.status().fault);
     // SS1: the brakes first, the drives off once they hold.
@@ -886,11 +590,11 @@ fn runtime_boots_homes_parks_enables_and_follows() {
     }
     // Homing a homed robot again needs the confirmation.
     assert_eq!(
-        rt.command(&Command::Home { rehome: false }, t),
+        rt.command(&MasterToBoard::Home { rehome: false }, t),
         Err(NackReason::AlreadyHomed)
     );
     // Enable: the brake check, then the release, then following.
-    rt.command(&Command::Enable, t).unwrap();
+    rt.command(&MasterToBoard::Enable, t).unwrap();
     assert_eq!(rt.state(), State::Enabling);
     run(&mut rt, &mut hw, &mut t, 20);
     assert!(
@@ -918,9 +622,10 @@ fn runtime_boots_homes_parks_enables_and_follows() {
         rt.measured().pose.unwrap().t
     );
     // Clutch engaged: the master is decoupled, targets refused, the robot holds (SS2).
-    rt.command(&Command::Clutch { engaged: true }, t).unwrap();
-    let cmd2 = Command::Target {
-        stamp_us: 5_100_000,
+    rt.command(&MasterToBoard::Clutch { engaged: true }, t)
+        .unwrap();
+    let cmd2 = MasterToBoard::PoseTarget {
+        timestamp_us: 5_100_000,
         position_m: [0.0, 0.0, 0.160],
         rotation_vector_rad: [0.0; 3],
     };
@@ -928,18 +633,20 @@ fn runtime_boots_homes_parks_enables_and_follows() {
     run(&mut rt, &mut hw, &mut t, 200);
     assert_eq!(rt.status().stop, master_link::StopStatus::SafeOperatingStop);
     assert!((rt.measured().pose.unwrap().t - target.t).norm() < 0.2e-3);
-    rt.command(&Command::Clutch { engaged: false }, t).unwrap();
+    rt.command(&MasterToBoard::Clutch { engaged: false }, t)
+        .unwrap();
     run(&mut rt, &mut hw, &mut t, 2);
     assert_eq!(rt.status().stop, master_link::StopStatus::None);
     // Disable: SS1 (brakes, then torque off), homing kept.
-    rt.command(&Command::Disable, t).unwrap();
+    rt.command(&MasterToBoard::Disable, t).unwrap();
     run(&mut rt, &mut hw, &mut t, 100);
     assert_eq!(rt.state(), State::Ready);
     assert!(!hw.enabled && !hw.brakes_released);
     assert!(rt.controller().is_none());
     let st = rt.status();
     assert_eq!(st.state, master_link::RobotState::Ready);
-    assert_eq!(st.stop, master_link::StopStatus::SafeStop1Done);
+    // The SS1 has ended: in Ready no stop is in force (the drives are off by the mode).
+    assert_eq!(st.stop, master_link::StopStatus::None);
     assert!((f64::from(st.position_m[2]) - target.t.z).abs() < 0.3e-3);
 }
 
@@ -951,7 +658,7 @@ fn runtime_boots_homes_parks_enables_and_follows() {
 fn jog_moves_one_joint_and_stops_when_the_jogs_stop() {
     let (mut rt, mut hw) = runtime_and_plant();
     let mut t = 0;
-    let jog = |v: f32| Command::Jog {
+    let jog = |v: f32| MasterToBoard::Jog {
         joint: 0,
         velocity: v,
     };
@@ -961,7 +668,7 @@ fn jog_moves_one_joint_and_stops_when_the_jogs_stop() {
     let q0 = rt.measured().q;
     assert_eq!(
         rt.command(
-            &Command::Jog {
+            &MasterToBoard::Jog {
                 joint: 6,
                 velocity: 0.001
             },
@@ -1039,14 +746,14 @@ fn measured_joints_are_the_load_side_through_disable_and_enable() {
         joint < 15e-6,
         "measured joints {joint} m from the load side"
     );
-    rt.command(&Command::Disable, t).unwrap();
+    rt.command(&MasterToBoard::Disable, t).unwrap();
     run(&mut rt, &mut hw, &mut t, 100);
     assert_eq!(rt.state(), State::Ready);
     let (joint, _) = worst(&rt, &hw);
     assert_eq!(rt.measured().backlash, offsets, "kept while disabled");
     assert!(joint < 15e-6, "disabled: {joint} m from the load side");
     let (motors, truth) = (rt.measured().motor, hw.plant.joint_positions());
-    rt.command(&Command::Enable, t).unwrap();
+    rt.command(&MasterToBoard::Enable, t).unwrap();
     run_while(&mut rt, &mut hw, &mut t, State::Enabling, 1_000);
     assert_eq!(rt.state(), State::Enabled, "{:?}", rt.status().fault);
     run(&mut rt, &mut hw, &mut t, 300);
@@ -1074,19 +781,27 @@ fn hello_forgets_the_previous_masters_clutch_and_presence() {
     let (mut rt, mut hw) = runtime_and_plant();
     let mut t = 0;
     home_and_enable(&mut rt, &mut hw, &mut t);
-    rt.command(&Command::Clutch { engaged: true }, t).unwrap();
-    rt.command(&Command::OperatorPresent { present: false }, t)
+    rt.command(&MasterToBoard::Clutch { engaged: true }, t)
+        .unwrap();
+    rt.command(&MasterToBoard::OperatorPresent { present: false }, t)
         .unwrap();
     run(&mut rt, &mut hw, &mut t, 200);
     assert_eq!(rt.status().stop, master_link::StopStatus::SafeOperatingStop);
-    assert!(rt.machine().clutch_engaged());
-    rt.command(&Command::Hello { session: 7 }, t).unwrap();
-    assert!(!rt.machine().clutch_engaged());
-    assert_eq!(rt.machine().hold(), None);
+    assert!(rt.session().clutch_engaged());
+    rt.command(
+        &MasterToBoard::Hello {
+            protocol_version: master_link::PROTOCOL_VERSION,
+            nonce: 7,
+        },
+        t,
+    )
+    .unwrap();
+    assert!(!rt.session().clutch_engaged());
+    assert_ne!(rt.mode().kind(), ModeKind::Holding);
     run(&mut rt, &mut hw, &mut t, 2);
     assert_eq!(rt.status().stop, master_link::StopStatus::None);
-    let cmd = Command::Target {
-        stamp_us: 9_000_000,
+    let cmd = MasterToBoard::PoseTarget {
+        timestamp_us: 9_000_000,
         position_m: [0.001, 0.0, 0.160],
         rotation_vector_rad: [0.0; 3],
     };
@@ -1113,7 +828,7 @@ fn an_enable_at_the_workspace_edge_resumes_from_the_held_setpoint() {
     };
     rt.command(&target_command(&target), t).unwrap();
     run(&mut rt, &mut hw, &mut t, 4000);
-    rt.command(&Command::Disable, t).unwrap();
+    rt.command(&MasterToBoard::Disable, t).unwrap();
     run(&mut rt, &mut hw, &mut t, 200);
     assert_eq!(rt.state(), State::Ready);
     let x_at = |rt: &mut Runtime<f64, RsprGeometry<f64>>, hw: &mut PlantHw, t: &mut u64| {
@@ -1148,7 +863,7 @@ fn an_enable_at_the_workspace_edge_resumes_from_the_held_setpoint() {
         "the measured pose {beyond} is not beyond the edge"
     );
     let before = hw.plant.joint_positions();
-    rt.command(&Command::Enable, t)
+    rt.command(&MasterToBoard::Enable, t)
         .expect("an enable a count beyond the edge where the robot was held");
     run_while(&mut rt, &mut hw, &mut t, State::Enabling, 1_000);
     assert_eq!(rt.state(), State::Enabled, "{:?}", rt.status().fault);
@@ -1161,13 +876,13 @@ fn an_enable_at_the_workspace_edge_resumes_from_the_held_setpoint() {
     println!("enabled: the joints moved at most {moved:.2} counts");
     assert!(moved <= 3.0, "the joints moved {moved} counts");
     // Disabled again, the motors settled ten counts beyond: refused.
-    rt.command(&Command::Disable, t).unwrap();
+    rt.command(&MasterToBoard::Disable, t).unwrap();
     run(&mut rt, &mut hw, &mut t, 200);
     assert_eq!(rt.state(), State::Ready);
     hw.count_offset = best.0.map(|o| o * 5);
     run(&mut rt, &mut hw, &mut t, 1);
     assert_eq!(
-        rt.command(&Command::Enable, t),
+        rt.command(&MasterToBoard::Enable, t),
         Err(NackReason::OutOfWorkspace)
     );
 }

@@ -32,7 +32,7 @@
 
 use num_traits::Float;
 
-use crate::config::{is_leg, Check, ConfigError};
+use crate::checks::{is_leg, Check, ConfigError};
 use crate::num::{bound, lit, max_of, valid_dt};
 use crate::NUM_JOINTS;
 

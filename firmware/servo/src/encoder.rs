@@ -20,7 +20,7 @@
 
 use num_traits::Float;
 
-use crate::config::{is_leg, Check, ConfigError};
+use crate::checks::{is_leg, Check, ConfigError};
 use crate::num::{from_i64, lit};
 use crate::NUM_JOINTS;
 use hal::QuadratureCounter;

@@ -63,6 +63,7 @@
 )]
 
 pub mod backlash;
+mod checks;
 pub mod config;
 pub mod encoder;
 pub mod joint_servo;

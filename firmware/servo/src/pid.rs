@@ -28,7 +28,7 @@
 
 use num_traits::Float;
 
-use crate::config::{is_leg, Check, ConfigError};
+use crate::checks::{is_leg, Check, ConfigError};
 use crate::num::{bound, bound_below, clamp, clamp_sym, lit, sane_limit, sign, valid_dt};
 use crate::NUM_JOINTS;
 

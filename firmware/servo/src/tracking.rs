@@ -16,7 +16,7 @@ use core::fmt;
 
 use num_traits::Float;
 
-use crate::config::{is_leg, Check, ConfigError};
+use crate::checks::{is_leg, Check, ConfigError};
 use crate::num::{lit, sign, valid_dt};
 use crate::{joint_name, NUM_JOINTS};
 

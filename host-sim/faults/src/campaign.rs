@@ -3,6 +3,7 @@
 //! in-process master ([`simulation::bench`]), with what the board noticed, when, how it
 //! reacted and how far the platform moved afterwards.
 
+use control::modes::ModeKind;
 use control::stops::StopCategory;
 use control::ToolLoad;
 use master_link::{BoardToMaster, FaultCause, MasterToBoard, ResetCause, RobotState, StopStatus};
@@ -301,7 +302,7 @@ impl Detector {
             }
             Detection::HeartbeatHold => {
                 let rt = b.board.runtime();
-                let hold = rt.machine().hold().is_some_and(|h| h.heartbeat)
+                let hold = (rt.mode().kind() == ModeKind::Holding && rt.session().hold().heartbeat)
                     || rt.state() == RobotState::Fault;
                 hold.then(|| "heartbeat late: hold".to_string())
             }
@@ -389,7 +390,7 @@ fn running_cell(kind: FaultKind, condition: Condition, b: &mut Bench) -> Result<
         let rt = b.board.runtime();
         let currents = rt.inputs().currents;
         for (j, from) in at_limit_from.iter_mut().enumerate() {
-            let at = currents[j].abs() >= 0.9 * rt.current().peak_current(j);
+            let at = currents[j].abs() >= 0.9 * rt.monitors().current.peak_current(j);
             *from = match (*from, at) {
                 (None, true) => Some(now),
                 (f, true) => f,
@@ -400,7 +401,7 @@ fn running_cell(kind: FaultKind, condition: Condition, b: &mut Bench) -> Result<
             after_injection = after_injection.max((b.board.truth().pose.t - sp).norm());
         }
         if let (None, Some((j, frac))) = (shows_at, exp.shows_at_current) {
-            if currents[j].abs() > frac * rt.current().peak_current(j) {
+            if currents[j].abs() > frac * rt.monitors().current.peak_current(j) {
                 shows_at = Some(now);
             }
         }

@@ -25,7 +25,7 @@
 use std::collections::VecDeque;
 
 use control::estop::EStopLatch;
-use control::link::{Command, Inbound, LinkRx, LinkTx, Request};
+use control::link::{Inbound, LinkRx, LinkTx, Request};
 use control::runtime::{reference_config_for, reference_mechanics, Runtime, RuntimeConfig};
 use control::service::{ServiceConfig, TickOutcome, TickService};
 use control::telemetry::with_link;
@@ -36,7 +36,9 @@ use hal::{
 use kinematics_core::guards::Limits;
 use kinematics_core::statics::forces_with_inv_cond;
 use kinematics_core::{forward, inverse, jacobian, Branch, FkConfig, Pose, RsprGeometry, Wrench};
-use master_link::{BoardToMaster, FirmwareVersion, NackReason, ResetCause, MAX_FRAME_LEN};
+use master_link::{
+    BoardToMaster, FirmwareVersion, MasterToBoard, NackReason, ResetCause, MAX_FRAME_LEN,
+};
 use nalgebra::Vector3;
 use plant::{JointFaults, Plant, PlantConfig, PlantError, NUM_JOINTS};
 use thiserror::Error;
@@ -51,7 +53,7 @@ pub enum BoardSimError {
     #[error("the central configuration has no inverse kinematics: {0}")]
     Central(kinematics_core::IkError),
     #[error("the board application refused its configuration: {0:?}")]
-    Runtime(control::homing::HomingSetupError),
+    Runtime(control::runtime::RuntimeError),
     #[error("the true pose (forward kinematics of the plant's joints) failed: {0:?}")]
     TruePose(kinematics_core::FkError),
 }
@@ -550,7 +552,7 @@ impl BoardSim {
                     }
                 }
                 Some(Inbound::Request(req)) => {
-                    if req.command == Command::EmergencyStop {
+                    if req.message == MasterToBoard::EmergencyStop {
                         self.hw.force_safe();
                         self.latch.trip_message();
                     }

@@ -87,7 +87,7 @@ fn pushing_into_a_wall_stays_within_the_force_limits_and_trips_the_overload() {
         for j in 0..6 {
             peak_motor[j] = peak_motor[j].max(truth.peak_motor_effort[j]);
             peak_transmitted[j] = peak_transmitted[j].max(truth.peak_transmitted[j]);
-            let at = rt.inputs().currents[j].abs() >= 0.9 * rt.current().peak_current(j);
+            let at = rt.inputs().currents[j].abs() >= 0.9 * rt.monitors().current.peak_current(j);
             at_limit_from[j] = match (at_limit_from[j], at) {
                 (None, true) => Some(b.now_us()),
                 (f, true) => f,

@@ -473,9 +473,9 @@ fn digest(out: &Outcome) -> u64 {
     }
     let s = &out.summary;
     eat(s.control_ticks);
-    eat(s.supervisor.targets_sent as u64);
-    eat(s.supervisor.accepted as u64);
-    eat(s.supervisor.refused.total as u64);
+    eat(s.supervisor.targets_sent);
+    eat(u64::from(s.supervisor.accepted));
+    eat(u64::from(s.supervisor.refused.total));
     h
 }
 

@@ -20,7 +20,7 @@ use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
 use control::estop::{emergency_stop_message, EStopLatch};
 use control::faults::FaultLog;
-use control::link::{Command, Inbound, LinkRx, LinkTx, Request};
+use control::link::{Inbound, LinkRx, LinkTx, Request};
 use control::service::{TickOutcome, TickService};
 use control::telemetry::with_link;
 use control::Scalar;
@@ -340,7 +340,7 @@ pub async fn run_link_rx<R: ByteRx, K: SafeOutputs>(
                             }
                         }
                         Some(Inbound::Request(req)) => {
-                            if req.command == Command::EmergencyStop {
+                            if req.message == master_link::MasterToBoard::EmergencyStop {
                                 // Do not wait for the next tick.
                                 critical_section::with(|_| {
                                     emergency_stop_message(kill, &shared.estop)

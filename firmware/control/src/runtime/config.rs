@@ -1,0 +1,148 @@
+//! The runtime's settings, the reference robot's, and why a setting is refused.
+
+use core::fmt;
+
+use kinematics_core::{Branch, Mechanism, Pose};
+use servo::config::ConfigError;
+use servo::NUM_JOINTS;
+
+use crate::brakes::BrakeCheckConfig;
+use crate::controller::ControllerConfig;
+use crate::current::CurrentConfig;
+use crate::drive::to_array;
+use crate::heartbeat::{HeartbeatConfig, HeartbeatConfigError};
+use crate::homing::{HomingConfig, HomingError, HomingSetupError, Mechanics};
+use crate::monitors::{EncoderCheckConfig, PowerConfig};
+use crate::park::ParkConfig;
+use crate::scalar::Scalar;
+use crate::sensing::SensingError;
+use crate::stops::StopConfig;
+use crate::targets::TargetClockConfig;
+
+/// Everything the runtime needs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RuntimeConfig<S: Scalar> {
+    /// The control application (and the sensing's encoder and FK settings).
+    pub controller: ControllerConfig<S>,
+    /// Homing.
+    pub homing: HomingConfig<S>,
+    /// The board's mechanics (joint ranges).
+    pub mechanics: Mechanics<S>,
+    /// Heartbeat hold / disable times.
+    pub heartbeat: HeartbeatConfig,
+    /// Master target timestamps.
+    pub targets: TargetClockConfig,
+    /// Consecutive forward-kinematics failures that latch `FORWARD_KINEMATICS`.
+    pub fk_failures_to_fault: u32,
+    /// The stops' timing.
+    pub stops: StopConfig,
+    /// The brake check and release at enable.
+    pub brakes: BrakeCheckConfig<S>,
+    /// Motor currents: limits, I²t, trips.
+    pub current: CurrentConfig<S>,
+    /// Encoder plausibility.
+    pub encoder_check: EncoderCheckConfig<S>,
+    /// The power stage's supply range.
+    pub power: PowerConfig<S>,
+    /// Ticks the e-stop button and the safety relay may disagree (the relay's switching).
+    pub relay_debounce_ticks: u16,
+    /// The park move after homing (speeds, path check, settling).
+    pub park: ParkConfig<S>,
+}
+
+/// Why the runtime refuses its settings: each concern's own error.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RuntimeError {
+    /// The homing settings (the joint concerned).
+    Homing(HomingError),
+    /// The servo or encoder settings.
+    Servo(ConfigError),
+    /// The sensing (encoders, forward kinematics).
+    Sensing(SensingError),
+    /// The heartbeat's times.
+    Heartbeat(HeartbeatConfigError),
+    /// The control rate is outside 100 .. 10 000 Hz.
+    Rate,
+}
+
+impl fmt::Display for RuntimeError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            RuntimeError::Homing(e) => write!(f, "homing settings: {e:?}"),
+            RuntimeError::Servo(e) => write!(f, "servo settings: {e}"),
+            RuntimeError::Sensing(e) => write!(f, "sensing settings: {e:?}"),
+            RuntimeError::Heartbeat(_) => {
+                f.write_str("heartbeat: the hold time must be positive and below the disable time")
+            }
+            RuntimeError::Rate => f.write_str("the control rate must be within 100 .. 10000 Hz"),
+        }
+    }
+}
+
+impl From<HomingSetupError> for RuntimeError {
+    fn from(e: HomingSetupError) -> Self {
+        match e {
+            HomingSetupError::Homing(h) => RuntimeError::Homing(h),
+            HomingSetupError::Servo(s) => RuntimeError::Servo(s),
+        }
+    }
+}
+
+/// The reference robot's mechanics, placed around the guards' ranges `limits` (the
+/// supervisor keeps every setpoint inside them; thesis chapter 11): the legs' home
+/// switches 1 mm below the shortest stroke (143 mm for 144 .. 210 mm), the links' hard
+/// stops 5 deg beyond their largest angle below the central angles (85 deg for ±80 deg); a
+/// measured joint more than 2 mm or 3 deg beyond a guard range is a fault (the servo's
+/// following error and the backlash stay well inside), which puts the switch and the stop
+/// just outside the working range and inside the monitored one only while homing.
+pub fn reference_mechanics<S: Scalar>(
+    central: &[S; NUM_JOINTS],
+    limits: &kinematics_core::guards::Limits<S>,
+) -> Mechanics<S> {
+    let lit = kinematics_core::scalar::lit::<S>;
+    let deg = |d: f64| lit(d.to_radians());
+    let at = |j: usize| central.get(j).copied().unwrap_or_else(S::zero);
+    let [short, long] = limits.stroke;
+    let leg = [short - lit(0.002), long + lit(0.002)];
+    let reach = limits.link_angle_max + deg(3.0);
+    let link = |j: usize| [at(j) - reach, at(j) + reach];
+    Mechanics {
+        leg_switch_m: short - lit(0.001),
+        link_stop_below_central_rad: limits.link_angle_max + deg(5.0),
+        range: [leg, leg, leg, link(3), link(4), link(5)],
+    }
+}
+
+/// The default configuration of `robot` assembled on `branch` with the mechanics `mech`,
+/// resting at `rest` before homing (None: at its central configuration, where it parks):
+/// homing to the mechanics' switches and stops, parking at the central configuration.
+pub fn reference_config_for<S: Scalar, M: Mechanism<S>>(
+    robot: &M,
+    branch: Branch,
+    mech: Option<Mechanics<S>>,
+    rest: Option<[S; NUM_JOINTS]>,
+) -> Result<RuntimeConfig<S>, kinematics_core::IkError> {
+    let central = kinematics_core::inverse(robot, &Pose::central(robot.hc()), branch)?;
+    let central_q = to_array(&central.q());
+    let controller = ControllerConfig {
+        branch,
+        ..ControllerConfig::default()
+    };
+    let mech = mech.unwrap_or_else(|| reference_mechanics(&central_q, &controller.limits));
+    let rest = rest.unwrap_or(central_q);
+    Ok(RuntimeConfig {
+        encoder_check: EncoderCheckConfig::reference(controller.encoders.counts_per_unit),
+        controller,
+        homing: HomingConfig::for_mechanics(&mech, &central_q, &rest, Some(central_q)),
+        mechanics: mech,
+        heartbeat: HeartbeatConfig::default(),
+        targets: TargetClockConfig::default(),
+        fk_failures_to_fault: 10,
+        stops: StopConfig::default(),
+        brakes: BrakeCheckConfig::default(),
+        current: CurrentConfig::default(),
+        power: PowerConfig::default(),
+        relay_debounce_ticks: 20,
+        park: ParkConfig::default(),
+    })
+}

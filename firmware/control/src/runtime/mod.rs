@@ -1,0 +1,418 @@
+//! The runtime: the board application's one control object. It is always in one
+//! [`Mode`], which owns the data valid in it (the homing procedure, the park move, the
+//! brake check, the controller, the stop in force, the latched fault); around it the parts
+//! every mode uses: the sensing, the monitors, the master session, the output stage and the
+//! fault log. It turns master requests ([`Runtime::command`]) and control ticks
+//! ([`Runtime::tick`]) into outputs and a status.
+//!
+//! One tick, in every mode:
+//! ```text
+//! sense     counters -> extended counts -> motors -> joints (less the servo's backlash
+//!           offsets); currents, supply, driver fault, switches, e-stop button, relay
+//! monitors  safety chain, power stage, currents (overcurrent, overload, I²t), encoders
+//!           (jump, dead), joint ranges and limit switches, standstill of a safe operating
+//!           stop, forward kinematics, heartbeat: each finding is a fault with its cause,
+//!           joint and value, and the stop the stop table names for it
+//! mode      Homing: the homing step; Parking: the park move; Enabling: the brake check,
+//!           then the release; Following, Holding: the controller (supervisor -> six
+//!           servos); Stopping, Fault: the stop (the controller brakes, or zero duty)
+//! stop      the stop's progress (standstill ends a deceleration; the brakes' engage time
+//!           ends SS1)
+//! outputs   duties capped by the current limit -> PWM; brakes; torque on or off
+//! after     the measured pose (FK tracker), the controller's evaluation phase
+//! status    from what the tick computed (no second evaluation)
+//! ```
+//! Every change of mode goes through [`crate::modes::next`] (`transitions.rs`).
+
+mod config;
+mod mode;
+mod monitoring;
+mod motion;
+mod outputs;
+mod status;
+mod step;
+mod tick;
+mod transitions;
+
+pub use config::{reference_config_for, reference_mechanics, RuntimeConfig, RuntimeError};
+pub use mode::{Held, Jog, Latched, Mode, Stop, StopDrive, StopSequence};
+pub use monitoring::{Inputs, Monitors};
+pub use outputs::OutputStage;
+
+use hal::Hardware;
+use kinematics_core::Mechanism;
+use master_link::{
+    FaultCause, FaultLogPage, FaultRecord, MasterToBoard, NackReason, ResetCause, ResetStatus,
+    Warnings,
+};
+use servo::NUM_JOINTS;
+
+use crate::controller::Controller;
+use crate::drive::{to_array, TickReport};
+use crate::faults::FaultLog;
+use crate::homing::{Homing, HomingStatus};
+use crate::link::Answer;
+use crate::modes::{Context, Event, ModeKind, Refusal, State};
+use crate::monitors::Finding;
+use crate::scalar::Scalar;
+use crate::sensing::{Measured, Sensing};
+use crate::session::MasterSession;
+use crate::stops::StopPhase;
+
+/// What one runtime tick did.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RuntimeTick<S: Scalar> {
+    /// The state after the tick.
+    pub state: State,
+    /// The controller's report, when it ran.
+    pub control: Option<TickReport<S>>,
+    /// The homing status, when homing.
+    pub homing: Option<HomingStatus>,
+    /// The drives produced torque.
+    pub drives_on: bool,
+}
+
+/// The board application (see the module documentation).
+#[derive(Clone, Debug)]
+pub struct Runtime<S: Scalar, M: Mechanism<S> + Clone> {
+    robot: M,
+    cfg: RuntimeConfig<S>,
+    dt: S,
+    mode: Mode<S, M>,
+    sensing: Sensing<S, M>,
+    monitors: Monitors<S>,
+    session: MasterSession,
+    outputs: OutputStage<S>,
+    log: FaultLog,
+    reset: ResetStatus,
+    inputs: Inputs<S>,
+    warnings: Warnings,
+    /// Worst tick jitter and execution time, µs (from the board).
+    tick_timing: (u32, u32),
+    missed_ticks: u32,
+    /// The stored calibrated geometry's version (0: none), for `HelloReply`.
+    geometry_version: u32,
+    /// Refused events so far.
+    refusals: u32,
+}
+
+impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
+    /// In `Boot`; call [`Runtime::boot_done`] once the hardware is up.
+    pub fn new(robot: M, cfg: RuntimeConfig<S>, now_us: u64) -> Result<Self, RuntimeError> {
+        Homing::new(&cfg.homing, &cfg.controller.servo)?;
+        let sensing = Sensing::new(
+            robot.clone(),
+            cfg.controller.branch,
+            &cfg.controller.encoders,
+            cfg.controller.fk,
+        )
+        .map_err(|e| RuntimeError::Sensing(crate::sensing::SensingError::Config(e)))?;
+        cfg.heartbeat.validate().map_err(RuntimeError::Heartbeat)?;
+        let rate = cfg.controller.rate_hz;
+        let lit = kinematics_core::scalar::lit::<S>;
+        if !(rate >= lit(100.0) && rate <= lit(10_000.0)) {
+            return Err(RuntimeError::Rate);
+        }
+        Ok(Runtime {
+            robot,
+            dt: S::one() / rate,
+            mode: Mode::Boot,
+            sensing,
+            monitors: Monitors::new(&cfg),
+            session: MasterSession::new(cfg.heartbeat, cfg.targets, now_us),
+            outputs: OutputStage::new(),
+            log: FaultLog::new(),
+            reset: ResetStatus {
+                cause: ResetCause::PowerOn,
+                acknowledged: true,
+            },
+            inputs: Inputs::none(),
+            warnings: Warnings::NOT_HOMED,
+            tick_timing: (0, 0),
+            missed_ticks: 0,
+            geometry_version: 0,
+            refusals: 0,
+            cfg,
+        })
+    }
+
+    /// The mode, with its data.
+    pub fn mode(&self) -> &Mode<S, M> {
+        &self.mode
+    }
+    /// The state the status reports.
+    pub fn state(&self) -> State {
+        self.mode.kind().state(self.mode.homed())
+    }
+    /// The homing is trusted.
+    pub fn homed(&self) -> bool {
+        self.mode.homed()
+    }
+    /// The controller, while one exists (from the park move's end; while enabling,
+    /// enabled, or stopping under it).
+    pub fn controller(&self) -> Option<&Controller<S, M>> {
+        self.mode.controller()
+    }
+    /// The homing procedure, while homing.
+    pub fn homing(&self) -> Option<&Homing<S>> {
+        self.mode.homing()
+    }
+    /// The master session (clutch, dead-man, heartbeat, target clock).
+    pub fn session(&self) -> &MasterSession {
+        &self.session
+    }
+    /// The sensing (encoders, measured pose, counters).
+    pub fn sensing(&self) -> &Sensing<S, M> {
+        &self.sensing
+    }
+    /// This tick's measurements.
+    pub fn measured(&self) -> &Measured<S> {
+        self.sensing.measured()
+    }
+    /// The inputs read at the start of the last tick.
+    pub fn inputs(&self) -> &Inputs<S> {
+        &self.inputs
+    }
+    /// The monitors (currents, encoders, motors, power stage, safety chain).
+    pub fn monitors(&self) -> &Monitors<S> {
+        &self.monitors
+    }
+    /// The output stage (what was last written).
+    pub fn outputs(&self) -> &OutputStage<S> {
+        &self.outputs
+    }
+    /// The latched fault (`FaultRecord::NONE` unless in `Fault`).
+    pub fn latched_fault(&self) -> FaultRecord {
+        self.mode.latched().map_or(FaultRecord::NONE, |l| l.record)
+    }
+    /// The fault log.
+    pub fn fault_log(&self) -> &FaultLog {
+        &self.log
+    }
+    /// The last reset and its acknowledgement.
+    pub fn reset(&self) -> ResetStatus {
+        self.reset
+    }
+    /// The stored calibrated geometry's version (0: none), reported in `HelloReply`.
+    pub fn geometry_version(&self) -> u32 {
+        self.geometry_version
+    }
+    /// Records the version of the calibrated geometry the board holds in flash (at boot,
+    /// and after a store).
+    pub fn set_geometry_version(&mut self, version: u32) {
+        self.geometry_version = version;
+    }
+    /// The robot.
+    pub fn robot(&self) -> &M {
+        &self.robot
+    }
+    /// The configuration.
+    pub fn config(&self) -> &RuntimeConfig<S> {
+        &self.cfg
+    }
+    /// The stop in force (`Running` without one).
+    pub fn stop_phase(&self) -> StopPhase {
+        self.mode.stop_phase()
+    }
+    /// Refused events so far.
+    pub fn refusals(&self) -> u32 {
+        self.refusals
+    }
+    /// The joints the drives hold or aim at (the controller's setpoint), if any.
+    pub fn setpoint_joints(&self) -> Option<[S; NUM_JOINTS]> {
+        self.controller()
+            .map(|c| to_array(c.supervisor().setpoint_joints()))
+    }
+
+    /// What the table needs beyond the mode, now.
+    fn context(&self) -> Context {
+        let powered = match &self.mode {
+            Mode::Fault { stop, .. } => stop.powered(),
+            _ => false,
+        };
+        Context {
+            homed: self.mode.homed(),
+            powered,
+            cause_active: self.inputs.safety_chain_tripped(),
+            hold: self.session.hold(),
+        }
+    }
+
+    /// A received calibrated geometry (`StoreGeometry`): taken only with the drives off
+    /// and no stop in force (`Disabled`, `Ready`), checked against this robot's nominal
+    /// dimensions (e, rb = the length scale, rp, hc: an RSPR) and branch
+    /// (`geometry_store::check`). Its version when it may be stored; the target writes it
+    /// to flash outside the control tick.
+    pub fn check_geometry(
+        &self,
+        record: &master_link::GeometryRecord,
+    ) -> Result<u32, master_link::GeometryRefusal> {
+        if crate::modes::next(self.mode.kind(), Event::StoreGeometry, self.context()).is_err() {
+            return Err(master_link::GeometryRefusal::InvalidState);
+        }
+        let nominal = kinematics_core::RsprGeometry {
+            e: self.robot.e(),
+            rb: self.robot.length_scale(),
+            rp: self.robot.rp(),
+            hc: self.robot.hc(),
+        };
+        crate::geometry_store::check(
+            record,
+            &nominal,
+            self.cfg.controller.branch,
+            &crate::geometry_store::Plausible::default(),
+        )
+        .map(|_| record.version)
+    }
+
+    /// Power-up done: the encoders' current counters become the (unhomed) reference; the
+    /// reset cause the board read; the fault log kept across the reset, if any.
+    pub fn boot_done(
+        &mut self,
+        raw: [u16; NUM_JOINTS],
+        now_us: u64,
+        reset: ResetCause,
+        log: Option<FaultLog>,
+    ) -> Result<ModeKind, Refusal> {
+        self.sensing.boot(raw);
+        self.reset = ResetStatus {
+            cause: reset,
+            acknowledged: !reset.needs_acknowledgement(),
+        };
+        if let Some(log) = log {
+            self.log = log;
+        }
+        self.apply(Event::BootDone, now_us)
+    }
+
+    /// The fault of a missed control deadline (from the board's tick service).
+    pub fn deadline_missed(&mut self, late_us: u64, now_us: u64) {
+        let late = S::from(late_us).unwrap_or_else(S::infinity);
+        self.fault(Finding::board(FaultCause::DeadlineMissed, late), now_us);
+    }
+
+    /// A master request (after the link layer): the answer, or why it is refused.
+    pub fn command(&mut self, msg: &MasterToBoard, now_us: u64) -> Result<Answer, NackReason> {
+        match *msg {
+            MasterToBoard::Hello { nonce, .. } => {
+                // A new master: its predecessor's clutch and dead-man no longer hold.
+                self.apply(Event::Hello, now_us)?;
+                Ok(Answer::Hello {
+                    session: nonce,
+                    reset: self.reset,
+                    geometry_version: self.geometry_version,
+                })
+            }
+            MasterToBoard::Enable => self.ack(Event::Enable, now_us),
+            MasterToBoard::Disable => self.ack(Event::Disable, now_us),
+            MasterToBoard::Home { rehome } => self.ack(Event::Home { rehome }, now_us),
+            MasterToBoard::Clutch { engaged } => self.ack(Event::Clutch { engaged }, now_us),
+            MasterToBoard::OperatorPresent { present } => {
+                self.ack(Event::OperatorPresent { present }, now_us)
+            }
+            MasterToBoard::EmergencyStop => {
+                self.fault(
+                    Finding::board::<S>(FaultCause::EmergencyStopMessage, S::zero()),
+                    now_us,
+                );
+                Ok(Answer::Ack)
+            }
+            MasterToBoard::ClearFault => self.ack(Event::ClearFault, now_us),
+            MasterToBoard::AcknowledgeReset => {
+                self.reset.acknowledged = true;
+                Ok(Answer::Ack)
+            }
+            MasterToBoard::FaultLogRequest { first } => {
+                Ok(Answer::FaultLog(self.fault_log_page(first)))
+            }
+            MasterToBoard::Heartbeat => {
+                if let Some(ev) = self.session.beat(now_us) {
+                    let _ = self.apply(ev, now_us);
+                }
+                Ok(Answer::Ack)
+            }
+            MasterToBoard::StatusRequest => Ok(Answer::Status),
+            MasterToBoard::Jog { joint, velocity } => {
+                self.jog(joint, velocity, now_us).map(|()| Answer::Ack)
+            }
+            MasterToBoard::PoseTarget {
+                timestamp_us,
+                position_m,
+                rotation_vector_rad,
+            } => self
+                .target(timestamp_us, position_m, rotation_vector_rad, now_us)
+                .map(|()| Answer::Ack),
+            // The link hands a geometry to the target's store, never to the tick.
+            MasterToBoard::StoreGeometry(_) => Err(NackReason::InvalidState),
+        }
+    }
+
+    fn ack(&mut self, event: Event, now_us: u64) -> Result<Answer, NackReason> {
+        self.apply(event, now_us)?;
+        Ok(Answer::Ack)
+    }
+
+    /// A page of the fault log.
+    pub fn fault_log_page(&self, first: u16) -> FaultLogPage {
+        self.log.page(first)
+    }
+
+    /// One control tick (see the module documentation).
+    pub fn tick<H: Hardware<S>>(&mut self, hw: &mut H, now_us: u64) -> RuntimeTick<S> {
+        self.sense_and_monitor(hw, now_us);
+        let step = self.step_mode(hw, now_us);
+        self.advance_stop(now_us, step.standstill);
+        let mut duty = step.duty;
+        self.write_outputs(hw, &mut duty, now_us);
+        // Once the outputs are written, what does not feed them: the measured pose, and
+        // the controller's evaluation phase. Neither adds to the latency from the
+        // readings to the outputs.
+        self.sensing.follow_pose();
+        if step.control.is_some() {
+            if let Some(ctl) = self.mode.controller_mut() {
+                ctl.evaluate();
+            }
+        }
+        self.update_warnings(now_us);
+        RuntimeTick {
+            state: self.state(),
+            control: step.control,
+            homing: step.homing,
+            drives_on: self.outputs.torque_on(),
+        }
+    }
+
+    /// The e-stop path put the outputs in their safe state behind the runtime's back
+    /// ([`crate::estop`]): the bridges are off, so the next tick with torque enables them
+    /// again instead of driving disabled bridges. The brakes were applied then too (at
+    /// `now_us` at the latest).
+    pub fn outputs_forced_safe(&mut self, now_us: u64) {
+        self.outputs.forced_safe(now_us);
+    }
+
+    fn update_warnings(&mut self, now_us: u64) {
+        let homed = self.mode.homed();
+        let enabled = self.state() == State::Enabled;
+        let late = enabled && self.session.heartbeat_is_late(now_us);
+        let limited = self.monitors.current.limited().iter().any(|x| *x);
+        let w = &mut self.warnings;
+        w.set(Warnings::NOT_HOMED, !homed);
+        w.set(Warnings::HEARTBEAT_LATE, late);
+        w.set(Warnings::VELOCITY_LIMITED, limited);
+    }
+
+    /// Records the control tick's worst start jitter and execution time (µs) and the
+    /// missed periods, measured by the board, for the status report.
+    pub fn set_tick_timing(&mut self, worst_jitter_us: u32, worst_exec_us: u32, missed: u32) {
+        self.tick_timing = (worst_jitter_us, worst_exec_us);
+        self.missed_ticks = missed;
+    }
+
+    /// Sets or clears extra warnings (e.g. `CYCLE_OVERRUN` from the board).
+    pub fn set_warning(&mut self, w: Warnings, on: bool) {
+        self.warnings.set(w, on);
+    }
+}
+
+/// How far ahead of the setpoint a Jog aims at most, s: the dead-man time of a jog stream.
+pub const JOG_HORIZON_S: f64 = 0.1;

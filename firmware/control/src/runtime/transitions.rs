@@ -1,0 +1,516 @@
+//! The changes of mode: each asks [`crate::modes::next`] first, then moves the data the
+//! new mode owns out of the old one.
+
+use kinematics_core::guards::Subject;
+use kinematics_core::{Mechanism, Pose};
+use master_link::{FaultCause, Warnings};
+use num_traits::Float;
+use servo::NUM_JOINTS;
+
+use super::mode::{Held, Latched, Mode, Stop, StopDrive, StopSequence};
+use super::Runtime;
+use crate::brakes::BrakeCheck;
+use crate::controller::{Controller, ControllerError};
+use crate::drive::to_array;
+use crate::homing::{Homing, HomingError};
+use crate::modes::{next, Event, ModeKind, Refusal, LOSE_HOMING};
+use crate::monitors::Finding;
+use crate::park::{ParkMove, ParkRefusal};
+use crate::scalar::Scalar;
+use crate::stops::{StopEvent, StopPhase};
+
+/// Encoder counts a holding servo may stand off its setpoint on each joint: a count
+/// either side (see `Runtime::held_start`).
+const HOLD_COUNTS: f64 = 2.0;
+
+/// The event of the hold that begins (the clutch before the dead-man before the heartbeat).
+fn hold_event(hold: crate::modes::Hold) -> StopEvent {
+    if hold.clutch {
+        StopEvent::ClutchEngaged
+    } else if hold.operator_absent {
+        StopEvent::OperatorAbsent
+    } else {
+        StopEvent::HeartbeatLate
+    }
+}
+
+/// The joint a guard reading names, if any.
+pub(super) fn subject_joint(subject: Subject) -> Option<usize> {
+    match subject {
+        Subject::Joint(j) => Some(usize::from(j).saturating_sub(1)),
+        Subject::Chain(c) => Some(c.index()),
+        _ => None,
+    }
+}
+
+impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
+    /// Carries `event` out: the table's next mode, or why it is refused (nothing changes
+    /// then). Faults go through [`Runtime::fault`].
+    pub(super) fn apply(&mut self, event: Event, now_us: u64) -> Result<ModeKind, Refusal> {
+        let from = self.mode.kind();
+        if let Event::Fault(cause) = event {
+            self.fault(Finding::board::<S>(cause, S::zero()), now_us);
+            return Ok(self.mode.kind());
+        }
+        // The master's conditions change whatever the mode (a pedal pressed while ready
+        // holds once enabled).
+        self.session.note(
+            event,
+            matches!(from, ModeKind::Following | ModeKind::Holding),
+        );
+        let to = match next(from, event, self.context()) {
+            Ok(to) => to,
+            Err(r) => {
+                self.refusals = self.refusals.wrapping_add(1);
+                return Err(r);
+            }
+        };
+        if to != from || event == Event::StopComplete {
+            self.enter(to, event, now_us)?;
+        }
+        self.after_transition(from, event);
+        Ok(self.mode.kind())
+    }
+
+    /// Bookkeeping after any event: counts, the session's late heartbeat, the reference.
+    fn after_transition(&mut self, from: ModeKind, event: Event) {
+        let to = self.mode.kind();
+        if !matches!(to, ModeKind::Following | ModeKind::Holding) {
+            self.session.note(event, false);
+        }
+        if from == ModeKind::Fault && to != ModeKind::Fault && event == Event::ClearFault {
+            self.warnings.remove(Warnings::HEARTBEAT_LATE);
+        }
+    }
+
+    /// Moves into `to` (the table allowed it); `Enable`'s own checks may still refuse.
+    fn enter(&mut self, to: ModeKind, event: Event, now_us: u64) -> Result<(), Refusal> {
+        match to {
+            ModeKind::Homing => self.enter_homing(now_us),
+            ModeKind::Parking => {
+                self.start_park(now_us);
+                Ok(())
+            }
+            ModeKind::Enabling => self.enter_enabling(now_us),
+            ModeKind::Following | ModeKind::Holding => {
+                self.enter_enabled(now_us);
+                Ok(())
+            }
+            ModeKind::Stopping => {
+                self.enter_stopping(event, now_us);
+                Ok(())
+            }
+            ModeKind::Ready | ModeKind::Disabled => {
+                self.enter_idle(to);
+                Ok(())
+            }
+            ModeKind::Fault => {
+                self.stop_complete_in_fault();
+                Ok(())
+            }
+            ModeKind::Boot => Err(Refusal::NotAllowed),
+        }
+    }
+
+    /// `Home`: the homing starts from where the joints are (a homed robot's known joints
+    /// start the travel windows); the master just spoke, so the heartbeat restarts.
+    fn enter_homing(&mut self, now_us: u64) -> Result<(), Refusal> {
+        let Ok(mut homing) = Homing::new(&self.cfg.homing, &self.cfg.controller.servo) else {
+            return Err(Refusal::NotAllowed);
+        };
+        let known = self.mode.homed().then_some(self.sensing.measured().q);
+        self.session.rearm(now_us);
+        self.sensing.lose_reference();
+        let m = *self.sensing.measured();
+        homing.start(
+            &m.q,
+            &m.motor,
+            &self.sensing.encoders().counts(),
+            known.as_ref(),
+            now_us,
+        );
+        self.mode = Mode::Homing(homing);
+        Ok(())
+    }
+
+    /// `Enable` from `Ready`: the reset acknowledged, the safety chain sound, the
+    /// controller at the measured pose (or where the last one held), the brake check
+    /// started; the heartbeat and the target clock restart.
+    fn enter_enabling(&mut self, now_us: u64) -> Result<(), Refusal> {
+        if !self.reset.acknowledged {
+            return Err(Refusal::ResetNotAcknowledged);
+        }
+        if self.inputs.estop_pressed {
+            return Err(Refusal::FaultStillActive);
+        }
+        if self.inputs.safety_chain_tripped() {
+            return Err(Refusal::SafetyRelayMismatch);
+        }
+        let held = match &self.mode {
+            Mode::Ready { held } => *held,
+            _ => None,
+        };
+        let measured = *self.sensing.measured();
+        let mut built = Controller::new(self.robot.clone(), self.cfg.controller, &measured);
+        if matches!(built, Err(ControllerError::Supervisor(_))) {
+            if let Some(pose) = self.held_start(held.as_ref(), &measured.q) {
+                built = Controller::starting_at(
+                    self.robot.clone(),
+                    self.cfg.controller,
+                    &measured,
+                    &pose,
+                );
+            }
+        }
+        let ctl = match built {
+            Ok(c) => c,
+            Err(ControllerError::NoPose | ControllerError::Supervisor(_)) => {
+                return Err(Refusal::UnsafeStart)
+            }
+            Err(_) => return Err(Refusal::NotAllowed),
+        };
+        self.monitors.current.reset_overload();
+        let check = BrakeCheck::start(
+            self.cfg.brakes,
+            &measured.q,
+            now_us,
+            self.outputs.brakes_applied_at_us(),
+        );
+        self.session.restart(now_us);
+        self.mode = Mode::Enabling { check, ctl };
+        Ok(())
+    }
+
+    /// Where an enable whose measured pose the supervisor refuses may start instead: the
+    /// setpoint the last controller held, when the measured joints stand within
+    /// `HOLD_COUNTS` encoder counts of its joints. A robot stopped at a limit (the
+    /// workspace edge) holds there to within the servo's counts, and its measured pose may
+    /// stand a count beyond the limit its setpoint keeps to: it is where the supervisor
+    /// left it, not a robot moved out of its workspace, and it must be possible to enable
+    /// it again (or it is stuck until re-homed). Further off, the start is refused.
+    fn held_start(&self, held: Option<&Held<S>>, q: &[S; NUM_JOINTS]) -> Option<Pose<S>> {
+        let held = held?;
+        let cpu = &self.cfg.controller.encoders.counts_per_unit;
+        let band: S = kinematics_core::scalar::lit(HOLD_COUNTS);
+        let near = (0..NUM_JOINTS).all(|j| match (q.get(j), held.q.get(j), cpu.get(j)) {
+            (Some(a), Some(b), Some(c)) if *c > S::zero() => Float::abs(*a - *b) <= band / *c,
+            _ => false,
+        });
+        near.then_some(held.pose)
+    }
+
+    /// Into `Following` or `Holding` (from `Enabling`, or between the two): a hold that
+    /// begins decelerates under the supervisor and holds (SS2); a hold that ends follows
+    /// again from where the robot stands.
+    fn enter_enabled(&mut self, now_us: u64) {
+        let hold = self.session.hold();
+        let torque_on = self.outputs.torque_on();
+        let cfg = self.cfg.stops;
+        self.mode = match core::mem::replace(&mut self.mode, Mode::Boot) {
+            Mode::Enabling { ctl, .. } | Mode::Following { ctl, .. } if hold.any() => {
+                let mut ctl = ctl;
+                ctl.hold();
+                Mode::Holding {
+                    ctl,
+                    sequence: StopSequence::start(cfg, hold_event(hold), now_us, torque_on),
+                }
+            }
+            Mode::Enabling { ctl, .. } | Mode::Holding { ctl, .. } => {
+                Mode::Following { ctl, jog: None }
+            }
+            other => other,
+        };
+    }
+
+    /// Into `Stopping` (SS1): `Disable` while driving, the end of the park move (the
+    /// controller starts at the park pose and stops there), or a cleared fault whose stop
+    /// still drives (it continues to rest).
+    fn enter_stopping(&mut self, event: Event, now_us: u64) {
+        let torque_on = self.outputs.torque_on();
+        let cfg = self.cfg.stops;
+        let fresh = |drive| Stop {
+            sequence: StopSequence::start(cfg, StopEvent::Disable, now_us, torque_on),
+            drive,
+        };
+        // The end of the park move: the controller starts at the measured pose.
+        let parked = if event == Event::Parked {
+            if self.sensing.track_pose().is_err() {
+                return self.park_failed(ParkRefusal::NoPose { sample: u16::MAX }, now_us);
+            }
+            match Controller::new(
+                self.robot.clone(),
+                self.cfg.controller,
+                self.sensing.measured(),
+            ) {
+                Ok(ctl) => Some(ctl),
+                Err(_) => {
+                    let value = HomingError::Park { reason: 5 }.code();
+                    let finding = Finding {
+                        cause: FaultCause::HomingFailed,
+                        joint: None,
+                        value,
+                    };
+                    return self.fault(finding, now_us);
+                }
+            }
+        } else {
+            None
+        };
+        let (mut stop, homed) = match core::mem::replace(&mut self.mode, Mode::Boot) {
+            Mode::Homing(_) | Mode::Parking { .. } if parked.is_some() => match parked {
+                Some(ctl) => (fresh(StopDrive::Controller(ctl)), true),
+                None => (fresh(StopDrive::ZeroDuty), false),
+            },
+            Mode::Homing(_) | Mode::Parking { .. } => (fresh(StopDrive::ZeroDuty), false),
+            Mode::Enabling { ctl, .. } | Mode::Following { ctl, .. } => {
+                (fresh(StopDrive::Controller(ctl)), true)
+            }
+            Mode::Holding { ctl, mut sequence } => {
+                sequence
+                    .stopper
+                    .request(StopEvent::Disable, now_us, torque_on);
+                (
+                    Stop {
+                        sequence,
+                        drive: StopDrive::Controller(ctl),
+                    },
+                    true,
+                )
+            }
+            Mode::Fault {
+                mut stop, homed, ..
+            } => {
+                stop.sequence
+                    .stopper
+                    .request(StopEvent::Disable, now_us, torque_on);
+                (stop, homed)
+            }
+            other => {
+                self.mode = other;
+                return;
+            }
+        };
+        if stop.sequence.stopper.outputs(false).decelerate {
+            if let StopDrive::Controller(ctl) = &mut stop.drive {
+                ctl.hold();
+            }
+        }
+        self.mode = Mode::Stopping { stop, homed };
+        self.settle_stop();
+    }
+
+    /// A stop that reached torque off: `Stopping` ends in `Ready` (with where the
+    /// controller held) or `Disabled`; a fault's stop keeps only where it held.
+    pub(super) fn settle_stop(&mut self) {
+        let off = matches!(self.mode.stop_phase(), StopPhase::TorqueOff { .. });
+        match self.mode.kind() {
+            ModeKind::Stopping | ModeKind::Fault if off => {
+                let from = self.mode.kind();
+                if next(from, Event::StopComplete, self.context()).is_ok() {
+                    let to = match (from, self.mode.homed()) {
+                        (ModeKind::Fault, _) => ModeKind::Fault,
+                        (_, true) => ModeKind::Ready,
+                        (_, false) => ModeKind::Disabled,
+                    };
+                    if to == ModeKind::Fault {
+                        self.stop_complete_in_fault();
+                    } else {
+                        self.enter_idle(to);
+                    }
+                    self.after_transition(from, Event::StopComplete);
+                }
+            }
+            _ => {}
+        }
+    }
+
+    /// The controller's setpoint as where it held, if the reference stands.
+    fn held_of(ctl: &Controller<S, M>) -> Held<S> {
+        let sup = ctl.supervisor();
+        Held {
+            pose: *sup.setpoint(),
+            q: to_array(sup.setpoint_joints()),
+        }
+    }
+
+    /// Into `Ready` or `Disabled`: from a completed stop (the controller's setpoint kept
+    /// in `Ready`), from a cleared fault whose stop is over, or at boot.
+    fn enter_idle(&mut self, to: ModeKind) {
+        let held = match &self.mode {
+            Mode::Stopping { stop, .. } | Mode::Fault { stop, .. } => match &stop.drive {
+                StopDrive::Controller(c) => Some(Self::held_of(c)),
+                StopDrive::Off(h) => *h,
+                StopDrive::ZeroDuty => None,
+            },
+            _ => None,
+        };
+        self.mode = match to {
+            ModeKind::Ready => Mode::Ready { held },
+            _ => Mode::Disabled,
+        };
+    }
+
+    /// A fault's stop reached torque off: the controller is gone, where it held is kept
+    /// while the reference stands.
+    fn stop_complete_in_fault(&mut self) {
+        if let Mode::Fault { stop, homed, .. } = &mut self.mode {
+            if let StopDrive::Controller(c) = &stop.drive {
+                let held = homed.then(|| Self::held_of(c));
+                stop.drive = StopDrive::Off(held);
+            } else if matches!(stop.drive, StopDrive::ZeroDuty) {
+                stop.drive = StopDrive::Off(None);
+            }
+        }
+    }
+
+    /// Latches a fault (the first since the last clear is the one reported), logs it, and
+    /// starts the stop the table names for it (a stop in force is only ever replaced by a
+    /// stronger one). A fault whose cause makes the encoders' reference doubtful loses the
+    /// homing.
+    pub fn fault(&mut self, finding: Finding, now_us: u64) {
+        let record = finding.record(now_us);
+        let cause = finding.cause;
+        if let Mode::Fault { latched, .. } = &self.mode {
+            // The same fault twice in one tick (an `EmergencyStop` message both latched
+            // and queued) is one.
+            if latched.last == (cause, record.joint, now_us) {
+                return;
+            }
+        }
+        let from = self.mode.kind();
+        // (A heartbeat loss while nothing drives is no fault.)
+        if next(from, Event::Fault(cause), self.context()) != Ok(ModeKind::Fault) {
+            return;
+        }
+        let loses = Event::Fault(cause)
+            .fault_bits()
+            .is_some_and(|b| b.intersects(LOSE_HOMING));
+        let torque_on = self.outputs.torque_on();
+        let cfg = self.cfg.stops;
+        let event = StopEvent::Fault(cause);
+        let (latched, mut stop, homed) = match core::mem::replace(&mut self.mode, Mode::Boot) {
+            Mode::Fault {
+                latched,
+                mut stop,
+                homed,
+            } => {
+                stop.sequence.stopper.request(event, now_us, torque_on);
+                (latched.with(cause, record, now_us), stop, homed && !loses)
+            }
+            other => {
+                let homed = other.homed() && !loses;
+                let stop = self.stop_of(other, event, now_us, torque_on, cfg);
+                (Latched::new(cause, record, now_us), stop, homed)
+            }
+        };
+        if !homed {
+            if let StopDrive::Off(h) = &mut stop.drive {
+                *h = None;
+            }
+        }
+        if stop.sequence.stopper.outputs(false).decelerate {
+            if let StopDrive::Controller(ctl) = &mut stop.drive {
+                ctl.hold();
+            }
+        }
+        let status = stop.sequence.stopper.status();
+        self.mode = Mode::Fault {
+            latched,
+            stop,
+            homed,
+        };
+        if !homed {
+            self.sensing.lose_reference();
+        }
+        self.log.record(record, status);
+        if from != ModeKind::Fault {
+            self.session.note(Event::Fault(cause), false);
+        }
+        self.settle_stop();
+    }
+
+    /// The stop of `event` in a mode that had none, or the one in force made stronger.
+    fn stop_of(
+        &self,
+        mode: Mode<S, M>,
+        event: StopEvent,
+        now_us: u64,
+        torque_on: bool,
+        cfg: crate::stops::StopConfig,
+    ) -> Stop<S, M> {
+        let fresh = |drive| Stop {
+            sequence: StopSequence::start(cfg, event, now_us, torque_on),
+            drive,
+        };
+        match mode {
+            Mode::Boot | Mode::Disabled => fresh(StopDrive::Off(None)),
+            Mode::Ready { held } => fresh(StopDrive::Off(held)),
+            Mode::Homing(_) | Mode::Parking { .. } => fresh(StopDrive::ZeroDuty),
+            Mode::Enabling { ctl, .. } | Mode::Following { ctl, .. } => {
+                fresh(StopDrive::Controller(ctl))
+            }
+            Mode::Holding { ctl, mut sequence } => {
+                sequence.stopper.request(event, now_us, torque_on);
+                Stop {
+                    sequence,
+                    drive: StopDrive::Controller(ctl),
+                }
+            }
+            Mode::Stopping { mut stop, .. } | Mode::Fault { mut stop, .. } => {
+                stop.sequence.stopper.request(event, now_us, torque_on);
+                stop
+            }
+        }
+    }
+
+    /// Every joint referenced: the pose is solved, and the park move starts (its path is
+    /// checked against the guards first), or, without a park position, the homing is done.
+    fn start_park(&mut self, now_us: u64) {
+        if self.sensing.track_pose().is_err() {
+            return self.park_failed(ParkRefusal::NoPose { sample: 0 }, now_us);
+        }
+        let m = *self.sensing.measured();
+        let (Some(park), Some(pose)) = (self.cfg.homing.park, m.pose) else {
+            let _ = self.apply(Event::Parked, now_us);
+            return;
+        };
+        let Ok(guards) = kinematics_core::guards::Guards::new(
+            self.robot.clone(),
+            self.cfg.controller.branch,
+            self.cfg.controller.limits,
+        ) else {
+            return self.park_failed(ParkRefusal::Invalid, now_us);
+        };
+        let park = ParkMove::new(
+            guards,
+            self.cfg.controller.fk,
+            self.cfg.park,
+            m.q,
+            pose,
+            park,
+        );
+        self.mode = match core::mem::replace(&mut self.mode, Mode::Boot) {
+            Mode::Homing(homing) => Mode::Parking { homing, park },
+            other => other,
+        };
+    }
+
+    /// A homing failure of the park move.
+    pub(super) fn park_failed(&mut self, reason: ParkRefusal<S>, now_us: u64) {
+        let (joint, code) = match reason {
+            ParkRefusal::Guard { reading, .. } => (
+                subject_joint(reading.subject),
+                HomingError::Park { reason: 1 },
+            ),
+            ParkRefusal::NoPose { .. } => (None, HomingError::Park { reason: 2 }),
+            ParkRefusal::Invalid => (None, HomingError::Park { reason: 3 }),
+            ParkRefusal::NotSettled { joint, .. } => (Some(joint), HomingError::Park { reason: 4 }),
+        };
+        let f = Finding {
+            cause: FaultCause::HomingFailed,
+            joint,
+            value: code.code(),
+        };
+        self.fault(f, now_us);
+    }
+}
