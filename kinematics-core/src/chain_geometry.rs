@@ -37,12 +37,12 @@
 
 use crate::branch::Branch;
 use crate::chain::{Chain, PerChain};
-use crate::geometry::{to_f64, GeometryError, RsprGeometry};
+use crate::geometry::{GeometryError, RsprGeometry};
 use crate::ik::inverse;
 use crate::mechanism::SerialBlock;
 use crate::mechanism::{radial, ChainSolution, IkFailure, JointKind, Mechanism, PlatformChain};
 use crate::pose::Pose;
-use crate::scalar::{axpy3, cross3, dot3, lit, norm3, sqrt, sub3, wrap_angle, Real};
+use crate::scalar::{axpy3, cross3, dot3, lit, norm3, sqrt, sub3, to_f64, wrap_angle, Real};
 use nalgebra::Vector3;
 
 /// The dimensions of one chain (see the module documentation for the model).
@@ -340,7 +340,7 @@ impl<T: Real> Mechanism<T> for PerChainGeometry<T> {
         let d = &self.chains[chain];
         let x = &self.derived[chain];
         let r = pose.r.matrix();
-        // R·v written out (see ik::symmetric_platform_chain).
+        // R·v written out (see mechanism::symmetric_platform_chain).
         let rot = |v: &Vector3<T>| {
             Vector3::new(
                 r.m11 * v.x + r.m12 * v.y + r.m13 * v.z,

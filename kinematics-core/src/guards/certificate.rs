@@ -105,7 +105,8 @@ use crate::scalar::{dot3, larger, lit, norm3, smaller, sqrt, sub3, Real};
 use crate::statics::Statics;
 use nalgebra::Rotation3;
 
-use super::{Guard, Guards};
+use super::readings::Guard;
+use super::setup::Guards;
 
 /// Constraints of one certified region: one per stop-level guard and auxiliary bound.
 pub const CONSTRAINTS: usize = 14;

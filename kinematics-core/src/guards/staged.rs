@@ -11,8 +11,8 @@ use crate::singularity::ConditionEstimator;
 
 use super::certificate::{FullEvaluation, GuardMinima};
 use super::pose::Evaluation;
-use super::readings::unreachable;
-use super::{Guard, Guards, Reading, Severity};
+use super::readings::{unreachable, Guard, Reading, Severity};
+use super::setup::Guards;
 use crate::statics::Statics;
 
 /// The stages of a staged full evaluation, in order.

@@ -37,14 +37,14 @@ impl<T: Real> fmt::Display for Refusal<T> {
             Refusal::TooFar { distance, angle } => write!(
                 f,
                 "target too far from the setpoint ({:.1} mm, {:.1} deg)",
-                crate::geometry::to_f64(*distance) * 1e3,
-                crate::geometry::to_f64(*angle).to_degrees()
+                crate::scalar::to_f64(*distance) * 1e3,
+                crate::scalar::to_f64(*angle).to_degrees()
             ),
             Refusal::Path { fraction, reading } => write!(
                 f,
                 "path crosses {} at {:.0}% of the way",
                 reading.guard,
-                crate::geometry::to_f64(*fraction) * 100.0
+                crate::scalar::to_f64(*fraction) * 100.0
             ),
             Refusal::Latched => f.write_str("supervisor is stopped; clear the fault first"),
         }

@@ -83,7 +83,7 @@ use crate::mechanism::{JointKind, Mechanism};
 use crate::pose::{rotation_vector, Pose};
 use crate::scalar::{lit, norm3, wrap_angle, Real};
 use crate::singularity::ConditionEstimator;
-use crate::{Joints, Twist};
+use crate::vectors::{Joints, Twist};
 use core::fmt;
 use nalgebra::Vector3;
 
@@ -416,7 +416,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
             parallel: start_parallel,
             certs: [None; 2],
             stream: lead::Stream::default(),
-            dt_us: (crate::geometry::to_f64(cfg.dt * lit(1e6)) + 0.5) as u64,
+            dt_us: (crate::scalar::to_f64(cfg.dt * lit(1e6)) + 0.5) as u64,
             ahead_stop: false,
             evaluated: true,
             next_limits: None,

@@ -75,7 +75,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         let target = &t.to;
         let (from, n) = self.path_start(target);
         let n = n.ceil().max(T::one());
-        let samples = crate::geometry::to_f64(n) as u16;
+        let samples = crate::scalar::to_f64(n) as u16;
         let (dv, dw) = segment(&from, target);
         self.pending = Some(Pending {
             from,
