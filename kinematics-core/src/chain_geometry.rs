@@ -35,10 +35,8 @@
 //! symmetric robot ([`crate::tilt`]): with axes within a degree of z0 the tilt differs
 //! from the physical ball-in-socket angle by less than that degree.
 
-use crate::branch::Branch;
 use crate::chain::{Chain, PerChain};
-use crate::geometry::{GeometryError, RsprGeometry};
-use crate::ik::inverse;
+use crate::geometry::{check_central, GeometryError, RsprGeometry};
 use crate::mechanism::SerialBlock;
 use crate::mechanism::{radial, ChainSolution, IkFailure, JointKind, Mechanism, PlatformChain};
 use crate::pose::Pose;
@@ -181,6 +179,70 @@ fn derive<T: Real>(chain: Chain, d: &ChainDimensions<T>) -> Option<Derived<T>> {
     })
 }
 
+/// Checks one chain's dimensions (see [`PerChainGeometry::new`]) and normalises its axes.
+fn check_chain<T: Real>(chain: Chain, d: &mut ChainDimensions<T>) -> Result<(), GeometryError> {
+    let vectors = [
+        (0, d.base_pivot),
+        (1, d.base_axis),
+        (3, d.platform_joint),
+        (4, d.platform_axis),
+    ];
+    for (k, v) in vectors {
+        if !crate::scalar::all_finite(v.as_slice()) {
+            return Err(GeometryError::NonFinite {
+                field: field(chain, k),
+            });
+        }
+    }
+    for (k, v) in [
+        (2, d.link_length),
+        (5, d.leg_offset),
+        (6, d.leg_zero),
+        (7, d.link_zero),
+    ] {
+        if !v.is_finite() {
+            return Err(GeometryError::NonFinite {
+                field: field(chain, k),
+            });
+        }
+    }
+    if !(d.link_length > T::zero()) {
+        return Err(GeometryError::NotPositive {
+            field: field(chain, 2),
+            value_m: to_f64(d.link_length),
+        });
+    }
+    for k in [1, 4] {
+        let v = if k == 1 {
+            &mut d.base_axis
+        } else {
+            &mut d.platform_axis
+        };
+        let n = norm3(v);
+        if !((n - T::one()).abs() <= unit_tolerance()) {
+            return Err(GeometryError::NotUnit {
+                field: field(chain, k),
+                norm: to_f64(n),
+            });
+        }
+        *v = Vector3::new(v.x / n, v.y / n, v.z / n);
+    }
+    if !(d.base_axis.z >= lit(0.5)) {
+        return Err(GeometryError::AxisOutOfRange {
+            field: field(chain, 1),
+        });
+    }
+    let pp = d.platform_joint;
+    let off_axis = sqrt(pp.x * pp.x + pp.y * pp.y);
+    if !(off_axis > d.link_length * lit(1e-3)) {
+        return Err(GeometryError::NotPositive {
+            field: field(chain, 3),
+            value_m: to_f64(off_axis),
+        });
+    }
+    Ok(())
+}
+
 impl<T: Real> PerChainGeometry<T> {
     /// A validated geometry: every value finite, the axes unit vectors (to 1e-4; they are
     /// then normalised), the link lengths positive, the axes within 60 deg of z0 (the
@@ -194,66 +256,7 @@ impl<T: Real> PerChainGeometry<T> {
     ) -> Result<Self, GeometryError> {
         let mut chains = chains;
         for chain in Chain::ALL {
-            let d = &mut chains[chain];
-            let vectors = [
-                (0, d.base_pivot),
-                (1, d.base_axis),
-                (3, d.platform_joint),
-                (4, d.platform_axis),
-            ];
-            for (k, v) in vectors {
-                if !crate::scalar::all_finite(v.as_slice()) {
-                    return Err(GeometryError::NonFinite {
-                        field: field(chain, k),
-                    });
-                }
-            }
-            for (k, v) in [
-                (2, d.link_length),
-                (5, d.leg_offset),
-                (6, d.leg_zero),
-                (7, d.link_zero),
-            ] {
-                if !v.is_finite() {
-                    return Err(GeometryError::NonFinite {
-                        field: field(chain, k),
-                    });
-                }
-            }
-            if !(d.link_length > T::zero()) {
-                return Err(GeometryError::NotPositive {
-                    field: field(chain, 2),
-                    value_m: to_f64(d.link_length),
-                });
-            }
-            for k in [1, 4] {
-                let v = if k == 1 {
-                    &mut d.base_axis
-                } else {
-                    &mut d.platform_axis
-                };
-                let n = norm3(v);
-                if !((n - T::one()).abs() <= unit_tolerance()) {
-                    return Err(GeometryError::NotUnit {
-                        field: field(chain, k),
-                        norm: to_f64(n),
-                    });
-                }
-                *v = Vector3::new(v.x / n, v.y / n, v.z / n);
-            }
-            if !(d.base_axis.z >= lit(0.5)) {
-                return Err(GeometryError::AxisOutOfRange {
-                    field: field(chain, 1),
-                });
-            }
-            let pp = d.platform_joint;
-            let off_axis = sqrt(pp.x * pp.x + pp.y * pp.y);
-            if !(off_axis > d.link_length * lit(1e-3)) {
-                return Err(GeometryError::NotPositive {
-                    field: field(chain, 3),
-                    value_m: to_f64(off_axis),
-                });
-            }
+            check_chain(chain, &mut chains[chain])?;
         }
         let derived = PerChain::try_from_fn(|c| {
             derive(c, &chains[c]).ok_or(GeometryError::AxisOutOfRange { field: field(c, 1) })
@@ -263,11 +266,7 @@ impl<T: Real> PerChainGeometry<T> {
             chains,
             derived,
         };
-        let central = Pose::central(g.nominal.hc);
-        for branch in Branch::ALL {
-            inverse(&g, &central, branch)
-                .map_err(|error| GeometryError::NotAssemblable { branch, error })?;
-        }
+        check_central(&g)?;
         Ok(g)
     }
 

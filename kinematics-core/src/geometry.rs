@@ -65,7 +65,8 @@ fn check_dim<T: Real>(field: &'static str, v: T, allow_zero: bool) -> Result<(),
     }
 }
 
-fn check_central<T: Real, M: Mechanism<T>>(m: &M) -> Result<(), GeometryError> {
+/// Whether the robot can be assembled in its central configuration on every branch.
+pub(crate) fn check_central<T: Real, M: Mechanism<T>>(m: &M) -> Result<(), GeometryError> {
     let central = Pose::central(m.hc());
     for branch in Branch::ALL {
         inverse(m, &central, branch)
