@@ -1,5 +1,5 @@
-//! The RSPR robot with a geometry of its own for each chain: what a calibration identifies
-//! (issue 19). The symmetric robot of four numbers ([`RsprGeometry`]) is one instance of it
+//! The RSPR robot with a geometry of its own for each chain: what a calibration
+//! identifies. The symmetric robot of four numbers ([`RsprGeometry`]) is one instance of it
 //! (`From<RsprGeometry>`); IK, the Jacobians, FK, the statics and the guards work on it
 //! unchanged, since it implements [`Mechanism`].
 //!

@@ -40,9 +40,8 @@
 //!   and u = Cn2 ŝ2 + w⊥ with |w⊥| = |u| sin ψ; |u| ≤ rb is constant (l_b turns about z0).
 //!   ψ changes at most at |dŝ2| + |du/|u|| ≤ |ω| + Θ. The auxiliary bound ψ ≤ ψ_max =
 //!   ψ_c + 0.1 rad (ψ_c the largest over the chains at c; ψ_max < π/2) gives |Cn2| ≥ κ =
-//!   |u|_min cos ψ_max and |w⊥|/|Cn2| = tan ψ ≤ k = tan ψ_max, √(1 + k²) = 1/cos ψ_max.
-//!   (Before: κ = 0.8 |Cn2|_min(c), which lets ψ grow from 0 to 37 deg at the centre, and
-//!   k = √((rb/κ)² - 1) = 0.75 there; now k = 0.1.)
+//!   |u|_min cos ψ_max and |w⊥|/|Cn2| = tan ψ ≤ k = tan ψ_max, √(1 + k²) = 1/cos ψ_max
+//!   (k = tan 0.1 rad ≈ 0.1 where ψ_c = 0, as at the central configuration).
 //! - ŝ1 = (p - b)/l: dŝ1 = (I - ŝ1ŝ1ᵀ)(ṗ - ḃ)/l. The leg is normal to the upper revolute
 //!   axis (ŝ2·(p - b) = 0, the constraint whose derivative gives θ̇ above), so (ŝ1, ŝ2,
 //!   n = ŝ1 × ŝ2) is orthonormal. The ŝ2 part of ṗ - ḃ is -ṡ2·(p - b) = l ω·n (ṡ2 = ω ×
