@@ -32,7 +32,7 @@ pub struct SupervisorConfig<T: Real> {
     /// Fraction of each joint acceleration limit the motion may use (default 0.8): the
     /// Cartesian accelerations are scaled down where J would turn them into more.
     pub joint_accel_headroom: T,
-    /// Lead the master's stream (default on, see [`lead`]): a target is led along the
+    /// Lead the master's stream (default on, see [`super::lead`]): a target is led along the
     /// stream's path by the braking curve's distance when the led segment lies in a
     /// certified region, so the robot is on the master's pose rather than 54 ms behind it
     /// at 25 mm/s; a stream that stops abruptly is overshot by up to that distance (inside

@@ -29,8 +29,8 @@
 //!    would turn them into more than the joints' acceleration limits.
 //! 3. **Check**, in turn with the path samples, the braking point: where braking would stop
 //!    if it began only when the check after this one has finished, the robot accelerating
-//!    until then, but no farther than the goal (the bound is in
-//!    [`Supervisor::braking_point`]). A target verified while moving replaces the goal once
+//!    until then, but no farther than the goal (the bound is in `goal.rs`,
+//!    `Supervisor::braking_point`). A target verified while moving replaces the goal once
 //!    such a check has looked past the goal towards it. A stop-level violation there turns
 //!    the motion into a controlled stop (full deceleration along the current twist on
 //!    every tick) within the stretch the earlier braking points covered. The candidate
