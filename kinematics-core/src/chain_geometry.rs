@@ -1,5 +1,5 @@
-//! The RSPR robot with a geometry of its own for each chain: what a calibration identifies
-//! (issue 19). The symmetric robot of four numbers ([`RsprGeometry`]) is one instance of it
+//! The RSPR robot with a geometry of its own for each chain: what a calibration
+//! identifies. The symmetric robot of four numbers ([`RsprGeometry`]) is one instance of it
 //! (`From<RsprGeometry>`); IK, the Jacobians, FK, the statics and the guards work on it
 //! unchanged, since it implements [`Mechanism`].
 //!
@@ -35,14 +35,12 @@
 //! symmetric robot ([`crate::tilt`]): with axes within a degree of z0 the tilt differs
 //! from the physical ball-in-socket angle by less than that degree.
 
-use crate::branch::Branch;
 use crate::chain::{Chain, PerChain};
-use crate::geometry::{to_f64, GeometryError, RsprGeometry};
-use crate::ik::inverse;
+use crate::geometry::{check_central, GeometryError, RsprGeometry};
 use crate::mechanism::SerialBlock;
 use crate::mechanism::{radial, ChainSolution, IkFailure, JointKind, Mechanism, PlatformChain};
 use crate::pose::Pose;
-use crate::scalar::{axpy3, cross3, dot3, lit, norm3, sqrt, sub3, wrap_angle, Real};
+use crate::scalar::{axpy3, cross3, dot3, lit, norm3, sqrt, sub3, to_f64, wrap_angle, Real};
 use nalgebra::Vector3;
 
 /// The dimensions of one chain (see the module documentation for the model).
@@ -181,6 +179,70 @@ fn derive<T: Real>(chain: Chain, d: &ChainDimensions<T>) -> Option<Derived<T>> {
     })
 }
 
+/// Checks one chain's dimensions (see [`PerChainGeometry::new`]) and normalises its axes.
+fn check_chain<T: Real>(chain: Chain, d: &mut ChainDimensions<T>) -> Result<(), GeometryError> {
+    let vectors = [
+        (0, d.base_pivot),
+        (1, d.base_axis),
+        (3, d.platform_joint),
+        (4, d.platform_axis),
+    ];
+    for (k, v) in vectors {
+        if !crate::scalar::all_finite(v.as_slice()) {
+            return Err(GeometryError::NonFinite {
+                field: field(chain, k),
+            });
+        }
+    }
+    for (k, v) in [
+        (2, d.link_length),
+        (5, d.leg_offset),
+        (6, d.leg_zero),
+        (7, d.link_zero),
+    ] {
+        if !v.is_finite() {
+            return Err(GeometryError::NonFinite {
+                field: field(chain, k),
+            });
+        }
+    }
+    if !(d.link_length > T::zero()) {
+        return Err(GeometryError::NotPositive {
+            field: field(chain, 2),
+            value_m: to_f64(d.link_length),
+        });
+    }
+    for k in [1, 4] {
+        let v = if k == 1 {
+            &mut d.base_axis
+        } else {
+            &mut d.platform_axis
+        };
+        let n = norm3(v);
+        if !((n - T::one()).abs() <= unit_tolerance()) {
+            return Err(GeometryError::NotUnit {
+                field: field(chain, k),
+                norm: to_f64(n),
+            });
+        }
+        *v = Vector3::new(v.x / n, v.y / n, v.z / n);
+    }
+    if !(d.base_axis.z >= lit(0.5)) {
+        return Err(GeometryError::AxisOutOfRange {
+            field: field(chain, 1),
+        });
+    }
+    let pp = d.platform_joint;
+    let off_axis = sqrt(pp.x * pp.x + pp.y * pp.y);
+    if !(off_axis > d.link_length * lit(1e-3)) {
+        return Err(GeometryError::NotPositive {
+            field: field(chain, 3),
+            value_m: to_f64(off_axis),
+        });
+    }
+    Ok(())
+}
+
 impl<T: Real> PerChainGeometry<T> {
     /// A validated geometry: every value finite, the axes unit vectors (to 1e-4; they are
     /// then normalised), the link lengths positive, the axes within 60 deg of z0 (the
@@ -194,66 +256,7 @@ impl<T: Real> PerChainGeometry<T> {
     ) -> Result<Self, GeometryError> {
         let mut chains = chains;
         for chain in Chain::ALL {
-            let d = &mut chains[chain];
-            let vectors = [
-                (0, d.base_pivot),
-                (1, d.base_axis),
-                (3, d.platform_joint),
-                (4, d.platform_axis),
-            ];
-            for (k, v) in vectors {
-                if !crate::scalar::all_finite(v.as_slice()) {
-                    return Err(GeometryError::NonFinite {
-                        field: field(chain, k),
-                    });
-                }
-            }
-            for (k, v) in [
-                (2, d.link_length),
-                (5, d.leg_offset),
-                (6, d.leg_zero),
-                (7, d.link_zero),
-            ] {
-                if !v.is_finite() {
-                    return Err(GeometryError::NonFinite {
-                        field: field(chain, k),
-                    });
-                }
-            }
-            if !(d.link_length > T::zero()) {
-                return Err(GeometryError::NotPositive {
-                    field: field(chain, 2),
-                    value_m: to_f64(d.link_length),
-                });
-            }
-            for k in [1, 4] {
-                let v = if k == 1 {
-                    &mut d.base_axis
-                } else {
-                    &mut d.platform_axis
-                };
-                let n = norm3(v);
-                if !((n - T::one()).abs() <= unit_tolerance()) {
-                    return Err(GeometryError::NotUnit {
-                        field: field(chain, k),
-                        norm: to_f64(n),
-                    });
-                }
-                *v = Vector3::new(v.x / n, v.y / n, v.z / n);
-            }
-            if !(d.base_axis.z >= lit(0.5)) {
-                return Err(GeometryError::AxisOutOfRange {
-                    field: field(chain, 1),
-                });
-            }
-            let pp = d.platform_joint;
-            let off_axis = sqrt(pp.x * pp.x + pp.y * pp.y);
-            if !(off_axis > d.link_length * lit(1e-3)) {
-                return Err(GeometryError::NotPositive {
-                    field: field(chain, 3),
-                    value_m: to_f64(off_axis),
-                });
-            }
+            check_chain(chain, &mut chains[chain])?;
         }
         let derived = PerChain::try_from_fn(|c| {
             derive(c, &chains[c]).ok_or(GeometryError::AxisOutOfRange { field: field(c, 1) })
@@ -263,11 +266,7 @@ impl<T: Real> PerChainGeometry<T> {
             chains,
             derived,
         };
-        let central = Pose::central(g.nominal.hc);
-        for branch in Branch::ALL {
-            inverse(&g, &central, branch)
-                .map_err(|error| GeometryError::NotAssemblable { branch, error })?;
-        }
+        check_central(&g)?;
         Ok(g)
     }
 
@@ -340,7 +339,7 @@ impl<T: Real> Mechanism<T> for PerChainGeometry<T> {
         let d = &self.chains[chain];
         let x = &self.derived[chain];
         let r = pose.r.matrix();
-        // R·v written out (see ik::symmetric_platform_chain).
+        // R·v written out (see mechanism::symmetric_platform_chain).
         let rot = |v: &Vector3<T>| {
             Vector3::new(
                 r.m11 * v.x + r.m12 * v.y + r.m13 * v.z,

@@ -15,7 +15,7 @@ use crate::lu::Lu6;
 use crate::mechanism::{JointKind, Mechanism};
 use crate::pose::Pose;
 use crate::scalar::{larger, lit, wrap_angle, Real};
-use crate::Joints;
+use crate::vectors::Joints;
 use core::fmt;
 use nalgebra::{Matrix6, Vector3, Vector6};
 
@@ -215,7 +215,7 @@ pub fn forward<T: Real, M: Mechanism<T> + ?Sized>(
         if iteration >= cfg.max_iterations {
             return Err(FkError::DidNotConverge {
                 iterations: iteration,
-                residual: crate::geometry::to_f64(worst),
+                residual: crate::scalar::to_f64(worst),
             });
         }
         iteration += 1;

@@ -1,13 +1,11 @@
-//! Robot geometries, validated on construction, and the reference robots.
+//! Robot geometries, validated on construction, and the reference robots. A robot whose
+//! architecture is chosen at run time is a [`crate::robot::Robot`].
 
 use crate::branch::Branch;
-use crate::chain::Chain;
-use crate::chain_geometry::PerChainGeometry;
 use crate::ik::{inverse, IkError};
-use crate::mechanism::ChainSolution;
-use crate::mechanism::{JointKind, Mechanism, PlatformChain, SerialBlock};
+use crate::mechanism::Mechanism;
 use crate::pose::Pose;
-use crate::scalar::{lit, Real};
+use crate::scalar::{lit, to_f64, Real};
 use core::fmt;
 
 /// A geometry that cannot be built.
@@ -67,13 +65,8 @@ fn check_dim<T: Real>(field: &'static str, v: T, allow_zero: bool) -> Result<(),
     }
 }
 
-/// Best-effort conversion to f64 for error messages.
-pub(crate) fn to_f64<T: Real>(v: T) -> f64 {
-    // `RealField` offers no direct conversion; `to_subset` exists for f64 supersets.
-    v.to_subset().unwrap_or(f64::NAN)
-}
-
-fn check_central<T: Real, M: Mechanism<T>>(m: &M) -> Result<(), GeometryError> {
+/// Whether the robot can be assembled in its central configuration on every branch.
+pub(crate) fn check_central<T: Real, M: Mechanism<T>>(m: &M) -> Result<(), GeometryError> {
     let central = Pose::central(m.hc());
     for branch in Branch::ALL {
         inverse(m, &central, branch)
@@ -158,79 +151,6 @@ impl<T: Real> UsrGeometry<T> {
             l2: lit(0.080),
             hc: lit(0.080),
         }
-    }
-}
-
-/// Which architecture.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum RobotKind {
-    Rspr,
-    Usr,
-}
-
-/// Either robot, for code that picks the architecture at run time (the CLI).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Robot<T: Real> {
-    Rspr(RsprGeometry<T>),
-    Usr(UsrGeometry<T>),
-    /// An RSPR with per-chain dimensions and encoder zero offsets (a calibrated robot).
-    RsprPerChain(PerChainGeometry<T>),
-}
-
-impl<T: Real> Robot<T> {
-    /// The architecture.
-    pub fn kind(&self) -> RobotKind {
-        match self {
-            Robot::Rspr(_) | Robot::RsprPerChain(_) => RobotKind::Rspr,
-            Robot::Usr(_) => RobotKind::Usr,
-        }
-    }
-}
-
-/// Dispatches a `Mechanism` method to the variant's geometry.
-macro_rules! each {
-    ($self:ident, $g:ident => $e:expr) => {
-        match $self {
-            Robot::Rspr($g) => $e,
-            Robot::Usr($g) => $e,
-            Robot::RsprPerChain($g) => $e,
-        }
-    };
-}
-
-impl<T: Real> Mechanism<T> for Robot<T> {
-    fn rp(&self) -> T {
-        each!(self, g => g.rp())
-    }
-    fn e(&self) -> T {
-        each!(self, g => Mechanism::e(g))
-    }
-    fn hc(&self) -> T {
-        each!(self, g => g.hc())
-    }
-    fn joint_kinds(&self) -> [JointKind; 6] {
-        each!(self, g => g.joint_kinds())
-    }
-    fn length_scale(&self) -> T {
-        each!(self, g => g.length_scale())
-    }
-    fn platform_chain(&self, pose: &Pose<T>, chain: Chain) -> PlatformChain<T> {
-        each!(self, g => g.platform_chain(pose, chain))
-    }
-    fn chain_ik(
-        &self,
-        chain: Chain,
-        pc: &PlatformChain<T>,
-        bit_set: bool,
-        out: &mut ChainSolution<T>,
-    ) -> Result<(), crate::mechanism::IkFailure> {
-        each!(self, g => g.chain_ik(chain, pc, bit_set, out))
-    }
-    fn serial_block(&self, s: &ChainSolution<T>) -> SerialBlock<T> {
-        each!(self, g => g.serial_block(s))
-    }
-    fn serial_measure(&self, s: &ChainSolution<T>) -> (T, T) {
-        each!(self, g => g.serial_measure(s))
     }
 }
 

@@ -2,12 +2,11 @@
 
 use crate::branch::Branch;
 use crate::chain::{Chain, PerChain};
-use crate::mechanism::{radial, ChainSolution, IkFailure, Mechanism, PlatformChain};
+use crate::mechanism::{ChainSolution, IkFailure, Mechanism, PlatformChain};
 use crate::pose::Pose;
-use crate::scalar::{axpy3, Real};
-use crate::Joints;
+use crate::scalar::Real;
+use crate::vectors::Joints;
 use core::fmt;
-use nalgebra::Vector3;
 
 /// An inverse-kinematics failure, naming the chain and the reason.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -61,42 +60,6 @@ pub fn platform_chain<T: Real, M: Mechanism<T> + ?Sized>(
     chain: Chain,
 ) -> PlatformChain<T> {
     m.platform_chain(pose, chain)
-}
-
-/// The platform-side quantities of a chain of the symmetric robot of platform radius `rp`
-/// and eccentricity `e` at a pose (Eq. 6.1-6.7): the default of
-/// [`Mechanism::platform_chain`].
-#[inline]
-pub fn symmetric_platform_chain<T: Real>(
-    rp: T,
-    e: T,
-    pose: &Pose<T>,
-    chain: Chain,
-) -> PlatformChain<T> {
-    let radial = radial::<T>(chain);
-    // r_i = [cos(ξ+π/2), sin(ξ+π/2), 0] = z × radial (Eq. 6.4).
-    let r_axis = Vector3::new(-radial.y, radial.x, T::zero());
-    // R·radial and R·r_i from the columns of R (both vectors lie in the xy plane); written
-    // out because nalgebra's generic product costs ~150 instructions each on the M4.
-    let r = pose.r.matrix();
-    let col = |a: T, b: T| {
-        Vector3::new(
-            r.m11 * a + r.m12 * b,
-            r.m21 * a + r.m22 * b,
-            r.m31 * a + r.m32 * b,
-        )
-    };
-    let u = col(radial.x, radial.y);
-    let m_axis = col(r_axis.x, r_axis.y);
-    let n = Vector3::new(r.m13, r.m23, r.m33);
-    PlatformChain {
-        p: axpy3(&pose.t, &u, rp), // Eq. 6.7
-        u,
-        m: m_axis,
-        n,                                                      // Eq. 6.6
-        e: Vector3::new(radial.x * e, radial.y * e, T::zero()), // Eq. 6.2
-        radial,
-    }
 }
 
 /// Inverse kinematics on one branch. Fails with the chain and the reason; never returns

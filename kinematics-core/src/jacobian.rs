@@ -142,7 +142,7 @@ fn compose_into<T: Real>(
         if !(relative[chain] > tol) || !det.is_finite() {
             return Err(JacobianError::SerialSingular {
                 chain,
-                relative_det: crate::geometry::to_f64(relative[chain]),
+                relative_det: crate::scalar::to_f64(relative[chain]),
             });
         }
         let inv = T::one() / det;

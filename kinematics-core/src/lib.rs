@@ -42,6 +42,7 @@ pub mod jacobian;
 pub mod lu;
 pub mod mechanism;
 pub mod pose;
+pub mod robot;
 pub mod rspr;
 pub mod scalar;
 pub mod singularity;
@@ -49,24 +50,20 @@ pub mod statics;
 pub mod supervisor;
 pub mod tilt;
 pub mod usr;
+pub mod vectors;
 
 pub use branch::Branch;
 pub use chain::{Chain, PerChain};
 pub use chain_geometry::{ChainDimensions, PerChainGeometry};
 pub use fk::{forward, FkConfig, FkError, FkSolution, FkTracker, Tracked, TrackerCounts};
-pub use geometry::{GeometryError, Robot, RobotKind, RsprGeometry, UsrGeometry};
+pub use geometry::{GeometryError, RsprGeometry, UsrGeometry};
 pub use ik::{inverse, IkError, Solution};
 pub use jacobian::{jacobian, JacobianError, Jacobians};
 pub use mechanism::{ChainSolution, IkFailure, JointKind, Mechanism, SerialBlock};
 pub use pose::Pose;
+pub use robot::{Robot, RobotKind};
 pub use scalar::Real;
 pub use singularity::{measures, Measures, Nearest};
 pub use statics::{actuator_forces, ForceError};
 pub use tilt::{socket_axis, tilt_angles, SocketAxes};
-
-/// Joint vector, in `q` order (see the crate docs).
-pub type Joints<T> = nalgebra::Vector6<T>;
-/// Wrench `[f; t]` exerted by the platform on its environment, moment about o_p, in {0}.
-pub type Wrench<T> = nalgebra::Vector6<T>;
-/// Twist `[v; ω]` of the platform in {0}.
-pub type Twist<T> = nalgebra::Vector6<T>;
+pub use vectors::{Joints, Twist, Wrench};

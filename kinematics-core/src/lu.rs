@@ -8,9 +8,9 @@
 //! Why not nalgebra's LU: the algorithm is the same, but at the firmware's opt-level "s"
 //! its generic loops cost several times the arithmetic on the Cortex-M4: about 1,000 to
 //! 1,300 instructions to factorise and 550 to solve, against about 500 and 150 here, where
-//! every loop over the six rows and columns is written out (`firmware/cortex-m/on-target`). A loop
-//! version of this code was no faster than nalgebra's. `tests/lu.rs` checks it against
-//! nalgebra's LU.
+//! every loop over the six rows and columns is written out (`firmware/cortex-m/on-target`;
+//! the same code with loops is no faster than nalgebra's). `tests/lu.rs` checks it
+//! against nalgebra's LU.
 
 use crate::scalar::Real;
 use nalgebra::{Matrix6, Vector6};

@@ -3,7 +3,7 @@
 
 use crate::chain::Chain;
 use crate::pose::Pose;
-use crate::scalar::{lit, Real};
+use crate::scalar::{axpy3, lit, Real};
 use core::fmt;
 use nalgebra::Vector3;
 
@@ -65,6 +65,42 @@ pub fn radial<T: Real>(chain: Chain) -> Vector3<T> {
         _ => (-0.5, -HALF_SQRT_3),
     };
     Vector3::new(lit(c), lit(s), T::zero())
+}
+
+/// The platform-side quantities of a chain of the symmetric robot of platform radius `rp`
+/// and eccentricity `e` at a pose (Eq. 6.1-6.7): the default of
+/// [`Mechanism::platform_chain`].
+#[inline]
+pub fn symmetric_platform_chain<T: Real>(
+    rp: T,
+    e: T,
+    pose: &Pose<T>,
+    chain: Chain,
+) -> PlatformChain<T> {
+    let radial = radial::<T>(chain);
+    // r_i = [cos(ξ+π/2), sin(ξ+π/2), 0] = z × radial (Eq. 6.4).
+    let r_axis = Vector3::new(-radial.y, radial.x, T::zero());
+    // R·radial and R·r_i from the columns of R (both vectors lie in the xy plane); written
+    // out because nalgebra's generic product costs ~150 instructions each on the M4.
+    let r = pose.r.matrix();
+    let col = |a: T, b: T| {
+        Vector3::new(
+            r.m11 * a + r.m12 * b,
+            r.m21 * a + r.m22 * b,
+            r.m31 * a + r.m32 * b,
+        )
+    };
+    let u = col(radial.x, radial.y);
+    let m_axis = col(r_axis.x, r_axis.y);
+    let n = Vector3::new(r.m13, r.m23, r.m33);
+    PlatformChain {
+        p: axpy3(&pose.t, &u, rp), // Eq. 6.7
+        u,
+        m: m_axis,
+        n,                                                      // Eq. 6.6
+        e: Vector3::new(radial.x * e, radial.y * e, T::zero()), // Eq. 6.2
+        radial,
+    }
 }
 
 /// Why one chain has no inverse-kinematics solution.
@@ -168,7 +204,7 @@ pub trait Mechanism<T: Real> {
     /// and base pivots ([`crate::chain_geometry`]) supplies its own.
     #[inline]
     fn platform_chain(&self, pose: &Pose<T>, chain: Chain) -> PlatformChain<T> {
-        crate::ik::symmetric_platform_chain(self.rp(), self.e(), pose, chain)
+        symmetric_platform_chain(self.rp(), self.e(), pose, chain)
     }
     /// Inverse kinematics of one chain on the chosen root (`bit_set` = the branch bit),
     /// written into `out` (in place: on the Cortex-M4 a returned solution costs copies

@@ -101,7 +101,7 @@ impl<T: Real> Pose<T> {
 
     /// Converts the scalar type (e.g. f64 reference poses to f32 for the MCU), through f64.
     pub fn cast<U: Real>(&self) -> Pose<U> {
-        let conv = |x: &T| crate::scalar::lit::<U>(crate::geometry::to_f64(*x));
+        let conv = |x: &T| crate::scalar::lit::<U>(crate::scalar::to_f64(*x));
         Pose {
             t: self.t.map(|x| conv(&x)),
             r: Rotation3::from_matrix_unchecked(self.r.matrix().map(|x| conv(&x))),

@@ -204,6 +204,14 @@ pub fn lit<T: Real>(x: f64) -> T {
     nalgebra::convert(x)
 }
 
+/// Best-effort conversion to `f64`, for error messages and counts (NaN when the scalar
+/// has no `f64` value).
+#[inline]
+pub(crate) fn to_f64<T: Real>(v: T) -> f64 {
+    // `RealField` offers no direct conversion; `to_subset` exists for f64 supersets.
+    v.to_subset().unwrap_or(f64::NAN)
+}
+
 /// Wraps an angle to (-π, π].
 #[inline]
 pub fn wrap_angle<T: Real>(a: T) -> T {

@@ -7,7 +7,7 @@ use crate::lu::Lu6;
 use crate::mechanism::SerialBlock;
 use crate::scalar::Real;
 use crate::singularity::{parallel_inv_cond, SvdDidNotConverge};
-use crate::{Joints, Wrench};
+use crate::vectors::{Joints, Wrench};
 use core::fmt;
 use nalgebra::Vector3;
 
@@ -84,8 +84,8 @@ pub fn forces_with_inv_cond<T: Real>(
         return Err(ForceError::NonFiniteWrench);
     }
     let singular = || ForceError::ParallelSingular {
-        inv_cond: crate::geometry::to_f64(inv_cond),
-        limit: crate::geometry::to_f64(min_inv_cond),
+        inv_cond: crate::scalar::to_f64(inv_cond),
+        limit: crate::scalar::to_f64(min_inv_cond),
     };
     if !(inv_cond >= min_inv_cond) {
         return Err(singular());

@@ -1,5 +1,5 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
-//! The per-chain geometry (`PerChainGeometry`, issue 19).
+//! The per-chain geometry (`PerChainGeometry`).
 //!
 //! 1. Its symmetric instance (`From<RsprGeometry>`) is the reference robot: IK, the
 //!    Jacobians, FK, the statics and every guard reading agree with `RsprGeometry`'s, in

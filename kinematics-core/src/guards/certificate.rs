@@ -40,9 +40,8 @@
 //!   and u = Cn2 ŝ2 + w⊥ with |w⊥| = |u| sin ψ; |u| ≤ rb is constant (l_b turns about z0).
 //!   ψ changes at most at |dŝ2| + |du/|u|| ≤ |ω| + Θ. The auxiliary bound ψ ≤ ψ_max =
 //!   ψ_c + 0.1 rad (ψ_c the largest over the chains at c; ψ_max < π/2) gives |Cn2| ≥ κ =
-//!   |u|_min cos ψ_max and |w⊥|/|Cn2| = tan ψ ≤ k = tan ψ_max, √(1 + k²) = 1/cos ψ_max.
-//!   (Before: κ = 0.8 |Cn2|_min(c), which lets ψ grow from 0 to 37 deg at the centre, and
-//!   k = √((rb/κ)² - 1) = 0.75 there; now k = 0.1.)
+//!   |u|_min cos ψ_max and |w⊥|/|Cn2| = tan ψ ≤ k = tan ψ_max, √(1 + k²) = 1/cos ψ_max
+//!   (k = tan 0.1 rad ≈ 0.1 where ψ_c = 0, as at the central configuration).
 //! - ŝ1 = (p - b)/l: dŝ1 = (I - ŝ1ŝ1ᵀ)(ṗ - ḃ)/l. The leg is normal to the upper revolute
 //!   axis (ŝ2·(p - b) = 0, the constraint whose derivative gives θ̇ above), so (ŝ1, ŝ2,
 //!   n = ŝ1 × ŝ2) is orthonormal. The ŝ2 part of ṗ - ḃ is -ṡ2·(p - b) = l ω·n (ṡ2 = ω ×
@@ -105,7 +104,9 @@ use crate::scalar::{dot3, larger, lit, norm3, smaller, sqrt, sub3, Real};
 use crate::statics::Statics;
 use nalgebra::Rotation3;
 
-use super::{Guard, Guards};
+use super::limits::Limits;
+use super::readings::Guard;
+use super::setup::Guards;
 
 /// Constraints of one certified region: one per stop-level guard and auxiliary bound.
 pub const CONSTRAINTS: usize = 14;
@@ -368,68 +369,11 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
         if self.robot.joint_kinds() != [Linear, Linear, Linear, Angular, Angular, Angular] {
             return None;
         }
-        let l = &self.limits;
-        let one = T::one();
-        let zero = T::zero();
-        let two = lit::<T>(2.0);
-        let sol = e.sol;
-        let t = sol.pose.t;
-        // Per-chain constants read off the solution: rb = |l_b|, rp = |p - t|, b_z.
-        let (mut rb, mut rp) = (zero, zero);
-        let (mut bz_lo, mut bz_hi) = (T::max_value()?, -T::max_value()?);
-        // ψ, the angle between u = z0 × l_b and ŝ2: |Cn2| = |u| cos ψ (|u| is constant:
-        // l_b turns about z0); the largest ψ over the chains, by its cosine.
-        let (mut u_min, mut cos_c) = (T::max_value()?, one);
-        for c in Chain::ALL {
-            let ch = &sol.chains[c];
-            rb = larger(rb, norm3(&ch.lb));
-            rp = larger(rp, norm3(&sub3(&ch.p, &t)));
-            bz_lo = smaller(bz_lo, ch.b.z);
-            bz_hi = larger(bz_hi, ch.b.z);
-            let u = sqrt(ch.lb.x * ch.lb.x + ch.lb.y * ch.lb.y);
-            u_min = smaller(u_min, u);
-            cos_c = smaller(cos_c, e.jac.serial[c].a22.abs() / u);
-        }
-        let (lmin, lmax) = (l.stroke[0], l.stroke[1]);
-        if !(rp > zero && rb > zero && lmin > zero && cos_c > zero && u_min > zero) {
-            return None;
-        }
-        // ψ ≤ ψ_max = ψ_c + PSI_SLACK (auxiliary): cos and sin of the sum, no trigonometry.
-        let sin_c = sqrt(larger(one - cos_c * cos_c, zero));
-        let (cd, sd) = (lit::<T>(PSI_SLACK_COS), lit::<T>(PSI_SLACK_SIN));
-        let cos_max = cos_c * cd - sin_c * sd;
-        let sin_max = sin_c * cd + cos_c * sd;
-        if !(cos_max > zero) {
-            return None;
-        }
-        // |Cn2| ≥ κ and |w⊥|/|Cn2| = tan ψ ≤ k on the region.
-        let kappa = u_min * cos_max;
-        let k = sin_max / cos_max;
-        let sec = one / cos_max;
-        // |b - t| ≤ β (auxiliary; ≤ l_max + rp always).
-        let mut bt_c = zero;
-        for c in Chain::ALL {
-            bt_c = larger(bt_c, norm3(&sub3(&sol.chains[c].b, &t)));
-        }
-        let beta = smaller(bt_c + lit(BT_SLACK), lmax + rp);
-        // Θ = (|v| + β|ω|)/κ bounds |θ̇|.
-        let theta = Rate::new(one / kappa, beta / kappa);
-        let vp = Rate::new(one, rp);
-        let bdot = theta.times(rb);
-        let legdot = vp.plus(bdot);
-        let omega = Rate::new(zero, one);
-        // The norm of a pair of rate bounds (Minkowski: |v·a + w·b| ≤ |v||a| + |w||b|).
-        let hyp = |x: Rate<T>, y: Rate<T>| {
-            Rate::new(sqrt(x.v * x.v + y.v * y.v), sqrt(x.w * x.w + y.w * y.w))
-        };
-        // dŝ1 = (ω·n) ŝ2 + (γ/l) n, n = ŝ1 × ŝ2, |γ| ≤ √(1 + k²)|v| + (rp + kβ)|ω|.
-        let s1dot = hyp(omega, Rate::new(sec, rp + k * beta).times(one / lmin));
-        let vel = Rate::new(one, zero);
-        let nothing = Constraint {
-            guard: None,
-            margin: one,
-            rate: Rate::new(zero, zero),
-        };
+        let g = CentreGeometry::of(e)?;
+        let r = Rates::new(&g, &self.limits)?;
+        let collision = self.collision_constraint(&g, &r, e.minima)?;
+        let p = parallel_bounds(e, &g, &r);
+        let f = effort_bounds(e, &g, &r, &p, &self.limits);
         let m = e.minima;
         let c = |g: Guard, rate: Rate<T>| Constraint {
             guard: Some(g),
@@ -441,78 +385,261 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
             margin,
             rate,
         };
-        let collision = if l.collision_radius > zero {
-            // The lowest point of the platform's revolute centres on S.
-            let pz_min = self.robot.hc()
-                - l.box_half.z
-                - l.box_margin
-                - rp * crate::scalar::sin_cos(l.tilt_cone).0;
-            let s1z = (pz_min - bz_hi) / lmax;
-            if !(s1z > zero) {
-                return None;
-            }
-            let lever = larger(
-                (l.collision_plane_height - bz_lo).abs(),
-                (l.collision_plane_height - bz_hi).abs(),
-            );
-            c(
-                Guard::Collision,
-                bdot.plus(s1dot.times(two * lever / (s1z * s1z))),
-            )
-        } else {
-            nothing
-        };
-        // The serial measure (relative: |Cn2|/rb) and the auxiliary ψ ≤ ψ_max (ψ's rate is
-        // at most |ω| + Θ as well).
-        let cn2dot = omega.plus(theta);
-        // The parallel measure through δ = ‖A(x) - A(c)‖_F.
-        // Each row's direction part and moment part (over rp); the ŝ2 rows' moment
-        // changes at most at |v|/cos ψ_max + (1 + k)β|ω|.
-        let row1 = hyp(s1dot, s1dot.plus(omega));
-        let row2 = hyp(omega, Rate::new(sec, (one + k) * beta).times(one / rp));
-        let delta = hyp(row1, row2).times(sqrt(lit(3.0)));
-        // σ_max(c): the SVD's, at least the largest row norm (a lower bound of it, ≥ 1).
-        let sigma_c = larger(
-            larger(largest_row_norm(&e.jac.jtilde, rp), one),
-            e.sigma_max,
-        );
-        let ic = e.inv_cond;
-        let p = l.parallel.stop;
-        let sigma_min = ic * sigma_c;
-        let sigma_lo = sigma_min * lit(AUX_SHARE);
-        // The payload efforts.
-        let f = e.statics;
-        let fc = sqrt(dot3(&f.f1, &f.f1) + dot3(&f.f2, &f.f2));
-        let big_f = fc * lit(F_GROWTH) + one;
-        let fe = &l.payload;
-        let fe_norm = sqrt(fe.x * fe.x + fe.y * fe.y + fe.z * fe.z);
-        let se_dot = Rate::new(zero, norm3(&l.payload_lever) * fe_norm / rp);
-        let fdot = se_dot.plus(delta.times(big_f)).times(one / sigma_lo);
-        let a12dot = s1dot.plus(theta).times(rb);
-        let a22dot = omega.plus(theta).times(rb);
-        let torque = hyp(a12dot, a22dot)
-            .times(big_f)
-            .plus(fdot.times(sqrt(two) * rb));
+        let one = T::one();
+        let stop = self.limits.parallel.stop;
         Some([
-            c(Guard::Workspace, vel),
-            c(Guard::TiltCone, omega),
-            c(Guard::Stroke, legdot),
-            c(Guard::LinkAngle, theta),
-            c(Guard::Tilt, s1dot.plus(theta)),
+            c(Guard::Workspace, r.vel),
+            c(Guard::TiltCone, r.omega),
+            c(Guard::Stroke, r.legdot),
+            c(Guard::LinkAngle, r.theta),
+            c(Guard::Tilt, r.s1dot.plus(r.theta)),
             collision,
-            c(Guard::SerialSingularity, cn2dot),
-            aux(lit(PSI_SLACK), cn2dot),
-            aux(beta - bt_c, bdot.plus(vel)),
+            c(Guard::SerialSingularity, r.cn2dot),
+            aux(lit(PSI_SLACK), r.cn2dot),
+            aux(r.beta - g.bt, r.bdot.plus(r.vel)),
             Constraint {
                 guard: Some(Guard::ParallelSingularity),
-                margin: sigma_c * (ic - p) / (one + p),
-                rate: delta,
+                margin: p.sigma_c * (e.inv_cond - stop) / (one + stop),
+                rate: p.delta,
             },
-            aux(sigma_min - sigma_lo, delta),
-            aux(big_f - fc, fdot),
-            c(Guard::Force, fdot),
-            c(Guard::Torque, torque),
+            aux(p.sigma_min - p.sigma_lo, p.delta),
+            aux(f.big_f - f.fc, f.fdot),
+            c(Guard::Force, f.fdot),
+            c(Guard::Torque, f.torque),
         ])
+    }
+
+    /// The collision radius's constraint (section 11.4; a constraint that never binds when
+    /// the collision guard is off); None when the legs may stand horizontal on S.
+    fn collision_constraint(
+        &self,
+        g: &CentreGeometry<T>,
+        r: &Rates<T>,
+        minima: &GuardMinima<T>,
+    ) -> Option<Constraint<T>> {
+        let l = &self.limits;
+        let zero = T::zero();
+        if !(l.collision_radius > zero) {
+            return Some(Constraint {
+                guard: None,
+                margin: T::one(),
+                rate: Rate::new(zero, zero),
+            });
+        }
+        // The lowest point of the platform's revolute centres on S.
+        let pz_min = self.robot.hc()
+            - l.box_half.z
+            - l.box_margin
+            - g.rp * crate::scalar::sin_cos(l.tilt_cone).0;
+        let s1z = (pz_min - g.bz_hi) / l.stroke[1];
+        if !(s1z > zero) {
+            return None;
+        }
+        let lever = larger(
+            (l.collision_plane_height - g.bz_lo).abs(),
+            (l.collision_plane_height - g.bz_hi).abs(),
+        );
+        Some(Constraint {
+            guard: Some(Guard::Collision),
+            margin: minima.get(Guard::Collision),
+            rate: r
+                .bdot
+                .plus(r.s1dot.times(lit::<T>(2.0) * lever / (s1z * s1z))),
+        })
+    }
+}
+
+/// What the bounds are built from, read off the solution at the centre: the extremes
+/// over the three chains.
+struct CentreGeometry<T: Real> {
+    /// rb = |l_b|.
+    rb: T,
+    /// rp = |p - t|.
+    rp: T,
+    /// The lowest and the highest spherical-joint centre, b_z.
+    bz_lo: T,
+    bz_hi: T,
+    /// The smallest |u|, u = z0 × l_b.
+    u_min: T,
+    /// cos ψ_c, ψ_c the largest angle between u and ŝ2 (|Cn2| = |u| cos ψ; |u| is
+    /// constant: l_b turns about z0).
+    cos_c: T,
+    /// The largest |b - t|.
+    bt: T,
+}
+
+impl<T: Real> CentreGeometry<T> {
+    fn of(e: &FullEvaluation<'_, T>) -> Option<Self> {
+        let zero = T::zero();
+        let sol = e.sol;
+        let t = sol.pose.t;
+        let (mut rb, mut rp) = (zero, zero);
+        let (mut bz_lo, mut bz_hi) = (T::max_value()?, -T::max_value()?);
+        let (mut u_min, mut cos_c) = (T::max_value()?, T::one());
+        let mut bt = zero;
+        for c in Chain::ALL {
+            let ch = &sol.chains[c];
+            rb = larger(rb, norm3(&ch.lb));
+            rp = larger(rp, norm3(&sub3(&ch.p, &t)));
+            bz_lo = smaller(bz_lo, ch.b.z);
+            bz_hi = larger(bz_hi, ch.b.z);
+            let u = sqrt(ch.lb.x * ch.lb.x + ch.lb.y * ch.lb.y);
+            u_min = smaller(u_min, u);
+            cos_c = smaller(cos_c, e.jac.serial[c].a22.abs() / u);
+            bt = larger(bt, norm3(&sub3(&ch.b, &t)));
+        }
+        Some(CentreGeometry {
+            rb,
+            rp,
+            bz_lo,
+            bz_hi,
+            u_min,
+            cos_c,
+            bt,
+        })
+    }
+}
+
+/// The bounds on the rates of the motion's quantities over the region (the module
+/// documentation derives each).
+struct Rates<T: Real> {
+    /// |v| and |ω|.
+    vel: Rate<T>,
+    omega: Rate<T>,
+    /// Θ ≥ |θ̇|.
+    theta: Rate<T>,
+    /// |ḃ| and |l̇|.
+    bdot: Rate<T>,
+    legdot: Rate<T>,
+    /// |dŝ1|.
+    s1dot: Rate<T>,
+    /// The serial measure's (and ψ's) rate: |ω| + Θ.
+    cn2dot: Rate<T>,
+    /// β ≥ |b - t| (auxiliary), k = tan ψ_max and 1/cos ψ_max.
+    beta: T,
+    k: T,
+    sec: T,
+}
+
+impl<T: Real> Rates<T> {
+    fn new(g: &CentreGeometry<T>, l: &Limits<T>) -> Option<Self> {
+        let (one, zero) = (T::one(), T::zero());
+        let (lmin, lmax) = (l.stroke[0], l.stroke[1]);
+        if !(g.rp > zero && g.rb > zero && lmin > zero && g.cos_c > zero && g.u_min > zero) {
+            return None;
+        }
+        // ψ ≤ ψ_max = ψ_c + PSI_SLACK (auxiliary): cos and sin of the sum, no trigonometry.
+        let sin_c = sqrt(larger(one - g.cos_c * g.cos_c, zero));
+        let (cd, sd) = (lit::<T>(PSI_SLACK_COS), lit::<T>(PSI_SLACK_SIN));
+        let cos_max = g.cos_c * cd - sin_c * sd;
+        let sin_max = sin_c * cd + g.cos_c * sd;
+        if !(cos_max > zero) {
+            return None;
+        }
+        // |Cn2| ≥ κ and |w⊥|/|Cn2| = tan ψ ≤ k on the region.
+        let kappa = g.u_min * cos_max;
+        let k = sin_max / cos_max;
+        let sec = one / cos_max;
+        // |b - t| ≤ β (auxiliary; ≤ l_max + rp always).
+        let beta = smaller(g.bt + lit(BT_SLACK), lmax + g.rp);
+        // Θ = (|v| + β|ω|)/κ bounds |θ̇|.
+        let theta = Rate::new(one / kappa, beta / kappa);
+        let vp = Rate::new(one, g.rp);
+        let bdot = theta.times(g.rb);
+        let omega = Rate::new(zero, one);
+        // dŝ1 = (ω·n) ŝ2 + (γ/l) n, n = ŝ1 × ŝ2, |γ| ≤ √(1 + k²)|v| + (rp + kβ)|ω|.
+        let s1dot = hyp(omega, Rate::new(sec, g.rp + k * beta).times(one / lmin));
+        Some(Rates {
+            vel: Rate::new(one, zero),
+            omega,
+            theta,
+            bdot,
+            legdot: vp.plus(bdot),
+            s1dot,
+            cn2dot: omega.plus(theta),
+            beta,
+            k,
+            sec,
+        })
+    }
+}
+
+/// The norm of a pair of rate bounds (Minkowski: |v·a + w·b| ≤ |v||a| + |w||b|).
+fn hyp<T: Real>(x: Rate<T>, y: Rate<T>) -> Rate<T> {
+    Rate::new(sqrt(x.v * x.v + y.v * y.v), sqrt(x.w * x.w + y.w * y.w))
+}
+
+/// The parallel measure's bounds: δ bounds the rate of ‖A(x) - A(c)‖_F; σ_max(c) and
+/// σ_min(c) of the scaled Jtilde A, and σ_lo ≤ σ_min on the region (auxiliary).
+struct ParallelBounds<T: Real> {
+    delta: Rate<T>,
+    sigma_c: T,
+    sigma_min: T,
+    sigma_lo: T,
+}
+
+fn parallel_bounds<T: Real>(
+    e: &FullEvaluation<'_, T>,
+    g: &CentreGeometry<T>,
+    r: &Rates<T>,
+) -> ParallelBounds<T> {
+    let one = T::one();
+    // Each row's direction part and moment part (over rp); the ŝ2 rows' moment changes at
+    // most at |v|/cos ψ_max + (1 + k)β|ω|.
+    let row1 = hyp(r.s1dot, r.s1dot.plus(r.omega));
+    let row2 = hyp(
+        r.omega,
+        Rate::new(r.sec, (one + r.k) * r.beta).times(one / g.rp),
+    );
+    let delta = hyp(row1, row2).times(sqrt(lit(3.0)));
+    // σ_max(c): the SVD's, at least the largest row norm (a lower bound of it, ≥ 1).
+    let sigma_c = larger(
+        larger(largest_row_norm(&e.jac.jtilde, g.rp), one),
+        e.sigma_max,
+    );
+    let sigma_min = e.inv_cond * sigma_c;
+    ParallelBounds {
+        delta,
+        sigma_c,
+        sigma_min,
+        sigma_lo: sigma_min * lit(AUX_SHARE),
+    }
+}
+
+/// The payload efforts' bounds (Eq. 7.10): |f| at the centre, F ≥ |f| on the region
+/// (auxiliary), and the rates of the line forces and the link torques.
+struct EffortBounds<T: Real> {
+    fc: T,
+    big_f: T,
+    fdot: Rate<T>,
+    torque: Rate<T>,
+}
+
+fn effort_bounds<T: Real>(
+    e: &FullEvaluation<'_, T>,
+    g: &CentreGeometry<T>,
+    r: &Rates<T>,
+    p: &ParallelBounds<T>,
+    l: &Limits<T>,
+) -> EffortBounds<T> {
+    let one = T::one();
+    let f = e.statics;
+    let fc = sqrt(dot3(&f.f1, &f.f1) + dot3(&f.f2, &f.f2));
+    let big_f = fc * lit(F_GROWTH) + one;
+    let fe = &l.payload;
+    let fe_norm = sqrt(fe.x * fe.x + fe.y * fe.y + fe.z * fe.z);
+    let se_dot = Rate::new(T::zero(), norm3(&l.payload_lever) * fe_norm / g.rp);
+    let fdot = se_dot.plus(p.delta.times(big_f)).times(one / p.sigma_lo);
+    let a12dot = r.s1dot.plus(r.theta).times(g.rb);
+    let a22dot = r.omega.plus(r.theta).times(g.rb);
+    let torque = hyp(a12dot, a22dot)
+        .times(big_f)
+        .plus(fdot.times(sqrt(lit::<T>(2.0)) * g.rb));
+    EffortBounds {
+        fc,
+        big_f,
+        fdot,
+        torque,
     }
 }
 

@@ -2,7 +2,7 @@
 //! from.
 
 use crate::scalar::{lit, Real};
-use crate::Wrench;
+use crate::vectors::Wrench;
 use core::fmt;
 use nalgebra::Vector3;
 

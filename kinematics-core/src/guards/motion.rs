@@ -3,10 +3,10 @@
 
 use crate::mechanism::{JointKind, Mechanism};
 use crate::scalar::Real;
-use crate::{Joints, Twist};
+use crate::vectors::{Joints, Twist};
 
-use super::readings::{stop_only, upper};
-use super::{Guard, Guards, Reading, Subject};
+use super::readings::{stop_only, upper, Guard, Reading, Subject};
+use super::setup::Guards;
 
 /// One platform motion sample for the motion guards.
 #[derive(Clone, Copy, Debug, PartialEq)]

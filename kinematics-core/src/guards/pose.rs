@@ -15,8 +15,10 @@ use crate::statics::{forces_with_inv_cond, Statics};
 use crate::tilt::tilt_angles;
 use nalgebra::Vector3;
 
-use super::readings::{lower, stop_only, unreachable, upper};
-use super::{Guard, Guards, Reading, Severity, Subject, Verdict};
+use super::readings::{
+    lower, stop_only, unreachable, upper, Guard, Reading, Severity, Subject, Verdict,
+};
+use super::setup::Guards;
 
 /// Scratch space of one guard evaluation on the control path
 /// ([`Guards::evaluate_pose_into`]).

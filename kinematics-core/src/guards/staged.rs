@@ -11,8 +11,8 @@ use crate::singularity::ConditionEstimator;
 
 use super::certificate::{FullEvaluation, GuardMinima};
 use super::pose::Evaluation;
-use super::readings::unreachable;
-use super::{Guard, Guards, Reading, Severity};
+use super::readings::{unreachable, Guard, Reading, Severity};
+use super::setup::Guards;
 use crate::statics::Statics;
 
 /// The stages of a staged full evaluation, in order.
@@ -50,15 +50,56 @@ pub struct Staged<T: Real> {
     inv_cond_ok: bool,
     /// The SVD's largest singular value of the scaled Jtilde (with `inv_cond`).
     sigma_max: T,
-    stop: Option<Reading<T>>,
-    warn: bool,
     next: Option<Stage>,
-    /// The smallest margin of each guard so far.
-    minima: GuardMinima<T>,
     /// The payload statics, once computed.
     statics: Option<Statics<T>>,
+    /// What the readings so far found.
+    found: Findings<T>,
+}
+
+/// What the readings of a staged evaluation found so far.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Findings<T: Real> {
+    /// The first stop-level reading.
+    stop: Option<Reading<T>>,
+    /// A warn level was reached.
+    warn: bool,
+    /// The smallest margin of each guard.
+    minima: GuardMinima<T>,
     /// The first guard of the parallel measure or the payload efforts at a warn level.
     late_warn: Option<Guard>,
+}
+
+impl<T: Real> Findings<T> {
+    /// Nothing found yet.
+    fn new() -> Self {
+        Findings {
+            stop: None,
+            warn: false,
+            minima: GuardMinima::new(),
+            late_warn: None,
+        }
+    }
+
+    /// Records one reading.
+    #[inline]
+    fn visit(&mut self, r: &Reading<T>) {
+        self.minima.record(r.guard, r.margin);
+        match r.severity {
+            Some(Severity::Stop) if self.stop.is_none() => self.stop = Some(*r),
+            Some(Severity::Warn) => {
+                self.warn = true;
+                let late = matches!(
+                    r.guard,
+                    Guard::ParallelSingularity | Guard::Force | Guard::Torque
+                );
+                if late && self.late_warn.is_none() {
+                    self.late_warn = Some(r.guard);
+                }
+            }
+            _ => {}
+        }
+    }
 }
 
 impl<T: Real> Staged<T> {
@@ -71,12 +112,9 @@ impl<T: Real> Staged<T> {
             inv_cond: T::zero(),
             inv_cond_ok: false,
             sigma_max: T::zero(),
-            stop: None,
-            warn: false,
             next: None,
-            minima: GuardMinima::new(),
             statics: None,
-            late_warn: None,
+            found: Findings::new(),
         }
     }
     /// Starts over at `pose`.
@@ -85,12 +123,9 @@ impl<T: Real> Staged<T> {
         self.jac_ok = false;
         self.inv_cond_ok = false;
         self.sigma_max = T::zero();
-        self.stop = None;
-        self.warn = false;
         self.next = Some(Stage::Kinematic);
-        self.minima = GuardMinima::new();
         self.statics = None;
-        self.late_warn = None;
+        self.found = Findings::new();
     }
     /// The pose being evaluated.
     pub fn pose(&self) -> &Pose<T> {
@@ -106,11 +141,11 @@ impl<T: Real> Staged<T> {
     }
     /// The first stop-level reading so far.
     pub fn stop(&self) -> Option<&Reading<T>> {
-        self.stop.as_ref()
+        self.found.stop.as_ref()
     }
     /// Whether a warn level was reached so far.
     pub fn warn(&self) -> bool {
-        self.warn
+        self.found.warn
     }
     /// The parallel measure (inverse condition number), once its SVD has converged.
     pub fn inv_cond(&self) -> Option<T> {
@@ -119,23 +154,24 @@ impl<T: Real> Staged<T> {
     /// The first guard among the parallel measure and the payload efforts found at a warn
     /// level (the kinematic guards' warn levels follow the setpoint's own solution).
     pub fn late_warn(&self) -> Option<Guard> {
-        self.late_warn
+        self.found.late_warn
     }
     /// What the finished evaluation computed, for [`Guards::certify`]: None unless it ran
     /// to the end (statics included) without a stop-level reading.
     pub fn full(&self) -> Option<FullEvaluation<'_, T>> {
         let statics = self.statics.as_ref()?;
-        (self.next.is_none() && self.stop.is_none() && self.jac_ok && self.inv_cond_ok).then_some({
-            FullEvaluation {
-                sol: &self.eval.sol,
-                jac: &self.eval.jac,
-                inv_cond: self.inv_cond,
-                sigma_max: self.sigma_max,
-                statics,
-                minima: &self.minima,
-                warn: self.late_warn,
-            }
-        })
+        (self.next.is_none() && self.found.stop.is_none() && self.jac_ok && self.inv_cond_ok)
+            .then_some({
+                FullEvaluation {
+                    sol: &self.eval.sol,
+                    jac: &self.eval.jac,
+                    inv_cond: self.inv_cond,
+                    sigma_max: self.sigma_max,
+                    statics,
+                    minima: &self.found.minima,
+                    warn: self.found.late_warn,
+                }
+            })
     }
 }
 
@@ -147,92 +183,81 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
     /// evaluation ends early at the first stop-level reading.
     pub fn advance(&self, st: &mut Staged<T>, cond: &mut ConditionEstimator<T>) {
         let Some(stage) = st.next else { return };
-        let Staged {
-            pose,
-            eval,
-            jac_ok,
-            inv_cond,
-            inv_cond_ok,
-            sigma_max,
-            stop,
-            warn,
-            next,
-            minima,
-            statics,
-            late_warn,
-        } = st;
-        let mut visit = |r: &Reading<T>| {
-            minima.record(r.guard, r.margin);
-            match r.severity {
-                Some(Severity::Stop) if stop.is_none() => *stop = Some(*r),
-                Some(Severity::Warn) => {
-                    *warn = true;
-                    let late = matches!(
-                        r.guard,
-                        Guard::ParallelSingularity | Guard::Force | Guard::Torque
-                    );
-                    if late && late_warn.is_none() {
-                        *late_warn = Some(r.guard);
-                    }
-                }
-                _ => {}
-            }
-        };
-        *next = match stage {
-            Stage::Kinematic => {
-                self.workspace_readings(pose, &mut visit);
-                match inverse_into(&self.robot, pose, self.branch, &mut eval.sol) {
-                    Err(e) => {
-                        visit(&unreachable(e.chain));
-                        None
-                    }
-                    Ok(()) => {
-                        self.kinematic_readings(&eval.sol, &mut visit);
-                        Some(Stage::Jacobian)
-                    }
-                }
-            }
-            Stage::Jacobian => {
-                *jac_ok = jacobian_into(&self.robot, &eval.sol, &mut eval.jac).is_ok();
-                // The SVD of Jtilde (computed alone at a serial singularity, where J is
-                // not).
-                let computed;
-                let jtilde = if *jac_ok {
-                    &eval.jac.jtilde
-                } else {
-                    computed = tripod_jacobian(&eval.sol);
-                    &computed
-                };
-                match cond.begin(jtilde, self.robot.rp()) {
-                    Ok(()) => Some(Stage::Parallel),
-                    Err(e) => {
-                        self.parallel_verdict(Err(e), &mut visit);
-                        None
-                    }
-                }
-            }
-            Stage::Parallel => match cond.sweep() {
-                None => Some(Stage::Parallel),
-                Some(result) => {
-                    let value = self.parallel_verdict(result, &mut visit);
-                    if let Some(x) = value {
-                        *inv_cond = x;
-                        *inv_cond_ok = true;
-                        *sigma_max = cond.sigma_max();
-                    }
-                    match value {
-                        Some(_) if *jac_ok => Some(Stage::Statics),
-                        _ => None,
-                    }
-                }
-            },
+        let next = match stage {
+            Stage::Kinematic => self.kinematic_stage(st),
+            Stage::Jacobian => self.jacobian_stage(st, cond),
+            Stage::Parallel => self.parallel_stage(st, cond),
             Stage::Statics => {
-                *statics = self.statics_readings(&eval.jac, pose, *inv_cond, &mut visit);
+                let found = &mut st.found;
+                st.statics = self
+                    .statics_readings(&st.eval.jac, &st.pose, st.inv_cond, &mut |r| found.visit(r));
                 None
             }
         };
-        if stop.is_some() {
-            *next = None;
+        st.next = if st.found.stop.is_some() { None } else { next };
+    }
+
+    /// The workspace guards, the inverse kinematics and the kinematic guards.
+    fn kinematic_stage(&self, st: &mut Staged<T>) -> Option<Stage> {
+        let found = &mut st.found;
+        let mut visit = |r: &Reading<T>| found.visit(r);
+        self.workspace_readings(&st.pose, &mut visit);
+        match inverse_into(&self.robot, &st.pose, self.branch, &mut st.eval.sol) {
+            Err(e) => {
+                visit(&unreachable(e.chain));
+                None
+            }
+            Ok(()) => {
+                self.kinematic_readings(&st.eval.sol, &mut visit);
+                Some(Stage::Jacobian)
+            }
+        }
+    }
+
+    /// The Jacobians, and the start of the parallel measure's SVD (of Jtilde, computed
+    /// alone at a serial singularity, where J is not).
+    fn jacobian_stage(
+        &self,
+        st: &mut Staged<T>,
+        cond: &mut ConditionEstimator<T>,
+    ) -> Option<Stage> {
+        let eval = &mut st.eval;
+        st.jac_ok = jacobian_into(&self.robot, &eval.sol, &mut eval.jac).is_ok();
+        let computed;
+        let jtilde = if st.jac_ok {
+            &eval.jac.jtilde
+        } else {
+            computed = tripod_jacobian(&eval.sol);
+            &computed
+        };
+        match cond.begin(jtilde, self.robot.rp()) {
+            Ok(()) => Some(Stage::Parallel),
+            Err(e) => {
+                self.parallel_verdict(Err(e), &mut |r| st.found.visit(r));
+                None
+            }
+        }
+    }
+
+    /// One sweep of the parallel measure's SVD; once it has converged, its verdict (and
+    /// the statics next, when the Jacobians exist).
+    fn parallel_stage(
+        &self,
+        st: &mut Staged<T>,
+        cond: &mut ConditionEstimator<T>,
+    ) -> Option<Stage> {
+        let Some(result) = cond.sweep() else {
+            return Some(Stage::Parallel);
+        };
+        let value = self.parallel_verdict(result, &mut |r| st.found.visit(r));
+        if let Some(x) = value {
+            st.inv_cond = x;
+            st.inv_cond_ok = true;
+            st.sigma_max = cond.sigma_max();
+        }
+        match value {
+            Some(_) if st.jac_ok => Some(Stage::Statics),
+            _ => None,
         }
     }
 }

@@ -7,18 +7,16 @@
 //! pose; the lag is then what verification takes. The path ahead is predicted to second
 //! order (the velocity and its change across it, measured over windows of the stream): on
 //! a curve, a lead along the tangent alone would sit D²/2R outside the path and move
-//! faster than the stream, and a robot at its speed limit fell behind it on every curve
-//! (in the default simulation the lag at 25 mm/s went from 6.5 ms to 0.4 ms ahead of the
-//! last target received with the second order). The master has also moved on since the
-//! target's stamp, by the target's delay on arrival and, until the next target, by up to
-//! a period of the stream: the lead covers the delay and the target's mean age at the
-//! ticks it is the newest, (T - dt)/2 for a period T (nothing for a target every tick).
+//! faster than the stream, so that a robot at its speed limit would fall behind it on
+//! every curve. The master has also moved on since the target's stamp, by the target's
+//! delay on arrival and, until the next target, by up to a period of the stream: the lead
+//! covers the delay and the target's mean age at the ticks it is the newest, (T - dt)/2
+//! for a period T (nothing for a target every tick).
 //!
 //! Only the translation is led. The rotation follows the master's own orientation: a
 //! rotation lead of ω/2α' (1.1 deg at 25 deg/s) reaches far beyond the certified regions
-//! (at most about 0.5 deg), so led rotations would be path-checked one by one, and in the
-//! default simulation the lag at 25 mm/s was 33 ms with it against 28 ms without (with
-//! the smaller regions of the time).
+//! (at most about 0.5 deg), so led rotations would be path-checked one by one instead of
+//! accepted at once.
 //!
 //! Safety is unchanged: a led target is a target like any other (accepted at once inside a
 //! certified region, else verified along its path, see the supervisor). A led target

@@ -7,7 +7,7 @@
 use crate::mechanism::JointKind;
 use crate::pose::{rotation_vector, Pose};
 use crate::scalar::{lit, norm3, sqrt, Real};
-use crate::{Joints, Twist};
+use crate::vectors::{Joints, Twist};
 use nalgebra::{Matrix6, Vector3};
 
 /// The Cartesian limits the profile runs within (already scaled to what the joints can
