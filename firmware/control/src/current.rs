@@ -24,6 +24,10 @@ use crate::scalar::lit;
 use num_traits::Float;
 use servo::NUM_JOINTS;
 
+/// The normalised temperature rise (1 = the continuous rating's) from which the I²t model
+/// derates the peak current.
+const DERATING_FROM: f64 = 0.9;
+
 /// One motor and its transmission, SI (the defaults are the reference robot's:
 /// `host-sim/plant/plant.toml`).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -197,6 +201,11 @@ impl<S: Float> CurrentMonitor<S> {
         self.limited
     }
 
+    /// The temperature rise (normalised) from which the peak current is derated.
+    pub fn derating_from(&self) -> S {
+        lit(DERATING_FROM)
+    }
+
     /// The peak current of joint `j` now: the effort limit, derated by the I²t model from
     /// 90 % of the continuous rating's temperature rise down to the continuous current at
     /// 100 %.
@@ -209,7 +218,7 @@ impl<S: Float> CurrentMonitor<S> {
             return S::zero();
         };
         let peak = l.effort_limit / m.effort_per_amp;
-        let start = lit::<S>(0.9);
+        let start = lit::<S>(DERATING_FROM);
         if *h <= start || peak <= m.continuous_a {
             return peak;
         }

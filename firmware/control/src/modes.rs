@@ -411,6 +411,10 @@ pub struct Context {
     pub cause_active: bool,
     /// The holds in force after the event (the master session's conditions).
     pub hold: Hold,
+    /// The last reset (watchdog, brown-out) is not acknowledged by a person yet.
+    pub reset_pending: bool,
+    /// The safety chain is not trusted: a relay test is pending.
+    pub chain_untrusted: bool,
 }
 
 /// The transition table: the mode after `event` in `mode`, or why the event is refused.
@@ -440,11 +444,25 @@ pub const fn next(mode: ModeKind, event: Event, cx: Context) -> Result<ModeKind,
             M::Holding if !cx.hold.any() => M::Following,
             m => m,
         }),
-        (E::Heartbeat | E::StatusRequest | E::AcknowledgeReset | E::FaultLogRequest, m) => Ok(m),
+        (E::Heartbeat | E::StatusRequest | E::FaultLogRequest, m) => Ok(m),
 
         (E::BootDone, M::Boot) => Ok(M::Disabled),
         (E::BootDone, _) => Err(Refusal::NotAllowed),
         (_, M::Boot) => Err(Refusal::Booting),
+
+        // A reset is acknowledged only with the drives off.
+        (E::AcknowledgeReset, M::Disabled | M::Ready) => Ok(mode),
+        (E::AcknowledgeReset, M::Fault) if !cx.powered => Ok(mode),
+        (E::AcknowledgeReset, _) => Err(Refusal::NotAllowed),
+
+        // Nothing moves before a person acknowledged a watchdog or brown-out reset, nor
+        // while the safety chain awaits its relay test.
+        (E::Enable, M::Ready) | (E::Home { .. }, M::Disabled | M::Ready) if cx.reset_pending => {
+            Err(Refusal::ResetNotAcknowledged)
+        }
+        (E::Enable, M::Ready) | (E::Home { .. }, M::Disabled | M::Ready) if cx.chain_untrusted => {
+            Err(Refusal::SafetyRelayMismatch)
+        }
 
         (E::Enable, M::Ready) => Ok(M::Enabling),
         (E::Enable, M::Enabling | M::Following | M::Holding) => Ok(mode),
@@ -538,6 +556,16 @@ fn contexts(mode: ModeKind, event: Event) -> &'static [(Context, &'static str)] 
             operator_absent: false,
             heartbeat: false,
         },
+        reset_pending: false,
+        chain_untrusted: false,
+    };
+    const RESET: Context = Context {
+        reset_pending: true,
+        ..BASE
+    };
+    const CHAIN: Context = Context {
+        chain_untrusted: true,
+        ..BASE
     };
     const HOMED: Context = Context {
         homed: true,
@@ -560,6 +588,22 @@ fn contexts(mode: ModeKind, event: Event) -> &'static [(Context, &'static str)] 
         ..BASE
     };
     match (mode, event) {
+        (ModeKind::Ready, Event::Enable)
+        | (ModeKind::Disabled | ModeKind::Ready, Event::Home { .. }) => &[
+            (RESET, "reset not acknowledged"),
+            (CHAIN, "relay test pending"),
+            (BASE, "otherwise"),
+        ],
+        (ModeKind::Fault, Event::AcknowledgeReset) => &[
+            (
+                Context {
+                    powered: true,
+                    ..BASE
+                },
+                "stop under power",
+            ),
+            (BASE, "torque off"),
+        ],
         (ModeKind::Fault, Event::ClearFault) => &[
             (
                 Context {

@@ -517,6 +517,11 @@ impl<S: Float> PowerCheck<S> {
             out_of_range: 0,
         }
     }
+    /// The supply `supply_v` is within its range.
+    pub fn supply_in_range(&self, supply_v: S) -> bool {
+        let [lo, hi] = self.cfg.supply_v;
+        supply_v >= lo && supply_v <= hi
+    }
     /// Checks the supply `supply_v` and the driver fault output `driver_fault` (only while
     /// the drivers are powered: `powered`).
     pub fn check(&mut self, supply_v: S, driver_fault: bool, powered: bool) -> Option<Finding> {
@@ -537,13 +542,30 @@ impl<S: Float> PowerCheck<S> {
     }
 }
 
+/// The relay test a safety-chain fault calls for: once the button and the relay have
+/// disagreed, the chain is not trusted until, after a power cycle, the button is pressed
+/// and the relay seen open, then released and the relay seen closed again.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RelayTest {
+    /// The chain is trusted.
+    Passed,
+    /// A disagreement was latched in this power cycle: only a power cycle ends it.
+    Latched,
+    /// After a power cycle: press the button.
+    Required,
+    /// The button pressed and the relay seen open: release it.
+    SeenOpen,
+}
+
 /// The safety chain: the e-stop button and the relay's feedback must agree (pressed =
 /// relay open) within `debounce_ticks` (the relay's switching time); a disagreement that
-/// lasts is a fault, and the board refuses to enable while they disagree.
+/// lasts is a fault, and latches the relay test ([`RelayTest`]): the board refuses to home
+/// or enable until the relay has passed it after a power cycle.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SafetyChainCheck {
     debounce_ticks: u16,
     disagree: u16,
+    test: RelayTest,
 }
 
 impl SafetyChainCheck {
@@ -552,23 +574,43 @@ impl SafetyChainCheck {
         SafetyChainCheck {
             debounce_ticks,
             disagree: 0,
+            test: RelayTest::Passed,
         }
     }
     /// The button and the relay agree now.
     pub fn agrees(pressed: bool, relay_open: bool) -> bool {
         pressed == relay_open
     }
-    /// Checks the chain.
+    /// Checks the chain (and advances the relay test).
     pub fn check(&mut self, pressed: bool, relay_open: bool) -> Option<Finding> {
+        self.test = match self.test {
+            RelayTest::Required if pressed && relay_open => RelayTest::SeenOpen,
+            RelayTest::SeenOpen if !pressed && !relay_open => RelayTest::Passed,
+            t => t,
+        };
         if Self::agrees(pressed, relay_open) {
             self.disagree = 0;
             return None;
         }
         self.disagree = self.disagree.saturating_add(1);
         (self.disagree > self.debounce_ticks).then(|| {
+            self.test = RelayTest::Latched;
             let v = if pressed { 1.0f32 } else { 2.0 };
             Finding::board(FaultCause::SafetyRelayMismatch, v)
         })
+    }
+    /// Where the relay test stands.
+    pub fn relay_test(&self) -> RelayTest {
+        self.test
+    }
+    /// The chain is trusted (no relay test pending).
+    pub fn trusted(&self) -> bool {
+        self.test == RelayTest::Passed
+    }
+    /// At boot: the previous power cycle latched a safety-chain fault (the board kept it
+    /// in its non-volatile store), so the relay must pass its test first.
+    pub fn require_test(&mut self) {
+        self.test = RelayTest::Required;
     }
 }
 

@@ -824,8 +824,9 @@ fn an_older_session_is_refused_but_never_an_emergency_stop() {
 }
 
 /// Property: after a watchdog or brown-out reset, the hello reply and the status report
-/// the cause unacknowledged, and `Enable` is refused with `ResetNotAcknowledged` until the
-/// master acknowledges; after a power-on or pin reset nothing needs acknowledging.
+/// the cause unacknowledged, and `Home` and `Enable` are refused with
+/// `ResetNotAcknowledged` until the master acknowledges (nothing moves before a person
+/// has); after a power-on or pin reset nothing needs acknowledging.
 #[test]
 fn a_watchdog_reset_must_be_acknowledged_before_enabling() {
     for cause in [
@@ -842,24 +843,23 @@ fn a_watchdog_reset_must_be_acknowledged_before_enabling() {
         let needs = cause.needs_acknowledgement();
         assert_eq!(reset.acknowledged, !needs, "{cause:?}");
         assert_eq!(b.rt.status().reset, reset);
-        home(&mut m, &mut b);
-        let (s, r) = exchange(&mut m, &mut b, &MasterToBoard::Enable);
         if needs {
-            assert_eq!(
-                r,
-                BoardToMaster::Nack {
-                    seq: s,
-                    reason: NackReason::ResetNotAcknowledged
-                },
-                "{cause:?}"
-            );
+            for cmd in [MasterToBoard::Home { rehome: false }, MasterToBoard::Enable] {
+                let (s, r) = exchange(&mut m, &mut b, &cmd);
+                let reason = if cmd == MasterToBoard::Enable {
+                    NackReason::NotHomed
+                } else {
+                    NackReason::ResetNotAcknowledged
+                };
+                assert_eq!(r, BoardToMaster::Nack { seq: s, reason }, "{cause:?}");
+            }
             let (s, r) = exchange(&mut m, &mut b, &MasterToBoard::AcknowledgeReset);
             assert_eq!(r, BoardToMaster::Ack { seq: s });
             assert!(b.rt.status().reset.acknowledged);
-            enable(&mut m, &mut b);
-        } else {
-            assert_eq!(r, BoardToMaster::Ack { seq: s }, "{cause:?}");
         }
+        home(&mut m, &mut b);
+        let (s, r) = exchange(&mut m, &mut b, &MasterToBoard::Enable);
+        assert_eq!(r, BoardToMaster::Ack { seq: s }, "{cause:?}");
     }
 }
 

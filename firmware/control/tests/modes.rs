@@ -216,7 +216,13 @@ const TABLE: [(Event, [&str; 14]); 27] = {
             ],
         ),
         (E::StatusRequest, R),
-        (E::AcknowledgeReset, R),
+        (
+            E::AcknowledgeReset,
+            [
+                "!Boot", "=", "!NA", "!NA", "=", "!NA", "!NA", "!NA", "!NA", "!NA", "=", "=",
+                "!NA", "=",
+            ],
+        ),
         (E::FaultLogRequest, R),
         (
             E::StoreGeometry,
@@ -316,6 +322,40 @@ fn every_mode_times_every_event_is_the_written_table() {
     assert_eq!(checked, 27 * 14);
     for e in Event::COMMANDS.iter().chain(Event::CONDITIONS.iter()) {
         assert!(TABLE.iter().any(|(t, _)| t == e), "{e:?} not in the table");
+    }
+    // The restart interlocks: nothing moves before a person acknowledged a watchdog or
+    // brown-out reset, nor while the safety chain awaits its relay test; the reset is
+    // acknowledged only with the drives off.
+    for (cx, refusal) in [
+        (
+            Context {
+                reset_pending: true,
+                ..Context::default()
+            },
+            Refusal::ResetNotAcknowledged,
+        ),
+        (
+            Context {
+                chain_untrusted: true,
+                ..Context::default()
+            },
+            Refusal::SafetyRelayMismatch,
+        ),
+    ] {
+        for (mode, event) in [
+            (ModeKind::Disabled, Event::Home { rehome: false }),
+            (ModeKind::Ready, Event::Home { rehome: true }),
+            (ModeKind::Ready, Event::Enable),
+        ] {
+            assert_eq!(next(mode, event, cx), Err(refusal), "{event:?} in {mode:?}");
+        }
+        for event in [
+            Event::Disable,
+            Event::AcknowledgeReset,
+            Event::StoreGeometry,
+        ] {
+            assert!(next(ModeKind::Ready, event, cx).is_ok(), "{event:?}");
+        }
     }
     // The dead-man alone gives its own refusal.
     let absent = Context {
@@ -758,12 +798,15 @@ fn context_of(b: &Bench) -> Context {
             && !matches!(b.rt.stop_phase(), StopPhase::TorqueOff { .. }),
         cause_active: i.estop_pressed || i.relay_open != i.estop_pressed,
         hold: b.rt.session().hold(),
+        reset_pending: !b.rt.reset().acknowledged,
+        chain_untrusted: b.rt.relay_test_pending(),
     }
 }
 
 /// Property: every fault cause latches its own bit; the causes that make the encoder
-/// reference doubtful lose the homing, the others keep it; clearing returns to `Ready` or
-/// `Disabled` once the stop has ended; faults add up while latched.
+/// reference doubtful lose the homing, the others keep it; with its condition gone,
+/// clearing returns to `Ready` or `Disabled` once the stop has ended (a missed deadline is
+/// never cleared: the watchdog resets the board); faults add up while latched.
 #[test]
 fn fault_bits_and_homing_validity() {
     let benches = benches();
@@ -781,6 +824,14 @@ fn fault_bits_and_homing_validity() {
                 StopPhase::TorqueOff { .. } | StopPhase::Holding
             )
         });
+        if cause == FaultCause::DeadlineMissed {
+            // The watchdog resets the board: nothing clears it before.
+            assert_eq!(
+                b.send(&MasterToBoard::ClearFault),
+                Err(NackReason::FaultStillActive)
+            );
+            continue;
+        }
         b.send(&MasterToBoard::ClearFault).unwrap();
         b.run_until(2_000, |rt| rt.mode().kind() != ModeKind::Stopping);
         let back = if loses { State::Disabled } else { State::Ready };

@@ -25,6 +25,7 @@
 //! Every change of mode goes through [`crate::modes::next`] (`transitions.rs`).
 
 mod config;
+mod interlocks;
 mod mode;
 mod monitoring;
 mod motion;
@@ -214,6 +215,17 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
     pub fn stop_phase(&self) -> StopPhase {
         self.mode.stop_phase()
     }
+    /// The safety chain awaits its relay test (a safety-chain fault was latched in this
+    /// power cycle, or in the last one and the test has not passed yet): the target keeps
+    /// this in its non-volatile store and tells the next boot
+    /// ([`Runtime::require_relay_test`]).
+    pub fn relay_test_pending(&self) -> bool {
+        !self.monitors.chain.trusted()
+    }
+    /// At boot: the last power cycle ended with the relay test pending.
+    pub fn require_relay_test(&mut self) {
+        self.monitors.chain.require_test();
+    }
     /// Refused events so far.
     pub fn refusals(&self) -> u32 {
         self.refusals
@@ -225,7 +237,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
     }
 
     /// What the table needs beyond the mode, now.
-    fn context(&self) -> Context {
+    fn context(&self, now_us: u64) -> Context {
         let powered = match &self.mode {
             Mode::Fault { stop, .. } => stop.powered(),
             _ => false,
@@ -233,8 +245,10 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         Context {
             homed: self.mode.homed(),
             powered,
-            cause_active: self.inputs.safety_chain_tripped(),
+            cause_active: self.cause_still_present(now_us).is_some(),
             hold: self.session.hold(),
+            reset_pending: !self.reset.acknowledged,
+            chain_untrusted: !self.monitors.chain.trusted(),
         }
     }
 
@@ -247,7 +261,8 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         &self,
         record: &master_link::GeometryRecord,
     ) -> Result<u32, master_link::GeometryRefusal> {
-        if crate::modes::next(self.mode.kind(), Event::StoreGeometry, self.context()).is_err() {
+        let cx = self.context(0);
+        if crate::modes::next(self.mode.kind(), Event::StoreGeometry, cx).is_err() {
             return Err(master_link::GeometryRefusal::InvalidState);
         }
         let nominal = kinematics_core::RsprGeometry {
@@ -319,6 +334,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             }
             MasterToBoard::ClearFault => self.ack(Event::ClearFault, now_us),
             MasterToBoard::AcknowledgeReset => {
+                self.apply(Event::AcknowledgeReset, now_us)?;
                 self.reset.acknowledged = true;
                 Ok(Answer::Ack)
             }

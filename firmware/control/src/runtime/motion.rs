@@ -22,8 +22,8 @@ fn jog_reason(e: JogError) -> NackReason {
 
 impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
     /// Whether targets are taken now (following), or why not.
-    fn target_gate(&mut self) -> Result<(), NackReason> {
-        match next(self.mode.kind(), Event::Target, self.context()) {
+    fn target_gate(&mut self, now_us: u64) -> Result<(), NackReason> {
+        match next(self.mode.kind(), Event::Target, self.context(now_us)) {
             Ok(_) => Ok(()),
             Err(r) => {
                 self.refusals = self.refusals.wrapping_add(1);
@@ -44,7 +44,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         if !velocity.is_finite() {
             return Err(NackReason::InvalidValue);
         }
-        self.target_gate()?;
+        self.target_gate(now_us)?;
         let Mode::Following { ctl, jog } = &self.mode else {
             return Err(NackReason::InvalidState);
         };
@@ -87,7 +87,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         now_us: u64,
     ) -> Result<(), NackReason> {
         let pose = wire::pose_from_wire::<S>(position_m, rotation_vector_rad)?;
-        self.target_gate()?;
+        self.target_gate(now_us)?;
         let board_stamp = self.session.accept_target(stamp_us, now_us)?;
         let Mode::Following { ctl, jog } = &mut self.mode else {
             return Err(NackReason::InvalidState);

@@ -201,7 +201,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             let f = Finding::board::<S>(FaultCause::StandstillLost, S::zero());
             self.fault(f, now_us);
         }
-        self.settle_stop();
+        self.settle_stop(now_us);
     }
 }
 

@@ -58,7 +58,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             event,
             matches!(from, ModeKind::Following | ModeKind::Holding),
         );
-        let to = match next(from, event, self.context()) {
+        let to = match next(from, event, self.context(now_us)) {
             Ok(to) => to,
             Err(r) => {
                 self.refusals = self.refusals.wrapping_add(1);
@@ -137,9 +137,6 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
     /// controller at the measured pose (or where the last one held), the brake check
     /// started; the heartbeat and the target clock restart.
     fn enter_enabling(&mut self, now_us: u64) -> Result<(), Refusal> {
-        if !self.reset.acknowledged {
-            return Err(Refusal::ResetNotAcknowledged);
-        }
         if self.inputs.estop_pressed {
             return Err(Refusal::FaultStillActive);
         }
@@ -296,17 +293,17 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             }
         }
         self.mode = Mode::Stopping { stop, homed };
-        self.settle_stop();
+        self.settle_stop(now_us);
     }
 
     /// A stop that reached torque off: `Stopping` ends in `Ready` (with where the
     /// controller held) or `Disabled`; a fault's stop keeps only where it held.
-    pub(super) fn settle_stop(&mut self) {
+    pub(super) fn settle_stop(&mut self, now_us: u64) {
         let off = matches!(self.mode.stop_phase(), StopPhase::TorqueOff { .. });
         match self.mode.kind() {
             ModeKind::Stopping | ModeKind::Fault if off => {
                 let from = self.mode.kind();
-                if next(from, Event::StopComplete, self.context()).is_ok() {
+                if next(from, Event::StopComplete, self.context(now_us)).is_ok() {
                     let to = match (from, self.mode.homed()) {
                         (ModeKind::Fault, _) => ModeKind::Fault,
                         (_, true) => ModeKind::Ready,
@@ -379,7 +376,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         }
         let from = self.mode.kind();
         // (A heartbeat loss while nothing drives is no fault.)
-        if next(from, Event::Fault(cause), self.context()) != Ok(ModeKind::Fault) {
+        if next(from, Event::Fault(cause), self.context(now_us)) != Ok(ModeKind::Fault) {
             return;
         }
         let loses = Event::Fault(cause)
@@ -426,7 +423,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         if from != ModeKind::Fault {
             self.session.note(Event::Fault(cause), false);
         }
-        self.settle_stop();
+        self.settle_stop(now_us);
     }
 
     /// The stop of `event` in a mode that had none, or the one in force made stronger.

@@ -1,0 +1,83 @@
+//! The restart interlocks: a latched fault is cleared only once its cause is gone.
+//!
+//! `ClearFault` re-tests every cause latched since the fault (the status names the first);
+//! a cause whose condition can be read at rest refuses the clear while it persists: the
+//! button still pressed, the safety chain (latched until a power cycle and a passed relay
+//! test), the heartbeat still late, a joint still beyond its range or a switch still
+//! closed, a current still above its trip, a winding still above its derating
+//! temperature, the drivers' fault line, the supply out of range, and a missed deadline
+//! (the watchdog resets the board). The others (a following error, an encoder, a homing
+//! failure, a guard stop, ...) cannot be re-tested without motion: they are cleared, and
+//! those that make the reference doubtful have lost the homing.
+
+use kinematics_core::Mechanism;
+use master_link::FaultCause;
+
+use super::mode::{cause_bit, Mode};
+use super::Runtime;
+use crate::monitors::check_ranges;
+use crate::scalar::{lit, Scalar};
+
+impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
+    /// The first latched cause whose condition is still present, in `Fault`.
+    pub fn cause_still_present(&self, now_us: u64) -> Option<FaultCause> {
+        let Mode::Fault { latched, .. } = &self.mode else {
+            return None;
+        };
+        FaultCause::ALL
+            .iter()
+            .copied()
+            .filter(|c| latched.raised & cause_bit(*c) != 0)
+            .find(|c| self.present(*c, now_us))
+    }
+
+    /// Whether the condition of `cause` holds now.
+    fn present(&self, cause: FaultCause, now_us: u64) -> bool {
+        let i = &self.inputs;
+        let current = &self.monitors.current;
+        let each = |f: &dyn Fn(usize, S) -> bool| {
+            i.currents
+                .iter()
+                .enumerate()
+                .any(|(j, a)| f(j, Float::abs(*a)))
+        };
+        match cause {
+            FaultCause::EmergencyStopButton => i.estop_pressed,
+            FaultCause::SafetyRelayMismatch => {
+                i.safety_chain_tripped() || !self.monitors.chain.trusted()
+            }
+            FaultCause::HeartbeatTimeout => self.session.heartbeat_is_late(now_us),
+            FaultCause::LimitSwitch => i.switches.iter().any(|s| *s),
+            FaultCause::JointLimit => {
+                let q = self.sensing.measured().q;
+                let range = &self.cfg.mechanics.range;
+                check_ranges(
+                    &q,
+                    range,
+                    &[false; servo::NUM_JOINTS],
+                    self.mode.homed(),
+                    true,
+                )
+                .is_some()
+            }
+            FaultCause::Overcurrent => each(&|j, a| {
+                a > current
+                    .config()
+                    .limits
+                    .get(j)
+                    .map_or(S::zero(), |l| l.trip_a)
+            }),
+            FaultCause::Overload => each(&|j, a| a >= current.peak_current(j) * lit::<S>(0.9)),
+            FaultCause::OverTemperature => current
+                .heat()
+                .iter()
+                .any(|h| !(*h <= current.derating_from())),
+            FaultCause::DriverFault => i.driver_fault,
+            FaultCause::SupplyVoltage => !self.monitors.power.supply_in_range(i.supply_v),
+            FaultCause::DeadlineMissed => true,
+            _ => false,
+        }
+    }
+}
+
+use num_traits::Float;
