@@ -74,6 +74,17 @@ pub struct JointHoming<S> {
     /// Above this |current| the duty is cut for the tick (the current limit); lasting
     /// for the stall time it counts as a stall. Infinite disables it.
     pub current_limit: S,
+    /// The most a switch may be driven off before it must change (its hysteresis and a
+    /// margin): the travel allowed to leave a switch actuated at the start, and how far
+    /// from its switch a joint may rest and still find it actuated.
+    pub switch_travel_max: S,
+    /// Where the joint may be while homing (m, rad): its mechanical range, widened only as
+    /// far as its switch or stop. Before its reference exists the joint's position is
+    /// estimated from where it rested ([`JointHoming::rest_position`]) and how far it has
+    /// moved since the start.
+    pub range: [S; 2],
+    /// The fastest the joint's motor may move while homing (m/s, rad/s, over 10 ms).
+    pub speed_limit: S,
 }
 
 /// Homing settings.
@@ -121,6 +132,9 @@ impl<S: Float> HomingConfig<S> {
         park: Option<[S; NUM_JOINTS]>,
     ) -> Self {
         let at = |a: &[S; NUM_JOINTS], j: usize| a.get(j).copied().unwrap_or_else(S::zero);
+        let at2 = |a: &[[S; 2]; NUM_JOINTS], j: usize| {
+            a.get(j).copied().unwrap_or([S::zero(), S::zero()])
+        };
         let leg = |j: usize| JointHoming {
             method: HomeMethod::Switch,
             towards_positive: false,
@@ -133,6 +147,10 @@ impl<S: Float> HomingConfig<S> {
             max_travel: lit(0.080),
             // Under the overload monitor's 90 % of the 5.2 A peak.
             current_limit: lit(3.0),
+            switch_travel_max: lit(0.003),
+            range: at2(&mech.range, j),
+            // 1.5 x the fastest of a homing on the reference plant (14 mm/s backing off).
+            speed_limit: lit(0.022),
         };
         let link = |j: usize| JointHoming {
             method: HomeMethod::HardStop,
@@ -147,6 +165,15 @@ impl<S: Float> HomingConfig<S> {
             // Well under the overload monitor's 90 % of the 0.66 A peak: a stop found at
             // the homing's limit is not an overload.
             current_limit: lit(0.4),
+            switch_travel_max: lit(3f64.to_radians()),
+            range: {
+                // Down to the hard stop and a degree beyond it.
+                let [lo, hi] = at2(&mech.range, j);
+                let stop = at(central, j) - mech.link_stop_below_central_rad;
+                [lo.min(stop - lit(1f64.to_radians())), hi]
+            },
+            // 1.5 x the fastest of a homing on the reference plant (0.72 rad/s backing off).
+            speed_limit: lit(1.1),
         };
         HomingConfig {
             joints: [leg(0), leg(1), leg(2), link(3), link(4), link(5)],
@@ -181,6 +208,11 @@ impl<S: Float> HomingConfig<S> {
                 && pos(h.backoff_duty)
                 && pos(h.backoff_distance)
                 && pos(h.max_travel)
+                && pos(h.switch_travel_max)
+                && pos(h.speed_limit)
+                && h.range[0] < h.range[1]
+                && h.home_position >= h.range[0]
+                && h.home_position <= h.range[1]
                 && h.current_limit > S::zero()
                 && !h.current_limit.is_nan();
             let park_ok = match self.park {
@@ -228,6 +260,22 @@ pub enum HomingError {
         /// Joint.
         joint: usize,
     },
+    /// A switch reads actuated where the joint cannot be near it (it rests farther from it
+    /// than the switch's travel): a cut wire or a failed switch; found before any motion.
+    SwitchImplausible {
+        /// Joint.
+        joint: usize,
+    },
+    /// The joint left its homing range (its estimated position, before its reference).
+    OutOfRange {
+        /// Joint.
+        joint: usize,
+    },
+    /// The joint's motor moved faster than the homing allows (a runaway).
+    Overspeed {
+        /// Joint.
+        joint: usize,
+    },
     /// The park move after the references (`reason`: 1 a guard along the path, 2 a point
     /// of the path without a pose, 3 invalid settings, 4 not settled at the park joints, 5
     /// the supervisor refused to start at the park pose).
@@ -249,6 +297,9 @@ impl HomingError {
             HomingError::StalledOutsideWindow { joint } => (5, joint),
             HomingError::SwitchStuck { joint } => (6, joint),
             HomingError::Park { reason } => (7, usize::from(reason)),
+            HomingError::SwitchImplausible { joint } => (8, joint),
+            HomingError::OutOfRange { joint } => (9, joint),
+            HomingError::Overspeed { joint } => (10, joint),
         };
         (kind * 10 + joint) as f32
     }
@@ -260,7 +311,10 @@ impl HomingError {
             | HomingError::NotFound { joint }
             | HomingError::StalledBeforeSwitch { joint }
             | HomingError::StalledOutsideWindow { joint }
-            | HomingError::SwitchStuck { joint } => Some(joint),
+            | HomingError::SwitchStuck { joint }
+            | HomingError::SwitchImplausible { joint }
+            | HomingError::OutOfRange { joint }
+            | HomingError::Overspeed { joint } => Some(joint),
             HomingError::Park { .. } => None,
         }
     }
@@ -333,7 +387,16 @@ pub struct Homing<S> {
     counts: [i64; NUM_JOINTS],
     /// First step of the phase.
     fresh: bool,
+    /// The joints at the start (before any reference), for the estimated positions.
+    start_q: [S; NUM_JOINTS],
+    /// The joints whose reference this homing has set.
+    referenced: [bool; NUM_JOINTS],
+    /// The motors' positions and the time at the start of the speed window.
+    speed_window: ([S; NUM_JOINTS], u64),
 }
+
+/// The window over which the homing measures the motors' speeds, µs.
+const SPEED_WINDOW_US: u64 = 10_000;
 
 fn joint_of<S>(cfg: &HomingConfig<S>, index: usize) -> Option<usize> {
     cfg.order.get(index).map(|j| usize::from(*j))
@@ -367,6 +430,9 @@ impl<S: Float> Homing<S> {
             q: [S::zero(); NUM_JOINTS],
             counts: [0; NUM_JOINTS],
             fresh: false,
+            start_q: [S::zero(); NUM_JOINTS],
+            referenced: [false; NUM_JOINTS],
+            speed_window: ([S::zero(); NUM_JOINTS], 0),
         })
     }
 
@@ -396,6 +462,9 @@ impl<S: Float> Homing<S> {
             Some(r) => *r,
             None => self.cfg.joints.map(|h| h.rest_position),
         };
+        self.start_q = *q;
+        self.referenced = [false; NUM_JOINTS];
+        self.speed_window = (*motor, now_us);
         self.q = *q;
         self.counts = *counts;
         self.hold = *q;
@@ -419,6 +488,75 @@ impl<S: Float> Homing<S> {
     /// Aborts: the phase becomes `Idle`.
     pub fn abort(&mut self) {
         self.phase = HomingPhase::Idle;
+    }
+
+    /// Checks the switches before any motion: a switch that reads actuated where its
+    /// joint rests farther from it than the switch's travel cannot be (a cut wire or a
+    /// failed switch): homing fails before it moves anything.
+    pub fn check_switches(&mut self, switches: &[bool; NUM_JOINTS]) -> Result<(), HomingError> {
+        for (joint, h) in self.cfg.joints.iter().enumerate() {
+            let actuated = switches.get(joint).copied().unwrap_or(false);
+            let rest = self.rest.get(joint).copied().unwrap_or(h.rest_position);
+            if h.method == HomeMethod::Switch
+                && actuated
+                && (rest - h.home_position).abs() > h.switch_travel_max
+            {
+                let e = HomingError::SwitchImplausible { joint };
+                self.phase = HomingPhase::Failed(e);
+                return Err(e);
+            }
+        }
+        Ok(())
+    }
+
+    /// The joints' positions as the homing knows them: a referenced joint's is measured;
+    /// before its reference, where it rested plus how far it has moved since the start.
+    pub fn estimated(&self, q: &[S; NUM_JOINTS]) -> [S; NUM_JOINTS] {
+        core::array::from_fn(|j| {
+            let qj = q.get(j).copied().unwrap_or_else(S::zero);
+            if self.referenced.get(j).copied().unwrap_or(false) {
+                return qj;
+            }
+            let rest = self.rest.get(j).copied().unwrap_or_else(S::zero);
+            let start = self.start_q.get(j).copied().unwrap_or_else(S::zero);
+            rest + (qj - start)
+        })
+    }
+
+    /// Every joint within its homing range (estimated positions) and every motor within
+    /// its homing speed (over the speed window): else the first joint that is not. While
+    /// approaching, the joint being homed leaving its range means its switch or stop was
+    /// not where it must be (`NotFound`).
+    fn check_motion(
+        &mut self,
+        q: &[S; NUM_JOINTS],
+        motor: &[S; NUM_JOINTS],
+        now_us: u64,
+    ) -> Result<(), HomingError> {
+        let est = self.estimated(q);
+        for (joint, (h, x)) in self.cfg.joints.iter().zip(est.iter()).enumerate() {
+            let [lo, hi] = h.range;
+            if !(*x >= lo && *x <= hi) {
+                return Err(match self.phase {
+                    HomingPhase::Approach { joint: j } if j == joint => {
+                        HomingError::NotFound { joint }
+                    }
+                    _ => HomingError::OutOfRange { joint },
+                });
+            }
+        }
+        let (from, t0) = self.speed_window;
+        let elapsed = now_us.saturating_sub(t0);
+        if elapsed >= SPEED_WINDOW_US {
+            let dt = S::from(elapsed).unwrap_or_else(S::one) * lit(1e-6);
+            for (joint, ((h, a), b)) in self.cfg.joints.iter().zip(from).zip(motor).enumerate() {
+                if !((*b - a).abs() <= h.speed_limit * dt) {
+                    return Err(HomingError::Overspeed { joint });
+                }
+            }
+            self.speed_window = (*motor, now_us);
+        }
+        Ok(())
     }
 
     fn enter(&mut self, phase: HomingPhase, now_us: u64) {
@@ -520,6 +658,12 @@ impl<S: Float> Homing<S> {
     /// joint's setpoint jumped to its referenced value without a motion).
     fn reference<R: JointReferences<S>>(&mut self, sensing: &mut R, joint: usize, q: S) {
         sensing.set_reference(joint, q);
+        if let Some(r) = self.referenced.get_mut(joint) {
+            *r = true;
+        }
+        // The joint's counts now read in the new reference: the speed window restarts
+        // from there.
+        self.speed_window.0 = sensing.motors();
         let offset = self
             .servo
             .backlash_offsets()
@@ -604,6 +748,9 @@ impl<S: Float> Homing<S> {
         let fresh = core::mem::replace(&mut self.fresh, false);
         if now_us.saturating_sub(self.phase_start_us) > self.cfg.phase_timeout_us {
             return (self.fail(HomingError::Timeout { joint }), zero);
+        }
+        if let Err(e) = self.check_motion(&q, &motor, now_us) {
+            return (self.fail(e), zero);
         }
         let stalled = self.watch_motion(&h, cj, ij, now_us);
         let travel = (qj - self.phase_start_q).abs();
@@ -695,7 +842,7 @@ impl<S: Float> Homing<S> {
             HomingPhase::LeaveSwitch { .. } => {
                 if !seen.switch {
                     self.enter(HomingPhase::Approach { joint }, now_us);
-                } else if seen.travel > h.max_travel || seen.stalled {
+                } else if seen.travel > h.switch_travel_max || seen.stalled {
                     return Err(HomingError::SwitchStuck { joint });
                 } else {
                     return Ok(-sign * h.backoff_duty.min(limit) * self.duty_scale);

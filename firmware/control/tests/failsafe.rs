@@ -64,7 +64,7 @@ fn snapshots() -> Vec<(State, Rt, PlantHw, u64)> {
     for _ in 0..50 {
         tick(&mut rt, &mut hw, &mut t, true);
     }
-    assert_eq!(rt.state(), State::Homing);
+    assert_eq!(rt.state(), State::Homing, "{:?}", rt.status().fault);
     out.push((State::Homing, rt.clone(), hw.clone(), t));
     while rt.state() == State::Homing {
         tick(&mut rt, &mut hw, &mut t, true);

@@ -372,6 +372,104 @@ fn homing_current_limit_detects_the_stop() {
     assert!((s.joints()[3] - hw.q[3]).abs() < 1e-3);
 }
 
+/// Property: a home switch that reads actuated where its joint rests farther from it than
+/// the switch's travel (a cut wire on the normally closed switch) fails the homing before
+/// any motion, naming the joint.
+#[test]
+fn a_switch_actuated_far_from_its_position_fails_before_any_motion() {
+    let cfg = test_homing_config();
+    let mut hw = Fake::new([0.17; 6]);
+    hw.stuck_switch = true;
+    let mut h = new_homing(&cfg);
+    let mut s = sensing(&mut hw);
+    start(&mut h, &s, 1_000);
+    assert_eq!(
+        h.check_switches(&hw.switches()),
+        Err(HomingError::SwitchImplausible { joint: 0 })
+    );
+    hw.enable();
+    let q0 = hw.q;
+    let st = step(&mut h, &mut hw, &mut s, 2_000);
+    assert_eq!(
+        st,
+        HomingStatus::Failed(HomingError::SwitchImplausible { joint: 0 })
+    );
+    assert_eq!(hw.duty, [0.0; 6]);
+    hw.advance(1e-3);
+    assert_eq!(hw.q, q0, "nothing moved");
+}
+
+/// Property: a switch that never closes (a switch failed the other way) is given up
+/// where the joint's estimated position reaches the end of its homing range: the joint
+/// never goes beyond it by more than one tick of its approach.
+#[test]
+fn a_switch_that_never_closes_stops_the_joint_at_its_range() {
+    let cfg = test_homing_config();
+    let lo = cfg.joints[0].range[0];
+    let mut hw = Fake::new([0.17; 6]);
+    let mut h = new_homing(&cfg);
+    let mut s = sensing(&mut hw);
+    start(&mut h, &s, 1_000);
+    let (st, _) = run_homing(&mut h, &mut hw, &mut s, 60_000);
+    assert_eq!(st, HomingStatus::Failed(HomingError::NotFound { joint: 0 }));
+    // Seen at the next tick's reading: one tick of the approach and one count late.
+    let late = cfg.joints[0].approach_duty * hw.vmax[0] * 1e-3 + 1.0 / LEG_COUNTS_PER_M;
+    println!(
+        "l1 stopped at {:.4} mm, range from {:.4} mm",
+        hw.q[0] * 1e3,
+        lo * 1e3
+    );
+    assert!(hw.q[0] >= lo - late, "{} < {lo}", hw.q[0]);
+    assert_eq!(hw.duty, [0.0; 6]);
+}
+
+/// Property: a switch actuated at the start near its position is left first; one that
+/// then does not change is a fault within the switch's travel (not the whole stroke).
+#[test]
+fn a_switch_stuck_actuated_near_its_position_fails_within_its_travel() {
+    let rest = [0.151, 0.17, 0.17, 0.0, 0.0, 0.0];
+    let cfg = homing_config_at(rest);
+    let mut hw = Fake::new(rest);
+    hw.stuck_switch = true;
+    let mut h = new_homing(&cfg);
+    let mut s = sensing(&mut hw);
+    start(&mut h, &s, 1_000);
+    // Only joint 0 rests near its switch: check the others' switches as released.
+    let mut sw = hw.switches();
+    sw[1..].fill(false);
+    assert_eq!(h.check_switches(&sw), Ok(()));
+    let (st, _) = run_homing(&mut h, &mut hw, &mut s, 60_000);
+    assert_eq!(
+        st,
+        HomingStatus::Failed(HomingError::SwitchStuck { joint: 0 })
+    );
+    let travel = (hw.q[0] - rest[0]).abs();
+    let tick = cfg.joints[0].backoff_duty * hw.vmax[0] * 1e-3;
+    println!("l1 left its stuck switch by {:.3} mm", travel * 1e3);
+    assert!(travel <= cfg.joints[0].switch_travel_max + tick, "{travel}");
+}
+
+/// Property: a motor that runs faster than the homing allows (a gear or a wiring the
+/// settings do not know) is an overspeed within one speed window.
+#[test]
+fn a_runaway_motor_is_an_overspeed() {
+    let cfg = test_homing_config();
+    let mut hw = Fake::new([0.17; 6]);
+    hw.vmax[0] = 4.0;
+    hw.switch_below[0] = Some(0.150);
+    let mut h = new_homing(&cfg);
+    let mut s = sensing(&mut hw);
+    start(&mut h, &s, 1_000);
+    let (st, _) = run_homing(&mut h, &mut hw, &mut s, 60_000);
+    assert_eq!(
+        st,
+        HomingStatus::Failed(HomingError::Overspeed { joint: 0 })
+    );
+    let travel = (0.17 - hw.q[0]).abs();
+    println!("l1 ran {:.2} mm before the overspeed", travel * 1e3);
+    assert!(travel < 0.17 - 0.150, "stopped before its switch");
+}
+
 #[test]
 fn homing_config_is_validated() {
     let good = test_homing_config();

@@ -86,12 +86,16 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             &limits,
         );
         let q = self.sensing.measured().q;
-        let homing = matches!(self.mode.kind(), ModeKind::Homing | ModeKind::Parking);
+        // Homing watches its own joints (estimated before their references); the park move
+        // after it has every reference.
+        let kind = self.mode.kind();
+        let homing = matches!(kind, ModeKind::Homing | ModeKind::Parking);
+        let referenced = self.mode.homed() || kind == ModeKind::Parking;
         let ranges = check_ranges(
             &q,
             &self.cfg.mechanics.range,
             &i.switches,
-            self.mode.homed(),
+            referenced,
             homing,
         );
         let standstill = self
