@@ -1,5 +1,5 @@
 //! The runtimes the `commands` target starts from, taken once per process on the plant
-//! model (`host-sim/plant`, as in `firmware/control/tests`): booted (`Disabled`, not
+//! model (`sim/plant`, as in `firmware/control/tests`): booted (`Disabled`, not
 //! homed), in the middle of homing, homed (`Ready`), in the brake check (`Enabling`) and
 //! following (`Enabled`, holding the central pose). Homing on the plant takes a few
 //! simulated seconds, far too slow to repeat for every input; a runtime is `Clone`, so each

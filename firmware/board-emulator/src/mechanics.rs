@@ -207,7 +207,7 @@ pub struct Mechanics {
 }
 
 impl Mechanics {
-    /// The shipped plant (`host-sim/plant/plant.toml`) at `cfg.start_q`, its brakes applied
+    /// The shipped plant (`sim/plant/plant.toml`) at `cfg.start_q`, its brakes applied
     /// and its bridges off.
     pub fn new(cfg: MechanicsConfig) -> Result<Self, MechanicsError> {
         let config = PlantConfig::shipped().map_err(|e| MechanicsError::Config(e.to_string()))?;

@@ -428,7 +428,7 @@ pub struct PlantConfig {
     pub rotary: [RotaryConfig; 3],
 }
 
-/// The shipped parameter file, `host-sim/plant/plant.toml`.
+/// The shipped parameter file, `sim/plant/plant.toml`.
 pub const SHIPPED_TOML: &str = include_str!("../plant.toml");
 
 fn sub_table<'a>(root: &'a toml::Table, key: &str) -> Result<Option<&'a toml::Table>, ConfigError> {
