@@ -7,8 +7,8 @@ use master_link::{
 };
 
 use super::{addr, mm, position, Run, ScenarioError};
-use crate::bench::{Action, Recorded};
-use crate::mechanics::Surroundings;
+use board_emulator::bench::{Action, Recorded};
+use board_emulator::mechanics::Surroundings;
 
 /// The firmware's brake engage time (`control::stops::StopConfig`, as the board's
 /// `reference_config_for` takes it): SS1 keeps the drives on this long after applying the

@@ -44,7 +44,7 @@ pub fn home(run: &mut Run) -> Result<bool, ScenarioError> {
             .map(|(_, q)| q[j])
             .fold(f64::INFINITY, f64::min)
     });
-    let mech = crate::mechanics::MechanicsConfig::reference(None)?;
+    let mech = board_emulator::mechanics::MechanicsConfig::reference(None)?;
     let leg_switch_m = mech.layout.switch_below[0].unwrap_or_default();
     let link_stop = |j: usize| mech.layout.stop_below[j].unwrap_or_default();
     let reached: Vec<bool> = (0..6)
@@ -128,8 +128,8 @@ pub fn enable(run: &mut Run) -> Result<(), ScenarioError> {
 pub fn attach_tool(run: &mut Run) -> Result<(), ScenarioError> {
     let since = run.s.statuses.len();
     run.rig.lock().truth = Some(Vec::new());
-    run.act(crate::bench::Action::Tool(Some(
-        crate::mechanics::Tool::THESIS,
+    run.act(board_emulator::bench::Action::Tool(Some(
+        board_emulator::mechanics::Tool::THESIS,
     )));
     run.wait(0.5)?;
     let truth = run.rig.lock().truth.take().unwrap_or_default();

@@ -17,7 +17,7 @@ use master_link::{
 };
 
 use super::{Run, ScenarioError};
-use crate::bench::Action;
+use board_emulator::bench::Action;
 
 /// How long the core is held, ns: past the deadline policy's 250 µs lateness, short of the
 /// IWDG's 10 ms timeout (so that the firmware itself sees the late tick and logs it).
