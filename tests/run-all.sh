@@ -14,10 +14,11 @@ section "toolchain (rust-toolchain.toml: $(rustup show active-toolchain | cut -d
 rustup show active-toolchain
 ensure_target
 
-section "format (every workspace: host, Cortex-M, board emulator, fuzz)"
+section "format (every workspace: host, Cortex-M, board emulator, board scenarios, fuzz)"
 cargo fmt --all -- --check
 (cd firmware/cortex-m && cargo fmt --all -- --check)
 (cd firmware/board-emulator && cargo fmt --all -- --check)
+(cd host-sim/board-scenarios && cargo fmt --all -- --check)
 (cd fuzz && cargo fmt --all -- --check)
 
 section "lint: clippy on every crate of every workspace, warnings are errors"
@@ -25,6 +26,7 @@ cargo clippy --workspace --all-targets -- -D warnings
 (cd firmware/cortex-m && cargo clippy --workspace --release -- -D warnings)
 (cd fuzz && cargo clippy --all-targets -- -D warnings)
 (cd firmware/board-emulator && cargo clippy --release --locked --ignore-rust-version --all-targets -- -D warnings)
+(cd host-sim/board-scenarios && cargo clippy --release --locked --ignore-rust-version --all-targets -- -D warnings)
 
 section "the no_std libraries build for the Cortex-M4F"
 cargo build --release --target "$TARGET" -p kinematics-core -p hal -p servo -p control -p master-link
@@ -37,6 +39,7 @@ bash firmware/cortex-m/on-target/run.sh
 
 section "the board's release image in the STM32F4 emulator (rigless), in closed loop with the plant and the master"
 bash firmware/board-emulator/run.sh
+bash host-sim/board-scenarios/run.sh
 
 section "tests (unit, property, integration, CLI)"
 cargo test --workspace

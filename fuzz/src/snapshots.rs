@@ -8,14 +8,12 @@
 //! board, so that a copy continues with the service's timing (the first tick after a
 //! snapshot is checked against the last one before it).
 
+use board_on_plant::{BoardOnPlant, Layout, ReferenceMechanics};
 use control::link::Request;
-use control::modes::State;
 use control::runtime::{reference_config_for, reference_mechanics, Runtime};
 use control::service::{ServiceConfig, TickService};
-use hal::{
-    Brakes, CurrentSense, LimitSwitches, MotorOutputs, PowerStage, QuadratureCounter, SafetyChain,
-    NUM_JOINTS,
-};
+use control::modes::State;
+use hal::{QuadratureCounter, NUM_JOINTS};
 use kinematics_core::{inverse, Branch, Pose, RsprGeometry};
 use master_link::MasterToBoard as Command;
 use master_link::{BoardToMaster, ResetCause};
@@ -60,19 +58,6 @@ pub struct Snapshots {
     pub enabled: Snapshot,
 }
 
-/// The plant behind the hardware traits, with home switches on the legs and hard stops
-/// on the links (as `firmware/control/tests/common`).
-struct PlantHw {
-    plant: Plant,
-    enabled: bool,
-    brakes_released: bool,
-    switch_below: [Option<f64>; NUM_JOINTS],
-    stop_below: [Option<f64>; NUM_JOINTS],
-    seized: [bool; NUM_JOINTS],
-    /// The counters at the runtime's last read.
-    last_read: [u16; NUM_JOINTS],
-}
-
 fn ok<T, E: core::fmt::Debug>(r: Result<T, E>, what: &str) -> T {
     match r {
         Ok(x) => x,
@@ -80,98 +65,9 @@ fn ok<T, E: core::fmt::Debug>(r: Result<T, E>, what: &str) -> T {
     }
 }
 
-impl PlantHw {
-    fn apply(&mut self) {
-        self.plant.set_bridges_enabled(self.enabled);
-        self.plant
-            .set_brakes_released([self.brakes_released; NUM_JOINTS]);
-    }
-
-    /// One millisecond: ten plant steps of 100 µs, with the hard stops.
-    fn step_ms(&mut self) {
-        self.apply();
-        for _ in 0..10 {
-            ok(self.plant.step(1e-4), "plant step");
-            let q = self.plant.joint_positions();
-            let duty = self.plant.duty();
-            for j in 0..NUM_JOINTS {
-                let Some(s) = self.stop_below[j] else {
-                    continue;
-                };
-                if !self.seized[j] && q[j] <= s && duty[j] < 0.0 {
-                    ok(self.plant.inject(j, plant::Fault::LoadSeized), "seize");
-                    self.seized[j] = true;
-                } else if self.seized[j] && duty[j] > 0.0 {
-                    ok(self.plant.clear_faults(j), "free");
-                    self.seized[j] = false;
-                }
-            }
-        }
-    }
-}
-
-impl QuadratureCounter for PlantHw {
-    fn counts(&mut self) -> [u16; NUM_JOINTS] {
-        self.last_read = self.plant.encoder_counts();
-        self.last_read
-    }
-}
-impl MotorOutputs<f64> for PlantHw {
-    fn set_duties(&mut self, duty: &[f64; NUM_JOINTS]) {
-        let d = if self.enabled {
-            duty.map(|x| if x.is_nan() { 0.0 } else { x.clamp(-1.0, 1.0) })
-        } else {
-            [0.0; NUM_JOINTS]
-        };
-        ok(self.plant.set_duty(d), "set duty");
-    }
-    fn disable(&mut self) {
-        self.enabled = false;
-        ok(self.plant.set_duty([0.0; NUM_JOINTS]), "set duty");
-        self.apply();
-    }
-    fn enable(&mut self) {
-        self.enabled = true;
-        self.apply();
-    }
-}
-impl Brakes for PlantHw {
-    fn set_brakes_released(&mut self, released: bool) {
-        self.brakes_released = released;
-        self.apply();
-    }
-}
-impl PowerStage<f64> for PlantHw {
-    fn supply_voltage(&mut self) -> f64 {
-        self.plant.supply_voltage()
-    }
-    fn driver_fault(&mut self) -> bool {
-        self.plant.driver_fault()
-    }
-}
-impl SafetyChain for PlantHw {
-    fn estop_pressed(&mut self) -> bool {
-        false
-    }
-    fn relay_open(&mut self) -> bool {
-        false
-    }
-}
-impl LimitSwitches for PlantHw {
-    fn switches(&mut self) -> [bool; NUM_JOINTS] {
-        let q = self.plant.joint_positions();
-        std::array::from_fn(|j| self.switch_below[j].is_some_and(|s| q[j] <= s))
-    }
-}
-impl CurrentSense<f64> for PlantHw {
-    fn currents(&mut self) -> [f64; NUM_JOINTS] {
-        self.plant.currents()
-    }
-}
-
 /// One control period with a heartbeat, as the board's control task runs it (execution
 /// time `cycles`), then a millisecond of the plant.
-fn step(sv: &mut Service, hw: &mut PlantHw, t: &mut u64, cycles: u32) {
+fn step(sv: &mut Service, hw: &mut BoardOnPlant, t: &mut u64, cycles: u32) {
     *t += 1000;
     sv.begin(*t, 0, control::estop::EStopTrip::NONE);
     let beat = Request {
@@ -184,12 +80,12 @@ fn step(sv: &mut Service, hw: &mut PlantHw, t: &mut u64, cycles: u32) {
     hw.step_ms();
 }
 
-fn snap(sv: Option<&Service>, rt: &Rt, hw: &mut PlantHw, t: u64) -> Snapshot {
+fn snap(sv: Option<&Service>, rt: &Rt, hw: &mut BoardOnPlant, t: u64) -> Snapshot {
     Snapshot {
         service: sv.cloned(),
         runtime: rt.clone(),
         now_us: t,
-        counts: hw.last_read,
+        counts: hw.last_counts(),
         outputs: (hw.enabled, hw.plant.duty(), hw.brakes_released),
     }
 }
@@ -215,33 +111,14 @@ pub fn build(cfg_service: ServiceConfig, cycles: u32) -> Snapshots {
         stops[1] + 0.2,
         stops[2] + 0.2,
     ];
-    let mut plant = ok(Plant::new(&PlantConfig::default()), "plant");
-    ok(plant.set_joint_positions(rest), "rest");
-    let mut hw = PlantHw {
-        plant,
-        enabled: false,
-        brakes_released: false,
-        switch_below: [
-            Some(mech.leg_switch_m),
-            Some(mech.leg_switch_m),
-            Some(mech.leg_switch_m),
-            None,
-            None,
-            None,
-        ],
-        stop_below: [
-            None,
-            None,
-            None,
-            Some(stops[0]),
-            Some(stops[1]),
-            Some(stops[2]),
-        ],
-        seized: [false; NUM_JOINTS],
-        last_read: [0; NUM_JOINTS],
-    };
-    hw.last_read = hw.plant.encoder_counts();
-    hw.apply();
+    let layout = Layout::reference(&ReferenceMechanics {
+        central_q: c,
+        leg_switch_m: mech.leg_switch_m,
+        link_stop_below_central_rad: mech.link_stop_below_central_rad,
+        range: mech.range,
+    });
+    let plant = ok(Plant::new(&PlantConfig::default()), "plant");
+    let mut hw = ok(BoardOnPlant::at_rest(plant, rest), "rest").with_layout(&layout);
     let mut cfg = ok(
         reference_config_for(&g, Branch::OUTER, None, Some(hw.plant.joint_positions())),
         "configuration",
@@ -257,7 +134,7 @@ pub fn build(cfg_service: ServiceConfig, cycles: u32) -> Snapshots {
         "boot",
     );
     let mut sv = TickService::new(rt, cfg_service);
-    let take = |sv: &Service, hw: &mut PlantHw, t: u64| snap(Some(sv), sv.runtime(), hw, t);
+    let take = |sv: &Service, hw: &mut BoardOnPlant, t: u64| snap(Some(sv), sv.runtime(), hw, t);
     let state = |sv: &Service| sv.runtime().state();
     let fault = |sv: &Service| sv.runtime().status().fault;
     let request = |sv: &mut Service, message: Command, t: u64| {

@@ -9,7 +9,7 @@
 //!   followed at once unless outside |x| <= 25 mm (acknowledged, then ignored: the robot
 //!   holds). Every check must pass.
 //!
-//! The same master against the board's release image runs in `firmware/board-emulator`.
+//! The same master against the board's release image runs in `host-sim/board-scenarios`.
 
 use control::link::{Answer, Inbound, LinkRx, LinkTx};
 use master_link::MasterToBoard as Command;

@@ -4,17 +4,16 @@
 //! bin `rspr-board`) runs unmodified on rigless's STM32F427 model ([`mcu::BoardMcu`], with
 //! TIM9..TIM14, EXTI and SYSCFG added here), on the RSPR board ([`board::RsprBoard`]: 8 MHz
 //! crystal, the master link on USART3, the pins of [`pins`]), stepped in lockstep with the
-//! host's plant model ([`mechanics`], [`bench`]) and driven by the master of
-//! `host-sim teleop` ([`master`]) in virtual time; [`scenarios`] are the checks. See
-//! README.md.
+//! robot of `sim/` ([`mechanics`]: the plant and the board's surroundings of
+//! `sim/board-on-plant` at pin level; [`bench`]) in virtual time. A master drives it
+//! through the bench's handle: `host-sim/board-scenarios` runs the host's master against
+//! it, `serve` a master on a socket. See README.md.
 
 pub mod bench;
 pub mod board;
 pub mod exti;
 pub mod image;
-pub mod master;
 pub mod mcu;
 pub mod mechanics;
 pub mod pins;
-pub mod scenarios;
 pub mod timers;

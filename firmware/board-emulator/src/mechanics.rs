@@ -1,44 +1,44 @@
-//! The robot around the board: the host's plant model (`plant`: motors, drivers with their
-//! current regulation, bridges, spring-applied brakes, gearing, lead screws, backlash,
-//! friction, encoders, the supply) with what it leaves to its user: where the hard stops and
-//! the switches are, the safety chain, and the tool's weight.
+//! The robot around the board at pin level: the plant with the board's surroundings of
+//! `sim/board-on-plant` ([`BoardOnPlant`]: the drivers' enable, the brakes' two coil
+//! groups, the supply, nFAULT, the safety relay opened by the button or failed, the
+//! switches and hard stops; [`Platform`]: the tool's weight as joint loads at the true
+//! pose), driven by the outputs read off the pins ([`Outputs`]) and read back as the
+//! board's input signals ([`Signals`]).
 //!
 //! * **Switches and stops**, where the firmware expects them
-//!   (`control::runtime::reference_mechanics` around `Limits::reference()`): each leg's home
-//!   switch is actuated (its NC contact open) at and below 143 mm, 1 mm below the shortest
-//!   stroke; each link's hard stop is 85 deg below its central angle. Beyond what the
-//!   firmware monitors (a joint more than 2 mm or 3 deg outside its guard range is a fault)
-//!   sit the end stops it never reaches in operation: the legs' 1 mm below and above their
-//!   monitored range, the links' 85 deg above the central angle. Each link has a limit
-//!   switch actuated within 2 deg of its lower stop. A stop seizes the load side when it is
-//!   driven into it (`plant::Fault::LoadSeized`: the motor runs through the backlash onto it
-//!   and stalls, its current rising to the driver's limit) and frees it when the bridge drives
-//!   it back out, as `firmware/control/tests/common` does.
+//!   (`control::runtime::reference_mechanics` around `Limits::reference()`, handed to
+//!   [`Layout::reference`]): each leg's home switch is actuated (its NC contact open) at and
+//!   below 143 mm, 1 mm below the shortest stroke; each link's hard stop is 85 deg below its
+//!   central angle. Beyond what the firmware monitors (a joint more than 2 mm or 3 deg
+//!   outside its guard range is a fault) sit the end stops it never reaches in operation:
+//!   the legs' 1 mm below and above their monitored range, the links' 85 deg above the
+//!   central angle. Each link has a limit switch actuated within 2 deg of its lower stop. A
+//!   stop seizes the load side when it is driven into it (the motor runs through the
+//!   backlash onto it and stalls, its current rising to the driver's limit) and frees it
+//!   when the bridge drives it back out.
 //! * **The safety chain**: the e-stop button opens the safety relay (unless its contacts are
-//!   welded); the relay can also fail open without the button (a cut wire, a failed coil).
-//!   Open, it removes the bridges' power (coasting) and the brake coils' power (braking),
-//!   whatever the MCU drives.
-//! * **The power stage**: the MCU's driver enable and brake outputs reach the plant's bridges
-//!   (`Plant::set_bridges_enabled`: off = coast) and brakes (`Plant::set_brakes_released`,
-//!   with their engage and release times) through the relay; the supply
-//!   (`Plant::set_supply_voltage`); a driver that reports a fault of its own
-//!   (`plant::Fault::DriverFailed`) pulls the shared nFAULT low (`Plant::driver_fault`).
+//!   welded); the relay can also fail open without the button. Open, it removes the
+//!   bridges' power (coasting) and the brake coils' power (braking), whatever the MCU
+//!   drives.
+//! * **The power stage**: the driver enable and brake pins reach the plant's bridges and
+//!   brakes (with their engage and release times) through the relay; the supply; a driver
+//!   that reports a fault of its own pulls the shared nFAULT low.
 //! * **The tool**: 1.2 kg with its centre of mass 100 mm from o_p along x_p (the thesis's
-//!   tool; `firmware/control/tests/common` `tool_loads`): its weight as joint loads,
-//!   -J^-T s_e at the true pose of the load-side joints, refreshed every millisecond. The
-//!   scenarios attach it once the robot is homed and parked: homing moves one joint at a
-//!   time far from the others (a link 85 deg), where the joints' loads would need the
-//!   platform's coupling, which this model lacks.
+//!   tool): its weight as joint loads, -J^-T s_e at the true pose of the load-side joints,
+//!   refreshed every millisecond. The scenarios attach it once the robot is homed and
+//!   parked: homing moves one joint at a time far from the others (a link 85 deg), where
+//!   the joints' loads would need the platform's coupling, which this model lacks.
 //!
 //! Not modelled: switch bounce and hysteresis; the joints' coupling through the platform
 //! other than the tool's static loads (inertia of the platform, friction in the passive
 //! joints).
 
+use board_on_plant::{BoardOnPlant, Layout, Platform, ReferenceMechanics};
 use kinematics_core::guards::Limits;
-use kinematics_core::statics::forces_with_inv_cond;
-use kinematics_core::{forward, jacobian, Branch, FkConfig, Pose, RsprGeometry, Wrench};
-use nalgebra::{Vector3, Vector6};
-use plant::{Fault, Plant, PlantConfig, PlantError, NUM_JOINTS};
+use kinematics_core::{Branch, Pose, RsprGeometry};
+use plant::{Plant, PlantConfig, PlantError, NUM_JOINTS};
+
+pub use board_on_plant::{AtStop, Tool};
 
 use crate::board::{Outputs, Signals};
 
@@ -62,26 +62,6 @@ impl From<PlantError> for MechanicsError {
     }
 }
 
-/// The tool the platform carries: mass, kg, and its centre of mass from o_p in {p}, m.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Tool {
-    /// Mass, kg.
-    pub mass_kg: f64,
-    /// Centre of mass in the platform frame, m.
-    pub lever_m: [f64; 3],
-}
-
-impl Tool {
-    /// The thesis's tool: 1.2 kg on a 0.1 m lever along x_p.
-    pub const THESIS: Tool = Tool {
-        mass_kg: 1.2,
-        lever_m: [0.100, 0.0, 0.0],
-    };
-}
-
-/// Gravity, m/s².
-pub const GRAVITY_M_S2: f64 = 9.81;
-
 /// Where the stops and switches are, and where the joints start. Joint units: m (legs),
 /// rad (links).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -90,12 +70,8 @@ pub struct MechanicsConfig {
     pub start_q: [f64; NUM_JOINTS],
     /// The joints' central configuration.
     pub central_q: [f64; NUM_JOINTS],
-    /// A leg's home switch is actuated at and below this length.
-    pub leg_switch_m: f64,
-    /// Each joint's end stops (lower, upper).
-    pub stops: [(f64, f64); NUM_JOINTS],
-    /// A link's limit switch is actuated this close to its lower stop.
-    pub link_switch_above_stop_rad: f64,
+    /// The switches and the hard stops.
+    pub layout: Layout,
     /// The tool, if carried.
     pub tool: Option<Tool>,
 }
@@ -115,44 +91,18 @@ impl MechanicsConfig {
     pub fn reference(tool: Option<Tool>) -> Result<Self, MechanicsError> {
         let central = central_q()?;
         let mech = control::runtime::reference_mechanics(&central, &Limits::<f64>::reference());
-        let stop = mech.link_stop_below_central_rad;
-        let stops = std::array::from_fn(|j| {
-            let [lo, hi] = mech.range.get(j).copied().unwrap_or_default();
-            if j < 3 {
-                (lo - 0.001, hi + 0.001)
-            } else {
-                let c = central.get(j).copied().unwrap_or_default();
-                (c - stop, c + stop)
-            }
-        });
         Ok(MechanicsConfig {
             start_q: central,
             central_q: central,
-            leg_switch_m: mech.leg_switch_m,
-            stops,
-            link_switch_above_stop_rad: 2f64.to_radians(),
+            layout: Layout::reference(&ReferenceMechanics {
+                central_q: central,
+                leg_switch_m: mech.leg_switch_m,
+                link_stop_below_central_rad: mech.link_stop_below_central_rad,
+                range: mech.range,
+            }),
             tool,
         })
     }
-
-    /// Whether joint `j`'s switch is actuated at `q`.
-    pub fn switch_actuated(&self, j: usize, q: f64) -> bool {
-        if j < 3 {
-            q <= self.leg_switch_m
-        } else {
-            let (lower, _) = self.stops.get(j).copied().unwrap_or_default();
-            q <= lower + self.link_switch_above_stop_rad
-        }
-    }
-}
-
-/// Which stop a joint stands at.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum AtStop {
-    /// The lower (-q) stop.
-    Lower,
-    /// The upper (+q) stop.
-    Upper,
 }
 
 /// What the world does besides the joints (the scenarios set these).
@@ -182,53 +132,33 @@ impl Default for Surroundings {
     }
 }
 
-impl Surroundings {
-    /// The safety relay is open.
-    pub fn relay_open(&self) -> bool {
-        (self.estop_pressed && !self.relay_welded) || self.relay_stuck_open
-    }
-}
-
-/// The plant with its stops, switches, safety chain and tool.
+/// The board's surroundings on the plant, at pin level.
 #[derive(Debug, Clone)]
 pub struct Mechanics {
-    plant: Plant,
+    board: BoardOnPlant,
+    platform: Platform,
     cfg: MechanicsConfig,
-    at_stop: [Option<AtStop>; NUM_JOINTS],
-    /// The faults injected now per joint: (seized at a stop, driver failed).
-    faults: [(bool, bool); NUM_JOINTS],
     surroundings: Surroundings,
-    /// The last pose of the tool's mapping (the FK's start).
-    pose: Pose<f64>,
-    /// The tool's loads now, N and N m (+q).
-    loads: [f64; NUM_JOINTS],
-    /// Steps where a joint stood at a stop.
-    pub steps_at_stop: [u64; NUM_JOINTS],
+    /// Time, s.
+    t_s: f64,
 }
 
 impl Mechanics {
-    /// The shipped plant (`host-sim/plant/plant.toml`) at `cfg.start_q`, its brakes applied
-    /// and its bridges off.
+    /// The shipped plant (`sim/plant/plant.toml`) at `cfg.start_q`, its brakes applied and
+    /// holding, its bridges off.
     pub fn new(cfg: MechanicsConfig) -> Result<Self, MechanicsError> {
         let config = PlantConfig::shipped().map_err(|e| MechanicsError::Config(e.to_string()))?;
-        let mut plant = Plant::new(&config).map_err(|e| MechanicsError::Config(e.to_string()))?;
-        // At power-on the spring-applied brakes hold already: applied and engaged (their
-        // engage time run out unloaded), then the joints placed.
-        plant.set_bridges_enabled(false);
-        plant.set_brakes_released([false; NUM_JOINTS]);
-        plant.set_joint_positions(cfg.start_q)?;
-        plant.advance(0.05, 1e-4)?;
-        plant.set_joint_positions(cfg.start_q)?;
-        let g = RsprGeometry::<f64>::reference();
+        let plant = Plant::new(&config).map_err(|e| MechanicsError::Config(e.to_string()))?;
+        let board = BoardOnPlant::at_rest(plant, cfg.start_q)?.with_layout(&cfg.layout);
+        let mut platform =
+            Platform::new(cfg.start_q, 0.0).map_err(|e| MechanicsError::Central(e.to_string()))?;
+        platform.tool = cfg.tool;
         let mut m = Mechanics {
-            plant,
+            board,
+            platform,
             cfg,
-            at_stop: [None; NUM_JOINTS],
-            faults: [(false, false); NUM_JOINTS],
             surroundings: Surroundings::default(),
-            pose: Pose::central(g.hc),
-            loads: [0.0; NUM_JOINTS],
-            steps_at_stop: [0; NUM_JOINTS],
+            t_s: 0.0,
         };
         m.refresh_loads()?;
         Ok(m)
@@ -236,7 +166,7 @@ impl Mechanics {
 
     /// The plant.
     pub fn plant(&self) -> &Plant {
-        &self.plant
+        &self.board.plant
     }
 
     /// The configuration.
@@ -246,7 +176,12 @@ impl Mechanics {
 
     /// Joints standing at a stop.
     pub fn at_stop(&self) -> [Option<AtStop>; NUM_JOINTS] {
-        self.at_stop
+        self.board.at_stop()
+    }
+
+    /// Plant steps each joint stood at a stop.
+    pub fn steps_at_stop(&self) -> [u64; NUM_JOINTS] {
+        self.board.steps_at_stop
     }
 
     /// The surroundings.
@@ -256,150 +191,66 @@ impl Mechanics {
 
     /// The tool's loads now, N and N m.
     pub fn loads(&self) -> [f64; NUM_JOINTS] {
-        self.loads
-    }
-
-    /// The true platform pose (forward kinematics of the load-side joints), when it solves.
-    pub fn true_pose(&self) -> Option<Pose<f64>> {
-        let g = RsprGeometry::<f64>::reference();
-        let q = Vector6::from_row_slice(&self.plant.joint_positions());
-        forward(&g, &q, Branch::OUTER, &self.pose, &FkConfig::default())
-            .ok()
-            .map(|s| s.pose)
+        self.platform.loads()
     }
 
     /// Attaches the tool (`Some`) or takes it off (`None`); its loads apply at once.
     pub fn set_tool(&mut self, tool: Option<Tool>) -> Result<(), MechanicsError> {
         self.cfg.tool = tool;
-        if tool.is_none() {
-            self.loads = [0.0; NUM_JOINTS];
-            self.plant.set_external_load(self.loads)?;
-        }
+        self.platform.tool = tool;
         self.refresh_loads()
     }
 
-    /// Changes the surroundings (the supply at once, the rest at the next step).
+    /// Changes the surroundings: the supply and the drivers at once, the relay from the
+    /// next step.
     pub fn set_surroundings(&mut self, s: Surroundings) -> Result<(), MechanicsError> {
         self.surroundings = s;
-        self.plant.set_supply_voltage(s.supply_v)?;
+        self.board.plant.set_supply_voltage(s.supply_v)?;
+        self.board.estop = s.estop_pressed;
+        self.board.relay_welded = s.relay_welded;
+        self.board.relay_stuck_open = s.relay_stuck_open;
+        for (j, failed) in s.driver_failed.into_iter().enumerate() {
+            self.board.set_driver_failed(j, failed)?;
+        }
         Ok(())
     }
 
-    /// The tool's weight as joint loads at the true pose: -J^-T s_e, s_e = [m g z0; c x m g z0]
-    /// (CONVENTIONS.md, "Forces"). Kept as it was where the pose does not solve.
+    /// The tool's weight as joint loads at the true pose (`board_on_plant::Platform`);
+    /// kept as they were where the pose does not solve. Without the tool the loads are
+    /// zero and the pose is not needed: no forward kinematics.
     pub fn refresh_loads(&mut self) -> Result<(), MechanicsError> {
-        let Some(tool) = self.cfg.tool else {
-            return Ok(());
-        };
-        let g = RsprGeometry::<f64>::reference();
-        let q = Vector6::from_row_slice(&self.plant.joint_positions());
-        let Ok(fk) = forward(&g, &q, Branch::OUTER, &self.pose, &FkConfig::default()) else {
-            return Ok(());
-        };
-        self.pose = fk.pose;
-        let f = Vector3::new(0.0, 0.0, tool.mass_kg * GRAVITY_M_S2);
-        let c = fk.pose.r * Vector3::from(tool.lever_m);
-        let m = c.cross(&f);
-        let se = Wrench::from_row_slice(&[f.x, f.y, f.z, m.x, m.y, m.z]);
-        let Ok(jac) = jacobian(&g, &fk.solution) else {
-            return Ok(());
-        };
-        let Ok(st) = forces_with_inv_cond(&jac, &se, 1.0, 0.0) else {
-            return Ok(());
-        };
-        self.loads = std::array::from_fn(|j| -st.tau[j]);
-        self.plant.set_external_load(self.loads)?;
+        if self.platform.tool.is_some() {
+            let q = self.board.plant.joint_positions();
+            if self.platform.update(q, self.t_s).is_err() {
+                return Ok(());
+            }
+        }
+        self.platform.apply_loads(&mut self.board.plant)?;
         Ok(())
     }
 
     /// Advances the mechanics by `dt` under the MCU's `outputs` (held over the step).
     pub fn step(&mut self, outputs: &Outputs, dt: f64) -> Result<(), MechanicsError> {
-        let powered = !self.surroundings.relay_open();
-        self.plant
-            .set_bridges_enabled(outputs.driver_enable && powered);
-        let [legs, links] = outputs.brakes_released;
-        self.plant.set_brakes_released(std::array::from_fn(|j| {
-            powered && if j < 3 { legs } else { links }
-        }));
-        let duty = outputs.signed_duty();
-        for (j, stop) in self.at_stop.iter_mut().enumerate() {
-            let d = duty.get(j).copied().unwrap_or_default();
-            let away = match stop {
-                Some(AtStop::Lower) => d > 0.0,
-                Some(AtStop::Upper) => d < 0.0,
-                None => false,
-            };
-            if away {
-                *stop = None;
-            }
-        }
-        for j in 0..NUM_JOINTS {
-            let seized = self.at_stop.get(j).copied().flatten().is_some();
-            let failed = self
-                .surroundings
-                .driver_failed
-                .get(j)
-                .copied()
-                .unwrap_or_default();
-            self.set_faults(j, seized, failed)?;
-        }
-        self.plant.set_duty(duty)?;
-        self.plant.step(dt)?;
-        let q = self.plant.joint_positions();
-        for j in 0..NUM_JOINTS {
-            let (lower, upper) = self.cfg.stops.get(j).copied().unwrap_or_default();
-            let qj = q.get(j).copied().unwrap_or_default();
-            let d = duty.get(j).copied().unwrap_or_default();
-            if let Some(stop) = self.at_stop.get_mut(j) {
-                if stop.is_none() {
-                    if qj <= lower && d <= 0.0 {
-                        *stop = Some(AtStop::Lower);
-                    } else if qj >= upper && d >= 0.0 {
-                        *stop = Some(AtStop::Upper);
-                    }
-                }
-                if stop.is_some() {
-                    if let Some(n) = self.steps_at_stop.get_mut(j) {
-                        *n += 1;
-                    }
-                }
-            }
-        }
-        Ok(())
-    }
-
-    fn set_faults(&mut self, j: usize, seized: bool, failed: bool) -> Result<(), PlantError> {
-        let Some(now) = self.faults.get_mut(j) else {
-            return Ok(());
-        };
-        if *now == (seized, failed) {
-            return Ok(());
-        }
-        *now = (seized, failed);
-        self.plant.clear_faults(j)?;
-        if seized {
-            self.plant.inject(j, Fault::LoadSeized)?;
-        }
-        if failed {
-            self.plant.inject(j, Fault::DriverFailed)?;
-        }
+        self.board.set_outputs(
+            outputs.driver_enable,
+            outputs.brakes_released,
+            &outputs.signed_duty(),
+        );
+        self.board.step(dt)?;
+        self.t_s += dt;
         Ok(())
     }
 
     /// What the board's inputs see now.
     pub fn signals(&self) -> Signals {
-        let q = self.plant.joint_positions();
         Signals {
-            encoder_counts: self.plant.encoder_counts(),
-            currents_a: self.plant.currents(),
-            switches_actuated: std::array::from_fn(|j| {
-                self.cfg
-                    .switch_actuated(j, q.get(j).copied().unwrap_or_default())
-            }),
+            encoder_counts: self.board.plant.encoder_counts(),
+            currents_a: self.board.plant.currents(),
+            switches_actuated: self.board.switch_levels(),
             estop_pressed: self.surroundings.estop_pressed,
-            relay_open: self.surroundings.relay_open(),
-            driver_fault: self.plant.driver_fault(),
-            supply_v: self.plant.supply_voltage(),
+            relay_open: self.board.relay_open(),
+            driver_fault: self.board.plant.driver_fault(),
+            supply_v: self.board.plant.supply_voltage(),
         }
     }
 }
@@ -427,15 +278,17 @@ mod tests {
     #[test]
     fn switches_and_stops_where_the_firmware_expects_them() -> Result<(), MechanicsError> {
         let cfg = MechanicsConfig::reference(None)?;
-        assert!((cfg.leg_switch_m - 0.143).abs() < 1e-12);
+        let l = cfg.layout;
+        let leg_switch = l.switch_below[0].unwrap_or_default();
+        assert!((leg_switch - 0.143).abs() < 1e-12);
         for j in 3..6 {
-            let below = cfg.central_q[j] - cfg.stops[j].0;
+            let below = cfg.central_q[j] - l.stop_below[j].unwrap_or_default();
             assert!(
                 (below.to_degrees() - 85.0).abs() < 1e-9,
                 "joint {j}: {below}"
             );
         }
-        assert!(cfg.stops[0].0 < cfg.leg_switch_m);
+        assert!(l.stop_below[0].unwrap_or_default() < leg_switch);
         Ok(())
     }
 
@@ -450,7 +303,7 @@ mod tests {
         for _ in 0..80_000 {
             m.step(&toward, 1e-4)?;
         }
-        let (lower, _) = m.config().stops[3];
+        let lower = m.config().layout.stop_below[3].unwrap_or_default();
         let q = m.plant().joint_positions()[3];
         assert_eq!(m.at_stop()[3], Some(AtStop::Lower));
         assert!((q - lower).abs() < 1e-3, "q {q} stop {lower}");

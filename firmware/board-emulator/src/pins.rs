@@ -3,7 +3,7 @@
 //! `firmware/cortex-m/board/src/board.rs`; everything else in this crate reads pins from here.
 //! Two checks hold the two together: `tests/pin_map.rs` compares this map with that table,
 //! and the closed-loop run checks that the image configures every pin as this map says
-//! (GPIO mode, alternate function, pull; `crate::scenarios`).
+//! (GPIO mode, alternate function, pull; `host-sim/board-scenarios`, `scenarios::boot::pins`).
 //!
 //! Joint order everywhere: `l1, l2, l3, theta1, theta2, theta3`.
 

@@ -1,7 +1,8 @@
 //! The emulator's pin map (`pins::BOARD`) against the board's own: the table at the top of
 //! `firmware/cortex-m/board/src/board.rs` (the source of truth) and the constants next to it.
 //! A pin moved on the board and not here (or the other way round) fails this test; the
-//! closed-loop run checks the registers the image configures (`scenarios::boot::pins`).
+//! closed-loop run checks the registers the image configures (`host-sim/board-scenarios`,
+//! `scenarios::boot::pins`).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use std::collections::BTreeMap;

@@ -18,7 +18,7 @@ fn setup() -> (PlantHw, Controller<f64, RsprGeometry<f64>>, Sense) {
         .unwrap()
         .q();
     let q0 = [q0[0], q0[1], q0[2], q0[3], q0[4], q0[5]];
-    let mut hw = PlantHw::new(q0);
+    let mut hw = common::plant_hw(q0);
     let sensing = common::homed_sensing(&mut hw, q0);
     let ctl = Controller::new(g, ControllerConfig::default(), sensing.measured()).unwrap();
     (hw, ctl, sensing)

@@ -69,7 +69,7 @@ pub struct BacklashParams<S> {
     pub hysteresis: S,
     /// Ramp of the offset. Default `DistanceOrTime { distance: b, time: 0.02 s }` (legs
     /// 0.12e-3 m, links 1e-4 rad): the full change of b takes at most 20 ms, and less at
-    /// speed (motor at <= 2x the commanded speed). On the plant model (`host-sim/plant`,
+    /// speed (motor at <= 2x the commanded speed). On the plant model (`sim/plant`,
     /// 1 kHz, 1..40 mm sine moves) this left 5..9 % of the uncompensated 60 um RMS load
     /// error; distance-only ramps of b/3..b left 7..20 % (slow near smooth reversals),
     /// a 10 ms time ramp was as accurate with higher current peaks; on the friction-only

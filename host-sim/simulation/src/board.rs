@@ -1,47 +1,43 @@
 //! The whole board application on the plant, in virtual time: the firmware's tick service
 //! (`control::service::TickService`: the runtime with its state machine, stops, brakes,
 //! monitors, fault log, deadline policy) and its master link (`control::link`), exactly as
-//! the board tasks run them (`firmware/cortex-m/board-tasks`), against the plant model with
-//! the board around it:
+//! the board tasks run them (`firmware/cortex-m/board-tasks`), on the board and the robot
+//! of `sim/board-on-plant` ([`BoardOnPlant`]: the drivers, the brakes' two coil groups, the
+//! supply, nFAULT, the hard-wired e-stop chain with its welded or stuck-open relay, the
+//! switches and hard stops where the firmware's reference mechanics put them; [`Platform`]:
+//! the tool's weight and an optional wall as joint loads at the true pose). What this
+//! module adds is the MCU's side:
 //!
-//! * the drivers (enable, current regulation: the plant's), the brakes' two coil groups,
-//!   the supply, the drivers' fault line;
-//! * the hard-wired e-stop chain: the button opens the safety relay, which removes the
-//!   drivers' power and the brakes' coil power without the MCU; the button's interrupt
-//!   forces the outputs safe and trips the latch the next tick takes; a welded or a stuck
-//!   open relay for the campaign;
-//! * the mechanics the plant lacks: the legs' home switches and bottom end stops (3 mm
-//!   below the switches) and the links' hard stops where the firmware's reference
-//!   mechanics put them (a stop seizes the load side while the motor pushes into it);
-//! * the tool's weight and an optional stiff wall in the task space, mapped to joint loads
-//!   through tau = J^-T s_e at the true pose (Eq. 7.10);
+//! * the button's interrupt: it forces the outputs safe and trips the latch the next tick
+//!   takes;
 //! * the link: bytes in (`LinkRx`), requests queued for the next tick (8 deep, as on the
 //!   board: a full queue answers `Busy`), replies and the status every 20 ms out
-//!   (`LinkTx`); an `EmergencyStop` frame forces the outputs safe at once.
+//!   (`LinkTx`); an `EmergencyStop` frame forces the outputs safe at once;
+//! * the flash sector of the calibrated geometry.
 //!
 //! The tick's execution time is not simulated: each tick reports a nominal 300 µs, plus
 //! what a campaign injects ([`BoardSim::overrun_next_ticks`]).
 
 use std::collections::VecDeque;
 
+use board_on_plant::{BoardOnPlant, Layout, Platform, PlatformError, ReferenceMechanics, Tool};
 use control::estop::EStopLatch;
 use control::link::{Inbound, LinkRx, LinkTx, Request};
 use control::runtime::{reference_config_for, reference_mechanics, Runtime, RuntimeConfig};
 use control::service::{ServiceConfig, TickOutcome, TickService};
 use control::telemetry::with_link;
 use control::ToolLoad;
-use hal::{
-    Brakes, CurrentSense, LimitSwitches, MotorOutputs, PowerStage, QuadratureCounter, SafetyChain,
-};
+use hal::{QuadratureCounter, SafeOutputs};
 use kinematics_core::guards::Limits;
-use kinematics_core::statics::forces_with_inv_cond;
-use kinematics_core::{forward, inverse, jacobian, Branch, FkConfig, Pose, RsprGeometry, Wrench};
+use kinematics_core::{inverse, Branch, Pose, RsprGeometry};
 use master_link::{
     BoardToMaster, FirmwareVersion, MasterToBoard, NackReason, ResetCause, MAX_FRAME_LEN,
 };
 use nalgebra::Vector3;
-use plant::{JointFaults, Plant, PlantConfig, PlantError, NUM_JOINTS};
+use plant::{Plant, PlantConfig, PlantError, NUM_JOINTS};
 use thiserror::Error;
+
+pub use board_on_plant::Wall;
 
 /// Why the board simulation cannot be set up or stepped.
 #[derive(Debug, Error)]
@@ -54,35 +50,8 @@ pub enum BoardSimError {
     Central(kinematics_core::IkError),
     #[error("the board application refused its configuration: {0:?}")]
     Runtime(control::runtime::RuntimeError),
-    #[error("the true pose (forward kinematics of the plant's joints) failed: {0:?}")]
-    TruePose(kinematics_core::FkError),
-}
-
-/// A stiff wall in the task space: a half-space the platform centre `o_p` cannot enter
-/// without the wall pushing back, `f = k δ + c max(0, -v_n)` along the wall's normal while
-/// the penetration `δ > 0`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Wall {
-    /// A point of the wall's surface, m, {0}.
-    pub point: Vector3<f64>,
-    /// The unit normal out of the wall (towards the free side).
-    pub normal: Vector3<f64>,
-    /// Stiffness, N/m.
-    pub stiffness_n_per_m: f64,
-    /// Damping while pressing in, N s/m.
-    pub damping_n_s_per_m: f64,
-}
-
-impl Wall {
-    /// The force the wall exerts on the platform with `o_p` at `p`, moving at `v`.
-    pub fn force(&self, p: &Vector3<f64>, v: &Vector3<f64>) -> Vector3<f64> {
-        let depth = (self.point - p).dot(&self.normal);
-        if depth <= 0.0 {
-            return Vector3::zeros();
-        }
-        let into = (-v.dot(&self.normal)).max(0.0);
-        self.normal * (self.stiffness_n_per_m * depth + self.damping_n_s_per_m * into)
-    }
+    #[error(transparent)]
+    Platform(#[from] PlatformError),
 }
 
 /// Everything the board simulation needs.
@@ -198,150 +167,6 @@ impl BoardSimConfig {
     }
 }
 
-/// The plant with the board around it, behind the firmware's hardware traits.
-#[derive(Clone, Debug)]
-pub struct BoardHardware {
-    /// The plant.
-    pub plant: Plant,
-    /// The MCU's driver enable output.
-    pub enabled: bool,
-    /// The MCU's brake outputs (both groups switch together in the firmware).
-    pub brakes_released: bool,
-    /// The e-stop button is pressed.
-    pub estop: bool,
-    /// The safety relay's contacts are welded (it stays closed with the button pressed).
-    pub relay_welded: bool,
-    /// The safety relay is open without the button (a failed coil, a cut wire).
-    pub relay_stuck_open: bool,
-    /// Each joint's switch closes at or below this position (the legs' home switches).
-    pub switch_below: [Option<f64>; NUM_JOINTS],
-    /// A switch forced to a level (a failed switch or a cut wire), whatever the joint does.
-    pub switch_forced: [Option<bool>; NUM_JOINTS],
-    /// Each joint's hard stop below this position (the links').
-    pub stop_below: [Option<f64>; NUM_JOINTS],
-    /// The hard stop holds the load side now.
-    at_stop: [bool; NUM_JOINTS],
-    /// A current-sense offset added to the readings, A (a failed amplifier).
-    pub current_offset_a: [f64; NUM_JOINTS],
-}
-
-impl BoardHardware {
-    fn relay_open(&self) -> bool {
-        (self.estop && !self.relay_welded) || self.relay_stuck_open
-    }
-
-    /// What the MCU commands and the safety chain allows, to the plant.
-    fn apply(&mut self) {
-        let powered = !self.relay_open();
-        self.plant.set_bridges_enabled(self.enabled && powered);
-        self.plant
-            .set_brakes_released([self.brakes_released && powered; NUM_JOINTS]);
-    }
-
-    /// The e-stop interrupt's register writes: PWM off, driver enable low, brakes applied.
-    fn force_safe(&mut self) {
-        self.enabled = false;
-        self.brakes_released = false;
-        let _ = self.plant.set_duty([0.0; NUM_JOINTS]);
-        self.apply();
-    }
-
-    /// The hard stops after a plant step: a load side past its stop while the motor drives
-    /// into it is held there; driven back out, it is free again.
-    fn hard_stops(&mut self) -> Result<(), PlantError> {
-        let q = self.plant.joint_positions();
-        let duty = self.plant.duty();
-        for j in 0..NUM_JOINTS {
-            let Some(stop) = self.stop_below[j] else {
-                continue;
-            };
-            let hit = !self.at_stop[j] && q[j] <= stop && duty[j] <= 0.0;
-            let leave = self.at_stop[j] && duty[j] > 0.0;
-            if hit || leave {
-                let mut f: JointFaults = self.plant.faults(j)?;
-                f.load_seized = hit;
-                self.plant.set_faults(j, f)?;
-                self.at_stop[j] = hit;
-            }
-        }
-        Ok(())
-    }
-}
-
-impl QuadratureCounter for BoardHardware {
-    fn counts(&mut self) -> [u16; NUM_JOINTS] {
-        self.plant.encoder_counts()
-    }
-}
-
-impl MotorOutputs<f64> for BoardHardware {
-    fn set_duties(&mut self, duty: &[f64; NUM_JOINTS]) {
-        let d = if self.enabled {
-            duty.map(|x| {
-                if x.is_finite() {
-                    x.clamp(-1.0, 1.0)
-                } else {
-                    0.0
-                }
-            })
-        } else {
-            [0.0; NUM_JOINTS]
-        };
-        // Finite duties in [-1, 1]: the plant accepts them.
-        let _ = self.plant.set_duty(d);
-    }
-    fn disable(&mut self) {
-        self.enabled = false;
-        let _ = self.plant.set_duty([0.0; NUM_JOINTS]);
-        self.apply();
-    }
-    fn enable(&mut self) {
-        self.enabled = true;
-        self.apply();
-    }
-}
-
-impl Brakes for BoardHardware {
-    fn set_brakes_released(&mut self, released: bool) {
-        self.brakes_released = released;
-        self.apply();
-    }
-}
-
-impl PowerStage<f64> for BoardHardware {
-    fn supply_voltage(&mut self) -> f64 {
-        self.plant.supply_voltage()
-    }
-    fn driver_fault(&mut self) -> bool {
-        self.plant.driver_fault()
-    }
-}
-
-impl SafetyChain for BoardHardware {
-    fn estop_pressed(&mut self) -> bool {
-        self.estop
-    }
-    fn relay_open(&mut self) -> bool {
-        BoardHardware::relay_open(self)
-    }
-}
-
-impl LimitSwitches for BoardHardware {
-    fn switches(&mut self) -> [bool; NUM_JOINTS] {
-        let q = self.plant.joint_positions();
-        std::array::from_fn(|j| {
-            self.switch_forced[j].unwrap_or_else(|| self.switch_below[j].is_some_and(|s| q[j] <= s))
-        })
-    }
-}
-
-impl CurrentSense<f64> for BoardHardware {
-    fn currents(&mut self) -> [f64; NUM_JOINTS] {
-        let i = self.plant.currents();
-        std::array::from_fn(|j| i[j] + self.current_offset_a[j])
-    }
-}
-
 /// The truth of the plant at a tick.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Truth {
@@ -363,11 +188,12 @@ pub struct Truth {
 
 /// The board application on the plant, in virtual time.
 pub struct BoardSim {
-    robot: RsprGeometry<f64>,
     cfg: BoardSimConfig,
     service: TickService<f64, RsprGeometry<f64>>,
-    /// The hardware (public for fault injection).
-    pub hw: BoardHardware,
+    /// The board and the robot around the plant (public for fault injection).
+    pub hw: BoardOnPlant,
+    /// The platform: the true pose, the tool's and the wall's loads.
+    platform: Platform,
     latch: EStopLatch,
     rx: LinkRx,
     tx: LinkTx,
@@ -380,10 +206,7 @@ pub struct BoardSim {
     t_us: u64,
     next_status_us: u64,
     overrun: Option<(u32, u32)>,
-    fk: FkConfig<f64>,
     truth: Truth,
-    /// When the truth was last updated, s.
-    truth_t_s: f64,
     last_outcome: Option<TickOutcome>,
 }
 
@@ -399,57 +222,25 @@ impl BoardSim {
         log: Option<control::faults::FaultLog>,
     ) -> Result<Self, BoardSimError> {
         let robot = RsprGeometry::<f64>::reference();
-        let mut plant = Plant::new(&cfg.plant).map_err(BoardSimError::Plant)?;
-        plant.set_joint_positions(cfg.rest)?;
+        let plant = Plant::new(&cfg.plant).map_err(BoardSimError::Plant)?;
         let mech = cfg.runtime.mechanics;
-        let c = cfg.runtime.homing.park.unwrap_or(cfg.rest);
-        let mut hw = BoardHardware {
-            plant,
-            enabled: false,
-            brakes_released: false,
-            estop: false,
-            relay_welded: false,
-            relay_stuck_open: false,
-            switch_below: [
-                Some(mech.leg_switch_m),
-                Some(mech.leg_switch_m),
-                Some(mech.leg_switch_m),
-                None,
-                None,
-                None,
-            ],
-            switch_forced: [None; NUM_JOINTS],
-            // The legs' bottom end stop 3 mm below their home switch, the links' hard stops
-            // where the homing expects them.
-            stop_below: [
-                Some(mech.leg_switch_m - 0.003),
-                Some(mech.leg_switch_m - 0.003),
-                Some(mech.leg_switch_m - 0.003),
-                Some(c[3] - mech.link_stop_below_central_rad),
-                Some(c[4] - mech.link_stop_below_central_rad),
-                Some(c[5] - mech.link_stop_below_central_rad),
-            ],
-            at_stop: [false; NUM_JOINTS],
-            current_offset_a: [0.0; NUM_JOINTS],
-        };
-        hw.apply();
+        let central_q = cfg.runtime.homing.park.unwrap_or(cfg.rest);
+        let layout = Layout::reference(&ReferenceMechanics {
+            central_q,
+            leg_switch_m: mech.leg_switch_m,
+            link_stop_below_central_rad: mech.link_stop_below_central_rad,
+            range: mech.range,
+        });
+        let mut hw = BoardOnPlant::at_rest(plant, cfg.rest)?.with_layout(&layout);
         let mut rt = Runtime::new(robot, cfg.runtime, 0).map_err(BoardSimError::Runtime)?;
         // (Boot from Boot cannot be refused.)
         let _ = rt.boot_done(hw.counts(), 0, reset, log);
         let service = TickService::new(rt, cfg.service);
-        let fk = FkConfig::default();
         let q = hw.plant.joint_positions();
-        let pose = forward(
-            &robot,
-            &nalgebra::Vector6::from_row_slice(&q),
-            Branch::OUTER,
-            &Pose::central(robot.hc),
-            &fk,
-        )
-        .map_err(BoardSimError::TruePose)?
-        .pose;
+        let mut platform = Platform::new(q, 0.0)?;
+        platform.tool = cfg.tool.as_ref().map(tool_of);
+        platform.wall = cfg.wall;
         Ok(BoardSim {
-            robot,
             service,
             hw,
             latch: EStopLatch::new(),
@@ -462,18 +253,17 @@ impl BoardSim {
             t_us: 0,
             next_status_us: 0,
             overrun: None,
-            fk,
             truth: Truth {
                 t_us: 0,
-                pose,
+                pose: *platform.pose(),
                 velocity: Vector3::zeros(),
                 q,
                 wall_force: Vector3::zeros(),
                 peak_transmitted: [0.0; NUM_JOINTS],
                 peak_motor_effort: [0.0; NUM_JOINTS],
             },
+            platform,
             last_outcome: None,
-            truth_t_s: 0.0,
             cfg,
         })
     }
@@ -510,10 +300,12 @@ impl BoardSim {
     /// Attaches (or removes) the tool.
     pub fn set_tool(&mut self, tool: Option<ToolLoad<f64>>) {
         self.cfg.tool = tool;
+        self.platform.tool = tool.as_ref().map(tool_of);
     }
     /// Puts a wall in the task space (or removes it).
     pub fn set_wall(&mut self, wall: Option<Wall>) {
         self.cfg.wall = wall;
+        self.platform.wall = wall;
     }
 
     /// Presses (or releases) the e-stop button: the relay opens (drivers' and brakes'
@@ -521,12 +313,11 @@ impl BoardSim {
     /// trips the latch for the next tick.
     pub fn press_estop(&mut self, pressed: bool) {
         let edge = pressed && !self.hw.estop;
-        self.hw.estop = pressed;
+        self.hw.press_estop(pressed);
         if edge {
             self.hw.force_safe();
             self.latch.trip();
         }
-        self.hw.apply();
     }
 
     /// The next `ticks` ticks run `exec_us` each (an injected overrun: a stuck bus, a
@@ -671,12 +462,12 @@ impl BoardSim {
         let mut peak_m = [0.0f64; NUM_JOINTS];
         let t0 = self.t_us as f64 * 1e-6;
         for k in 0..steps {
-            if k == 0 || self.cfg.wall.is_some() {
+            if k == 0 || self.platform.wall.is_some() {
                 self.update_truth(t0 + f64::from(k) * dt)?;
-                self.apply_loads()?;
+                self.platform.apply_loads(&mut self.hw.plant)?;
+                self.truth.wall_force = self.platform.wall_force();
             }
-            self.hw.plant.step(dt)?;
-            self.hw.hard_stops()?;
+            self.hw.step(dt)?;
             let (t, m) = (
                 self.hw.plant.transmitted_efforts(),
                 self.hw.plant.motor_efforts(),
@@ -693,66 +484,23 @@ impl BoardSim {
         Ok(())
     }
 
-    /// The true pose of the plant's joints at `t_s` (FK warm-started from the last), and
-    /// the velocity since the last update.
+    /// The true pose of the plant's joints at `t_s`, and the velocity since the last
+    /// update.
     fn update_truth(&mut self, t_s: f64) -> Result<(), BoardSimError> {
-        let dt = t_s - self.truth_t_s;
-        if dt <= 0.0 {
-            return Ok(());
-        }
-        self.truth_t_s = t_s;
-        let q = self.hw.plant.joint_positions();
-        if q == self.truth.q && self.truth.t_us != 0 {
-            self.truth.velocity = Vector3::zeros();
-            self.truth.t_us = self.t_us;
-            return Ok(());
-        }
-        let fk = forward(
-            &self.robot,
-            &nalgebra::Vector6::from_row_slice(&q),
-            Branch::OUTER,
-            &self.truth.pose,
-            &self.fk,
-        )
-        .map_err(BoardSimError::TruePose)?;
-        self.truth.velocity = (fk.pose.t - self.truth.pose.t) / dt;
-        self.truth.pose = fk.pose;
-        self.truth.q = q;
+        self.platform.update(self.hw.plant.joint_positions(), t_s)?;
+        self.truth.pose = *self.platform.pose();
+        self.truth.velocity = self.platform.velocity();
+        self.truth.q = self.platform.q();
         self.truth.t_us = self.t_us;
         Ok(())
     }
+}
 
-    /// The joint loads of the tool and the wall at the true pose: -tau, tau = J^-T s_e
-    /// (Eq. 7.10) for the wrench the platform exerts on them.
-    fn apply_loads(&mut self) -> Result<(), BoardSimError> {
-        let pose = self.truth.pose;
-        let mut se = Wrench::<f64>::zeros();
-        if let Some(tool) = &self.cfg.tool {
-            se += tool.wrench(&pose);
-        }
-        let mut wall_force = Vector3::zeros();
-        if let Some(w) = &self.cfg.wall {
-            wall_force = w.force(&pose.t, &self.truth.velocity);
-            // The platform pushes on the wall with -f (at o_p: no moment).
-            se[0] -= wall_force.x;
-            se[1] -= wall_force.y;
-            se[2] -= wall_force.z;
-        }
-        self.truth.wall_force = wall_force;
-        if se.iter().all(|x| *x == 0.0) {
-            self.hw.plant.set_external_load([0.0; NUM_JOINTS])?;
-            return Ok(());
-        }
-        let Ok(sol) = inverse(&self.robot, &pose, Branch::OUTER) else {
-            return Ok(());
-        };
-        let Ok(jac) = jacobian(&self.robot, &sol) else {
-            return Ok(());
-        };
-        if let Ok(st) = forces_with_inv_cond(&jac, &se, 1.0, 0.0) {
-            let load: [f64; NUM_JOINTS] = std::array::from_fn(|j| -st.tau[j]);
-            self.hw.plant.set_external_load(load)?;
-        }
-        Ok(())
+/// The firmware's tool as the platform carries it.
+fn tool_of(t: &ToolLoad<f64>) -> Tool {
+    Tool {
+        mass_kg: t.mass_kg,
+        com_p_m: t.com_p_m,
+        gravity_m_s2: t.gravity_m_s2,
     }
 }

@@ -67,8 +67,11 @@ impl From<PlantError> for EngineError {
     }
 }
 
-/// The plant behind the board's hardware traits. The bridges stay off after
-/// [`MotorOutputs::disable`] until [`MotorOutputs::enable`].
+/// The bare plant behind the two hardware traits the controller's halves use (counters,
+/// duties): no board around it (for that, `board_on_plant::BoardOnPlant` and the
+/// simulated board of [`crate::board`]). With no driver enable to drop,
+/// [`MotorOutputs::disable`] zeroes the duties with the bridges on (the motors
+/// short-braked, which the tests of tripped faults measure) until [`MotorOutputs::enable`].
 struct PlantIo<'a> {
     plant: &'a mut Plant,
     enabled: &'a mut bool,

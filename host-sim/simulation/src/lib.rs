@@ -2,7 +2,7 @@
 //!
 //! The board's control application (`firmware/control`: encoders -> FK -> supervisor ->
 //! IK -> PID -> PWM, in f64) runs against the plant model of the six actuated joints
-//! (`host-sim/plant`) through the hardware traits of `firmware/servo`. The controller
+//! (`sim/plant`) through the hardware traits of `firmware/servo`. The controller
 //! ticks at `control.rate_hz` (1 kHz default, up to 10 kHz); the plant is integrated
 //! `control.plant_steps_per_tick` (>= 10) times per tick. A master streams timestamped
 //! target poses (or single targets); the tool's weight (1.2 kg on a 0.1 m lever) is mapped

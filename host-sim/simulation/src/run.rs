@@ -282,12 +282,12 @@ pub fn run(
     let nominal = {
         let p = sim.plant().config();
         [
-            p.prismatic[0].nominal_current_a,
-            p.prismatic[1].nominal_current_a,
-            p.prismatic[2].nominal_current_a,
-            p.rotary[0].nominal_current_a,
-            p.rotary[1].nominal_current_a,
-            p.rotary[2].nominal_current_a,
+            p.prismatic[0].drive.nominal_current_a,
+            p.prismatic[1].drive.nominal_current_a,
+            p.prismatic[2].drive.nominal_current_a,
+            p.rotary[0].drive.nominal_current_a,
+            p.rotary[1].drive.nominal_current_a,
+            p.rotary[2].drive.nominal_current_a,
         ]
     };
     let mut m = Metrics::new(dt, &scenario.phases, &scenario.steps, nominal);

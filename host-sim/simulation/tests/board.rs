@@ -111,9 +111,9 @@ fn pushing_into_a_wall_stays_within_the_force_limits_and_trips_the_overload() {
     let eff = |j: usize| {
         if j < 3 {
             let p = cfg.prismatic[j];
-            p.gear_efficiency * p.leadscrew_efficiency
+            p.drive.gear_efficiency * p.leadscrew_efficiency
         } else {
-            cfg.rotary[j - 3].gear_efficiency
+            cfg.rotary[j - 3].drive.gear_efficiency
         }
     };
     println!(

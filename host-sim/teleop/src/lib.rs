@@ -11,8 +11,7 @@
 //! counters of both directions, the board's tick timing.
 //!
 //! `--scenario ci` adds the checks of the CI run (the board emulator's scenarios run them
-//! on the board's release image, `firmware/board-emulator`): a
-//! target
+//! on the board's release image, `host-sim/board-scenarios`): a target
 //! outside the workspace is refused and the robot holds; garbage on the link is counted
 //! and ignored; when the heartbeat stops the board holds, then turns the drives off. It
 //! exits non-zero when a check fails.

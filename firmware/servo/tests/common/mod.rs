@@ -1,6 +1,6 @@
 //! Test plants: a DC-motor joint `x'' = (k u - b x' + d) / J` and the same motor driving
 //! a load through a backlash deadband. Parameters approximate the RSPR plant
-//! (`host-sim/plant/plant.toml`): no-load speed `k/b` and mechanical time constant `J/b`.
+//! (`sim/plant/plant.toml`): no-load speed `k/b` and mechanical time constant `J/b`.
 #![allow(dead_code)]
 
 /// A DC motor driving a joint, in joint units: `x'' = (k u - b x' + d) / J`.

@@ -44,14 +44,16 @@ pub fn home(run: &mut Run) -> Result<bool, ScenarioError> {
             .map(|(_, q)| q[j])
             .fold(f64::INFINITY, f64::min)
     });
-    let mech = crate::mechanics::MechanicsConfig::reference(None)?;
+    let mech = board_emulator::mechanics::MechanicsConfig::reference(None)?;
+    let leg_switch_m = mech.layout.switch_below[0].unwrap_or_default();
+    let link_stop = |j: usize| mech.layout.stop_below[j].unwrap_or_default();
     let reached: Vec<bool> = (0..6)
         .map(|j| {
             let l = lowest.get(j).copied().unwrap_or(f64::INFINITY);
             if j < 3 {
-                l <= mech.leg_switch_m
+                l <= leg_switch_m
             } else {
-                l <= mech.stops[j].0 + 0.2f64.to_radians()
+                l <= link_stop(j) + 0.2f64.to_radians()
             }
         })
         .collect();
@@ -64,7 +66,7 @@ pub fn home(run: &mut Run) -> Result<bool, ScenarioError> {
     let at_centre =
         parked.iter().take(3).all(|e| *e < 0.3e-3) && parked.iter().skip(3).all(|e| *e < 2e-3);
     let stops_below: Vec<f64> = (3..6)
-        .map(|j| (run.central_q[j] - mech.stops[j].0).to_degrees())
+        .map(|j| (run.central_q[j] - link_stop(j)).to_degrees())
         .collect();
     run.check(
         "homing: legs onto their switches, links against their stops, then the park move",
@@ -73,7 +75,7 @@ pub fn home(run: &mut Run) -> Result<bool, ScenarioError> {
             "in {:.2} s of virtual time; lowest true joints {} (switches at {:.1} mm, link stops {:.1} deg below central); parked at central within {:.3} mm / {:.4} deg (true joints); board vs plant: legs {:.3} mm, links {:.4} deg at most (the legs' backlash)",
             run.now_s() - t0,
             joints_text(&lowest),
-            mech.leg_switch_m * 1e3,
+            leg_switch_m * 1e3,
             stops_below.first().copied().unwrap_or_default(),
             parked.iter().take(3).fold(0.0, |a: f64, b| a.max(*b)) * 1e3,
             parked.iter().skip(3).fold(0.0, |a: f64, b| a.max(*b)).to_degrees(),
@@ -126,8 +128,8 @@ pub fn enable(run: &mut Run) -> Result<(), ScenarioError> {
 pub fn attach_tool(run: &mut Run) -> Result<(), ScenarioError> {
     let since = run.s.statuses.len();
     run.rig.lock().truth = Some(Vec::new());
-    run.act(crate::bench::Action::Tool(Some(
-        crate::mechanics::Tool::THESIS,
+    run.act(board_emulator::bench::Action::Tool(Some(
+        board_emulator::mechanics::Tool::THESIS,
     )));
     run.wait(0.5)?;
     let truth = run.rig.lock().truth.take().unwrap_or_default();

@@ -101,7 +101,9 @@ fn number(key: &str, value: &toml::Value) -> Result<f64, ConfigError> {
 }
 
 /// Declares a struct of `f64` parameters, each with its accepted range, plus the lookup
-/// table used by the parser and the validator.
+/// table used by the parser and the validator. With a leading `common: Type;` the struct
+/// also holds a part common to several tables (itself a `param_struct!`), whose keys the
+/// table shares: one TOML table fills both, and errors name the key in that table.
 macro_rules! param_struct {
     (
         $(#[$meta:meta])*
@@ -166,10 +168,103 @@ macro_rules! param_struct {
                 Ok(seen)
             }
 
+            /// Every value NaN (before a table is read).
+            #[allow(dead_code)]
+            fn unset() -> Self {
+                Self { $( $field: f64::NAN, )* }
+            }
+
+            #[allow(dead_code)]
             fn from_table(prefix: &str, table: &toml::Table) -> Result<Self, ConfigError> {
                 let mut out = Self { $( $field: f64::NAN, )* };
                 let seen = out.read_table(prefix, table)?;
                 for (key, _, _) in Self::KEYS {
+                    if !seen.contains(key) {
+                        return Err(ConfigError::MissingKey(format!("{prefix}.{key}")));
+                    }
+                }
+                Ok(out)
+            }
+        }
+    };
+    (
+        $(#[$meta:meta])*
+        pub struct $name:ident {
+            $(#[$cmeta:meta])* $common:ident : $ctype:ty;
+            $( $(#[$fmeta:meta])* $field:ident : [$min:expr, $max:expr] ),* $(,)?
+        }
+    ) => {
+        $(#[$meta])*
+        #[derive(Debug, Clone, Copy, PartialEq)]
+        pub struct $name {
+            $(#[$cmeta])* pub $common: $ctype,
+            $( $(#[$fmeta])* pub $field: f64, )*
+        }
+
+        impl $name {
+            /// The keys of this table's own part with their accepted ranges
+            /// `(key, min, max)` (the common part's are its own `KEYS`).
+            pub const KEYS: &'static [(&'static str, f64, f64)] =
+                &[ $( (stringify!($field), $min, $max), )* ];
+
+            fn set(&mut self, key: &str, value: f64) -> bool {
+                match key {
+                    $( stringify!($field) => { self.$field = value; true } )*
+                    _ => self.$common.set(key, value),
+                }
+            }
+
+            fn get(&self, key: &str) -> Option<f64> {
+                match key {
+                    $( stringify!($field) => Some(self.$field), )*
+                    _ => self.$common.get(key),
+                }
+            }
+
+            /// Every key of the table, the common part's first, with its range.
+            fn all_keys() -> impl Iterator<Item = &'static (&'static str, f64, f64)> {
+                <$ctype>::KEYS.iter().chain(Self::KEYS.iter())
+            }
+
+            /// Checks every value against its range; `prefix` names the table in errors.
+            pub fn validate(&self, prefix: &str) -> Result<(), ConfigError> {
+                for (key, min, max) in Self::all_keys() {
+                    let value = self.get(key).unwrap_or(f64::NAN);
+                    check_range(&format!("{prefix}.{key}"), value, *min, *max)?;
+                }
+                self.check_consistency(prefix)
+            }
+
+            /// Reads the keys of one TOML table into `self`; every key must be known.
+            /// Returns the keys that were present.
+            fn read_table(
+                &mut self,
+                prefix: &str,
+                table: &toml::Table,
+            ) -> Result<Vec<&'static str>, ConfigError> {
+                let mut seen = Vec::new();
+                for (key, value) in table {
+                    let path = format!("{prefix}.{key}");
+                    let Some((name, min, max)) =
+                        Self::all_keys().find(|(k, _, _)| *k == key.as_str())
+                    else {
+                        return Err(ConfigError::UnknownKey(path));
+                    };
+                    let x = number(&path, value)?;
+                    check_range(&path, x, *min, *max)?;
+                    self.set(name, x);
+                    seen.push(*name);
+                }
+                Ok(seen)
+            }
+
+            fn from_table(prefix: &str, table: &toml::Table) -> Result<Self, ConfigError> {
+                let mut out = Self {
+                    $common: <$ctype>::unset(),
+                    $( $field: f64::NAN, )*
+                };
+                let seen = out.read_table(prefix, table)?;
+                for (key, _, _) in Self::all_keys() {
                     if !seen.contains(key) {
                         return Err(ConfigError::MissingKey(format!("{prefix}.{key}")));
                     }
@@ -201,8 +296,11 @@ param_struct! {
 }
 
 param_struct! {
-    /// Parameters of one prismatic (lead-screw) joint, in the units of their names.
-    pub struct PrismaticConfig {
+    /// What both kinds of joint have alike, in the units of their names: the DC motor, its
+    /// driver (current regulation, overcurrent protection), the brake on its shaft, the
+    /// friction at the motor shaft, and the gearing's efficiency and inertia at the motor.
+    /// In the file these keys sit in `[prismatic]` and `[rotary]` beside the kind's own.
+    pub struct DriveConfig {
         /// Motor terminal resistance, ohm.
         resistance_ohm: [0.01, 1000.0],
         /// Motor terminal inductance, H.
@@ -230,17 +328,27 @@ param_struct! {
         viscous_friction_motor_side_nm_s_per_rad: [0.0, 0.1],
         /// Static (breakaway) over Coulomb friction, for the motor and the load side.
         breakaway_to_coulomb_ratio: [1.0, 5.0],
+        /// Efficiency of the gearing when driving the load, 0..1 (the lead screw's own
+        /// is apart).
+        gear_efficiency: [0.05, 1.0],
+        /// Inertia of the transmission (gears, and a screw) referred to the motor shaft,
+        /// kg m^2.
+        transmission_inertia_kg_m2: [0.0, 1e-2],
+    }
+}
+
+param_struct! {
+    /// Parameters of one prismatic (lead-screw) joint, in the units of their names.
+    pub struct PrismaticConfig {
+        /// The motor, its driver and brake, the motor-side friction and gearing.
+        drive: DriveConfig;
         /// Gear reduction between motor and lead screw (motor revolutions per screw
         /// revolution).
         gear_ratio: [0.05, 1000.0],
-        /// Efficiency of the gear stage, 0..1.
-        gear_efficiency: [0.05, 1.0],
         /// Lead of the screw (travel per screw revolution), mm.
         lead_mm: [0.05, 100.0],
         /// Efficiency of the lead screw when driving the load, 0..1.
         leadscrew_efficiency: [0.05, 1.0],
-        /// Inertia of gears and screw referred to the motor shaft, kg m^2.
-        transmission_inertia_kg_m2: [0.0, 1e-2],
         /// Total backlash between motor and load, along the joint, mm.
         backlash_mm: [0.0, 5.0],
         /// Moving mass on the load side of the backlash, kg.
@@ -255,39 +363,10 @@ param_struct! {
 param_struct! {
     /// Parameters of one rotary (rotating-link) joint, in the units of their names.
     pub struct RotaryConfig {
-        /// Motor terminal resistance, ohm.
-        resistance_ohm: [0.01, 1000.0],
-        /// Motor terminal inductance, H.
-        inductance_h: [1e-7, 0.1],
-        /// Torque constant Kt, N m/A.
-        torque_constant_nm_per_a: [1e-4, 2.0],
-        /// Back-EMF constant Ke, V s/rad (equal to Kt in SI for a DC motor).
-        back_emf_v_s_per_rad: [1e-4, 2.0],
-        /// Rotor inertia, kg m^2.
-        rotor_inertia_kg_m2: [1e-10, 1e-2],
-        /// Maximum continuous (thermal) current, A.
-        nominal_current_a: [1e-3, 200.0],
-        /// The driver's current regulation (cycle-by-cycle chopping): the largest
-        /// |current| the H-bridge lets flow, A.
-        current_limit_a: [1e-3, 1000.0],
-        /// The driver's overcurrent protection (drain-source voltage monitoring of its
-        /// transistors, independent of the regulation): above this |current| it latches its
-        /// fault and turns the bridge off, A.
-        driver_ocp_a: [1e-3, 1000.0],
-        /// Holding torque of the spring-applied brake on the motor shaft, N m (0: none).
-        brake_holding_torque_nm: [0.0, 10.0],
-        /// Coulomb friction torque at the motor shaft (motor + gear drag), N m.
-        coulomb_friction_motor_side_nm: [0.0, 1.0],
-        /// Viscous friction at the motor shaft, N m s/rad.
-        viscous_friction_motor_side_nm_s_per_rad: [0.0, 0.1],
-        /// Static (breakaway) over Coulomb friction, for the motor and the load side.
-        breakaway_to_coulomb_ratio: [1.0, 5.0],
+        /// The motor, its driver and brake, the motor-side friction and gearing.
+        drive: DriveConfig;
         /// Overall reduction, motor revolutions per link revolution.
         gear_ratio: [1.0, 10000.0],
-        /// Efficiency of the gear train when driving the load, 0..1.
-        gear_efficiency: [0.05, 1.0],
-        /// Inertia of the gear train referred to the motor shaft, kg m^2.
-        transmission_inertia_kg_m2: [0.0, 1e-2],
         /// Total backlash between motor and link, at the link, arc-seconds.
         backlash_arcsec: [0.0, 36000.0],
         /// Inertia of the link and what it carries, about its axis, kg m^2.
@@ -326,7 +405,7 @@ impl BrakeConfig {
     }
 }
 
-impl PrismaticConfig {
+impl DriveConfig {
     fn check_consistency(&self, prefix: &str) -> Result<(), ConfigError> {
         check_kt_ke(
             prefix,
@@ -336,13 +415,15 @@ impl PrismaticConfig {
     }
 }
 
+impl PrismaticConfig {
+    fn check_consistency(&self, prefix: &str) -> Result<(), ConfigError> {
+        self.drive.check_consistency(prefix)
+    }
+}
+
 impl RotaryConfig {
     fn check_consistency(&self, prefix: &str) -> Result<(), ConfigError> {
-        check_kt_ke(
-            prefix,
-            self.torque_constant_nm_per_a,
-            self.back_emf_v_s_per_rad,
-        )
+        self.drive.check_consistency(prefix)
     }
 }
 
@@ -428,7 +509,7 @@ pub struct PlantConfig {
     pub rotary: [RotaryConfig; 3],
 }
 
-/// The shipped parameter file, `host-sim/plant/plant.toml`.
+/// The shipped parameter file, `sim/plant/plant.toml`.
 pub const SHIPPED_TOML: &str = include_str!("../plant.toml");
 
 fn sub_table<'a>(root: &'a toml::Table, key: &str) -> Result<Option<&'a toml::Table>, ConfigError> {
@@ -527,44 +608,48 @@ impl Default for PlantConfig {
     /// The values of the shipped `plant.toml` (a test checks that the two agree).
     fn default() -> Self {
         let prismatic = PrismaticConfig {
-            resistance_ohm: 0.317,
-            inductance_h: 0.0823e-3,
-            torque_constant_nm_per_a: 0.0302,
-            back_emf_v_s_per_rad: 0.0302,
-            rotor_inertia_kg_m2: 142e-7,
-            nominal_current_a: 5.77,
-            current_limit_a: 5.23,
-            driver_ocp_a: 15.0,
-            brake_holding_torque_nm: 0.1,
-            coulomb_friction_motor_side_nm: 5.1e-3,
-            viscous_friction_motor_side_nm_s_per_rad: 1.0e-6,
-            breakaway_to_coulomb_ratio: 1.2,
+            drive: DriveConfig {
+                resistance_ohm: 0.317,
+                inductance_h: 0.0823e-3,
+                torque_constant_nm_per_a: 0.0302,
+                back_emf_v_s_per_rad: 0.0302,
+                rotor_inertia_kg_m2: 142e-7,
+                nominal_current_a: 5.77,
+                current_limit_a: 5.23,
+                driver_ocp_a: 15.0,
+                brake_holding_torque_nm: 0.1,
+                coulomb_friction_motor_side_nm: 5.1e-3,
+                viscous_friction_motor_side_nm_s_per_rad: 1.0e-6,
+                breakaway_to_coulomb_ratio: 1.2,
+                gear_efficiency: 0.95,
+                transmission_inertia_kg_m2: 3.0e-7,
+            },
             gear_ratio: 2.0,
-            gear_efficiency: 0.95,
             lead_mm: 6.0,
             leadscrew_efficiency: 0.70,
-            transmission_inertia_kg_m2: 3.0e-7,
             backlash_mm: 0.12,
             load_mass_kg: 0.4,
             load_coulomb_friction_n: 2.0,
             load_viscous_friction_n_s_per_m: 5.0,
         };
         let rotary = RotaryConfig {
-            resistance_ohm: 2.14,
-            inductance_h: 0.238e-3,
-            torque_constant_nm_per_a: 0.0234,
-            back_emf_v_s_per_rad: 0.0234,
-            rotor_inertia_kg_m2: 10.8e-7,
-            nominal_current_a: 1.2,
-            current_limit_a: 0.66,
-            driver_ocp_a: 2.0,
-            brake_holding_torque_nm: 0.03,
-            coulomb_friction_motor_side_nm: 0.9e-3,
-            viscous_friction_motor_side_nm_s_per_rad: 1.0e-7,
-            breakaway_to_coulomb_ratio: 1.2,
+            drive: DriveConfig {
+                resistance_ohm: 2.14,
+                inductance_h: 0.238e-3,
+                torque_constant_nm_per_a: 0.0234,
+                back_emf_v_s_per_rad: 0.0234,
+                rotor_inertia_kg_m2: 10.8e-7,
+                nominal_current_a: 1.2,
+                current_limit_a: 0.66,
+                driver_ocp_a: 2.0,
+                brake_holding_torque_nm: 0.03,
+                coulomb_friction_motor_side_nm: 0.9e-3,
+                viscous_friction_motor_side_nm_s_per_rad: 1.0e-7,
+                breakaway_to_coulomb_ratio: 1.2,
+                gear_efficiency: 0.90,
+                transmission_inertia_kg_m2: 0.5e-7,
+            },
             gear_ratio: 36.0,
-            gear_efficiency: 0.90,
-            transmission_inertia_kg_m2: 0.5e-7,
             backlash_arcsec: 20.0,
             load_inertia_kg_m2: 3.5e-3,
             load_coulomb_friction_nm: 0.01,

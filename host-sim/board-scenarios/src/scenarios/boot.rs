@@ -4,9 +4,9 @@
 use master_link::{BoardToMaster, ResetCause, ResetStatus, PROTOCOL_VERSION};
 
 use super::{addr, ms, Run, ScenarioError};
-use crate::bench::{Action, Recorded};
 use crate::master::SESSION_NONCE;
-use crate::pins::{expected_configuration, PinConfig, BOARD};
+use board_emulator::bench::{Action, Recorded};
+use board_emulator::pins::{expected_configuration, PinConfig, BOARD};
 
 /// Boot: the first control tick, then 1 kHz ticks with the IWDG fed every tick (0.1..0.3 s).
 pub fn tick(run: &mut Run) -> Result<(), ScenarioError> {

@@ -18,7 +18,7 @@ use teleop::link::{Link, Medium, Received};
 use teleop::session::Session;
 use teleop::TeleopError;
 
-use crate::bench::{Bench, BenchError, NANOS_PER_SECOND};
+use board_emulator::bench::{Bench, BenchError, NANOS_PER_SECOND};
 
 /// The longest stretch the medium runs the board without looking for a message, ns.
 pub const STEP_NS: u64 = 1_000_000;
@@ -149,7 +149,7 @@ impl Medium for BenchMedium {
         self.rig
             .lock()
             .bench
-            .act(crate::bench::Action::Send(bytes.to_vec()));
+            .act(board_emulator::bench::Action::Send(bytes.to_vec()));
         Ok(())
     }
 

@@ -1,7 +1,7 @@
 //! The closed-loop scenarios, in one run of the image (one JIT warm-up), in this order:
 //!
 //! 1. The image's fit on the STM32F405; [`boot`]: reset to the 1 kHz control tick with the
-//!    IWDG fed every tick; every pin configured as [`crate::pins::BOARD`] says; Hello
+//!    IWDG fed every tick; every pin configured as [`board_emulator::pins::BOARD`] says; Hello
 //!    (session, reset cause PowerOn).
 //! 2. [`watchdog::starved`]: the core stalled, the deadline missed and logged, the IWDG
 //!    reset; the reset cause and the fault log reported after it (before the homing, so
@@ -34,11 +34,11 @@ use rigless::time::VirtualNanos;
 use teleop::session::{Session, StatusRow};
 use teleop::{PathChoice, TeleopError};
 
-use crate::bench::{Action, Bench, BenchConfig, BenchError};
-use crate::board::Outputs;
-use crate::image::{Firmware, ImageError};
 use crate::master::{Rig, SharedRig};
-use crate::mechanics::{central_q, MechanicsError, Surroundings};
+use board_emulator::bench::{Action, Bench, BenchConfig, BenchError};
+use board_emulator::board::Outputs;
+use board_emulator::image::{Firmware, ImageError};
+use board_emulator::mechanics::{central_q, MechanicsError, Surroundings};
 
 /// Why a scenario could not run (a failed check is not an error: it is in the outcome).
 #[derive(Debug, thiserror::Error)]
@@ -261,7 +261,7 @@ impl Run {
     }
 
     /// The firmware's GPIO output writes since the last take.
-    pub fn take_pin_writes(&self) -> Vec<crate::bench::Recorded> {
+    pub fn take_pin_writes(&self) -> Vec<board_emulator::bench::Recorded> {
         std::mem::take(&mut self.rig.lock().bench.pin_writes)
     }
 

@@ -20,12 +20,12 @@ pub fn plant() -> Result<Plant, Box<dyn std::error::Error>> {
 pub fn unregulated_plant() -> Result<Plant, Box<dyn std::error::Error>> {
     let mut cfg = PlantConfig::default();
     for p in cfg.prismatic.iter_mut() {
-        p.current_limit_a = 1000.0;
-        p.driver_ocp_a = 1000.0;
+        p.drive.current_limit_a = 1000.0;
+        p.drive.driver_ocp_a = 1000.0;
     }
     for r in cfg.rotary.iter_mut() {
-        r.current_limit_a = 1000.0;
-        r.driver_ocp_a = 1000.0;
+        r.drive.current_limit_a = 1000.0;
+        r.drive.driver_ocp_a = 1000.0;
     }
     let mut p = Plant::new(&cfg)?;
     p.set_joint_positions(HOME)?;

@@ -7,8 +7,8 @@ use master_link::{
 };
 
 use super::{addr, mm, position, Run, ScenarioError};
-use crate::bench::{Action, Recorded};
-use crate::mechanics::Surroundings;
+use board_emulator::bench::{Action, Recorded};
+use board_emulator::mechanics::Surroundings;
 
 /// The firmware's brake engage time (`control::stops::StopConfig`, as the board's
 /// `reference_config_for` takes it): SS1 keeps the drives on this long after applying the
@@ -142,7 +142,7 @@ pub fn disable_while_moving(run: &mut Run) -> Result<(), ScenarioError> {
     let from = disabled_at.unwrap_or(0);
     let at_disable = run.last_status().map(|s| position(&s));
     let row = run.wait_for(since, 1.0, |s| {
-        s.state == RobotState::Ready && s.stop == StopStatus::SafeStop1Done
+        s.state == RobotState::Ready && s.stop == StopStatus::None
     })?;
     run.wait(0.1)?;
     let writes = run.take_pin_writes();
@@ -184,7 +184,7 @@ pub fn disable_while_moving(run: &mut Run) -> Result<(), ScenarioError> {
         "Disable while moving: SS1, decelerate under power, brakes, then torque off (still homed)",
         reply == Some(None) && row.is_some() && sequence_ok && order_ok && homed && travel < 1e-3,
         format!(
-            "moving at {:.1} mm/s when Disable was sent; reply {}; stops in turn {:?}; Ready with SafeStop1Done after {}; travel after the request {}; {order}",
+            "moving at {:.1} mm/s when Disable was sent; reply {}; stops in turn {:?}; Ready, the stop over, after {}; travel after the request {}; {order}",
             speed_before * 1e3,
             match reply {
                 Some(None) => "Ack".to_string(),

@@ -17,7 +17,7 @@ use master_link::{
 };
 
 use super::{Run, ScenarioError};
-use crate::bench::Action;
+use board_emulator::bench::Action;
 
 /// How long the core is held, ns: past the deadline policy's 250 µs lateness, short of the
 /// IWDG's 10 ms timeout (so that the firmware itself sees the late tick and logs it).
@@ -168,13 +168,13 @@ pub fn disable(run: &mut Run) -> Result<(), ScenarioError> {
     let since = run.s.statuses.len();
     let nack = run.s.request(MasterToBoard::Disable, 1.0)?;
     let ready = run.wait_for(since, 1.0, |s| {
-        s.state == RobotState::Ready && s.stop == StopStatus::SafeStop1Done
+        s.state == RobotState::Ready && s.stop == StopStatus::None
     })?;
     run.check(
         "enables once more and disables at the end (SS1 done, Ready)",
         enabled.is_none() && nack.is_none() && ready.is_some(),
         format!(
-            "Enable {enabled:?}; Disable {nack:?}; Ready with SafeStop1Done: {}",
+            "Enable {enabled:?}; Disable {nack:?}; Ready, the stop over: {}",
             ready.is_some()
         ),
     );
