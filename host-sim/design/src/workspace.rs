@@ -11,8 +11,7 @@
 //! verdict on the whole task box: every point of a grid through the box (at most 2 mm
 //! apart, faces and corners included) checked at both orientations.
 
-use crate::files::{out_dir, write_csv};
-use crate::DesignError;
+use crate::files::{out_dir, write_csv, FileError};
 use kinematics_core::guards::{Guard, GuardSetupError, Guards, Limits, Reading, Severity};
 use kinematics_core::{Branch, Mechanism, Robot};
 use plots::plotters::prelude::*;
@@ -25,12 +24,18 @@ use std::fmt::Write as _;
 use std::path::Path;
 use thiserror::Error;
 
-/// Why the workspace cannot be scanned.
-#[derive(Clone, Copy, Debug, PartialEq, Error)]
+/// Why the workspace cannot be scanned or its output written.
+#[derive(Debug, Error)]
 pub enum WorkspaceError {
     /// The guards cannot be set up for the robot, branch and limits.
     #[error("guards: {0}")]
     Guards(GuardSetupError),
+    /// The output directory or the CSV file.
+    #[error(transparent)]
+    File(#[from] FileError),
+    /// A plot.
+    #[error(transparent)]
+    Plot(#[from] PlotError),
 }
 
 /// The scan settings (edge units).
@@ -515,7 +520,7 @@ pub fn run(
     scan: &Scan,
     task: &TaskBox,
     out: Option<&Path>,
-) -> Result<String, DesignError> {
+) -> Result<String, WorkspaceError> {
     let hc_mm = m_to_mm(robot.hc());
     let adm = Admissible::new(robot, branch, &limits.limits)?;
     let sections = scan_all(&adm, scan, task);

@@ -19,7 +19,7 @@
 //! setpoint (`Teleop::resync`): on re-engaging, the robot's reference is where the board
 //! stands, the master's offset is captured there, and the first target equals it.
 
-use crate::board::{request_name, Board, BoardEvent, Outcome};
+use crate::board::{request_name, Board, BoardError, BoardEvent, Outcome};
 use crate::conversions::{margins, measured_cp, setpoint_cp};
 use crate::error::OperatorError;
 use master_link::{MasterToBoard, NackReason, RobotState, StatusReport};
@@ -254,16 +254,17 @@ pub fn run(
         Some((_, s)) => *s,
         None => board
             .wait_status(1.0, |_| true)?
-            .ok_or(OperatorError::NoStatus)?,
+            .ok_or(BoardError::NoStatus)?,
     };
     if status.state != RobotState::Enabled {
-        return Err(OperatorError::NotEnabled {
+        return Err(BoardError::NotEnabled {
             state: format!("{:?}", status.state),
-        });
+        }
+        .into());
     }
     let start_pose = setpoint_cp(&status)
         .or_else(|| measured_cp(&status))
-        .ok_or(OperatorError::NoStatus)?;
+        .ok_or(BoardError::NoStatus)?;
     let mut teleop = Teleop::new(settings.teleop.clone())?;
     let mut cue = EdgeCue::new(settings.cue)?;
     let period_s = 1.0 / settings.teleop.stream_rate_hz;

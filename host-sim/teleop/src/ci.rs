@@ -3,7 +3,7 @@
 
 use crate::error::TeleopError;
 use crate::session::{Session, StatusRow};
-use crate::tracking::{deviation, rms_max};
+use crate::tracking::{deviation, rms_max, Pass};
 use kinematics_core::Pose;
 use master_link::{
     cobs, encode, FaultCause, Header, MasterToBoard, NackReason, RobotState, StatusReport,
@@ -203,7 +203,7 @@ pub fn stream(
     s: &mut Session,
     checks: &mut Checks,
     traj: &Trajectory,
-    passes: &[crate::Pass],
+    passes: &[Pass],
     rate_hz: f64,
     max_deviation_m: f64,
 ) -> Result<(), TeleopError> {

@@ -18,11 +18,10 @@ pub use task::{
     range_values, KindTask, RangeError, Requirements, SynthTask, SynthTaskError, THESIS_TASK_TOML,
 };
 
-use crate::files::{out_dir, write_csv, write_text};
+use crate::files::{out_dir, write_csv, write_text, FileError};
 use crate::ranges::{
     evaluate, quantity_names, QuantityRange, Ranges, RangesError, TaskPoseFailure,
 };
-use crate::DesignError;
 use kinematics_core::{
     inverse, Branch, GeometryError, Mechanism, Robot, RobotKind, RsprGeometry, UsrGeometry,
 };
@@ -34,12 +33,15 @@ use std::fmt::Write as _;
 use std::path::Path;
 use thiserror::Error;
 
-/// The scan cannot run.
+/// The scan cannot run or its files cannot be written.
 #[derive(Debug, Error)]
 pub enum SynthError {
     /// The pool of worker threads.
     #[error("worker threads: {0}")]
     Threads(rayon::ThreadPoolBuildError),
+    /// An output file.
+    #[error(transparent)]
+    File(#[from] FileError),
 }
 
 /// A robot of the grid that cannot be built.
@@ -435,7 +437,7 @@ pub fn run(
     jobs: usize,
     out: Option<&Path>,
     progress: &(dyn Fn() + Sync),
-) -> Result<String, DesignError> {
+) -> Result<String, SynthError> {
     let k = st.kind(kind);
     let started = std::time::Instant::now();
     let found = scan(kind, dims, &st.task, &k.requirements, jobs, progress)?;
