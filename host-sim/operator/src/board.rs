@@ -524,7 +524,30 @@ impl Board {
         timeouts: &BringUpTimeouts,
         log: &mut dyn FnMut(&str),
     ) -> Result<StatusReport, BoardError> {
-        let h = self.hello(timeouts.hello_s)?;
+        self.greet(timeouts.hello_s, log)?;
+        let status = self
+            .wait_status(2.0, |_| true)?
+            .ok_or(BoardError::NoStatus)?;
+        if status.state == RobotState::Fault {
+            return Err(BoardError::Faulted {
+                cause: format!("{:?}", status.fault.cause),
+            });
+        }
+        if status.state == RobotState::Enabled {
+            log("already enabled");
+            self.discard_events();
+            return Ok(status);
+        }
+        if status.warnings.contains(Warnings::NOT_HOMED) {
+            self.home(timeouts.home_s, log)?;
+        }
+        self.enable_and_wait(timeouts.enable_s, log)
+    }
+
+    /// Hello (at most `timeout_s`), logged; the protocol version checked; the board's
+    /// last reset acknowledged when it is not yet.
+    fn greet(&mut self, timeout_s: f64, log: &mut dyn FnMut(&str)) -> Result<(), BoardError> {
+        let h = self.hello(timeout_s)?;
         log(&format!(
             "hello: firmware {}.{}.{}, protocol {}, last reset {:?}{}",
             h.firmware.major,
@@ -548,41 +571,39 @@ impl Board {
             self.expect_ack(MasterToBoard::AcknowledgeReset)?;
             log("reset acknowledged");
         }
-        let status = self
-            .wait_status(2.0, |_| true)?
-            .ok_or(BoardError::NoStatus)?;
-        if status.state == RobotState::Fault {
-            return Err(BoardError::Faulted {
-                cause: format!("{:?}", status.fault.cause),
-            });
-        }
-        if status.state == RobotState::Enabled {
-            log("already enabled");
-            self.discard_events();
-            return Ok(status);
-        }
-        if status.warnings.contains(Warnings::NOT_HOMED) {
-            self.expect_ack(MasterToBoard::Home { rehome: false })?;
-            log("homing");
-            let homed = self.wait_status(timeouts.home_s, |s| {
-                (s.state == RobotState::Ready && !s.warnings.contains(Warnings::NOT_HOMED))
-                    || s.state == RobotState::Fault
-            })?;
-            match homed {
-                Some(s) if s.state == RobotState::Ready => log("homed"),
-                Some(s) => {
-                    return Err(BoardError::Faulted {
-                        cause: format!("{:?} while homing", s.fault.cause),
-                    })
-                }
-                None => {
-                    return Err(BoardError::Timeout {
-                        what: "homing",
-                        timeout_s: timeouts.home_s,
-                    })
-                }
+        Ok(())
+    }
+
+    /// Homes (never re-homing) and waits at most `timeout_s` for `Ready` and homed.
+    fn home(&mut self, timeout_s: f64, log: &mut dyn FnMut(&str)) -> Result<(), BoardError> {
+        self.expect_ack(MasterToBoard::Home { rehome: false })?;
+        log("homing");
+        let homed = self.wait_status(timeout_s, |s| {
+            (s.state == RobotState::Ready && !s.warnings.contains(Warnings::NOT_HOMED))
+                || s.state == RobotState::Fault
+        })?;
+        match homed {
+            Some(s) if s.state == RobotState::Ready => {
+                log("homed");
+                Ok(())
             }
+            Some(s) => Err(BoardError::Faulted {
+                cause: format!("{:?} while homing", s.fault.cause),
+            }),
+            None => Err(BoardError::Timeout {
+                what: "homing",
+                timeout_s,
+            }),
         }
+    }
+
+    /// Enables ([`Board::enable`]) and waits at most `timeout_s` for `Enabled`; the front
+    /// end starts from there (what came before is dropped).
+    fn enable_and_wait(
+        &mut self,
+        timeout_s: f64,
+        log: &mut dyn FnMut(&str),
+    ) -> Result<StatusReport, BoardError> {
         match self.enable()? {
             Outcome::Ack => {}
             Outcome::Refused(reason) => {
@@ -597,7 +618,7 @@ impl Board {
                 })
             }
         }
-        let enabled = self.wait_status(timeouts.enable_s, |s| {
+        let enabled = self.wait_status(timeout_s, |s| {
             matches!(s.state, RobotState::Enabled | RobotState::Fault)
         })?;
         match enabled {
@@ -612,7 +633,7 @@ impl Board {
             }),
             None => Err(BoardError::Timeout {
                 what: "enabling",
-                timeout_s: timeouts.enable_s,
+                timeout_s,
             }),
         }
     }
