@@ -241,10 +241,14 @@ pub fn measure(
     position_only: bool,
     rng: &mut XorShiftRng,
 ) -> Result<Vec<Measurement>, CalibrationError> {
-    let np = Normal::new(0.0, noise.position_m)
-        .map_err(|e| CalibrationError::Solver(format!("position noise: {e}")))?;
-    let nr = Normal::new(0.0, noise.rotation_rad)
-        .map_err(|e| CalibrationError::Solver(format!("rotation noise: {e}")))?;
+    let np = Normal::new(0.0, noise.position_m).map_err(|error| CalibrationError::Noise {
+        what: "position",
+        error,
+    })?;
+    let nr = Normal::new(0.0, noise.rotation_rad).map_err(|error| CalibrationError::Noise {
+        what: "rotation",
+        error,
+    })?;
     let cfg = FkConfig::default();
     let mut rows = Vec::with_capacity(poses.len());
     for (k, x) in poses.iter().enumerate() {

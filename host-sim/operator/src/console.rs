@@ -636,11 +636,7 @@ pub fn run(mut board: Board) -> Result<(), OperatorError> {
         });
         let looped = event_loop(&mut board, &screen);
         drop(screen);
-        let drawn = drawer.join().unwrap_or_else(|_| {
-            Err(OperatorError::Terminal(std::io::Error::other(
-                "the console's drawing thread panicked",
-            )))
-        });
+        let drawn = drawer.join().unwrap_or(Err(OperatorError::DrawerPanicked));
         looped.and(drawn)
     });
     ratatui::restore();

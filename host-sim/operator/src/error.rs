@@ -27,6 +27,9 @@ pub enum OperatorError {
     Recording(#[from] masters::recording::RecordingError),
     #[error("terminal: {0}")]
     Terminal(std::io::Error),
+    /// The console's thread that draws the screen panicked.
+    #[error("terminal: the console's drawing thread panicked")]
+    DrawerPanicked,
     /// The OpenIGTLink server.
     #[error(transparent)]
     Igtl(#[from] igtl::ServerError),
