@@ -266,7 +266,7 @@ impl Command {
             Command::Forces(args) => design::forces(args, robot),
             Command::Singularity(args) => Ok(singularity::run(args, robot)?),
             Command::Report(args) => design::report(args, selected),
-            Command::Check(args) => check::run(args, selected, limits),
+            Command::Check(args) => Ok(check::run(args, selected, limits)?),
             Command::Sim(args) => sim::run(args, selected, limits),
             Command::Ranges(args) => design::ranges(args, selected),
             Command::Workspace(args) => design::workspace(args, robot, limits),

@@ -7,7 +7,7 @@ use masters::{MotionScale, TeleopConfig, TeleopState};
 use operator::board::{Board, BringUpTimeouts};
 use operator::devices::{self, DeviceSpec};
 use operator::navigation::{self, BoardRobot};
-use operator::teleoperation::{self, TeleoperationSettings};
+use operator::teleoperation::{self, TeleoperationSettings, TickView};
 use simulation::config::default_target_dir;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -77,6 +77,44 @@ pub fn hand_controller(
         ..BringUpTimeouts::default()
     };
     board.bring_up(&timeouts, &mut |m| print!("board: {m}{eol}"))?;
+    let settings = teleoperation_settings(args, device, stream_rate_hz)?;
+    print!(
+        "teleoperating with {} at {stream_rate_hz} Hz, scale {} / {}; {}{eol}",
+        master.name(),
+        args.scale_translation,
+        args.scale_rotation,
+        if keyboard {
+            "keys: d/a w/s r/f move, i/k l/j u/o turn, +/- speed, c clutch, Space operator present, Esc stop, q quit"
+        } else {
+            "Ctrl-C to stop"
+        }
+    );
+    let mut last_print = f64::NEG_INFINITY;
+    let report = teleoperation::run(&mut board, master.as_mut(), &settings, &stop, &mut |v| {
+        if v.t_s - last_print < 0.2 {
+            return;
+        }
+        last_print = v.t_s;
+        eprint!("\r{}", live_line(v));
+        let _ = std::io::stderr().flush();
+    });
+    eprint!("{eol}");
+    drop(master);
+    let report = report?;
+    // Leave the robot disabled (holding brakes on): nobody streams to it any more.
+    let _ = board.request(master_link::MasterToBoard::Disable);
+    print!("{}", report.summary());
+    Ok(())
+}
+
+/// The run's settings from the options: the mapping at `stream_rate_hz` with the scales
+/// and the tremor filter, the recording (by default under
+/// `target/teleop/sessions/`, named by the time), the device named in the recording.
+fn teleoperation_settings(
+    args: &HandControllerArgs,
+    device: &str,
+    stream_rate_hz: f64,
+) -> Result<TeleoperationSettings, CliError> {
     let record = args.record.clone().unwrap_or_else(|| {
         let unix = std::time::SystemTime::now()
             .duration_since(std::time::UNIX_EPOCH)
@@ -95,59 +133,38 @@ pub fn hand_controller(
     if args.no_tremor_filter {
         teleop.tremor = None;
     }
-    let settings = TeleoperationSettings {
+    Ok(TeleoperationSettings {
         teleop,
         duration_s: args.duration_s,
         record: Some(record),
         settings_text: [("device".to_string(), device.to_string())].into(),
         ..TeleoperationSettings::default()
+    })
+}
+
+/// The line shown in place while teleoperating: the board's state, the mapping's, the
+/// workspace-edge cue, the nearest margin and the measured position.
+fn live_line(v: &TickView) -> String {
+    let state = match v.state {
+        TeleopState::Following => "following".to_string(),
+        TeleopState::Holding(r) => format!("holding: {}", r.as_str()),
     };
-    print!(
-        "teleoperating with {} at {stream_rate_hz} Hz, scale {} / {}; {}{eol}",
-        master.name(),
-        args.scale_translation,
-        args.scale_rotation,
-        if keyboard {
-            "keys: d/a w/s r/f move, i/k l/j u/o turn, +/- speed, c clutch, Space operator present, Esc stop, q quit"
-        } else {
-            "Ctrl-C to stop"
+    let (pose, margin, board_state) = match v.status {
+        Some(s) => {
+            let p = operator::conversions::measured_cp(s)
+                .map(|p| p.to_mm_deg())
+                .unwrap_or([f64::NAN; 6]);
+            (p, s.margins.nearest, format!("{:?}", s.state))
         }
-    );
-    let mut last_print = f64::NEG_INFINITY;
-    let report = teleoperation::run(&mut board, master.as_mut(), &settings, &stop, &mut |v| {
-        if v.t_s - last_print < 0.2 {
-            return;
-        }
-        last_print = v.t_s;
-        let state = match v.state {
-            TeleopState::Following => "following".to_string(),
-            TeleopState::Holding(r) => format!("holding: {}", r.as_str()),
-        };
-        let (pose, margin, board_state) = match v.status {
-            Some(s) => {
-                let p = operator::conversions::measured_cp(s)
-                    .map(|p| p.to_mm_deg())
-                    .unwrap_or([f64::NAN; 6]);
-                (p, s.margins.nearest, format!("{:?}", s.state))
-            }
-            None => ([f64::NAN; 6], f32::NAN, "?".into()),
-        };
-        eprint!(
-            "\r{board_state:<8} {state:<24} edge {:<10} margin {margin:5.2}  x {:7.2} y {:7.2} z {:7.2} mm   ",
-            v.cue.as_str(),
-            pose[0],
-            pose[1],
-            pose[2]
-        );
-        let _ = std::io::stderr().flush();
-    });
-    eprint!("{eol}");
-    drop(master);
-    let report = report?;
-    // Leave the robot disabled (holding brakes on): nobody streams to it any more.
-    let _ = board.request(master_link::MasterToBoard::Disable);
-    print!("{}", report.summary());
-    Ok(())
+        None => ([f64::NAN; 6], f32::NAN, "?".into()),
+    };
+    format!(
+        "{board_state:<8} {state:<24} edge {:<10} margin {margin:5.2}  x {:7.2} y {:7.2} z {:7.2} mm   ",
+        v.cue.as_str(),
+        pose[0],
+        pose[1],
+        pose[2]
+    )
 }
 
 /// `host-sim replay` options.

@@ -27,6 +27,12 @@ pub enum TeleopError {
     /// A hand-made frame of the garbage check that cannot be built.
     #[error("{0}")]
     Frame(String),
+    /// The board answered a request with something else than its answer.
+    #[error("{request} answered with {reply}")]
+    UnexpectedReply {
+        request: &'static str,
+        reply: String,
+    },
     #[error("link write: {0}")]
     Write(std::io::Error),
     /// The board closed the link (end of stream, a read error).

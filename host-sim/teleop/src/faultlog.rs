@@ -53,9 +53,10 @@ pub fn read(s: &mut Session) -> Result<(ResetStatus, Vec<FaultLogEntry>), Teleop
         let page = match s.reply(seq, 2.0)? {
             BoardToMaster::FaultLog(page) => page,
             other => {
-                return Err(TeleopError::Frame(format!(
-                    "FaultLogRequest answered with {other:?}"
-                )))
+                return Err(TeleopError::UnexpectedReply {
+                    request: "FaultLogRequest",
+                    reply: format!("{other:?}"),
+                })
             }
         };
         let n = usize::from(page.count).min(FAULT_LOG_PAGE);

@@ -25,6 +25,7 @@ pub mod session;
 pub mod tracking;
 
 pub use error::TeleopError;
+pub use tracking::Pass;
 
 use kinematics_core::{inverse, Branch, Pose, RsprGeometry};
 use nalgebra::Vector3;
@@ -92,9 +93,6 @@ pub struct Settings {
     /// ... and the master's limits on a move (its `[master]` settings).
     pub master: MasterLimits,
 }
-
-/// A stretch of the path judged on its own: (name, start s, end s).
-pub type Pass = (String, f64, f64);
 
 /// The path as a trajectory from the central pose, with its passes: the laparoscope path
 /// of `laparoscope` (all passes, or its 25 mm/s pass only), or a 10 mm line and back,
