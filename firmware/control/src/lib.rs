@@ -48,6 +48,7 @@ pub mod faults;
 pub mod geometry_store;
 pub mod heartbeat;
 pub mod homing;
+pub mod homing_load;
 pub mod link;
 pub mod modes;
 pub mod monitors;

@@ -70,7 +70,7 @@ fn snapshots() -> Vec<(State, Rt, PlantHw, u64)> {
         tick(&mut rt, &mut hw, &mut t, true);
         assert!(t < 60_000_000);
     }
-    assert_eq!(rt.state(), State::Ready);
+    assert_eq!(rt.state(), State::Ready, "{:?}", rt.status().fault);
     for _ in 0..100 {
         tick(&mut rt, &mut hw, &mut t, true);
     }

@@ -260,14 +260,37 @@ fn starting_on_the_switch_leaves_it_first() {
     let mut s = sensing(&mut hw);
     start(&mut h, &s, 1_000);
     hw.enable();
-    let st = step(&mut h, &mut hw, &mut s, 1_000);
+    // Every joint holds for the settle time first; then the first joint's approach finds
+    // it on its switch.
+    let settle = cfg.settle_us;
+    let mut t = 1_000;
+    while t < 1_000 + settle {
+        let st = step(&mut h, &mut hw, &mut s, t);
+        assert_eq!(st, HomingStatus::Running(HomingPhase::Settle));
+        t += 1_000;
+    }
+    let st = step(&mut h, &mut hw, &mut s, t);
+    assert_eq!(
+        st,
+        HomingStatus::Running(HomingPhase::Approach { joint: 1 })
+    );
+    t += 1_000;
+    let st = step(&mut h, &mut hw, &mut s, t);
     assert_eq!(
         st,
         HomingStatus::Running(HomingPhase::LeaveSwitch { joint: 1 })
     );
-    step(&mut h, &mut hw, &mut s, 2_000);
+    t += 1_000;
+    step(&mut h, &mut hw, &mut s, t);
     assert!(hw.duty[1] > 0.0, "drives off the switch (away from -q)");
-    let (st, _) = run_homing(&mut h, &mut hw, &mut s, 60_000);
+    let st = loop {
+        hw.advance(1e-3);
+        t += 1_000;
+        let st = step(&mut h, &mut hw, &mut s, t);
+        if !matches!(st, HomingStatus::Running(_)) || t > 60_000_000 {
+            break st;
+        }
+    };
     let HomingStatus::Referenced = st else {
         panic!("{st:?}")
     };

@@ -129,8 +129,51 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             known.as_ref(),
             now_us,
         );
+        // Before any motion: a switch that cannot read what it reads, or a declared tool
+        // the homing cannot carry, fails it.
+        let checked = homing
+            .check_switches(&self.inputs.switches)
+            .and_then(|()| self.check_homing_load(known.as_ref()));
         self.mode = Mode::Homing(homing);
+        if let Err(e) = checked {
+            let finding = Finding {
+                cause: FaultCause::HomingFailed,
+                joint: e.joint(),
+                value: e.code(),
+            };
+            self.fault(finding, now_us);
+        }
         Ok(())
+    }
+
+    /// With a declared tool, its loads along the homing's path (`homing_load`): a homing
+    /// they do not allow is refused before it moves anything.
+    fn check_homing_load(&self, known: Option<&[S; NUM_JOINTS]>) -> Result<(), HomingError> {
+        let Some(tool) = self.cfg.controller.tool else {
+            return Ok(());
+        };
+        let rest = known
+            .copied()
+            .unwrap_or_else(|| self.cfg.homing.joints.map(|h| h.rest_position));
+        // The push's effort at the supply measured now, or at the lowest it may be.
+        let [lo, _] = self.cfg.power.supply_v;
+        let supply = if self.monitors.power.supply_in_range(self.inputs.supply_v) {
+            self.inputs.supply_v
+        } else {
+            lo
+        };
+        crate::homing_load::check(
+            &self.robot,
+            self.cfg.controller.branch,
+            &self.cfg.controller.fk,
+            &self.cfg.homing,
+            &rest,
+            &tool,
+            &self.cfg.current.motors,
+            &self.cfg.current.limits,
+            supply,
+        )
+        .map_err(|r| HomingError::LoadTooHeavy { joint: r.joint() })
     }
 
     /// `Enable` from `Ready`: the reset acknowledged, the safety chain sound, the
