@@ -32,6 +32,7 @@
 use std::sync::OnceLock;
 
 use arbitrary::Arbitrary;
+use board_profile::BoardProfile;
 use control::estop::{emergency_stop_isr, emergency_stop_message, EStopLatch};
 use control::link::{Inbound, LinkRx, LinkTx, Request, FIRMWARE_VERSION};
 use control::modes::{State, ALL_STATES};
@@ -60,10 +61,10 @@ pub const MAX_BYTES: usize = 256;
 pub const MAX_TICKS: u32 = 1024;
 /// Ticks per `Tick` action at most.
 pub const TICKS_PER_ACTION: u8 = 64;
-/// The control period, µs (1 kHz).
-pub const PERIOD_US: u64 = 1000;
-/// The board's core clock, Hz (STM32F405 at 168 MHz).
-pub const CPU_HZ: u32 = 168_000_000;
+/// The control period, µs (the board profile's).
+pub const PERIOD_US: u64 = BoardProfile::REFERENCE.control_period_us as u64;
+/// The board's core clock, Hz (the board profile's).
+pub const CPU_HZ: u32 = BoardProfile::REFERENCE.cpu_hz;
 /// Cycles per unit of `Tick::exec` (255 units: 910 µs at 168 MHz, above the 800 µs budget).
 pub const CYCLES_PER_EXEC_UNIT: u32 = 600;
 /// A tick's execution time when the input does not say, cycles (about 180 µs).
@@ -323,7 +324,7 @@ pub enum Supply {
     Raw(f64),
 }
 
-/// The service's settings: 1 kHz on the 168 MHz core.
+/// The service's settings: the board profile's period and core clock.
 pub fn service_config() -> ServiceConfig {
     ServiceConfig::for_period(PERIOD_US as u32, CPU_HZ, FIRMWARE_VERSION)
 }

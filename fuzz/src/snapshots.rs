@@ -10,9 +10,9 @@
 
 use board_on_plant::{BoardOnPlant, Layout, ReferenceMechanics};
 use control::link::Request;
+use control::modes::State;
 use control::runtime::{reference_config_for, reference_mechanics, Runtime};
 use control::service::{ServiceConfig, TickService};
-use control::modes::State;
 use hal::{QuadratureCounter, NUM_JOINTS};
 use kinematics_core::{inverse, Branch, Pose, RsprGeometry};
 use master_link::MasterToBoard as Command;
@@ -101,7 +101,7 @@ pub fn build(cfg_service: ServiceConfig, cycles: u32) -> Snapshots {
     )
     .q();
     let c: [f64; NUM_JOINTS] = std::array::from_fn(|j| central[j]);
-    let mech = reference_mechanics(&c, &kinematics_core::guards::Limits::reference());
+    let mech = reference_mechanics(&kinematics_core::guards::Limits::reference());
     let stops = [3, 4, 5].map(|j| c[j] - mech.link_stop_below_central_rad);
     let rest = [
         0.16,

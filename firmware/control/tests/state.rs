@@ -19,7 +19,7 @@ use kinematics_core::{Branch, Pose, RsprGeometry};
 use master_link::MasterToBoard;
 use master_link::{NackReason, ResetCause};
 use nalgebra::{Rotation3, Vector3};
-use servo::encoder::{EncoderConfig, LEG_COUNTS_PER_M, LINK_COUNTS_PER_RAD};
+use servo::encoder::EncoderConfig;
 use servo::ServoConfig;
 
 mod common;
@@ -50,14 +50,7 @@ impl Fake {
         Fake {
             q,
             vmax: [0.4, 0.4, 0.4, 28.0, 28.0, 28.0],
-            cpu: [
-                LEG_COUNTS_PER_M,
-                LEG_COUNTS_PER_M,
-                LEG_COUNTS_PER_M,
-                LINK_COUNTS_PER_RAD,
-                LINK_COUNTS_PER_RAD,
-                LINK_COUNTS_PER_RAD,
-            ],
+            cpu: board_profile::BoardProfile::REFERENCE.counts_per_unit(),
             switch_below: [None; 6],
             stop_below: [None; 6],
             duty: [0.0; 6],
@@ -436,7 +429,8 @@ fn a_switch_that_never_closes_stops_the_joint_at_its_range() {
     let (st, _) = run_homing(&mut h, &mut hw, &mut s, 60_000);
     assert_eq!(st, HomingStatus::Failed(HomingError::NotFound { joint: 0 }));
     // Seen at the next tick's reading: one tick of the approach and one count late.
-    let late = cfg.joints[0].approach_duty * hw.vmax[0] * 1e-3 + 1.0 / LEG_COUNTS_PER_M;
+    let late = cfg.joints[0].approach_duty * hw.vmax[0] * 1e-3
+        + 1.0 / board_profile::BoardProfile::REFERENCE.joints[0].counts_per_unit();
     println!(
         "l1 stopped at {:.4} mm, range from {:.4} mm",
         hw.q[0] * 1e3,

@@ -37,6 +37,9 @@ use nalgebra::Vector3;
 use plant::{Plant, PlantConfig, PlantError, NUM_JOINTS};
 use thiserror::Error;
 
+/// The board simulated: the reference board profile.
+const PROFILE: board_profile::BoardProfile = board_profile::BoardProfile::REFERENCE;
+
 pub use board_on_plant::Wall;
 
 /// Why the board simulation cannot be set up or stepped.
@@ -140,13 +143,14 @@ pub const SIM_FIRMWARE: FirmwareVersion = FirmwareVersion {
 impl BoardSimConfig {
     /// The reference robot with the shipped plant, at rest at `rest` (None: legs 12 mm
     /// above their home switches and links 0.2 rad above their hard stops, as after a
-    /// power-up), 1 kHz, 10 plant steps per tick, no tool, no wall.
+    /// power-up), on the reference board (its profile's period and clock), 10 plant steps
+    /// per tick, no tool, no wall.
     pub fn reference(rest: Option<[f64; NUM_JOINTS]>) -> Result<Self, BoardSimError> {
         let robot = RsprGeometry::<f64>::reference();
         let central = inverse(&robot, &Pose::central(robot.hc), Branch::OUTER)
             .map_err(BoardSimError::Central)?;
         let c = central.q();
-        let mech = reference_mechanics(&[c[0], c[1], c[2], c[3], c[4], c[5]], &Limits::reference());
+        let mech = reference_mechanics(&Limits::reference());
         let rest = rest.unwrap_or_else(|| {
             let sw = mech.leg_switch_m + 0.012;
             let stop = |j: usize| c[j] - mech.link_stop_below_central_rad + 0.2;
@@ -157,7 +161,11 @@ impl BoardSimConfig {
         Ok(BoardSimConfig {
             plant: PlantConfig::shipped().map_err(BoardSimError::Plant)?,
             runtime,
-            service: ServiceConfig::for_period(1000, 168_000_000, SIM_FIRMWARE),
+            service: ServiceConfig::for_period(
+                PROFILE.control_period_us,
+                PROFILE.cpu_hz,
+                SIM_FIRMWARE,
+            ),
             steps_per_tick: 10,
             rest,
             tool: None,

@@ -33,8 +33,8 @@ use hal::{QuadratureCounter, SafeOutputs};
 use kinematics_core::{Branch, PerChainGeometry, RsprGeometry};
 use master_link::ResetCause;
 
-/// Control period, µs (1 kHz).
-const PERIOD_US: u32 = 1000;
+/// Control period, µs: the board profile's.
+const PERIOD_US: u32 = board::PROFILE.control_period_us;
 /// Telemetry period, ms (50 Hz).
 const TELEMETRY_MS: u64 = 20;
 

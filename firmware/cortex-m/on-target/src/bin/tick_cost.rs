@@ -35,7 +35,7 @@ use on_target::bench::{bench_profile_off, bench_profile_on, calibrate, measure};
 use on_target::hprintln;
 use on_target::stub::PlantStub;
 use panic_semihosting as _;
-use servo::encoder::{EncoderConfig, Encoders, LEG_COUNTS_PER_M, LINK_COUNTS_PER_RAD};
+use servo::encoder::{EncoderConfig, Encoders};
 use servo::{JointServo, Pid, PidGains, PidInput, ServoConfig};
 
 /// The board's model: the per-chain geometry (here the reference robot's), as the board
@@ -312,11 +312,7 @@ fn parts() {
     let quantize = |q: &Joints<f32>| {
         let mut q = *q;
         for j in 0..6 {
-            let c = if j < 3 {
-                LEG_COUNTS_PER_M as f32
-            } else {
-                LINK_COUNTS_PER_RAD as f32
-            };
+            let c = board_profile::BoardProfile::REFERENCE.joints[j].counts_per_unit() as f32;
             q[j] = ComplexField::round(q[j] * c) / c;
         }
         q
