@@ -408,7 +408,9 @@ impl BoardSim {
             }
             _ => 300,
         };
-        let outcome = self.service.finish(now, exec_us * 168);
+        let outcome = self
+            .service
+            .finish(now, exec_us * (PROFILE.cpu_hz / 1_000_000));
         if self.rx.connected() && now >= self.next_status_us {
             self.next_status_us = now + self.cfg.telemetry_us;
             let mut st = outcome.status;
