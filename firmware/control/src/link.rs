@@ -147,12 +147,15 @@ impl core::fmt::Debug for BoardIdentity {
 }
 
 impl BoardIdentity {
-    /// SHA-256 of the chip's unique id `chip_id` and the key's bytes (none: zeros).
-    pub fn new(chip_id: &[u8], key: Option<&[u8; master_link::KEY_LEN]>) -> Self {
+    /// SHA-256 of the chip's unique id `chip_id` and, with a link key, the key's tag of a
+    /// constant (a secret only the key's holders can compute).
+    pub fn new(chip_id: &[u8], key: Option<&LinkKey>) -> Self {
         let mut h = Sha256::new();
         h.update(b"rspr-board-identity");
         h.update(chip_id);
-        h.update(key.unwrap_or(&[0; master_link::KEY_LEN]));
+        if let Some(k) = key {
+            h.update(k.tag(b"rspr-board-identity"));
+        }
         BoardIdentity(h.finalize().into())
     }
 }
