@@ -151,6 +151,10 @@ pub struct Bench {
     pub board: BoardSim,
     /// The master.
     pub master: SimMaster,
+    /// Other masters on the same line: they hear everything the board sends, and what
+    /// they send goes through [`Bench::send_raw`] (a shared serial line, a second
+    /// connection).
+    pub others: Vec<SimMaster>,
     /// The master sends heartbeats (every 50 ms).
     pub heartbeat: bool,
     /// Bytes are delivered (false: the cable is cut both ways).
@@ -168,6 +172,7 @@ impl Bench {
         Bench {
             board,
             master: SimMaster::with_key(nonce, key),
+            others: Vec::new(),
             heartbeat: true,
             link_up: true,
             last_beat_us: 0,
@@ -204,7 +209,11 @@ impl Bench {
         self.board.tick()?;
         let out = self.board.take_output();
         if self.link_up {
-            self.master.receive(self.board.now_us(), &out);
+            let now = self.board.now_us();
+            self.master.receive(now, &out);
+            for m in &mut self.others {
+                m.receive(now, &out);
+            }
         }
         Ok(())
     }
