@@ -713,7 +713,10 @@ impl Board {
                         matches!(
                             reply,
                             BoardToMaster::Nack {
-                                reason: NackReason::NotConnected | NackReason::UnsupportedVersion,
+                                reason: NackReason::NotConnected,
+                                ..
+                            } | BoardToMaster::HelloRefused {
+                                reason: NackReason::UnsupportedVersion,
                                 ..
                             }
                         ),
@@ -900,7 +903,15 @@ impl Board {
             },
             Command::StatusRequest => matches!(reply, BoardToMaster::Status(_)),
             Command::FaultLogRequest { .. } => matches!(reply, BoardToMaster::FaultLog(_)),
-            Command::EmergencyStop | Command::Heartbeat | Command::AcknowledgeReset => ack,
+            Command::EmergencyStop | Command::Heartbeat => ack,
+            // Taken only with the drives off (the transition table); refused otherwise.
+            Command::AcknowledgeReset => {
+                ack || *reply
+                    == BoardToMaster::Nack {
+                        seq,
+                        reason: NackReason::InvalidState,
+                    }
+            }
             _ => ack_or_nack,
         };
         assert!(fits, "{:?} answered {reply:?}", req.message);

@@ -37,6 +37,14 @@ impl core::fmt::Debug for LinkKey {
     }
 }
 
+/// Two keys are equal when they tag alike (compared by the tags of a fixed message, which
+/// say nothing of the keys).
+impl PartialEq for LinkKey {
+    fn eq(&self, other: &Self) -> bool {
+        self.tag(b"rspr-link-key-eq") == other.tag(b"rspr-link-key-eq")
+    }
+}
+
 /// Why a key's text was refused ([`LinkKey::from_hex`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -110,6 +118,7 @@ const fn hex(d: u8) -> Option<u8> {
 }
 
 #[cfg(test)]
+#[allow(clippy::indexing_slicing)]
 mod tests {
     use super::*;
 

@@ -119,7 +119,17 @@ impl Board {
     /// Opens the board at `path`: a Unix socket (waited for until `timeout`: a board may
     /// still be starting) or a serial device at `baud`.
     pub fn open(path: &Path, baud: u32, timeout: Duration) -> Result<Self, OperatorError> {
-        let link = link::open(path, baud, timeout)?;
+        Self::open_with_key(path, baud, timeout, None)
+    }
+
+    /// [`Board::open`] on a link with the pre-shared key `key` (None: no tags).
+    pub fn open_with_key(
+        path: &Path,
+        baud: u32,
+        timeout: Duration,
+        key: Option<master_link::LinkKey>,
+    ) -> Result<Self, OperatorError> {
+        let link = link::open_with_key(path, baud, timeout, key)?;
         Ok(Board {
             link,
             name: path.display().to_string(),

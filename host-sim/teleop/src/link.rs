@@ -62,7 +62,7 @@ pub trait Medium: Send {
 
 /// What the reader thread reports.
 enum FromReader {
-    Message(Received),
+    Message(Box<Received>),
     Closed(String),
 }
 
@@ -252,7 +252,7 @@ impl HostMedium {
                 for b in buf.iter().take(n) {
                     if let Some(Ok((seq, msg))) = decoder.push(*b) {
                         if tx
-                            .send(FromReader::Message(Received { t_s, seq, msg }))
+                            .send(FromReader::Message(Box::new(Received { t_s, seq, msg })))
                             .is_err()
                         {
                             // The medium was dropped: nobody reads any more.
@@ -288,7 +288,7 @@ impl Medium for HostMedium {
             return Err(TeleopError::Closed(why.clone()));
         }
         match self.rx.recv_timeout(timeout) {
-            Ok(FromReader::Message(m)) => Ok(Some(m)),
+            Ok(FromReader::Message(m)) => Ok(Some(*m)),
             Ok(FromReader::Closed(why)) => {
                 self.closed = Some(why.clone());
                 Err(TeleopError::Closed(why))

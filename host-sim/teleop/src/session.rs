@@ -1,4 +1,6 @@
-//! A master session on an open [`Link`]: heartbeats at 50 Hz (unless paused), requests and
+//! A master session on an open [`Link`]: the `Hello` (the board issues the session and
+//! echoes this connection's nonce; another master's `HelloReply` or `HelloRefused` on a
+//! shared line is not this one's), heartbeats at 50 Hz (unless paused), requests and
 //! their replies (matched by sequence number), the status telemetry recorded with the
 //! phase it arrived in, the targets sent (for the tracking figures) and the refusals.
 //!
