@@ -22,7 +22,7 @@ use std::collections::VecDeque;
 
 use board_on_plant::{BoardOnPlant, Layout, Platform, PlatformError, ReferenceMechanics, Tool};
 use control::estop::EStopLatch;
-use control::link::{Inbound, LinkRx, LinkTx, Request};
+use control::link::{opened_session, BoardIdentity, Inbound, LinkRx, LinkTx, Request};
 use control::runtime::{reference_config_for, reference_mechanics, Runtime, RuntimeConfig};
 use control::service::{ServiceConfig, TickOutcome, TickService};
 use control::telemetry::with_link;
@@ -76,6 +76,8 @@ pub struct BoardSimConfig {
     pub wall: Option<Wall>,
     /// Telemetry period, µs (the board's 20 ms).
     pub telemetry_us: u64,
+    /// The link key (a key file's; None: a board on a desk, frames without tags).
+    pub key: Option<master_link::LinkKey>,
 }
 
 /// The simulated board's reserved flash sector for the calibrated geometry (16 slots of
@@ -171,6 +173,7 @@ impl BoardSimConfig {
             tool: None,
             wall: None,
             telemetry_us: 20_000,
+            key: None,
         })
     }
 }
@@ -252,8 +255,11 @@ impl BoardSim {
             service,
             hw,
             latch: EStopLatch::new(),
-            rx: LinkRx::new(),
-            tx: LinkTx::new(),
+            rx: LinkRx::with(
+                BoardIdentity::new(b"simulated board", cfg.key.as_ref()),
+                cfg.key.clone(),
+            ),
+            tx: LinkTx::with_key(cfg.key.clone()),
             queue: VecDeque::new(),
             geometry_in: None,
             geometry_flash: SimGeometryFlash::new(),
@@ -337,6 +343,7 @@ impl BoardSim {
     /// Bytes from the master: frames to requests (queued for the next tick), the link's
     /// own replies to the outbox; an `EmergencyStop` forces the outputs safe at once.
     pub fn receive(&mut self, bytes: &[u8]) {
+        self.rx.set_uptime(self.t_us);
         for b in bytes {
             match self.rx.push(*b) {
                 Some(Inbound::Reply(r)) => self.send(&r),
@@ -390,6 +397,11 @@ impl BoardSim {
         self.service.begin(now, 0, self.latch.take());
         while let Some(req) = self.queue.pop_front() {
             let reply = self.service.request(&req, now);
+            // An accepted Hello: its session opens on the receiving side before the
+            // reply goes out.
+            if let Some(session) = opened_session(&reply) {
+                self.rx.open_session(session, req.seq);
+            }
             self.send(&reply);
         }
         // As the board: a geometry the runtime accepts is stored after the tick.
