@@ -581,8 +581,12 @@ fn a_missed_deadline_is_a_fault_and_starves_the_watchdog() {
 /// do not (SR-5: a missed deadline detected within its 3 ticks).
 #[test]
 fn overruns_are_counted_in_a_sliding_window() {
-    let cfg = ServiceConfig::for_period(1000, 168_000_000, control::link::FIRMWARE_VERSION);
-    let cycles = |us: u32| us * 168;
+    let cfg = ServiceConfig::for_period(
+        PROFILE.control_period_us,
+        PROFILE.cpu_hz,
+        control::link::FIRMWARE_VERSION,
+    );
+    let cycles = |us: u32| us * (PROFILE.cpu_hz / 1_000_000);
     let run = |overrun_at: &[u32], ticks: u32| -> Option<u32> {
         let (rt, mut hw, t0) = enabled();
         let mut svc = TickService::new(rt, cfg);
