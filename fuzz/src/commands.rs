@@ -250,6 +250,11 @@ pub enum Msg {
         /// First entry.
         first: u16,
     },
+    /// Event log page.
+    EventLogRequest {
+        /// First entry.
+        first: u16,
+    },
 }
 
 /// A target's master timestamp.
@@ -393,7 +398,8 @@ pub fn snapshots() -> &'static Snapshots {
 pub struct Outcome {
     /// States seen after ticks.
     pub states: Vec<State>,
-    /// Replies sent, by kind: (HelloReply, Ack, Nack, Status, FaultLog, Geometry*).
+    /// Replies sent, by kind: (HelloReply, Ack, Nack, Status, FaultLog or EventLog,
+    /// Geometry*).
     pub replies: [u32; 6],
     /// Nack reasons seen.
     pub nacks: Vec<NackReason>,
@@ -619,6 +625,7 @@ impl Board {
             Msg::OperatorPresent { present } => MasterToBoard::OperatorPresent { present },
             Msg::AcknowledgeReset => MasterToBoard::AcknowledgeReset,
             Msg::FaultLogRequest { first } => MasterToBoard::FaultLogRequest { first },
+            Msg::EventLogRequest { first } => MasterToBoard::EventLogRequest { first },
         }
     }
 
@@ -756,7 +763,7 @@ impl Board {
                 2
             }
             BoardToMaster::Status(_) => 3,
-            BoardToMaster::FaultLog(_) => 4,
+            BoardToMaster::FaultLog(_) | BoardToMaster::EventLog(_) => 4,
             BoardToMaster::GeometryStored { .. } | BoardToMaster::GeometryRefused { .. } => 5,
         };
         if let Some(k) = self.outcome.replies.get_mut(kind) {
@@ -863,6 +870,7 @@ impl Board {
             ),
             Command::StatusRequest => matches!(reply, BoardToMaster::Status(_)),
             Command::FaultLogRequest { .. } => matches!(reply, BoardToMaster::FaultLog(_)),
+            Command::EventLogRequest { .. } => matches!(reply, BoardToMaster::EventLog(_)),
             Command::EmergencyStop | Command::Heartbeat | Command::AcknowledgeReset => ack,
             _ => ack_or_nack,
         };

@@ -5,8 +5,9 @@
 //!     Inbound::Reply    answered by the link itself (Nack NotConnected /
 //!                       UnsupportedVersion)
 //!     Inbound::Request  a Command for the runtime (a session opened, state-machine event,
-//!                       pose target, heartbeat, status or fault-log request); its outcome
-//!                       becomes HelloReply / Status / FaultLog / Ack / Nack
+//!                       pose target, heartbeat, status, fault-log or event-log request);
+//!                       its outcome becomes HelloReply / Status / FaultLog / EventLog /
+//!                       Ack / Nack
 //!     Inbound::Geometry a calibrated geometry: checked by the runtime, stored by the
 //!                       target; GeometryStored / GeometryRefused
 //! replies -> LinkTx (the session, sequence numbers, encode into the caller's buffer) -> UART
@@ -19,9 +20,9 @@
 //! sequence number (the `HelloReply` opens the session for the master).
 
 use master_link::{
-    encode, BoardDecoder, BoardToMaster, EncodeError, FaultLogPage, FirmwareVersion, FrameError,
-    GeometryRecord, GeometryRefusal, Header, LinkCounters, MasterToBoard, NackReason, ResetStatus,
-    Seq, SeqCounter, StatusReport, PROTOCOL_VERSION,
+    encode, BoardDecoder, BoardToMaster, EncodeError, EventLogPage, FaultLogPage, FirmwareVersion,
+    FrameError, GeometryRecord, GeometryRefusal, Header, LinkCounters, MasterToBoard, NackReason,
+    ResetStatus, Seq, SeqCounter, StatusReport, PROTOCOL_VERSION,
 };
 
 /// A request with the sequence number its reply carries.
@@ -51,6 +52,8 @@ pub enum Answer {
     },
     /// A page of the fault log.
     FaultLog(FaultLogPage),
+    /// A page of the event log.
+    EventLog(EventLogPage),
 }
 
 impl Request {
@@ -76,6 +79,7 @@ impl Request {
                 geometry_version,
             },
             Ok(Answer::FaultLog(page)) => BoardToMaster::FaultLog(page),
+            Ok(Answer::EventLog(page)) => BoardToMaster::EventLog(page),
             Err(reason) => BoardToMaster::Nack {
                 seq: self.seq,
                 reason,
