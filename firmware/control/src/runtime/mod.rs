@@ -98,6 +98,9 @@ pub struct Runtime<S: Scalar, M: Mechanism<S> + Clone> {
     geometry_version: u32,
     /// Refused events so far.
     refusals: u32,
+    /// When the last target (pose or jog) was accepted while following, or following
+    /// began: `TARGET_STALE` beyond the supervisor's staleness age.
+    last_target_us: u64,
 }
 
 impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
@@ -137,6 +140,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             missed_ticks: 0,
             geometry_version: 0,
             refusals: 0,
+            last_target_us: 0,
             cfg,
         })
     }
@@ -470,10 +474,14 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         let enabled = self.state() == State::Enabled;
         let late = enabled && self.session.heartbeat_is_late(now_us);
         let limited = self.monitors.current.limited().iter().any(|x| *x);
+        let stale = matches!(self.mode, Mode::Following { .. })
+            && now_us.saturating_sub(self.last_target_us)
+                > self.cfg.controller.supervisor.stale_after_us;
         let w = &mut self.warnings;
         w.set(Warnings::NOT_HOMED, !homed);
         w.set(Warnings::HEARTBEAT_LATE, late);
         w.set(Warnings::VELOCITY_LIMITED, limited);
+        w.set(Warnings::TARGET_STALE, stale);
     }
 
     /// Records the control tick's worst start jitter and execution time (µs) and the

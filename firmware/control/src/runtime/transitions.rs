@@ -256,6 +256,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
                 Mode::Holding { ctl, sequence }
             }
             Mode::Enabling { ctl, .. } | Mode::Holding { ctl, .. } => {
+                self.last_target_us = now_us;
                 Mode::Following { ctl, jog: None }
             }
             other => other,
