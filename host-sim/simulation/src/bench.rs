@@ -339,4 +339,10 @@ impl Bench {
             }
         }
     }
+
+    /// A power cycle of the board (`BoardSim::power_cycle`: a new board on the same flash)
+    /// with a new master of session `session` (nothing said yet).
+    pub fn power_cycle(self, session: u32) -> Result<Bench, BenchError> {
+        Ok(Bench::new(self.board.power_cycle()?, session))
+    }
 }

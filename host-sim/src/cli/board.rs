@@ -137,11 +137,14 @@ pub struct FaultLogArgs {
     pub baud: u32,
 }
 
-/// Reads the fault log and prints it.
+/// Reads the fault log and the event log and prints them.
 pub fn faultlog(args: &FaultLogArgs) -> Result<(), CliError> {
     let link = teleop::link::open(&args.connect, args.baud, Duration::from_secs(5))?;
     let mut s = teleop::session::Session::new(link);
     let (reset, entries) = teleop::faultlog::read(&mut s)?;
     print!("{}", teleop::faultlog::table(&reset, &entries));
+    let (events, page) = teleop::faultlog::read_events(&mut s)?;
+    println!();
+    print!("{}", teleop::faultlog::events_table(&events, &page));
     Ok(())
 }
