@@ -34,7 +34,7 @@ use std::sync::OnceLock;
 use arbitrary::Arbitrary;
 use board_profile::BoardProfile;
 use control::estop::{emergency_stop_isr, emergency_stop_message, EStopLatch};
-use control::link::{Inbound, LinkRx, LinkTx, Request, FIRMWARE_VERSION};
+use control::link::{opened_session, Inbound, LinkRx, LinkTx, Request, FIRMWARE_VERSION};
 use control::modes::{State, ALL_STATES};
 use control::runtime::RuntimeTick;
 use control::service::{ServiceConfig, TickService};
@@ -197,8 +197,10 @@ pub enum Msg {
     Hello {
         /// Protocol version.
         version: Option<u8>,
-        /// The session nonce.
+        /// The master's nonce.
         nonce: u32,
+        /// The master's clock in it.
+        clock: Stamp,
     },
     /// Enable.
     Enable,
@@ -479,16 +481,22 @@ impl Board {
         (hw.enabled, hw.duty, hw.brakes_released) = snap.outputs;
         hw.strict_duty = strict.duty;
         let hc = runtime.robot().hc as f32;
+        // The master that brought the board up (from homing on) has its session open.
+        let owned = !matches!(start, Start::Booted | Start::Rebooted(_));
+        let mut rx = LinkRx::new();
+        if owned {
+            rx.open_session(snapshots::OWNER_SESSION, u16::MAX);
+        }
         Board {
             service,
             hw,
-            rx: LinkRx::new(),
+            rx,
             tx: LinkTx::new(),
             queue: Vec::new(),
             geometry: None,
             latch: EStopLatch::new(),
             now: snap.now_us,
-            session: 0,
+            session: if owned { snapshots::OWNER_SESSION } else { 0 },
             seq: SeqCounter::new(0),
             last_seq: 0,
             master_rx: MasterDecoder::new(),
@@ -584,9 +592,14 @@ impl Board {
             Stamp::Raw(x) => *x,
         };
         match *msg {
-            Msg::Hello { version, nonce } => MasterToBoard::Hello {
+            Msg::Hello {
+                version,
+                nonce,
+                clock,
+            } => MasterToBoard::Hello {
                 protocol_version: version.unwrap_or(PROTOCOL_VERSION),
                 nonce,
+                clock_us: stamp(&clock),
             },
             Msg::Enable => MasterToBoard::Enable,
             Msg::Disable => MasterToBoard::Disable,
@@ -657,9 +670,6 @@ impl Board {
             HeaderChoice::Raw { session, seq } => Header { session, seq },
         };
         self.last_seq = header.seq;
-        if let MasterToBoard::Hello { nonce, .. } = wire {
-            self.session = nonce;
-        }
         let mut buf = [0u8; MAX_FRAME_LEN + 1];
         let n = match encode(&wire, header, buf.get_mut(1..).unwrap_or_default()) {
             Ok(n) => n,
@@ -711,7 +721,10 @@ impl Board {
                         matches!(
                             reply,
                             BoardToMaster::Nack {
-                                reason: NackReason::NotConnected | NackReason::UnsupportedVersion,
+                                reason: NackReason::NotConnected,
+                                ..
+                            } | BoardToMaster::HelloRefused {
+                                reason: NackReason::UnsupportedVersion,
                                 ..
                             }
                         ),
@@ -765,6 +778,12 @@ impl Board {
             BoardToMaster::Status(_) => 3,
             BoardToMaster::FaultLog(_) | BoardToMaster::EventLog(_) => 4,
             BoardToMaster::GeometryStored { .. } | BoardToMaster::GeometryRefused { .. } => 5,
+            BoardToMaster::HelloRefused { reason, .. } => {
+                if !self.outcome.nacks.contains(&reason) {
+                    self.outcome.nacks.push(reason);
+                }
+                0
+            }
         };
         if let Some(k) = self.outcome.replies.get_mut(kind) {
             *k += 1;
@@ -798,6 +817,11 @@ impl Board {
             matches!(results.as_slice(), [Ok((seq, _))] if *seq == header.seq),
             "the master's decoder gave {results:?} for {msg:?} ({header:?})"
         );
+        // The master (every Hello is the harness's) opens the session the board issued.
+        if let BoardToMaster::HelloReply { session, .. } = msg {
+            self.session = session;
+            self.master_rx.open_session(session, header.seq);
+        }
     }
 
     /// One control tick `dt_us` after the last, as the board's control task runs it.
@@ -815,6 +839,10 @@ impl Board {
             let reply = self.service.request(&req, now);
             self.answered += 1;
             self.check_reply(&req, &reply);
+            // As the board: an accepted Hello's session opens before the reply goes out.
+            if let Some(session) = opened_session(&reply) {
+                self.rx.open_session(session, req.seq);
+            }
             self.send(reply);
         }
         // As the board's control task: the runtime's checks, then the store (this board's
@@ -863,15 +891,36 @@ impl Board {
         let ack = *reply == BoardToMaster::Ack { seq };
         let ack_or_nack = ack || matches!(reply, BoardToMaster::Nack { seq: s, .. } if *s == seq);
         let fits = match req.message {
-            Command::Hello { nonce: session, .. } => matches!(
-                reply,
-                BoardToMaster::HelloReply { session: s, protocol_version, .. }
-                    if *s == session && *protocol_version == PROTOCOL_VERSION
-            ),
+            // The session the link issued, the nonce echoed; or refused, echoed too.
+            Command::Hello { nonce, .. } => match reply {
+                BoardToMaster::HelloReply {
+                    session,
+                    nonce: n,
+                    protocol_version,
+                    ..
+                } => {
+                    *session == req.session
+                        && *session != 0
+                        && *n == nonce
+                        && *protocol_version == PROTOCOL_VERSION
+                }
+                BoardToMaster::HelloRefused {
+                    seq: s, nonce: n, ..
+                } => *s == seq && *n == nonce,
+                _ => false,
+            },
             Command::StatusRequest => matches!(reply, BoardToMaster::Status(_)),
             Command::FaultLogRequest { .. } => matches!(reply, BoardToMaster::FaultLog(_)),
             Command::EventLogRequest { .. } => matches!(reply, BoardToMaster::EventLog(_)),
-            Command::EmergencyStop | Command::Heartbeat | Command::AcknowledgeReset => ack,
+            Command::EmergencyStop | Command::Heartbeat => ack,
+            // Taken only with the drives off (the transition table); refused otherwise.
+            Command::AcknowledgeReset => {
+                ack || *reply
+                    == BoardToMaster::Nack {
+                        seq,
+                        reason: NackReason::InvalidState,
+                    }
+            }
             _ => ack_or_nack,
         };
         assert!(fits, "{:?} answered {reply:?}", req.message);
@@ -1059,9 +1108,11 @@ mod tests {
     #[test]
     fn enabled_robot_follows_then_stops() {
         let mut actions = vec![
+            // Another master's: refused (the robot is enabled); the owner carries on.
             frame(Msg::Hello {
                 version: None,
                 nonce: 77,
+                clock: Stamp::Now,
             }),
             frame(Msg::PoseTarget {
                 stamp: Stamp::Now,
@@ -1225,9 +1276,11 @@ mod tests {
     #[test]
     fn finding_3_estop_path_is_seen_by_the_next_enable() {
         let actions = [
+            // The owner reconnects (a fresh session, its operator still present).
             frame(Msg::Hello {
                 version: None,
-                nonce: 3,
+                nonce: snapshots::OWNER_NONCE,
+                clock: Stamp::Now,
             }),
             frame(Msg::EmergencyStop),
             frame(Msg::ClearFault),

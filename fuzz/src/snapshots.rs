@@ -70,10 +70,7 @@ fn ok<T, E: core::fmt::Debug>(r: Result<T, E>, what: &str) -> T {
 fn step(sv: &mut Service, hw: &mut BoardOnPlant, t: &mut u64, cycles: u32) {
     *t += 1000;
     sv.begin(*t, 0, control::estop::EStopTrip::NONE);
-    let beat = Request {
-        seq: 0,
-        message: Command::Heartbeat,
-    };
+    let beat = Request::new(0, Command::Heartbeat);
     let _ = sv.request(&beat, *t);
     sv.tick(hw, *t);
     let _ = sv.finish(*t, cycles);
@@ -93,6 +90,12 @@ fn snap(sv: Option<&Service>, rt: &Rt, hw: &mut BoardOnPlant, t: u64) -> Snapsho
 /// Takes every snapshot: the reference robot resting with its legs at 160 mm and its links
 /// 0.2 rad above their hard stops, homed, parked and enabled on the plant (a few seconds of
 /// simulated time), in the tick service `cfg` with ticks of `cycles` cycles.
+/// The nonce of the master that brought the snapshots' board up (homing on), and the
+/// session the board issued it: a board started from one of them has it open.
+pub const OWNER_NONCE: u32 = 0x0F0F_0F0F;
+/// See [`OWNER_NONCE`].
+pub const OWNER_SESSION: u32 = 0x5e55_0001;
+
 pub fn build(cfg_service: ServiceConfig, cycles: u32) -> Snapshots {
     let g = RsprGeometry::<f64>::reference();
     let central = ok(
@@ -138,7 +141,7 @@ pub fn build(cfg_service: ServiceConfig, cycles: u32) -> Snapshots {
     let state = |sv: &Service| sv.runtime().state();
     let fault = |sv: &Service| sv.runtime().status().fault;
     let request = |sv: &mut Service, message: Command, t: u64| {
-        let reply = sv.request(&Request { seq: 0, message }, t);
+        let reply = sv.request(&Request::new(0, message), t);
         assert_eq!(
             reply,
             BoardToMaster::Ack { seq: 0 },
@@ -146,6 +149,29 @@ pub fn build(cfg_service: ServiceConfig, cycles: u32) -> Snapshots {
         );
     };
     let booted = take(&sv, &mut hw, t);
+    // The master says Hello (it owns the board from now on) and that its operator is
+    // present.
+    let hello = Request {
+        seq: 0,
+        message: Command::Hello {
+            protocol_version: master_link::PROTOCOL_VERSION,
+            nonce: OWNER_NONCE,
+            clock_us: t,
+        },
+        session: OWNER_SESSION,
+    };
+    let reply = sv.request(&hello, t);
+    assert!(
+        matches!(
+            reply,
+            BoardToMaster::HelloReply {
+                session: OWNER_SESSION,
+                ..
+            }
+        ),
+        "snapshots: {reply:?}"
+    );
+    request(&mut sv, Command::OperatorPresent { present: true }, t);
 
     request(&mut sv, Command::Home { rehome: false }, t);
     for _ in 0..300 {

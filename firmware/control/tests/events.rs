@@ -45,10 +45,13 @@ fn the_runtime_records_its_events() {
         &MasterToBoard::Hello {
             protocol_version: master_link::PROTOCOL_VERSION,
             nonce: 77,
+            clock_us: 0,
         },
         t,
     )
     .unwrap();
+    rt.command(&MasterToBoard::OperatorPresent { present: true }, t)
+        .unwrap();
     rt.command(&MasterToBoard::AcknowledgeReset, t).unwrap();
     rt.command(&MasterToBoard::Home { rehome: false }, t)
         .unwrap();

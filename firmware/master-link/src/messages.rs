@@ -29,10 +29,11 @@ pub const JOINT_THETA3: usize = 5;
 
 /// A message type that can travel in a frame.
 pub trait WireMessage: Serialize + DeserializeOwned {
-    /// The session a handshake message opens (`Hello`: its nonce; `HelloReply`: the
-    /// session it confirms): it is accepted whatever its session and sequence number,
-    /// and restarts the receiver's sequence tracking from it.
-    fn opens_session(&self) -> Option<u32>;
+    /// A handshake message (`Hello`; `HelloReply`, `HelloRefused`): the receiver takes it
+    /// whatever its frame's session and sequence number, and it changes neither: the
+    /// receiver's owner decides whether a session opens
+    /// ([`FrameDecoder::open_session`](crate::FrameDecoder::open_session)).
+    fn is_handshake(&self) -> bool;
     /// `true` for a message no session or sequence check may drop (`EmergencyStop`): it
     /// is taken whenever its frame is intact.
     fn bypasses_sequence(&self) -> bool;
@@ -42,14 +43,20 @@ pub trait WireMessage: Serialize + DeserializeOwned {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum MasterToBoard {
-    /// Handshake: opens a session and (re)starts the board's sequence tracking of this
-    /// direction. Frames sent before it (an older session) are refused.
+    /// Handshake: asks the board for a session. The board answers `HelloReply` with a
+    /// session it chose (fresh for every accepted `Hello`), or `HelloRefused` (another
+    /// master owns the board, an old `Hello` replayed, another protocol version).
     Hello {
         /// Protocol version spoken by the master.
         protocol_version: u8,
-        /// The master's session nonce, echoed in `HelloReply` (a fresh random value per
-        /// connection).
+        /// The master's identity for this connection (a fresh random value per
+        /// connection, echoed in the answer): the board's owner is the master whose nonce
+        /// it accepted last.
         nonce: u32,
+        /// The master's clock when it sent the `Hello`, µs (the clock of its target
+        /// stamps): the board keeps it to refuse targets from the future, and refuses a
+        /// `Hello` of the owner's nonce that is not newer than the last (a replay).
+        clock_us: u64,
     },
     /// Enable the drives (Ready -> Enabled).
     Enable,
@@ -222,11 +229,8 @@ pub enum GeometryRefusal {
 }
 
 impl WireMessage for MasterToBoard {
-    fn opens_session(&self) -> Option<u32> {
-        match self {
-            Self::Hello { nonce, .. } => Some(*nonce),
-            _ => None,
-        }
+    fn is_handshake(&self) -> bool {
+        matches!(self, Self::Hello { .. })
     }
     fn bypasses_sequence(&self) -> bool {
         matches!(self, Self::EmergencyStop)
@@ -289,6 +293,14 @@ pub enum NackReason {
     BrakeCheckFailed,
     /// The operator is not present (dead-man released).
     OperatorAbsent,
+    /// Another master owns the board (a `Hello` while the robot is not disabled).
+    NotOwner,
+    /// A target stamped further ahead of the master's clock (from its `Hello`) than the
+    /// board allows: never taken, never adopted as the clock.
+    TargetFromFuture,
+    /// A `Hello` with the owner's nonce whose clock is not newer than the owner's last:
+    /// a recording replayed.
+    ReplayedHello,
 }
 
 /// Controller state machine state.
@@ -317,7 +329,7 @@ pub enum RobotState {
 ///
 /// Every non-empty delimiter-terminated frame increments exactly one of
 /// `frames_ok`, `bad_checksum`, `malformed`, `oversized`, `wrong_version`,
-/// `out_of_order`, `wrong_session`; `dropped` counts sequence numbers skipped between
+/// `out_of_order`, `wrong_session`, `bad_tag`; `dropped` counts sequence numbers skipped between
 /// accepted frames (frames lost on the way). All counters wrap.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -338,6 +350,9 @@ pub struct LinkCounters {
     pub dropped: u32,
     /// Frames of another session than the current one (protocol version 4).
     pub wrong_session: u32,
+    /// Frames without a valid authentication tag on a link with a key (protocol
+    /// version 5).
+    pub bad_tag: u32,
 }
 
 impl LinkCounters {
@@ -349,6 +364,7 @@ impl LinkCounters {
             .wrapping_add(self.wrong_version)
             .wrapping_add(self.out_of_order)
             .wrapping_add(self.wrong_session)
+            .wrapping_add(self.bad_tag)
     }
 
     /// Every frame seen, accepted or rejected.
@@ -409,6 +425,8 @@ pub struct StatusReport {
     pub fault_log_len: u16,
     /// Missed control periods since boot (late ticks not run back to back).
     pub missed_ticks: u32,
+    /// Times another master took the board over since boot (wrapping; protocol version 5).
+    pub owner_changes: u16,
 }
 
 /// The stop in force and how far it has got (IEC 60204-1 stop categories; IEC 61800-5-2
@@ -869,8 +887,11 @@ pub enum BoardToMaster {
         firmware_version: FirmwareVersion,
         /// Protocol version spoken by the board.
         protocol_version: u8,
-        /// The session: the `Hello`'s nonce.
+        /// The session the board issued for this `Hello` (never 0): every later frame of
+        /// both sides carries it.
         session: u32,
+        /// The `Hello`'s nonce, echoed.
+        nonce: u32,
         /// Why the board last reset, and whether that was acknowledged.
         reset: ResetStatus,
         /// The version of the calibrated geometry stored in the board's flash (0: none).
@@ -908,14 +929,21 @@ pub enum BoardToMaster {
     },
     /// A page of the event log (answer to `EventLogRequest`).
     EventLog(EventLogPage),
+    /// A `Hello` was refused (sent outside any session: frame session 0); the session in
+    /// force, if any, is unchanged.
+    HelloRefused {
+        /// Sequence number of the `Hello`.
+        seq: Seq,
+        /// The `Hello`'s nonce, echoed.
+        nonce: u32,
+        /// Why (`NotOwner`, `ReplayedHello`, `UnsupportedVersion`, `Busy`).
+        reason: NackReason,
+    },
 }
 
 impl WireMessage for BoardToMaster {
-    fn opens_session(&self) -> Option<u32> {
-        match self {
-            Self::HelloReply { session, .. } => Some(*session),
-            _ => None,
-        }
+    fn is_handshake(&self) -> bool {
+        matches!(self, Self::HelloReply { .. } | Self::HelloRefused { .. })
     }
     fn bypasses_sequence(&self) -> bool {
         false

@@ -27,7 +27,7 @@ use std::collections::VecDeque;
 
 use board_on_plant::{BoardOnPlant, Layout, Platform, PlatformError, ReferenceMechanics, Tool};
 use control::estop::EStopLatch;
-use control::link::{Inbound, LinkRx, LinkTx, Request};
+use control::link::{opened_session, BoardIdentity, Inbound, LinkRx, LinkTx, Request};
 use control::runtime::{reference_config_for, reference_mechanics, Runtime, RuntimeConfig};
 use control::service::{ServiceConfig, TickOutcome, TickService};
 use control::telemetry::with_link;
@@ -84,6 +84,8 @@ pub struct BoardSimConfig {
     /// The event log's flash: sectors (the board's 2) and bytes per sector (the board's
     /// 128 KiB).
     pub event_flash: (usize, usize),
+    /// The link key (a key file's; None: a board on a desk, frames without tags).
+    pub key: Option<master_link::LinkKey>,
 }
 
 /// The simulated board's reserved flash sector for the calibrated geometry (16 slots of
@@ -272,6 +274,7 @@ impl BoardSimConfig {
             wall: None,
             telemetry_us: 20_000,
             event_flash: (2, 128 * 1024),
+            key: None,
         })
     }
 }
@@ -397,8 +400,11 @@ impl BoardSim {
             service,
             hw,
             latch: EStopLatch::new(),
-            rx: LinkRx::new(),
-            tx: LinkTx::new(),
+            rx: LinkRx::with(
+                BoardIdentity::new(b"simulated board", cfg.key.as_ref()),
+                cfg.key.clone(),
+            ),
+            tx: LinkTx::with_key(cfg.key.clone()),
             queue: VecDeque::new(),
             geometry_in: None,
             flash,
@@ -483,6 +489,7 @@ impl BoardSim {
     /// Bytes from the master: frames to requests (queued for the next tick), the link's
     /// own replies to the outbox; an `EmergencyStop` forces the outputs safe at once.
     pub fn receive(&mut self, bytes: &[u8]) {
+        self.rx.set_uptime(self.t_us);
         for b in bytes {
             match self.rx.push(*b) {
                 Some(Inbound::Reply(r)) => self.send(&r),
@@ -536,6 +543,11 @@ impl BoardSim {
         self.service.begin(now, 0, self.latch.take());
         while let Some(req) = self.queue.pop_front() {
             let reply = self.service.request(&req, now);
+            // An accepted Hello: its session opens on the receiving side before the
+            // reply goes out.
+            if let Some(session) = opened_session(&reply) {
+                self.rx.open_session(session, req.seq);
+            }
             self.send(&reply);
         }
         // As the board: a geometry the runtime accepts is stored after the tick.
@@ -554,7 +566,9 @@ impl BoardSim {
             }
             _ => 300,
         };
-        let outcome = self.service.finish(now, exec_us * 168);
+        let outcome = self
+            .service
+            .finish(now, exec_us * (PROFILE.cpu_hz / 1_000_000));
         if self.rx.connected() && now >= self.next_status_us {
             self.next_status_us = now + self.cfg.telemetry_us;
             let mut st = outcome.status;

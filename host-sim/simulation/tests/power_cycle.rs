@@ -170,18 +170,23 @@ fn the_event_flash_rotates_only_with_the_drives_off() {
     let mut b = bench(cfg);
     b.bring_up().unwrap();
     let erases_enabled = b.board.flash().events.erases;
-    // Clutch presses while enabled: hold and follow again, each a stop entry or a repeat;
-    // new masters (sessions) make new entries.
+    // Holds while enabled, by the clutch and by the dead-man in turn: each a new stop entry
+    // (a repeat of the same reason would count on its entry).
     for k in 0..40u32 {
-        b.master.session = 0x1000 + k;
-        b.request(
-            &MasterToBoard::Hello {
-                protocol_version: master_link::PROTOCOL_VERSION,
-                nonce: 0x1000 + k,
-            },
-            100,
-        )
-        .unwrap();
+        let (hold, release) = if k % 2 == 0 {
+            (
+                MasterToBoard::Clutch { engaged: true },
+                MasterToBoard::Clutch { engaged: false },
+            )
+        } else {
+            (
+                MasterToBoard::OperatorPresent { present: false },
+                MasterToBoard::OperatorPresent { present: true },
+            )
+        };
+        b.command(&hold).unwrap();
+        b.run_ms(20).unwrap();
+        b.command(&release).unwrap();
         b.run_ms(20).unwrap();
         assert_eq!(
             b.board.runtime().state(),

@@ -285,3 +285,25 @@ impl Command {
         }
     }
 }
+
+/// `--key-file`: the master link's pre-shared key.
+#[derive(Debug, Clone, Default, clap::Args)]
+pub struct KeyArgs {
+    /// The master link's pre-shared key: a file of 64 hexadecimal digits (32 bytes), for a
+    /// board whose link leaves the desk; every frame then carries an HMAC-SHA256 tag, and
+    /// frames without a valid one are dropped. Without it the link carries no tags (a
+    /// board on a desk). The key is never printed.
+    #[arg(long, value_name = "PATH")]
+    pub key_file: Option<std::path::PathBuf>,
+}
+
+impl KeyArgs {
+    /// The key, read from its file, if one was given.
+    pub fn key(&self) -> Result<Option<master_link::LinkKey>, crate::error::CliError> {
+        self.key_file
+            .as_deref()
+            .map(::teleop::link::read_key_file)
+            .transpose()
+            .map_err(crate::error::CliError::from)
+    }
+}

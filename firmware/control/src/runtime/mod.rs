@@ -58,7 +58,7 @@ use crate::modes::{Context, Event, ModeKind, Refusal, State};
 use crate::monitors::Finding;
 use crate::scalar::Scalar;
 use crate::sensing::{Measured, Sensing};
-use crate::session::MasterSession;
+use crate::session::{HelloFrom, MasterSession};
 use crate::stops::StopPhase;
 
 /// What one runtime tick did.
@@ -367,12 +367,27 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
     /// A master request (after the link layer): the answer, or why it is refused.
     pub fn command(&mut self, msg: &MasterToBoard, now_us: u64) -> Result<Answer, NackReason> {
         match *msg {
-            MasterToBoard::Hello { nonce, .. } => {
-                // A new master: its predecessor's clutch and dead-man no longer hold.
-                self.apply(Event::Hello, now_us)?;
-                self.master_changed(nonce, now_us);
+            MasterToBoard::Hello {
+                nonce, clock_us, ..
+            } => {
+                // One owner (`modes::next`): the owner reconnects with its holds kept;
+                // another master takes over only while the robot is disabled, and starts
+                // with the clutch released and the operator absent.
+                let from = self.session.hello_from(nonce, clock_us);
+                if from == HelloFrom::Replay {
+                    self.refusals = self.refusals.wrapping_add(1);
+                    return Err(NackReason::ReplayedHello);
+                }
+                let owner = from == HelloFrom::Owner;
+                self.apply(Event::Hello { owner }, now_us)?;
+                if owner {
+                    self.session.reconnect(clock_us, now_us);
+                } else {
+                    self.session.take_over(nonce, clock_us, now_us);
+                    self.master_changed(nonce, now_us);
+                }
                 Ok(Answer::Hello {
-                    session: nonce,
+                    nonce,
                     reset: self.reset,
                     geometry_version: self.geometry_version,
                 })

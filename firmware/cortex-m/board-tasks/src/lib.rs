@@ -9,9 +9,17 @@
 //!   log's view kept across resets, the status; then, after them, the event log's flash
 //!   writer (a few words per period, an erase only with the drives off);
 //! * [`run_link_rx`] (thread mode): bytes -> frames -> requests for the control tick; an
-//!   `EmergencyStop` message forces the outputs safe at once, before it is queued;
+//!   `EmergencyStop` message forces the outputs safe at once, before it is queued; the
+//!   link key's tags checked and the session ids issued here (SHA-256, HMAC-SHA256), never
+//!   in the control tick;
 //! * [`run_link_tx`] (thread mode): replies, and the status every telemetry period once a
-//!   `Hello` was received, with the receiving side's link counters.
+//!   session is open, with the receiving side's link counters, tagged with the key.
+//!
+//! **Sessions.** The control tick decides whether a `Hello` is accepted (one owner,
+//! `control::modes::next`); when it is, the tick leaves the session and the `Hello`'s
+//! sequence number in [`Shared::session`] before it queues the `HelloReply`, and the
+//! receive task opens it before it decodes the next bytes: the master's first frame of the
+//! session, sent after the reply, always finds it open.
 //!
 //! The tasks meet in one [`Shared`] (channels, the latest status, the e-stop latch).
 #![no_std]
@@ -22,7 +30,7 @@ use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use control::estop::{emergency_stop_message, EStopLatch};
 use control::event_log::{EventLog, Step};
 use control::faults::FaultLog;
-use control::link::{Inbound, LinkRx, LinkTx, Request};
+use control::link::{opened_session, BoardIdentity, Inbound, LinkRx, LinkTx, Request};
 use control::service::{TickOutcome, TickService};
 use control::telemetry::with_link;
 use control::Scalar;
@@ -34,7 +42,7 @@ use embassy_time::{Duration, Instant, Ticker, Timer};
 use hal::{Hardware, SafeOutputs};
 use kinematics_core::Mechanism;
 use master_link::{
-    BoardToMaster, FaultCause, FaultRecord, GeometryRecord, GeometryRefusal, LinkCounters,
+    BoardToMaster, FaultCause, FaultRecord, GeometryRecord, GeometryRefusal, LinkCounters, LinkKey,
     NackReason, ResetCause, ResetStatus, StatusReport, MAX_FRAME_LEN,
 };
 
@@ -59,8 +67,11 @@ pub struct Shared {
     pub has_status: AtomicBool,
     /// The receiving side's counters.
     pub link: Mutex<CriticalSectionRawMutex, Cell<Option<LinkCounters>>>,
-    /// A `Hello` was received: telemetry flows.
+    /// A session is open: telemetry flows.
     pub connected: AtomicBool,
+    /// A session the control tick accepted, with the `Hello`'s sequence number, for the
+    /// receive task to open.
+    pub session: Mutex<CriticalSectionRawMutex, Cell<Option<(u32, master_link::Seq)>>>,
     /// Replies dropped because the reply queue was full.
     pub replies_dropped: AtomicU32,
     /// Frames that could not be encoded.
@@ -84,6 +95,7 @@ impl Shared {
             has_status: AtomicBool::new(false),
             link: Mutex::new(Cell::new(None)),
             connected: AtomicBool::new(false),
+            session: Mutex::new(Cell::new(None)),
             replies_dropped: AtomicU32::new(0),
             encode_errors: AtomicU32::new(0),
             estop: EStopLatch::new(),
@@ -118,6 +130,7 @@ const EMPTY_STATUS: StatusReport = StatusReport {
         out_of_order: 0,
         dropped: 0,
         wrong_session: 0,
+        bad_tag: 0,
     },
     tick_jitter_max_us: 0,
     tick_exec_max_us: 0,
@@ -148,6 +161,7 @@ const EMPTY_STATUS: StatusReport = StatusReport {
     supply_v: 0.0,
     fault_log_len: 0,
     missed_ticks: 0,
+    owner_changes: 0,
 };
 
 impl Default for Shared {
@@ -280,6 +294,11 @@ where
         service.begin(now, missed, shared.estop.take());
         while let Ok(req) = shared.commands.try_receive() {
             let reply = service.request(&req, now);
+            // An accepted Hello: the receive task opens its session before the reply
+            // can reach the master.
+            if let Some(session) = opened_session(&reply) {
+                shared.session.lock(|c| c.set(Some((session, req.seq))));
+            }
             shared.reply(reply);
         }
         // A geometry the runtime accepts is written after the tick (flash stalls the core).
@@ -355,18 +374,26 @@ pub trait ByteTx {
 }
 
 /// The link's receive task: bytes -> frames -> requests for the control tick, replies the
-/// link gives itself (HelloReply, NotConnected) for the send task. An `EmergencyStop`
-/// message forces the outputs safe through `kill` before it is queued; a full queue is
-/// answered `Busy`.
+/// link gives itself (HelloRefused UnsupportedVersion, NotConnected) for the send task. An
+/// `EmergencyStop` message forces the outputs safe through `kill` before it is queued; a
+/// full queue is answered `Busy`. `identity` seeds the session ids; with a `key`, frames
+/// without a valid tag are dropped and counted.
 pub async fn run_link_rx<R: ByteRx, K: SafeOutputs>(
     shared: &'static Shared,
     rx: &mut R,
     kill: &mut K,
+    identity: BoardIdentity,
+    key: Option<LinkKey>,
 ) -> ! {
-    let mut link = LinkRx::new();
+    let mut link = LinkRx::with(identity, key);
     let mut buf = [0u8; 64];
     loop {
-        match rx.read(&mut buf).await {
+        let read = rx.read(&mut buf).await;
+        link.set_uptime(Instant::now().as_micros());
+        if let Some((session, seq)) = shared.session.lock(|c| c.take()) {
+            link.open_session(session, seq);
+        }
+        match read {
             Ok(n) => {
                 for byte in buf.iter().take(n) {
                     match link.push(*byte) {
@@ -413,9 +440,15 @@ pub async fn run_link_rx<R: ByteRx, K: SafeOutputs>(
 }
 
 /// The link's send task: replies as they come, and the latest status every
-/// `telemetry_ms` once a `Hello` was received, with the receiving side's counters.
-pub async fn run_link_tx<T: ByteTx>(shared: &'static Shared, tx: &mut T, telemetry_ms: u64) -> ! {
-    let mut link = LinkTx::new();
+/// `telemetry_ms` once a session is open, with the receiving side's counters; with a
+/// `key`, every frame tagged.
+pub async fn run_link_tx<T: ByteTx>(
+    shared: &'static Shared,
+    tx: &mut T,
+    telemetry_ms: u64,
+    key: Option<LinkKey>,
+) -> ! {
+    let mut link = LinkTx::with_key(key);
     let mut telemetry = Ticker::every(Duration::from_millis(telemetry_ms));
     let mut buf = [0u8; MAX_FRAME_LEN];
     loop {

@@ -40,6 +40,20 @@ const PERIOD_US: u32 = board::PROFILE.control_period_us;
 /// Telemetry period, ms (50 Hz).
 const TELEMETRY_MS: u64 = 20;
 
+/// The link key of this board's profile: 64 hexadecimal digits in `RSPR_LINK_KEY` when
+/// the image is built (a board whose link leaves the desk), or none (a board on a desk:
+/// frames without tags). Never logged.
+const LINK_KEY_HEX: Option<&str> = option_env!("RSPR_LINK_KEY");
+
+/// The link key of the board's profile, if it has one.
+fn link_key() -> Option<master_link::LinkKey> {
+    match LINK_KEY_HEX.map(master_link::LinkKey::from_hex) {
+        None => None,
+        Some(Ok(k)) => Some(k),
+        Some(Err(_)) => halt("RSPR_LINK_KEY is not 64 hexadecimal digits"),
+    }
+}
+
 static SHARED: Shared = Shared::new();
 static EXECUTOR_CONTROL: InterruptExecutor = InterruptExecutor::new();
 
@@ -136,11 +150,26 @@ async fn main(spawner: Spawner) {
     let Some(dma_buf) = cortex_m::singleton!(: [u8; 512] = [0; 512]) else {
         halt("rx buffer");
     };
-    match link_rx(hw::LinkRx(rx.into_ring_buffered(dma_buf))) {
+    let key = link_key();
+    // The session ids' seed: the chip's unique id, and the key's secret when there is one.
+    let identity = control::link::BoardIdentity::new(&embassy_stm32::uid::uid(), key.as_ref());
+    info!(
+        "master link: {}",
+        if key.is_some() {
+            "authenticated (key)"
+        } else {
+            "no key"
+        }
+    );
+    match link_rx(
+        hw::LinkRx(rx.into_ring_buffered(dma_buf)),
+        identity,
+        key.clone(),
+    ) {
         Ok(t) => spawner.spawn(t),
         Err(_) => halt("spawn link_rx"),
     }
-    match link_tx(hw::LinkTx(tx)) {
+    match link_tx(hw::LinkTx(tx), key) {
         Ok(t) => spawner.spawn(t),
         Err(_) => halt("spawn link_tx"),
     }
@@ -198,11 +227,15 @@ async fn control(
 }
 
 #[embassy_executor::task]
-async fn link_rx(mut rx: hw::LinkRx) {
-    run_link_rx(&SHARED, &mut rx, &mut hw::RawKill).await
+async fn link_rx(
+    mut rx: hw::LinkRx,
+    identity: control::link::BoardIdentity,
+    key: Option<master_link::LinkKey>,
+) {
+    run_link_rx(&SHARED, &mut rx, &mut hw::RawKill, identity, key).await
 }
 
 #[embassy_executor::task]
-async fn link_tx(mut tx: hw::LinkTx) {
-    run_link_tx(&SHARED, &mut tx, TELEMETRY_MS).await
+async fn link_tx(mut tx: hw::LinkTx, key: Option<master_link::LinkKey>) {
+    run_link_tx(&SHARED, &mut tx, TELEMETRY_MS, key).await
 }

@@ -90,9 +90,10 @@ pub fn board_variant(m: &BoardToMaster) -> usize {
         GeometryStored { .. } => 5,
         GeometryRefused { .. } => 6,
         EventLog(_) => 7,
+        HelloRefused { .. } => 8,
     }
 }
-pub const BOARD_VARIANTS: usize = 8;
+pub const BOARD_VARIANTS: usize = 9;
 
 /// Every geometry refusal.
 pub const ALL_GEOMETRY_REFUSALS: [GeometryRefusal; 11] = [
@@ -121,7 +122,7 @@ pub fn max_geometry() -> GeometryRecord {
     .sealed()
 }
 
-pub const ALL_NACK_REASONS: [NackReason; 20] = [
+pub const ALL_NACK_REASONS: [NackReason; 23] = [
     NackReason::UnsupportedVersion,
     NackReason::NotConnected,
     NackReason::InvalidState,
@@ -142,6 +143,9 @@ pub const ALL_NACK_REASONS: [NackReason; 20] = [
     NackReason::SafetyRelayMismatch,
     NackReason::BrakeCheckFailed,
     NackReason::OperatorAbsent,
+    NackReason::NotOwner,
+    NackReason::TargetFromFuture,
+    NackReason::ReplayedHello,
 ];
 
 pub const ALL_STATES: [RobotState; 6] = [
@@ -173,6 +177,7 @@ pub fn max_status() -> StatusReport {
             out_of_order: u32::MAX,
             dropped: u32::MAX,
             wrong_session: u32::MAX,
+            bad_tag: u32::MAX,
         },
         tick_jitter_max_us: u32::MAX,
         tick_exec_max_us: u32::MAX,
@@ -203,6 +208,7 @@ pub fn max_status() -> StatusReport {
         supply_v: 24.0,
         fault_log_len: u16::MAX,
         missed_ticks: u32::MAX,
+        owner_changes: u16::MAX,
     }
 }
 
@@ -278,6 +284,7 @@ pub fn master_samples() -> Vec<MasterToBoard> {
         MasterToBoard::Hello {
             protocol_version: PROTOCOL_VERSION,
             nonce: u32::MAX,
+            clock_us: u64::MAX,
         },
         MasterToBoard::Enable,
         MasterToBoard::Disable,
@@ -318,11 +325,17 @@ pub fn board_samples() -> Vec<BoardToMaster> {
             },
             protocol_version: PROTOCOL_VERSION,
             session: u32::MAX,
+            nonce: u32::MAX,
             reset: ResetStatus {
                 cause: ResetCause::BrownOut,
                 acknowledged: false,
             },
             geometry_version: u32::MAX,
+        },
+        BoardToMaster::HelloRefused {
+            seq: u16::MAX,
+            nonce: u32::MAX,
+            reason: NackReason::NotOwner,
         },
         BoardToMaster::Ack { seq: u16::MAX },
         BoardToMaster::GeometryStored {
@@ -372,9 +385,12 @@ pub fn arb_f3() -> impl Strategy<Value = [f32; 3]> {
 
 pub fn arb_master() -> impl Strategy<Value = MasterToBoard> {
     prop_oneof![
-        (any::<u8>(), any::<u32>()).prop_map(|(v, nonce)| MasterToBoard::Hello {
-            protocol_version: v,
-            nonce
+        (any::<u8>(), any::<u32>(), any::<u64>()).prop_map(|(v, nonce, clock_us)| {
+            MasterToBoard::Hello {
+                protocol_version: v,
+                nonce,
+                clock_us,
+            }
         }),
         Just(MasterToBoard::Enable),
         Just(MasterToBoard::Disable),
@@ -415,7 +431,7 @@ pub fn arb_master() -> impl Strategy<Value = MasterToBoard> {
 }
 
 pub fn arb_counters() -> impl Strategy<Value = LinkCounters> {
-    proptest::array::uniform8(any::<u32>()).prop_map(|c| LinkCounters {
+    proptest::array::uniform9(any::<u32>()).prop_map(|c| LinkCounters {
         frames_ok: c[0],
         bad_checksum: c[1],
         malformed: c[2],
@@ -424,6 +440,7 @@ pub fn arb_counters() -> impl Strategy<Value = LinkCounters> {
         out_of_order: c[5],
         dropped: c[6],
         wrong_session: c[7],
+        bad_tag: c[8],
     })
 }
 
@@ -469,6 +486,7 @@ pub fn arb_board() -> impl Strategy<Value = BoardToMaster> {
                 },
                 protocol_version: p,
                 session,
+                nonce: session.rotate_left(3),
                 reset: ResetStatus::default(),
                 geometry_version: session.rotate_left(7),
             }
