@@ -252,6 +252,11 @@ pub enum Msg {
         /// First entry.
         first: u16,
     },
+    /// Event log page.
+    EventLogRequest {
+        /// First entry.
+        first: u16,
+    },
 }
 
 /// A target's master timestamp.
@@ -395,7 +400,8 @@ pub fn snapshots() -> &'static Snapshots {
 pub struct Outcome {
     /// States seen after ticks.
     pub states: Vec<State>,
-    /// Replies sent, by kind: (HelloReply, Ack, Nack, Status, FaultLog, Geometry*).
+    /// Replies sent, by kind: (HelloReply, Ack, Nack, Status, FaultLog or EventLog,
+    /// Geometry*).
     pub replies: [u32; 6],
     /// Nack reasons seen.
     pub nacks: Vec<NackReason>,
@@ -632,6 +638,7 @@ impl Board {
             Msg::OperatorPresent { present } => MasterToBoard::OperatorPresent { present },
             Msg::AcknowledgeReset => MasterToBoard::AcknowledgeReset,
             Msg::FaultLogRequest { first } => MasterToBoard::FaultLogRequest { first },
+            Msg::EventLogRequest { first } => MasterToBoard::EventLogRequest { first },
         }
     }
 
@@ -769,7 +776,7 @@ impl Board {
                 2
             }
             BoardToMaster::Status(_) => 3,
-            BoardToMaster::FaultLog(_) => 4,
+            BoardToMaster::FaultLog(_) | BoardToMaster::EventLog(_) => 4,
             BoardToMaster::GeometryStored { .. } | BoardToMaster::GeometryRefused { .. } => 5,
             BoardToMaster::HelloRefused { reason, .. } => {
                 if !self.outcome.nacks.contains(&reason) {
@@ -904,6 +911,7 @@ impl Board {
             },
             Command::StatusRequest => matches!(reply, BoardToMaster::Status(_)),
             Command::FaultLogRequest { .. } => matches!(reply, BoardToMaster::FaultLog(_)),
+            Command::EventLogRequest { .. } => matches!(reply, BoardToMaster::EventLog(_)),
             Command::EmergencyStop | Command::Heartbeat => ack,
             // Taken only with the drives off (the transition table); refused otherwise.
             Command::AcknowledgeReset => {

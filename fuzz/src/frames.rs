@@ -2,10 +2,10 @@
 //! the dictionary that get the fuzzers past COBS and the CRC at once.
 
 use master_link::{
-    encode_with, BoardToMaster, FaultCause, FaultLogEntry, FaultLogPage, FaultRecord,
-    FirmwareVersion, Header, LinkKey, MasterToBoard, NackReason, ResetCause, ResetStatus,
-    RobotState, StatusReport, StopStatus, WireMessage, FAULT_LOG_PAGE, MAX_FRAME_LEN,
-    PROTOCOL_VERSION,
+    encode_with, BoardToMaster, EventEntry, EventKind, EventLogPage, FaultCause, FaultLogEntry,
+    FaultLogPage, FaultRecord, FirmwareVersion, Header, LinkKey, MasterToBoard, NackReason,
+    ResetCause, ResetStatus, RobotState, StatusReport, StopStatus, WireMessage, EVENT_LOG_PAGE,
+    FAULT_LOG_PAGE, MAX_FRAME_LEN, PROTOCOL_VERSION,
 };
 
 /// The session of the samples' master.
@@ -45,7 +45,8 @@ pub fn master_messages() -> Vec<MasterToBoard> {
     ]
 }
 
-/// Every board message, once (a full status and a full fault-log page: the longest frames).
+/// Every board message, once (a full status, a full fault-log page and a full event-log
+/// page: the longest frames).
 pub fn board_messages() -> Vec<BoardToMaster> {
     let record = FaultRecord {
         cause: FaultCause::FollowingError,
@@ -110,6 +111,26 @@ pub fn board_messages() -> Vec<BoardToMaster> {
             first: 0,
             count: FAULT_LOG_PAGE as u8,
             entries: [entry; FAULT_LOG_PAGE],
+        }),
+        BoardToMaster::EventLog(EventLogPage {
+            len: 32,
+            total: 90,
+            first: 8,
+            count: EVENT_LOG_PAGE as u8,
+            lost: 0,
+            entries: [EventEntry {
+                seq: 60,
+                boot: 4,
+                time_ms: 12_345,
+                event: EventKind::Fault {
+                    cause: record.cause,
+                    joint: record.joint,
+                    value: record.value,
+                    stop: StopStatus::SafeTorqueOff,
+                },
+                count: 2,
+                relay_test_pending: false,
+            }; EVENT_LOG_PAGE],
         }),
     ]
 }

@@ -22,7 +22,8 @@
 //! - the board's behaviour: [`state_machine`], [`homing`], [`runtime`], [`service`];
 //! - safety: the stop categories and their table ([`stops`]), the holding brakes
 //!   ([`brakes`]), the current limits ([`current`]), the plausibility monitors
-//!   ([`monitors`]), the fault log ([`faults`]), the heartbeat ([`heartbeat`]), the
+//!   ([`monitors`]), the fault log ([`faults`]) and the non-volatile event log
+//!   ([`event_log`]), the heartbeat ([`heartbeat`]), the
 //!   e-stop's interrupt path ([`estop`]) and the deadline ([`watchdog`]);
 //! - the calibrated geometry (issue 19): [`geometry_store`] (the checks of a received
 //!   record, its flash layout and log);
@@ -44,6 +45,7 @@ pub mod controller;
 pub mod current;
 pub mod drive;
 pub mod estop;
+pub mod event_log;
 pub mod faults;
 pub mod geometry_store;
 pub mod heartbeat;

@@ -5,9 +5,9 @@
 //!     Inbound::Reply    answered by the link itself (Nack NotConnected, HelloRefused
 //!                       UnsupportedVersion)
 //!     Inbound::Request  a Command for the runtime (a Hello with the session the link
-//!                       issued for it, state-machine event, pose target, heartbeat, status
-//!                       or fault-log request); its outcome becomes HelloReply /
-//!                       HelloRefused / Status / FaultLog / Ack / Nack
+//!                       issued for it, state-machine event, pose target, heartbeat, status,
+//!                       fault-log or event-log request); its outcome becomes HelloReply /
+//!                       HelloRefused / Status / FaultLog / EventLog / Ack / Nack
 //!     Inbound::Geometry a calibrated geometry: checked by the runtime, stored by the
 //!                       target; GeometryStored / GeometryRefused
 //! replies -> LinkTx (the session, sequence numbers, tag, encode into the caller's buffer)
@@ -38,9 +38,9 @@
 use sha2::{Digest, Sha256};
 
 use master_link::{
-    encode_with, BoardDecoder, BoardToMaster, EncodeError, FaultLogPage, FirmwareVersion,
-    FrameError, GeometryRecord, GeometryRefusal, Header, LinkCounters, LinkKey, MasterToBoard,
-    NackReason, ResetStatus, Seq, SeqCounter, StatusReport, PROTOCOL_VERSION,
+    encode_with, BoardDecoder, BoardToMaster, EncodeError, EventLogPage, FaultLogPage,
+    FirmwareVersion, FrameError, GeometryRecord, GeometryRefusal, Header, LinkCounters, LinkKey,
+    MasterToBoard, NackReason, ResetStatus, Seq, SeqCounter, StatusReport, PROTOCOL_VERSION,
 };
 
 /// A request with the sequence number its reply carries.
@@ -85,6 +85,8 @@ pub enum Answer {
     },
     /// A page of the fault log.
     FaultLog(FaultLogPage),
+    /// A page of the event log.
+    EventLog(EventLogPage),
 }
 
 impl Request {
@@ -111,6 +113,7 @@ impl Request {
                 geometry_version,
             },
             Ok(Answer::FaultLog(page)) => BoardToMaster::FaultLog(page),
+            Ok(Answer::EventLog(page)) => BoardToMaster::EventLog(page),
             Err(reason) => match self.message {
                 MasterToBoard::Hello { nonce, .. } => BoardToMaster::HelloRefused {
                     seq: self.seq,

@@ -232,7 +232,7 @@ pub enum Event {
     StatusRequest,
     /// Master: acknowledge the last reset.
     AcknowledgeReset,
-    /// Master: a page of the fault log.
+    /// Master: a page of the fault log or of the event log.
     FaultLogRequest,
     /// Master: store a calibrated geometry (drives off only).
     StoreGeometry,
@@ -308,7 +308,7 @@ impl Event {
             Event::ClearFault => "`ClearFault`",
             Event::StatusRequest => "`StatusRequest`",
             Event::AcknowledgeReset => "`AcknowledgeReset`",
-            Event::FaultLogRequest => "`FaultLogRequest`",
+            Event::FaultLogRequest => "`FaultLogRequest`, `EventLogRequest`",
             Event::StoreGeometry => "`StoreGeometry`",
             Event::HeartbeatLate => "heartbeat late (100 ms)",
             Event::HeartbeatRestored => "heartbeat back",

@@ -12,8 +12,9 @@ use crate::messages::{Seq, WireMessage};
 /// and value, the reset cause, guard margins, currents, the fault log, rehoming
 /// confirmation and frames of up to 255 bytes; 5 the session the board issues, one owner
 /// (`HelloRefused`, `NotOwner`), the master's clock in `Hello`, the sequence window, targets
-/// from the future refused and the authentication tag.
-pub const PROTOCOL_VERSION: u8 = 5;
+/// from the future refused and the authentication tag; 6 the non-volatile event log
+/// (`EventLogRequest`, `EventLog`).
+pub const PROTOCOL_VERSION: u8 = 6;
 
 /// Header length: version (1 byte) + session (4 bytes, little endian) + sequence number
 /// (2 bytes, little endian).

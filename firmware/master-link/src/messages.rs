@@ -117,6 +117,12 @@ pub enum MasterToBoard {
     /// drives are off (`Disabled`, `Ready`); answered `GeometryStored` or
     /// `GeometryRefused` with the reason.
     StoreGeometry(GeometryRecord),
+    /// Ask for the event log's entries from index `first` (oldest kept = 0), answered
+    /// `EventLog`.
+    EventLogRequest {
+        /// First entry wanted.
+        first: u16,
+    },
 }
 
 /// The record layout [`GeometryRecord::layout`] this crate writes.
@@ -736,6 +742,141 @@ pub struct FaultLogPage {
     pub entries: [FaultLogEntry; FAULT_LOG_PAGE],
 }
 
+/// Why a stop that is not a fault began (the event log's [`EventKind::Stop`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum StopReason {
+    /// The master's `Disable` while the drives were on (SS1).
+    Disable,
+    /// The master's heartbeat late: hold (SS2).
+    HeartbeatLate,
+    /// The master's clutch engaged: hold (SS2).
+    ClutchEngaged,
+    /// The operator let go of the dead-man: hold (SS2).
+    OperatorAbsent,
+}
+
+impl StopReason {
+    /// Every reason, in declaration order.
+    pub const ALL: [StopReason; 4] = [
+        StopReason::Disable,
+        StopReason::HeartbeatLate,
+        StopReason::ClutchEngaged,
+        StopReason::OperatorAbsent,
+    ];
+}
+
+/// What one entry of the board's event log records.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum EventKind {
+    /// A fault: its cause, joint ([`NO_JOINT`] for none) and value (units: see
+    /// [`FaultCause`]), and the stop it caused.
+    Fault {
+        /// The cause.
+        cause: FaultCause,
+        /// The joint, or [`NO_JOINT`].
+        joint: u8,
+        /// The value that tripped it.
+        value: f32,
+        /// The stop in force after it.
+        stop: StopStatus,
+    },
+    /// A stop that is not a fault (a disable, a hold).
+    Stop {
+        /// Why.
+        reason: StopReason,
+        /// The stop in force after it.
+        stop: StopStatus,
+    },
+    /// The board started (the entry's `time_ms` is 0 of its boot).
+    Reset {
+        /// Why it last reset.
+        cause: ResetCause,
+    },
+    /// A master took charge of the board (today: a `Hello` opened a session; `id` is its
+    /// nonce).
+    Master {
+        /// The master's identifier.
+        id: u32,
+    },
+    /// A calibrated geometry was written to the board's flash.
+    GeometryStored {
+        /// Its version.
+        version: u32,
+    },
+    /// The safety chain's relay test: latched pending by a safety-chain fault (only a
+    /// power cycle and a passed test end it), or passed.
+    RelayTest {
+        /// Pending (else passed).
+        pending: bool,
+    },
+    /// Events the board could not keep in flash (they left its RAM view before they were
+    /// written).
+    Lost {
+        /// How many.
+        count: u32,
+    },
+}
+
+/// One entry of the board's event log.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct EventEntry {
+    /// The entry's number (increasing over the log's life; a repeat keeps it).
+    pub seq: u32,
+    /// The boot it happened in (the board counts its boots).
+    pub boot: u16,
+    /// When it first happened: ms since that boot.
+    pub time_ms: u32,
+    /// What happened.
+    pub event: EventKind,
+    /// How many times it happened (a repeat of the newest entry of its kind in the same
+    /// boot counts here; 0: an empty slot).
+    pub count: u16,
+    /// The safety chain's relay test was pending when it was recorded.
+    pub relay_test_pending: bool,
+}
+
+impl EventEntry {
+    /// An empty slot of a page (`count` 0).
+    pub const EMPTY: EventEntry = EventEntry {
+        seq: 0,
+        boot: 0,
+        time_ms: 0,
+        event: EventKind::Lost { count: 0 },
+        count: 0,
+        relay_test_pending: false,
+    };
+}
+
+impl Default for EventEntry {
+    fn default() -> Self {
+        EventEntry::EMPTY
+    }
+}
+
+/// Entries of the event log per `EventLog` message.
+pub const EVENT_LOG_PAGE: usize = 8;
+
+/// A page of the board's event log (answer to `EventLogRequest`).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct EventLogPage {
+    /// Entries the board holds for the link (its RAM view of the log), oldest first.
+    pub len: u16,
+    /// Entries ever logged (over every boot the flash remembers).
+    pub total: u32,
+    /// Index of `entries[0]`.
+    pub first: u16,
+    /// How many of `entries` are valid.
+    pub count: u8,
+    /// Events of this boot that could not be written to flash.
+    pub lost: u32,
+    /// The entries.
+    pub entries: [EventEntry; EVENT_LOG_PAGE],
+}
+
 /// Messages from the board to the host master.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -786,6 +927,8 @@ pub enum BoardToMaster {
         /// Why.
         reason: GeometryRefusal,
     },
+    /// A page of the event log (answer to `EventLogRequest`).
+    EventLog(EventLogPage),
     /// A `Hello` was refused (sent outside any session: frame session 0); the session in
     /// force, if any, is unchanged.
     HelloRefused {

@@ -212,3 +212,30 @@ fn geometry_messages_are_appended() {
     bad.version ^= 1 << 20;
     assert!(!bad.crc_ok());
 }
+
+/// The event log's request and page are appended after the geometry's: every earlier
+/// variant keeps its index, and a page of eight of the largest entries (faults with
+/// maximal varints) fits one frame.
+#[test]
+fn event_log_messages_are_appended_and_fit_a_frame() {
+    let tag = |m: &MasterToBoard| body(m)[0];
+    assert_eq!(tag(&MasterToBoard::StoreGeometry(max_geometry())), 14);
+    assert_eq!(tag(&MasterToBoard::EventLogRequest { first: 0 }), 15);
+    let btag = |m: &BoardToMaster| body(m)[0];
+    assert_eq!(
+        btag(&BoardToMaster::GeometryRefused {
+            seq: 0,
+            reason: GeometryRefusal::Crc
+        }),
+        6
+    );
+    assert_eq!(btag(&BoardToMaster::EventLog(EventLogPage::default())), 7);
+    let largest = body(&BoardToMaster::EventLog(max_event_log())).len();
+    assert!(largest <= MAX_BODY_LEN, "{largest} > {MAX_BODY_LEN}");
+    // One more entry would not fit: the page is as large as a frame allows.
+    let mut buf = [0u8; 64];
+    let entry = postcard::to_slice(&max_event_log().entries[0], &mut buf)
+        .expect("postcard")
+        .len();
+    assert!(largest + entry > MAX_BODY_LEN, "{largest} + {entry}");
+}

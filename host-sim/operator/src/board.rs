@@ -69,6 +69,8 @@ pub enum Outcome {
     HelloReply(HelloInfo),
     /// The answer to `FaultLogRequest`.
     FaultLog(FaultLogPage),
+    /// The answer to `EventLogRequest`.
+    EventLog(master_link::EventLogPage),
     /// A calibrated geometry stored, with its version.
     GeometryStored(u32),
     /// A calibrated geometry refused, with the board's reason.
@@ -350,6 +352,11 @@ impl Board {
                 &mut self.pending,
                 &|p| matches!(p.1, MasterToBoard::FaultLogRequest { first } if first == page.first),
                 Outcome::FaultLog(page),
+            ),
+            BoardToMaster::EventLog(page) => answer(
+                &mut self.pending,
+                &|p| matches!(p.1, MasterToBoard::EventLogRequest { first } if first == page.first),
+                Outcome::EventLog(page),
             ),
             BoardToMaster::GeometryStored { seq, version } => answer(
                 &mut self.pending,
@@ -733,6 +740,7 @@ pub fn request_name(msg: &MasterToBoard) -> &'static str {
         MasterToBoard::AcknowledgeReset => "Acknowledge reset",
         MasterToBoard::FaultLogRequest { .. } => "Fault log",
         MasterToBoard::StoreGeometry(_) => "Store geometry",
+        MasterToBoard::EventLogRequest { .. } => "Event log",
     }
 }
 

@@ -343,6 +343,7 @@ impl Console {
                 )
             }
             Outcome::FaultLog(p) => (format!("{what} -> {} entries", p.len), false),
+            Outcome::EventLog(p) => (format!("{what} -> {} entries", p.len), false),
             Outcome::GeometryStored(v) => (format!("{what} -> stored, version {v}"), false),
             Outcome::GeometryRefused(reason) => (format!("{what} REFUSED ({reason:?})"), true),
             Outcome::NoReply => (format!("{what} -> no answer"), true),

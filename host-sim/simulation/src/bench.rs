@@ -7,8 +7,9 @@
 use std::collections::HashMap;
 
 use master_link::{
-    encode_with, BoardToMaster, FaultLogPage, Header, LinkKey, MasterDecoder, MasterToBoard,
-    NackReason, RobotState, Seq, SeqCounter, StatusReport, MAX_FRAME_LEN, PROTOCOL_VERSION,
+    encode_with, BoardToMaster, EventEntry, EventLogPage, FaultLogPage, Header, LinkKey,
+    MasterDecoder, MasterToBoard, NackReason, RobotState, Seq, SeqCounter, StatusReport,
+    EVENT_LOG_PAGE, MAX_FRAME_LEN, PROTOCOL_VERSION,
 };
 use thiserror::Error;
 
@@ -57,8 +58,12 @@ pub struct SimMaster {
     pub replies: HashMap<Seq, (u64, BoardToMaster)>,
     /// The last `HelloReply`.
     pub hello: Option<BoardToMaster>,
+    /// `HelloReply`s received.
+    pub hellos: usize,
     /// Fault-log pages received.
     pub fault_logs: Vec<FaultLogPage>,
+    /// Event-log pages received.
+    pub event_logs: Vec<EventLogPage>,
 }
 
 impl SimMaster {
@@ -78,7 +83,9 @@ impl SimMaster {
             statuses: Vec::new(),
             replies: HashMap::new(),
             hello: None,
+            hellos: 0,
             fault_logs: Vec::new(),
+            event_logs: Vec::new(),
         }
     }
 
@@ -107,6 +114,7 @@ impl SimMaster {
                     self.session = session;
                     self.rx.open_session(session, reply_seq);
                     self.hello = Some(msg);
+                    self.hellos += 1;
                 }
                 BoardToMaster::HelloReply { .. } => {}
                 BoardToMaster::HelloRefused { seq, nonce, .. } if nonce == self.nonce => {
@@ -120,6 +128,7 @@ impl SimMaster {
                     self.replies.insert(seq, (t_us, msg));
                 }
                 BoardToMaster::FaultLog(page) => self.fault_logs.push(page),
+                BoardToMaster::EventLog(page) => self.event_logs.push(page),
             }
         }
     }
@@ -227,7 +236,8 @@ impl Bench {
     }
 
     /// Sends `msg` and runs until its reply (at most `timeout_ms`): `None` for an Ack (or
-    /// the answer of a `Hello` / `StatusRequest` / `FaultLogRequest`), the reason of a Nack.
+    /// the answer of a `Hello` / `StatusRequest` / `FaultLogRequest` / `EventLogRequest`),
+    /// the reason of a Nack.
     pub fn request(
         &mut self,
         msg: &MasterToBoard,
@@ -238,10 +248,12 @@ impl Bench {
             MasterToBoard::Hello { .. }
                 | MasterToBoard::StatusRequest
                 | MasterToBoard::FaultLogRequest { .. }
+                | MasterToBoard::EventLogRequest { .. }
         );
-        let (hellos, logs, statuses) = (
-            self.master.hello.is_some(),
+        let (hellos, logs, events, statuses) = (
+            self.master.hellos,
             self.master.fault_logs.len(),
+            self.master.event_logs.len(),
             self.master.statuses.len(),
         );
         let seq = self.send(msg);
@@ -256,8 +268,9 @@ impl Bench {
             }
             if answered_by_kind {
                 let answered = match msg {
-                    MasterToBoard::Hello { .. } => self.master.hello.is_some() && !hellos,
+                    MasterToBoard::Hello { .. } => self.master.hellos > hellos,
                     MasterToBoard::FaultLogRequest { .. } => self.master.fault_logs.len() > logs,
+                    MasterToBoard::EventLogRequest { .. } => self.master.event_logs.len() > events,
                     _ => self.master.statuses.len() > statuses,
                 };
                 if answered {
@@ -344,5 +357,35 @@ impl Bench {
             b.runtime().state() == RobotState::Enabled
         })?;
         Ok(())
+    }
+
+    /// Opens a session (`Hello`) and reads the board's event log page by page: every
+    /// entry the board holds, oldest first, and the last page's header.
+    pub fn read_event_log(&mut self) -> Result<(Vec<EventEntry>, EventLogPage), BenchError> {
+        let hello = self.hello_msg();
+        self.request(&hello, 100)?;
+        let mut entries = Vec::new();
+        let mut first = 0u16;
+        loop {
+            self.request(&MasterToBoard::EventLogRequest { first }, 100)?;
+            let Some(page) = self.master.event_logs.last().copied() else {
+                return Err(BenchError::NoReply {
+                    request: "EventLogRequest".into(),
+                    timeout_ms: 100,
+                });
+            };
+            let n = usize::from(page.count).min(EVENT_LOG_PAGE);
+            entries.extend(page.entries.iter().take(n).copied());
+            first = first.saturating_add(u16::from(page.count));
+            if page.count == 0 || first >= page.len {
+                return Ok((entries, page));
+            }
+        }
+    }
+
+    /// A power cycle of the board (`BoardSim::power_cycle`: a new board on the same flash)
+    /// with a new master of session `session` (nothing said yet).
+    pub fn power_cycle(self, session: u32) -> Result<Bench, BenchError> {
+        Ok(Bench::new(self.board.power_cycle()?, session))
     }
 }

@@ -13,10 +13,15 @@
 //! * the link: bytes in (`LinkRx`), requests queued for the next tick (8 deep, as on the
 //!   board: a full queue answers `Busy`), replies and the status every 20 ms out
 //!   (`LinkTx`); an `EmergencyStop` frame forces the outputs safe at once;
-//! * the flash sector of the calibrated geometry.
+//! * the flash sector of the calibrated geometry, and the event log's flash sectors with
+//!   their writer after every tick (`control::event_log`: at most two words per period,
+//!   an erase only with the drives off and the brakes applied), as the board's;
+//! * a power cycle ([`BoardSim::power_cycle`]): a new board on the same flash.
 //!
 //! The tick's execution time is not simulated: each tick reports a nominal 300 µs, plus
-//! what a campaign injects ([`BoardSim::overrun_next_ticks`]).
+//! what a campaign injects ([`BoardSim::overrun_next_ticks`]); nor is the flash's stall
+//! (the emulated board, `firmware/board-emulator`, runs the release image on a model that
+//! has it).
 
 use std::collections::VecDeque;
 
@@ -76,6 +81,9 @@ pub struct BoardSimConfig {
     pub wall: Option<Wall>,
     /// Telemetry period, µs (the board's 20 ms).
     pub telemetry_us: u64,
+    /// The event log's flash: sectors (the board's 2) and bytes per sector (the board's
+    /// 128 KiB).
+    pub event_flash: (usize, usize),
     /// The link key (a key file's; None: a board on a desk, frames without tags).
     pub key: Option<master_link::LinkKey>,
 }
@@ -135,6 +143,98 @@ impl control::geometry_store::GeometryFlash for SimGeometryFlash {
     }
 }
 
+/// The simulated board's event-log sectors: NOR flash erased to 0xFF whose programming
+/// clears bits only; counts its operations.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SimEventFlash {
+    sectors: Vec<Vec<u8>>,
+    /// Words programmed so far.
+    pub words_programmed: u64,
+    /// Sectors erased so far.
+    pub erases: u64,
+}
+
+impl SimEventFlash {
+    /// `sectors` erased sectors of `len` bytes.
+    pub fn new(sectors: usize, len: usize) -> Self {
+        SimEventFlash {
+            sectors: vec![vec![0xFF; len]; sectors],
+            words_programmed: 0,
+            erases: 0,
+        }
+    }
+    /// The bytes of `sector`.
+    pub fn sector(&self, sector: usize) -> Option<&[u8]> {
+        self.sectors.get(sector).map(Vec::as_slice)
+    }
+}
+
+impl control::event_log::EventFlash for SimEventFlash {
+    fn sectors(&self) -> usize {
+        self.sectors.len()
+    }
+    fn sector_len(&self) -> usize {
+        self.sectors.first().map_or(0, Vec::len)
+    }
+    fn read(
+        &mut self,
+        sector: usize,
+        offset: usize,
+        out: &mut [u32; control::event_log::record::RECORD_WORDS],
+    ) -> Result<(), control::geometry_store::FlashError> {
+        let s = self
+            .sectors
+            .get(sector)
+            .ok_or(control::geometry_store::FlashError::Driver)?;
+        for (k, w) in out.iter_mut().enumerate() {
+            let at = offset + 4 * k;
+            let b = s
+                .get(at..at + 4)
+                .ok_or(control::geometry_store::FlashError::Driver)?;
+            *w = u32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+        }
+        Ok(())
+    }
+    fn program(
+        &mut self,
+        sector: usize,
+        offset: usize,
+        words: &[u32],
+    ) -> Result<(), control::geometry_store::FlashError> {
+        let s = self
+            .sectors
+            .get_mut(sector)
+            .ok_or(control::geometry_store::FlashError::Driver)?;
+        let bytes = s
+            .get_mut(offset..offset + 4 * words.len())
+            .ok_or(control::geometry_store::FlashError::Driver)?;
+        for (d, b) in bytes
+            .iter_mut()
+            .zip(words.iter().flat_map(|w| w.to_le_bytes()))
+        {
+            *d &= b;
+        }
+        self.words_programmed += words.len() as u64;
+        Ok(())
+    }
+    fn erase(&mut self, sector: usize) -> Result<(), control::geometry_store::FlashError> {
+        self.sectors
+            .get_mut(sector)
+            .ok_or(control::geometry_store::FlashError::Driver)?
+            .fill(0xFF);
+        self.erases += 1;
+        Ok(())
+    }
+}
+
+/// The board's flash as a power cycle keeps it: the geometry's sector and the event log's.
+#[derive(Clone, Debug)]
+pub struct BoardFlash {
+    geometry: SimGeometryFlash,
+    /// The event log's sectors.
+    pub events: SimEventFlash,
+}
+
 /// The firmware version the simulated board reports.
 pub const SIM_FIRMWARE: FirmwareVersion = FirmwareVersion {
     major: 0,
@@ -173,6 +273,7 @@ impl BoardSimConfig {
             tool: None,
             wall: None,
             telemetry_us: 20_000,
+            event_flash: (2, 128 * 1024),
             key: None,
         })
     }
@@ -211,8 +312,10 @@ pub struct BoardSim {
     queue: VecDeque<Request>,
     /// A received calibrated geometry for the next tick (one at a time, as on the board).
     geometry_in: Option<(master_link::Seq, master_link::GeometryRecord)>,
-    /// The board's reserved flash sector for the calibrated geometry.
-    geometry_flash: SimGeometryFlash,
+    /// The board's flash: the calibrated geometry's sector, the event log's sectors.
+    flash: BoardFlash,
+    /// The event log's writer (None: its flash could not be read).
+    event_store: Option<control::event_log::EventStore>,
     outbox: Vec<u8>,
     t_us: u64,
     next_status_us: u64,
@@ -232,6 +335,43 @@ impl BoardSim {
         reset: ResetCause,
         log: Option<control::faults::FaultLog>,
     ) -> Result<Self, BoardSimError> {
+        let (sectors, len) = cfg.event_flash;
+        let flash = BoardFlash {
+            geometry: SimGeometryFlash::new(),
+            events: SimEventFlash::new(sectors, len),
+        };
+        let rest = cfg.rest;
+        Self::on_flash(cfg, reset, log, flash, rest)
+    }
+
+    /// A power cycle: a new board (RAM lost, the surroundings as at power-up) on the same
+    /// flash, the robot at rest at `cfg.rest` as at power-up (where the homing's settings
+    /// expect it), booting with a power-on reset: the event log and the stored geometry
+    /// are what the flash kept.
+    pub fn power_cycle(self) -> Result<Self, BoardSimError> {
+        let rest = self.cfg.rest;
+        Self::on_flash(self.cfg, ResetCause::PowerOn, None, self.flash, rest)
+    }
+
+    /// The board's flash.
+    pub fn flash(&self) -> &BoardFlash {
+        &self.flash
+    }
+    /// The event log's writer.
+    pub fn event_store(&self) -> Option<&control::event_log::EventStore> {
+        self.event_store.as_ref()
+    }
+
+    /// Powers the board up on `flash` with the robot at `rest`: the event log mounted (a
+    /// new boot; the relay test required when it was pending), the stored geometry's
+    /// version read, the runtime booted with `reset` and the fault log `log` kept across it.
+    fn on_flash(
+        cfg: BoardSimConfig,
+        reset: ResetCause,
+        log: Option<control::faults::FaultLog>,
+        mut flash: BoardFlash,
+        rest: [f64; NUM_JOINTS],
+    ) -> Result<Self, BoardSimError> {
         let robot = RsprGeometry::<f64>::reference();
         let plant = Plant::new(&cfg.plant).map_err(BoardSimError::Plant)?;
         let mech = cfg.runtime.mechanics;
@@ -242,8 +382,13 @@ impl BoardSim {
             link_stop_below_central_rad: mech.link_stop_below_central_rad,
             range: mech.range,
         });
-        let mut hw = BoardOnPlant::at_rest(plant, cfg.rest)?.with_layout(&layout);
+        let mut hw = BoardOnPlant::at_rest(plant, rest)?.with_layout(&layout);
         let mut rt = Runtime::new(robot, cfg.runtime, 0).map_err(BoardSimError::Runtime)?;
+        let (event_store, events) = control::event_log::boot(&mut flash.events, None);
+        rt.restore_events(events);
+        if let Ok(Some((_, stored))) = control::geometry_store::load_latest(&mut flash.geometry) {
+            rt.set_geometry_version(stored.version);
+        }
         // (Boot from Boot cannot be refused.)
         let _ = rt.boot_done(hw.counts(), 0, reset, log);
         let service = TickService::new(rt, cfg.service);
@@ -262,7 +407,8 @@ impl BoardSim {
             tx: LinkTx::with_key(cfg.key.clone()),
             queue: VecDeque::new(),
             geometry_in: None,
-            geometry_flash: SimGeometryFlash::new(),
+            flash,
+            event_store,
             outbox: Vec::new(),
             t_us: 0,
             next_status_us: 0,
@@ -431,12 +577,13 @@ impl BoardSim {
         } else if !self.rx.connected() {
             self.next_status_us = now;
         }
+        self.store_events(now, outcome.drives_off);
         if let Some((seq, record)) = accepted_geometry {
-            let reply = match control::geometry_store::store(&mut self.geometry_flash, &record) {
+            let reply = match control::geometry_store::store(&mut self.flash.geometry, &record) {
                 Ok(_) => {
                     self.service
                         .runtime_mut()
-                        .set_geometry_version(record.version);
+                        .geometry_stored(record.version, now);
                     BoardToMaster::GeometryStored {
                         seq,
                         version: record.version,
@@ -453,6 +600,25 @@ impl BoardSim {
         self.step_plant()?;
         self.last_outcome = Some(outcome);
         Ok(outcome)
+    }
+
+    /// As the board after its tick: at most `WORDS_PER_PERIOD` words of the event log
+    /// programmed, an erase only with the drives off (`drives_off`: and the brakes
+    /// applied), after which the schedule restarts.
+    fn store_events(&mut self, now_us: u64, drives_off: bool) {
+        let Some(store) = self.event_store.as_mut() else {
+            return;
+        };
+        let step = store.step(
+            &mut self.flash.events,
+            self.service.runtime_mut().events_mut(),
+            (now_us / 1000) as u32,
+            control::event_log::WORDS_PER_PERIOD,
+            drives_off,
+        );
+        if let control::event_log::Step::Erased { .. } = step {
+            self.service.resume_after_pause();
+        }
     }
 
     /// Jumps the board's clock forward to `t_us` (a period boundary at or before it)

@@ -144,7 +144,7 @@ pub struct FaultLogArgs {
     pub key: super::KeyArgs,
 }
 
-/// Reads the fault log and prints it.
+/// Reads the fault log and the event log and prints them.
 pub fn faultlog(args: &FaultLogArgs) -> Result<(), CliError> {
     let link = teleop::link::open_with_key(
         &args.connect,
@@ -155,5 +155,8 @@ pub fn faultlog(args: &FaultLogArgs) -> Result<(), CliError> {
     let mut s = teleop::session::Session::new(link);
     let (reset, entries) = teleop::faultlog::read(&mut s)?;
     print!("{}", teleop::faultlog::table(&reset, &entries));
+    let (events, page) = teleop::faultlog::read_events(&mut s)?;
+    println!();
+    print!("{}", teleop::faultlog::events_table(&events, &page));
     Ok(())
 }

@@ -239,8 +239,10 @@ pub enum Command {
     /// The simulated board (the board application on the plant) on a Unix socket, paced
     /// by the wall clock, for `teleop`, the console, `igtl` and `faultlog`.
     Board(board::BoardArgs),
-    /// The fault log of a board (or the simulated board, or the emulator), read over its
-    /// link: time, cause, joint, value, the stop it caused, repeats; and the last reset.
+    /// The fault log and the non-volatile event log of a board (or the simulated board, or
+    /// the emulator), read over its link: time, cause, joint, value, the stop it caused,
+    /// repeats, the last reset; then every event the flash kept (faults, stops, resets,
+    /// masters, geometries, the relay test) with its boot and time, in plain words.
     Faultlog(board::FaultLogArgs),
     /// Kinematic calibration from external measurements (issue 19).
     ///

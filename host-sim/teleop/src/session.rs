@@ -78,6 +78,8 @@ pub struct Session {
     pub refused: Vec<Refused>,
     /// Fault-log pages received.
     pub fault_log: Vec<master_link::FaultLogPage>,
+    /// Event-log pages received.
+    pub event_log: Vec<master_link::EventLogPage>,
     /// The board's `HelloReply`.
     pub hello: Option<(FirmwareVersion, u8)>,
     /// The reset the board reported in its `HelloReply`.
@@ -110,6 +112,7 @@ impl Session {
             targets: Vec::new(),
             refused: Vec::new(),
             fault_log: Vec::new(),
+            event_log: Vec::new(),
             hello: None,
             reset: None,
             geometry_version: None,
@@ -248,6 +251,16 @@ impl Session {
                         _ => u16::MAX,
                     })
                 {
+                    *reply = Some((r.t_s, r.msg));
+                }
+            }
+            BoardToMaster::EventLog(page) => {
+                self.event_log.push(page);
+                // An event-log page answers the open request for its first entry.
+                if let Some((_, reply)) = self.requests.values_mut().find(|(req, reply)| {
+                    reply.is_none()
+                        && matches!(req, MasterToBoard::EventLogRequest { first } if *first == page.first)
+                }) {
                     *reply = Some((r.t_s, r.msg));
                 }
             }

@@ -5,8 +5,9 @@
 //! * [`run_control`] (an interrupt executor above the link): the control tick every
 //!   period, around [`TickService`]: the e-stop latch, the queued master requests and
 //!   their replies, the runtime's tick (which reads the safety chain, the power stage and
-//!   every sensor), timing, the deadline policy, the watchdog, the fault log kept across
-//!   resets, the status;
+//!   every sensor), timing, the deadline policy, the watchdog, the fault log and the event
+//!   log's view kept across resets, the status; then, after them, the event log's flash
+//!   writer (a few words per period, an erase only with the drives off);
 //! * [`run_link_rx`] (thread mode): bytes -> frames -> requests for the control tick; an
 //!   `EmergencyStop` message forces the outputs safe at once, before it is queued; the
 //!   link key's tags checked and the session ids issued here (SHA-256, HMAC-SHA256), never
@@ -27,6 +28,7 @@ use core::cell::Cell;
 use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
 use control::estop::{emergency_stop_message, EStopLatch};
+use control::event_log::{EventLog, Step};
 use control::faults::FaultLog;
 use control::link::{opened_session, BoardIdentity, Inbound, LinkRx, LinkTx, Request};
 use control::service::{TickOutcome, TickService};
@@ -216,6 +218,31 @@ pub trait ControlBoard<S: Scalar> {
     fn persist_fault_log(&mut self, log: &FaultLog) {
         let _ = log;
     }
+    /// Keeps the event log's RAM view for the next reset (RAM the start-up code does not
+    /// clear), after every tick that changed it. The default keeps nothing.
+    fn persist_events(&mut self, log: &EventLog) {
+        let _ = log;
+    }
+    /// Writes the event log to the board's flash (`control::event_log::EventStore::step`):
+    /// at most `words` words of its oldest pending entry at `now_ms`; an erase only when
+    /// `may_erase` (the drives off and the brakes applied; the board keeps its watchdog
+    /// alive through it, and the control task restarts its schedule after it). The default:
+    /// this board has no flash for it.
+    fn store_events(
+        &mut self,
+        log: &mut EventLog,
+        now_ms: u32,
+        words: usize,
+        may_erase: bool,
+    ) -> Step {
+        let _ = (log, now_ms, words, may_erase);
+        Step::Idle
+    }
+    /// The part of the control period after which the tick leaves no room for programming
+    /// flash in it, µs (the default: none).
+    fn program_window_us(&self) -> u32 {
+        0
+    }
     /// Writes a calibrated geometry the runtime accepted (its checks passed, the drives are
     /// off) to the board's flash and reads it back. The core may stall for the erase of a
     /// full sector (seconds): the board keeps its watchdog alive through it, and the
@@ -293,11 +320,31 @@ where
         if outcome.log_changed {
             board.persist_fault_log(service.runtime().fault_log());
         }
+        if outcome.events_changed {
+            board.persist_events(service.runtime().events());
+        }
         board.after_tick(service, &outcome);
+        // The event log to flash: a few words when the tick left room for the stall, an
+        // erase only with the drives off (a pause, like the geometry's store below).
+        let in_window = outcome.exec_us <= board.program_window_us();
+        if in_window || outcome.drives_off {
+            let words = if in_window {
+                control::event_log::WORDS_PER_PERIOD
+            } else {
+                0
+            };
+            let now_ms = (now / 1000) as u32;
+            let events = service.runtime_mut().events_mut();
+            if let Step::Erased { .. } =
+                board.store_events(events, now_ms, words, outcome.drives_off)
+            {
+                service.resume_after_pause();
+            }
+        }
         if let Some((seq, record)) = accepted_geometry {
             let reply = match board.store_geometry(&record) {
                 Ok(()) => {
-                    service.runtime_mut().set_geometry_version(record.version);
+                    service.runtime_mut().geometry_stored(record.version, now);
                     BoardToMaster::GeometryStored {
                         seq,
                         version: record.version,

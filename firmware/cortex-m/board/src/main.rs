@@ -14,12 +14,14 @@
 #![no_main]
 
 mod board;
+mod event_flash;
 mod geometry_flash;
 mod hw;
 mod safe_halt;
 
 use board_tasks::{firmware_version, run_control, run_link_rx, run_link_tx, Shared};
 use control::estop::emergency_stop_isr;
+use control::event_log::EventLog;
 use control::faults::FaultLog;
 use control::runtime::{reference_config_for, Runtime};
 use control::service::{ServiceConfig, TickService};
@@ -98,13 +100,27 @@ async fn main(spawner: Spawner) {
     // Before anything else can reset: why the last reset, and the fault log it kept.
     let reset = board::take_reset_cause();
     let kept_log = safe_halt::take();
-    let b = match board::Board::new(p) {
+    let mut b = match board::Board::new(p) {
         Ok(b) => b,
         Err(e) => {
             error!("board setup: {}", e);
             halt("board setup");
         }
     };
+    // The event log, before the watchdog runs: its flash mounted (the view kept across a
+    // watchdog reset taken when newer), a sector erased if the next record needs one (the
+    // drives are off), and the view kept from now on for the panic handler.
+    let (event_store, events) = {
+        let mut sectors = event_flash::EventSectors(&mut b.flash);
+        let (mut store, events) = control::event_log::boot(&mut sectors, safe_halt::take_events());
+        if let Some(s) = store.as_mut() {
+            if s.prepare(&mut sectors).is_err() {
+                store = None;
+            }
+        }
+        (store, events)
+    };
+    safe_halt::persist_events(&events);
 
     // Priorities: e-stop > time driver > control > link.
     interrupt::EXTI15_10.set_priority(Priority::P0);
@@ -123,9 +139,10 @@ async fn main(spawner: Spawner) {
         iwdg,
         ticks: 0,
         flash: b.flash,
+        events: event_store,
     };
     let control_spawner = EXECUTOR_CONTROL.start(interrupt::UART4);
-    match control(Owned(control_board), reset, kept_log) {
+    match control(Owned(control_board), reset, kept_log, Owned(events)) {
         Ok(t) => control_spawner.spawn(t),
         Err(_) => halt("spawn control"),
     }
@@ -158,15 +175,17 @@ async fn main(spawner: Spawner) {
     }
 }
 
-/// The robot's runtime, booted on the encoders as they read now with the reset cause and
-/// the kept fault log, in its tick service: on the calibrated geometry stored in flash when
-/// one passes its checks, else on the symmetric reference robot (both as a
-/// `PerChainGeometry`; a geometry stored while running takes effect at the next reset).
-/// (A plain function: the intermediate values stay off the task's future.)
+/// The robot's runtime, booted on the encoders as they read now with the reset cause, the
+/// kept fault log and the event log (the relay test required again when it was pending at
+/// the end of the last power cycle), in its tick service: on the calibrated geometry
+/// stored in flash when one passes its checks, else on the symmetric reference robot (both
+/// as a `PerChainGeometry`; a geometry stored while running takes effect at the next
+/// reset). (A plain function: the intermediate values stay off the task's future.)
 fn control_service(
     board: &mut hw::Control,
     reset: ResetCause,
     log: Option<FaultLog>,
+    events: EventLog,
 ) -> TickService<f32, PerChainGeometry<f32>> {
     let nominal = RsprGeometry::<f32>::reference();
     let (robot, version) = geometry_flash::stored(&mut board.flash, &nominal, Branch::OUTER)
@@ -178,23 +197,32 @@ fn control_service(
     let Ok(mut rt) = Runtime::new(robot, cfg, now) else {
         halt("runtime configuration");
     };
+    rt.restore_events(events);
     let _ = rt.boot_done(board.hw.counts(), now, reset, log);
     // The calibrated geometry's version for the hello reply (0: the reference robot).
     rt.set_geometry_version(version);
     info!(
-        "boot done: {}, reset {}, {} faults kept",
+        "boot done: {}, reset {}, {} faults kept, boot {} with {} events, relay test pending {}",
         rt.state(),
         reset,
-        rt.fault_log().len()
+        rt.fault_log().len(),
+        rt.events().boot(),
+        rt.events().len(),
+        rt.relay_test_pending()
     );
     let cfg = ServiceConfig::for_period(PERIOD_US, board::CPU_HZ, firmware_version!());
     TickService::new(rt, cfg)
 }
 
 #[embassy_executor::task]
-async fn control(board: Owned<hw::Control>, reset: ResetCause, log: Option<FaultLog>) {
+async fn control(
+    board: Owned<hw::Control>,
+    reset: ResetCause,
+    log: Option<FaultLog>,
+    events: Owned<EventLog>,
+) {
     let mut board = board.0;
-    let mut service = control_service(&mut board, reset, log);
+    let mut service = control_service(&mut board, reset, log, events.0);
     run_control(&SHARED, &mut board, &mut service).await
 }
 

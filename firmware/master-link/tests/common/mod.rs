@@ -74,9 +74,10 @@ pub fn master_variant(m: &MasterToBoard) -> usize {
         AcknowledgeReset => 12,
         FaultLogRequest { .. } => 13,
         StoreGeometry(_) => 14,
+        EventLogRequest { .. } => 15,
     }
 }
-pub const MASTER_VARIANTS: usize = 15;
+pub const MASTER_VARIANTS: usize = 16;
 
 pub fn board_variant(m: &BoardToMaster) -> usize {
     use BoardToMaster::*;
@@ -88,10 +89,11 @@ pub fn board_variant(m: &BoardToMaster) -> usize {
         FaultLog(_) => 4,
         GeometryStored { .. } => 5,
         GeometryRefused { .. } => 6,
-        HelloRefused { .. } => 7,
+        EventLog(_) => 7,
+        HelloRefused { .. } => 8,
     }
 }
-pub const BOARD_VARIANTS: usize = 8;
+pub const BOARD_VARIANTS: usize = 9;
 
 /// Every geometry refusal.
 pub const ALL_GEOMETRY_REFUSALS: [GeometryRefusal; 11] = [
@@ -231,6 +233,51 @@ pub fn max_fault_log() -> FaultLogPage {
     }
 }
 
+/// Every kind of event, with maximal values.
+pub fn max_event_kinds() -> Vec<EventKind> {
+    let mut v = vec![
+        EventKind::Fault {
+            cause: FaultCause::Internal,
+            joint: NO_JOINT,
+            value: f32::MAX,
+            stop: StopStatus::SafeOperatingStop,
+        },
+        EventKind::Reset {
+            cause: ResetCause::LowPower,
+        },
+        EventKind::Master { id: u32::MAX },
+        EventKind::GeometryStored { version: u32::MAX },
+        EventKind::RelayTest { pending: true },
+        EventKind::Lost { count: u32::MAX },
+    ];
+    v.extend(StopReason::ALL.iter().map(|&reason| EventKind::Stop {
+        reason,
+        stop: StopStatus::SafeStop1Decelerating,
+    }));
+    v
+}
+
+/// The largest event-log page: every entry the largest event (a fault) with maximal
+/// varints.
+pub fn max_event_log() -> EventLogPage {
+    let entry = EventEntry {
+        seq: u32::MAX,
+        boot: u16::MAX,
+        time_ms: u32::MAX,
+        event: max_event_kinds()[0],
+        count: u16::MAX,
+        relay_test_pending: true,
+    };
+    EventLogPage {
+        len: u16::MAX,
+        total: u32::MAX,
+        first: u16::MAX,
+        count: EVENT_LOG_PAGE as u8,
+        lost: u32::MAX,
+        entries: [entry; EVENT_LOG_PAGE],
+    }
+}
+
 /// One sample of every master -> board variant (with maximal varints).
 pub fn master_samples() -> Vec<MasterToBoard> {
     vec![
@@ -262,6 +309,7 @@ pub fn master_samples() -> Vec<MasterToBoard> {
         MasterToBoard::AcknowledgeReset,
         MasterToBoard::FaultLogRequest { first: u16::MAX },
         MasterToBoard::StoreGeometry(max_geometry()),
+        MasterToBoard::EventLogRequest { first: u16::MAX },
     ]
 }
 
@@ -298,7 +346,17 @@ pub fn board_samples() -> Vec<BoardToMaster> {
         BoardToMaster::Status(StatusReport::default()),
         BoardToMaster::FaultLog(max_fault_log()),
         BoardToMaster::FaultLog(FaultLogPage::default()),
+        BoardToMaster::EventLog(max_event_log()),
+        BoardToMaster::EventLog(EventLogPage::default()),
     ];
+    v.extend(max_event_kinds().into_iter().map(|event| {
+        let mut page = max_event_log();
+        page.entries = [EventEntry {
+            event,
+            ..page.entries[0]
+        }; EVENT_LOG_PAGE];
+        BoardToMaster::EventLog(page)
+    }));
     v.extend(ALL_NACK_REASONS.iter().map(|&reason| BoardToMaster::Nack {
         seq: 0x1234,
         reason,
@@ -368,6 +426,7 @@ pub fn arb_master() -> impl Strategy<Value = MasterToBoard> {
                     crc,
                 })
             }),
+        any::<u16>().prop_map(|first| MasterToBoard::EventLogRequest { first }),
     ]
 }
 
@@ -447,5 +506,6 @@ pub fn arb_board() -> impl Strategy<Value = BoardToMaster> {
             .prop_map(|(seq, reason)| BoardToMaster::Nack { seq, reason }),
         arb_status().prop_map(BoardToMaster::Status),
         Just(BoardToMaster::FaultLog(max_fault_log())),
+        Just(BoardToMaster::EventLog(max_event_log())),
     ]
 }
