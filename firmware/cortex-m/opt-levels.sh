@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The optimisation level chosen by measurement (issue 18): for each cargo profile of this
+# The optimisation level chosen by measurement: for each cargo profile of this
 # workspace, the instructions per control tick (readings to outputs) and per whole period
 # of the on-target scenario (QEMU, instruction count) against the board image's text size.
 #

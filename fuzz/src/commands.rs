@@ -189,10 +189,14 @@ pub enum HeaderChoice {
     },
 }
 
-/// A master message (mirrors `MasterToBoard`, with values near the robot's workspace
-/// offered next to raw ones).
+/// A master message: any message of the command set as `master-link` defines it (built by
+/// `arbitrary` from that one definition), or one of the messages whose values matter for
+/// the board's behaviour drawn near the robot's workspace and the board's clock (raw values
+/// stay reachable through [`Msg::Any`]).
 #[derive(Arbitrary, Debug, Clone, Copy, PartialEq)]
 pub enum Msg {
+    /// Any message, raw.
+    Any(MasterToBoard),
     /// Hello (`version: None`: the board's).
     Hello {
         /// Protocol version.
@@ -202,16 +206,7 @@ pub enum Msg {
         /// The master's clock in it.
         clock: Stamp,
     },
-    /// Enable.
-    Enable,
-    /// Disable.
-    Disable,
-    /// Home.
-    Home {
-        /// Rehome.
-        rehome: bool,
-    },
-    /// A pose target.
+    /// A pose target near the workspace's centre.
     PoseTarget {
         /// Its stamp.
         stamp: Stamp,
@@ -220,42 +215,12 @@ pub enum Msg {
         /// Orientation.
         rotation: Rotation,
     },
-    /// Jog.
+    /// Jog at a speed near the jog limits.
     Jog {
         /// Joint (any byte).
         joint: u8,
         /// Velocity.
         velocity: Velocity,
-    },
-    /// Clutch.
-    Clutch {
-        /// Engaged.
-        engaged: bool,
-    },
-    /// Heartbeat.
-    Heartbeat,
-    /// Emergency stop.
-    EmergencyStop,
-    /// Clear fault.
-    ClearFault,
-    /// Status request.
-    StatusRequest,
-    /// Operator presence.
-    OperatorPresent {
-        /// Present.
-        present: bool,
-    },
-    /// Reset acknowledgement.
-    AcknowledgeReset,
-    /// Fault log page.
-    FaultLogRequest {
-        /// First entry.
-        first: u16,
-    },
-    /// Event log page.
-    EventLogRequest {
-        /// First entry.
-        first: u16,
     },
 }
 
@@ -601,9 +566,6 @@ impl Board {
                 nonce,
                 clock_us: stamp(&clock),
             },
-            Msg::Enable => MasterToBoard::Enable,
-            Msg::Disable => MasterToBoard::Disable,
-            Msg::Home { rehome } => MasterToBoard::Home { rehome },
             Msg::PoseTarget {
                 stamp: s,
                 position,
@@ -630,15 +592,7 @@ impl Board {
                     Velocity::Raw(v) => v,
                 },
             },
-            Msg::Clutch { engaged } => MasterToBoard::Clutch { engaged },
-            Msg::Heartbeat => MasterToBoard::Heartbeat,
-            Msg::EmergencyStop => MasterToBoard::EmergencyStop,
-            Msg::ClearFault => MasterToBoard::ClearFault,
-            Msg::StatusRequest => MasterToBoard::StatusRequest,
-            Msg::OperatorPresent { present } => MasterToBoard::OperatorPresent { present },
-            Msg::AcknowledgeReset => MasterToBoard::AcknowledgeReset,
-            Msg::FaultLogRequest { first } => MasterToBoard::FaultLogRequest { first },
-            Msg::EventLogRequest { first } => MasterToBoard::EventLogRequest { first },
+            Msg::Any(m) => m,
         }
     }
 
@@ -1121,10 +1075,10 @@ mod tests {
             }),
         ];
         for _ in 0..6 {
-            actions.push(frame(Msg::Heartbeat));
+            actions.push(frame(Msg::Any(MasterToBoard::Heartbeat)));
             actions.push(ticks(15));
         }
-        actions.push(frame(Msg::StatusRequest));
+        actions.push(frame(Msg::Any(MasterToBoard::StatusRequest)));
         actions.push(ticks(0));
         let s = Scenario {
             start: Start::Enabled,
@@ -1133,7 +1087,7 @@ mod tests {
         let o = Board::run(&s);
         assert_eq!(o.states, vec![State::Enabled], "{o:?}");
         assert_eq!(o.replies, [1, 7, 0, 1, 0, 0], "{o:?}");
-        actions.push(frame(Msg::EmergencyStop));
+        actions.push(frame(Msg::Any(MasterToBoard::EmergencyStop)));
         actions.push(ticks(0));
         let o = Board::run(&Scenario {
             start: Start::Enabled,
@@ -1148,7 +1102,11 @@ mod tests {
     fn before_hello_only_the_emergency_stop_is_taken() {
         let s = Scenario {
             start: Start::Booted,
-            actions: vec![frame(Msg::Enable), frame(Msg::EmergencyStop), ticks(0)],
+            actions: vec![
+                frame(Msg::Any(MasterToBoard::Enable)),
+                frame(Msg::Any(MasterToBoard::EmergencyStop)),
+                ticks(0),
+            ],
         };
         let o = Board::run(&s);
         assert_eq!(o.nacks, vec![NackReason::NotConnected]);
@@ -1282,9 +1240,9 @@ mod tests {
                 nonce: snapshots::OWNER_NONCE,
                 clock: Stamp::Now,
             }),
-            frame(Msg::EmergencyStop),
-            frame(Msg::ClearFault),
-            frame(Msg::Enable),
+            frame(Msg::Any(MasterToBoard::EmergencyStop)),
+            frame(Msg::Any(MasterToBoard::ClearFault)),
+            frame(Msg::Any(MasterToBoard::Enable)),
             ticks(19),
         ];
         let mut b = Board::new(Start::Enabled, Strict::ALL);

@@ -1,4 +1,4 @@
-//! The calibrated geometry on the board (issue 19): the checks a received record must pass,
+//! The calibrated geometry on the board: the checks a received record must pass,
 //! the record's layout in flash, and the log of records in the reserved flash sector. The
 //! targets supply the flash ([`GeometryFlash`]); this is the logic, tested on the host.
 //!

@@ -25,7 +25,7 @@
 //!   ([`monitors`]), the fault log ([`faults`]) and the non-volatile event log
 //!   ([`event_log`]), the heartbeat ([`heartbeat`]), the
 //!   e-stop's interrupt path ([`estop`]) and the deadline ([`watchdog`]);
-//! - the calibrated geometry (issue 19): [`geometry_store`] (the checks of a received
+//! - the calibrated geometry: [`geometry_store`] (the checks of a received
 //!   record, its flash layout and log);
 //! - the master link's board side: [`link`] (frames to requests, replies to frames),
 //!   [`targets`] (target timestamps), [`wire`] (wire values), [`telemetry`] (the status).

@@ -219,7 +219,7 @@ pub enum Inbound {
     Request(Request),
     /// The link answered itself: send this.
     Reply(BoardToMaster),
-    /// A calibrated geometry to check (`Runtime::check_geometry`) and store (issue 19);
+    /// A calibrated geometry to check (`Runtime::check_geometry`) and store;
     /// answer with [`geometry_reply`]. It does not travel in the request queue (a record
     /// is 220 bytes, every other request at most 48): a target keeps one in a mailbox.
     Geometry {

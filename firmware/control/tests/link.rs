@@ -909,7 +909,7 @@ fn a_watchdog_reset_must_be_acknowledged_before_enabling() {
 }
 
 // ---------------------------------------------------------------------------------------
-// The calibrated geometry (issue 19)
+// The calibrated geometry
 // ---------------------------------------------------------------------------------------
 
 /// A `StoreGeometry` with the drives off is checked and accepted; a corrupted, a version-0

@@ -18,7 +18,7 @@
 # and RATE_HZ (default: the board profile's clock and rate), PROFILE (cargo profile, default release; `os`,
 # `o3`, `hot3`: see opt-levels.sh), QEMU_TIMEOUT (seconds per QEMU run, default 300),
 # TICK_BUDGET (the script fails when the worst control tick of the scenario, from the
-# readings to the outputs, exceeds it; default 8000, issue 18's target) and PERIOD_BUDGET
+# readings to the outputs, exceeds it; default 8000) and PERIOD_BUDGET
 # (the same for the whole period: the tick and the work after its outputs; default 20000);
 # set either empty to turn its check off.
 set -euo pipefail

@@ -88,6 +88,11 @@
 )]
 #![warn(missing_docs)]
 
+// The `arbitrary` feature (the fuzz harness's, on the host only) derives
+// `arbitrary::Arbitrary`, whose code names `std`.
+#[cfg(all(feature = "arbitrary", not(test)))]
+extern crate std;
+
 pub mod auth;
 pub mod cobs;
 mod decoder;

@@ -42,6 +42,7 @@ pub trait WireMessage: Serialize + DeserializeOwned {
 /// Messages from the host master to the actuator-controller board.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
 pub enum MasterToBoard {
     /// Handshake: asks the board for a session. The board answers `HelloReply` with a
     /// session it chose (fresh for every accepted `Hello`), or `HelloRefused` (another
@@ -113,7 +114,7 @@ pub enum MasterToBoard {
         /// First entry wanted.
         first: u16,
     },
-    /// Store a calibrated geometry (issue 19) in the board's flash. Taken only while the
+    /// Store a calibrated geometry in the board's flash. Taken only while the
     /// drives are off (`Disabled`, `Ready`); answered `GeometryStored` or
     /// `GeometryRefused` with the reason.
     StoreGeometry(GeometryRecord),
@@ -141,6 +142,7 @@ pub const GEOMETRY_CHAIN_VALUES: usize = 16;
 /// host's file to the flash and back at boot.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
 pub struct GeometryRecord {
     /// The layout ([`GEOMETRY_LAYOUT`]).
     pub layout: u8,

@@ -182,7 +182,7 @@ fn seq_counter_and_serial_arithmetic() {
     assert!(!seq_is_newer(4, 5));
 }
 
-/// The messages added for the calibrated geometry (issue 19) are appended: every earlier
+/// The messages added for the calibrated geometry are appended: every earlier
 /// variant keeps its index (postcard's first byte), so its encoding is unchanged.
 #[test]
 fn geometry_messages_are_appended() {

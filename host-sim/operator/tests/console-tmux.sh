@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The console as a person uses it (issue 17): `host-sim console` in an 80x24 tmux window
+# The console as a person uses it: `host-sim console` in an 80x24 tmux window
 # against the board (the simulated board, or $RSPR_BOARD_SOCKET: see board.sh), driven
 # with send-keys and read with capture-pane. It homes, enables, jogs joint l1, triggers
 # refused commands (Enable before homing; re-homing, confirmed, while enabled), stops and

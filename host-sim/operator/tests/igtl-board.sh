@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# OpenIGTLink against the board (issue 17): `host-sim igtl` in front of the board (the
+# OpenIGTLink against the board: `host-sim igtl` in front of the board (the
 # simulated board, or $RSPR_BOARD_SOCKET: see board.sh), brought up (homed, enabled) by
 # the bridge, and the third-party clients of host-sim/igtl/tests/third_party.sh: pyigtl
 # (targets in protocol versions 2 and 3, a refused target's STATUS, garbage on the

@@ -1,4 +1,4 @@
-//! End-to-end latency on the board (issue 16, item 4), the session recording and its
+//! End-to-end latency on the board, the session recording and its
 //! replay. A scripted operator moves the master at a constant 10 mm/s for 1.5 s, twice on
 //! one board: with the tremor filter, then without. The latency is the lag along the path
 //! (`masters::latency`): from the operator's command (the scaled master input, stamped

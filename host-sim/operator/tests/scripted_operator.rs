@@ -1,4 +1,4 @@
-//! A scripted operator against the board (issue 16): a position master plays a script
+//! A scripted operator against the board: a position master plays a script
 //! through the whole teleoperation path (`operator::teleoperation::run`: the mapping, the
 //! buttons sent as Clutch and OperatorPresent, targets streamed at 100 Hz with heartbeats)
 //! to the simulated board (the firmware's board application on the plant, wall-clock

@@ -244,7 +244,7 @@ pub enum Command {
     /// repeats, the last reset; then every event the flash kept (faults, stops, resets,
     /// masters, geometries, the relay test) with its boot and time, in plain words.
     Faultlog(board::FaultLogArgs),
-    /// Kinematic calibration from external measurements (issue 19).
+    /// Kinematic calibration from external measurements.
     ///
     /// --measurements FILE.csv: joint readings paired with the marker pose (or position)
     /// a tracker measured; identifies the per-chain geometry with the tracker-to-base and

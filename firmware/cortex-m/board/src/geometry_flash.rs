@@ -1,4 +1,4 @@
-//! The calibrated geometry's flash sector (issue 19): sector 11 of the STM32F405's flash,
+//! The calibrated geometry's flash sector: sector 11 of the STM32F405's flash,
 //! 128 KB at 0x080E_0000, reserved in `memory.x` (the image's FLASH region ends below
 //! it), as the slots of `control::geometry_store` (512 slots of 256 bytes: a store writes
 //! one, the sector is erased only when all are used).
