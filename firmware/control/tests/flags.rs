@@ -21,7 +21,7 @@ type Rt = Runtime<f64, RsprGeometry<f64>>;
 
 fn tick(rt: &mut Rt, hw: &mut PlantHw, t: &mut u64) {
     *t += 1000;
-    if *t % 20_000 == 0 {
+    if (*t).is_multiple_of(20_000) {
         rt.command(&MasterToBoard::Heartbeat, *t).unwrap();
     }
     rt.tick(hw, *t);
