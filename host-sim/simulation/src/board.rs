@@ -73,6 +73,9 @@ pub struct BoardSimConfig {
     pub wall: Option<Wall>,
     /// Telemetry period, µs (the board's 20 ms).
     pub telemetry_us: u64,
+    /// The board has the second position channel fitted (it reads the plant's absolute
+    /// position sensors, and `Home` restores the references from them).
+    pub position_channel: bool,
 }
 
 /// The simulated board's reserved flash sector for the calibrated geometry (16 slots of
@@ -140,7 +143,8 @@ pub const SIM_FIRMWARE: FirmwareVersion = FirmwareVersion {
 impl BoardSimConfig {
     /// The reference robot with the shipped plant, at rest at `rest` (None: legs 12 mm
     /// above their home switches and links 0.2 rad above their hard stops, as after a
-    /// power-up), 1 kHz, 10 plant steps per tick, no tool, no wall.
+    /// power-up), 1 kHz, 10 plant steps per tick, no tool, no wall, no second position
+    /// channel.
     pub fn reference(rest: Option<[f64; NUM_JOINTS]>) -> Result<Self, BoardSimError> {
         let robot = RsprGeometry::<f64>::reference();
         let central = inverse(&robot, &Pose::central(robot.hc), Branch::OUTER)
@@ -163,6 +167,7 @@ impl BoardSimConfig {
             tool: None,
             wall: None,
             telemetry_us: 20_000,
+            position_channel: false,
         })
     }
 }
@@ -232,6 +237,7 @@ impl BoardSim {
             range: mech.range,
         });
         let mut hw = BoardOnPlant::at_rest(plant, cfg.rest)?.with_layout(&layout);
+        hw.position_channel = cfg.position_channel;
         let mut rt = Runtime::new(robot, cfg.runtime, 0).map_err(BoardSimError::Runtime)?;
         // (Boot from Boot cannot be refused.)
         let _ = rt.boot_done(hw.counts(), 0, reset, log);

@@ -5,8 +5,9 @@
 //! button still pressed, the safety chain (latched until a power cycle and a passed relay
 //! test), the heartbeat still late, a joint still beyond its range or a switch still
 //! closed, a current still above its trip, a winding still above its derating
-//! temperature, the drivers' fault line, the supply out of range, and a missed deadline
-//! (the watchdog resets the board). The others (a following error, an encoder, a homing
+//! temperature, the drivers' fault line, the supply out of range, a missed deadline
+//! (the watchdog resets the board), and the second position channel without a reading or
+//! at a rail (an open wire). The others (a following error, an encoder, a homing
 //! failure, a guard stop, ...) cannot be re-tested without motion: they are cleared, and
 //! those that make the reference doubtful have lost the homing.
 
@@ -75,6 +76,11 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             FaultCause::DriverFault => i.driver_fault,
             FaultCause::SupplyVoltage => !self.monitors.power.supply_in_range(i.supply_v),
             FaultCause::DeadlineMissed => true,
+            FaultCause::PositionSensor => {
+                let raw = self.sensing.measured().absolute_raw;
+                self.sensing.channel_fitted()
+                    && self.monitors.channel.failed_reading(raw.as_ref()).is_some()
+            }
             _ => false,
         }
     }

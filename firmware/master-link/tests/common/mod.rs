@@ -201,6 +201,7 @@ pub fn max_status() -> StatusReport {
         supply_v: 24.0,
         fault_log_len: u16::MAX,
         missed_ticks: u32::MAX,
+        position_channel: true,
     }
 }
 
