@@ -23,8 +23,9 @@
 //! - safety: the stop categories and their table ([`stops`]), the holding brakes
 //!   ([`brakes`]), the current limits ([`current`]), the plausibility monitors
 //!   ([`monitors`]), the second position channel against the encoders ([`absolute`]), the
-//!   fault log ([`faults`]), the heartbeat ([`heartbeat`]), the e-stop's interrupt path
-//!   ([`estop`]) and the deadline ([`watchdog`]);
+//!   fault log ([`faults`]) and the non-volatile event log ([`event_log`]), the heartbeat
+//!   ([`heartbeat`]), the e-stop's interrupt path ([`estop`]) and the deadline
+//!   ([`watchdog`]);
 //! - the calibrated geometry (issue 19): [`geometry_store`] (the checks of a received
 //!   record, its flash layout and log);
 //! - the master link's board side: [`link`] (frames to requests, replies to frames),
@@ -46,6 +47,7 @@ pub mod controller;
 pub mod current;
 pub mod drive;
 pub mod estop;
+pub mod event_log;
 pub mod faults;
 pub mod geometry_store;
 pub mod heartbeat;

@@ -7,7 +7,8 @@
 //!
 //! **Deadline policy.** A tick that starts more than `max_lateness_us` after its period
 //! (missed periods included: they are skipped, not run back to back), or the third tick
-//! within `overrun_window` ticks that runs longer than `max_execution_us`, is a missed
+//! that runs longer than `max_execution_us` within any `overrun_window` consecutive ticks
+//! (a sliding window: the overruns are counted wherever the window starts), is a missed
 //! deadline: the fault `DeadlineMissed` is latched (its stop: STO with brakes) and the
 //! watchdog is no longer fed, so that it resets the board (the fault log survives the
 //! reset; the board then waits for the master to acknowledge it).
@@ -35,7 +36,7 @@ pub struct ServiceConfig {
     /// the period).
     pub exec_warn_us: u32,
     /// Overruns of `watchdog.max_execution_us` within `overrun_window` ticks that are a
-    /// missed deadline (default 3).
+    /// missed deadline (default 3; at most [`MAX_OVERRUNS`]).
     pub overruns_to_fault: u32,
     /// The window of the overrun count, ticks (default 100).
     pub overrun_window: u32,
@@ -76,8 +77,12 @@ pub struct TickOutcome {
     pub status: StatusReport,
     /// This tick's execution time, µs.
     pub exec_us: u32,
-    /// The fault log has new entries since the last tick (persist it).
+    /// The fault log has new entries or a new count since the last tick (persist it).
     pub log_changed: bool,
+    /// The event log's view changed since the last tick (keep it across a watchdog reset).
+    pub events_changed: bool,
+    /// The drives are off and the brakes applied: a flash erase may stall the core.
+    pub drives_off: bool,
 }
 
 /// How the board's status LED shows the state: solid in `Fault`, fast blink while the
@@ -101,6 +106,9 @@ impl Indicator {
     }
 }
 
+/// The most overruns [`ServiceConfig::overruns_to_fault`] may count.
+pub const MAX_OVERRUNS: usize = 8;
+
 /// The runtime and what the board measures around its ticks.
 #[derive(Clone, Debug)]
 pub struct TickService<S: Scalar, M: Mechanism<S> + Clone> {
@@ -111,12 +119,17 @@ pub struct TickService<S: Scalar, M: Mechanism<S> + Clone> {
     last_start_us: Option<u64>,
     tick_start_state: State,
     missed_periods: u64,
-    /// Ticks since the start of the overrun window, and the overruns in it.
-    window: (u32, u32),
+    /// Ticks so far, and the ticks of the last overruns (the newest last; `overrun_count`
+    /// of them kept, at most [`MAX_OVERRUNS`]).
+    ticks: u64,
+    overruns: [u64; MAX_OVERRUNS],
+    overrun_count: usize,
     /// A deadline was missed: the watchdog is starved from then on.
     starved: bool,
-    log_total: u32,
-    log_len: usize,
+    /// The fault log's total, length and newest count at the last tick.
+    log_mark: (u32, usize, u16),
+    /// The event log's changes at the last tick.
+    events_mark: u32,
 }
 
 impl<S: Scalar, M: Mechanism<S> + Clone> TickService<S, M> {
@@ -124,15 +137,17 @@ impl<S: Scalar, M: Mechanism<S> + Clone> TickService<S, M> {
     pub fn new(runtime: Runtime<S, M>, cfg: ServiceConfig) -> Self {
         TickService {
             tick_start_state: runtime.state(),
-            log_total: runtime.fault_log().total(),
-            log_len: runtime.fault_log().len(),
+            log_mark: log_mark(runtime.fault_log()),
+            events_mark: runtime.events().changes(),
             runtime,
             cfg,
             watchdog: WatchdogPolicy::new(cfg.watchdog),
             timing: TickTiming::default(),
             last_start_us: None,
             missed_periods: 0,
-            window: (0, 0),
+            ticks: 0,
+            overruns: [0; MAX_OVERRUNS],
+            overrun_count: 0,
             starved: false,
         }
     }
@@ -202,6 +217,30 @@ impl<S: Scalar, M: Mechanism<S> + Clone> TickService<S, M> {
         }
     }
 
+    /// Records an overrun at this tick: whether it is the `overruns_to_fault`-th within
+    /// the last `overrun_window` ticks (counted from this one back, wherever the window
+    /// starts). A fault starts the count afresh.
+    fn overrun_in_window(&mut self) -> bool {
+        let n = (self.cfg.overruns_to_fault as usize).clamp(1, MAX_OVERRUNS);
+        if self.overrun_count == MAX_OVERRUNS {
+            self.overruns.rotate_left(1);
+            self.overrun_count -= 1;
+        }
+        if let Some(slot) = self.overruns.get_mut(self.overrun_count) {
+            *slot = self.ticks;
+            self.overrun_count += 1;
+        }
+        let oldest = self
+            .overrun_count
+            .checked_sub(n)
+            .and_then(|i| self.overruns.get(i).copied());
+        let full = oldest.is_some_and(|t| self.ticks - t < u64::from(self.cfg.overrun_window));
+        if full {
+            self.overrun_count = 0;
+        }
+        full
+    }
+
     fn missed_deadline(&mut self, late_us: u64, now_us: u64) {
         self.runtime.deadline_missed(late_us, now_us);
         self.starved = true;
@@ -242,17 +281,10 @@ impl<S: Scalar, M: Mechanism<S> + Clone> TickService<S, M> {
         let jitter = self.timing.last_jitter_us;
         self.timing.record(jitter, cycles);
         let exec_us = TickTiming::cycles_to_us(cycles, self.cfg.cpu_hz);
-        // Overruns within the window.
-        self.window.0 += 1;
-        if exec_us > self.cfg.watchdog.max_execution_us {
-            self.window.1 += 1;
-        }
-        if self.window.1 >= self.cfg.overruns_to_fault {
+        if exec_us > self.cfg.watchdog.max_execution_us && self.overrun_in_window() {
             self.missed_deadline(u64::from(exec_us), start_us);
-            self.window = (0, 0);
-        } else if self.window.0 >= self.cfg.overrun_window {
-            self.window = (0, 0);
         }
+        self.ticks = self.ticks.saturating_add(1);
         self.runtime
             .set_warning(Warnings::CYCLE_OVERRUN, exec_us > self.cfg.exec_warn_us);
         self.runtime.set_tick_timing(
@@ -263,10 +295,13 @@ impl<S: Scalar, M: Mechanism<S> + Clone> TickService<S, M> {
         let feed_watchdog = self.watchdog.on_tick(start_us, exec_us).feed() && !self.starved;
         let state = self.runtime.state();
         let from = self.tick_start_state;
-        let log = self.runtime.fault_log();
-        let log_changed = log.total() != self.log_total || log.len() != self.log_len;
-        self.log_total = log.total();
-        self.log_len = log.len();
+        let mark = log_mark(self.runtime.fault_log());
+        let log_changed = mark != self.log_mark;
+        self.log_mark = mark;
+        let events = self.runtime.events().changes();
+        let events_changed = events != self.events_mark;
+        self.events_mark = events;
+        let out = self.runtime.outputs();
         TickOutcome {
             feed_watchdog,
             state_change: (from != state).then_some((from, state)),
@@ -274,6 +309,13 @@ impl<S: Scalar, M: Mechanism<S> + Clone> TickService<S, M> {
             status: self.runtime.status(),
             exec_us,
             log_changed,
+            events_changed,
+            drives_off: !out.torque_on() && !out.brakes_released(),
         }
     }
+}
+
+/// What says the fault log changed: its total, length and newest entry's count.
+fn log_mark(log: &crate::faults::FaultLog) -> (u32, usize, u16) {
+    (log.total(), log.len(), log.newest().map_or(0, |e| e.count))
 }

@@ -25,6 +25,9 @@ use master_link::{FaultCause, Faults, NackReason, ResetCause, StopStatus, Warnin
 mod common;
 use common::PlantHw;
 
+/// The reference board (its period and clock).
+const PROFILE: board_profile::BoardProfile = board_profile::BoardProfile::REFERENCE;
+
 // ---------------------------------------------------------------------------------------
 // Fixture: the runtime on the plant model
 // ---------------------------------------------------------------------------------------
@@ -256,7 +259,11 @@ fn emergency_stop_from_every_state() {
         emergency_stop_isr(&mut regs, &latch);
         assert!(!regs.pwm_on && !regs.driver_enable && !regs.brake_coils && regs.forced == 1);
         assert!(latch.is_tripped());
-        let cfg = ServiceConfig::for_period(1000, 168_000_000, control::link::FIRMWARE_VERSION);
+        let cfg = ServiceConfig::for_period(
+            PROFILE.control_period_us,
+            PROFILE.cpu_hz,
+            control::link::FIRMWARE_VERSION,
+        );
         let mut svc = TickService::new(rt, cfg);
         svc.begin(t + 1000, 0, latch.take());
         assert_eq!(latch.take(), control::estop::EStopTrip::NONE, "taken once");
@@ -307,7 +314,11 @@ fn the_estop_path_forcing_outputs_safe_is_seen_by_the_next_enable() {
     use hal::{Brakes, MotorOutputs};
     let (rt, mut hw, t) = enabled();
     assert!(hw.enabled);
-    let cfg = ServiceConfig::for_period(1000, 168_000_000, control::link::FIRMWARE_VERSION);
+    let cfg = ServiceConfig::for_period(
+        PROFILE.control_period_us,
+        PROFILE.cpu_hz,
+        control::link::FIRMWARE_VERSION,
+    );
     let mut svc = TickService::new(rt, cfg);
     // What `SafeOutputs::force_safe` does to the board: bridges off, brakes applied.
     let latch = EStopLatch::new();
@@ -502,7 +513,11 @@ fn outputs_stay_off_outside_the_driving_states() {
 /// is never fed again (it resets the board).
 #[test]
 fn a_missed_deadline_is_a_fault_and_starves_the_watchdog() {
-    let cfg = ServiceConfig::for_period(1000, 168_000_000, control::link::FIRMWARE_VERSION);
+    let cfg = ServiceConfig::for_period(
+        PROFILE.control_period_us,
+        PROFILE.cpu_hz,
+        control::link::FIRMWARE_VERSION,
+    );
     let cycles = |us: u32| us * 168;
     // Late start.
     let (rt, mut hw, t0) = enabled();
@@ -559,6 +574,54 @@ fn a_missed_deadline_is_a_fault_and_starves_the_watchdog() {
     }
 }
 
+/// Property: the overruns are counted in a sliding window: three overruns within any 100
+/// consecutive ticks latch `DeadlineMissed`, wherever the ticks start counting (three in a
+/// row from the 99th tick on, found by the search: a window that restarts every 100 ticks
+/// split them two and one and never latched), and three spread over more than 100 ticks
+/// do not (SR-5: a missed deadline detected within its 3 ticks).
+#[test]
+fn overruns_are_counted_in_a_sliding_window() {
+    let cfg = ServiceConfig::for_period(
+        PROFILE.control_period_us,
+        PROFILE.cpu_hz,
+        control::link::FIRMWARE_VERSION,
+    );
+    let cycles = |us: u32| us * (PROFILE.cpu_hz / 1_000_000);
+    let run = |overrun_at: &[u32], ticks: u32| -> Option<u32> {
+        let (rt, mut hw, t0) = enabled();
+        let mut svc = TickService::new(rt, cfg);
+        let mut t = t0;
+        for k in 0..ticks {
+            t += 1000;
+            svc.runtime_mut()
+                .command(&MasterToBoard::Heartbeat, t)
+                .unwrap();
+            svc.begin(t, 0, control::estop::EStopTrip::NONE);
+            svc.tick(&mut hw, t);
+            let exec = if overrun_at.contains(&k) { 900 } else { 300 };
+            let out = svc.finish(t, cycles(exec));
+            hw.step_ms();
+            if out.status.fault.cause == FaultCause::DeadlineMissed {
+                return Some(k);
+            }
+        }
+        None
+    };
+    for start in [0, 97, 98, 99, 100, 150, 199] {
+        assert_eq!(
+            run(&[start, start + 1, start + 2], start + 10),
+            Some(start + 2),
+            "three overruns in a row from tick {start}"
+        );
+    }
+    assert_eq!(
+        run(&[10, 60, 109], 120),
+        Some(109),
+        "three within 100 ticks"
+    );
+    assert_eq!(run(&[10, 60, 110], 120), None, "spread over 101 ticks");
+}
+
 /// Property: the fault log survives a reset in RAM the start-up code does not clear: what
 /// `persist` wrote, `restore` gives back entry for entry; garbage and a corrupted word are
 /// refused; a runtime booted with the log reports it and the reset cause.
@@ -599,7 +662,7 @@ fn the_fault_log_survives_a_watchdog_reset() {
 #[test]
 fn watchdog_is_fed_only_for_ticks_on_time() {
     let cfg = WatchdogConfig {
-        period_us: 1000,
+        period_us: PROFILE.control_period_us,
         max_lateness_us: 200,
         max_execution_us: 700,
     };
@@ -641,5 +704,5 @@ fn tick_timing_keeps_the_worst_case() {
     assert_eq!(tt.worst_jitter_us, 12);
     assert_eq!(tt.worst_cycles, 84_000);
     assert_eq!(tt.last_cycles, 84_000);
-    assert_eq!(TickTiming::cycles_to_us(84_000, 168_000_000), 500);
+    assert_eq!(TickTiming::cycles_to_us(84_000, 84_000_000), 1000);
 }

@@ -29,7 +29,7 @@
 use crate::identify::{identify, Identification, Loss, Options};
 use crate::measurements::Measurement;
 use crate::model::Noise;
-use crate::parameters::{self, Tolerances, LEG_COUNT_M, LINK_COUNT_RAD};
+use crate::parameters::{self, leg_count_m, link_count_rad, Tolerances};
 use crate::plan::{plan, PlanOptions};
 use crate::rigid::Rigid;
 use crate::CalibrationError;
@@ -188,8 +188,8 @@ pub fn true_robot(
             platform_joint,
             platform_axis: tilt(rng, &d.platform_axis, tol.axis_rad),
             leg_offset: uniform(rng, l),
-            leg_zero: uniform(rng, tol.zero_counts * LEG_COUNT_M),
-            link_zero: uniform(rng, tol.zero_counts * LINK_COUNT_RAD),
+            leg_zero: uniform(rng, tol.zero_counts * leg_count_m()),
+            link_zero: uniform(rng, tol.zero_counts * link_count_rad()),
         };
     }
     PerChainGeometry::new(*nominal, chains).map_err(CalibrationError::Geometry)
@@ -257,7 +257,11 @@ pub fn measure(
             .q();
         let mut settled: Joints<f64> = q;
         for i in 0..6 {
-            let count = if i < 3 { LEG_COUNT_M } else { LINK_COUNT_RAD };
+            let count = if i < 3 {
+                leg_count_m()
+            } else {
+                link_count_rad()
+            };
             settled[i] += uniform(rng, 0.5 * count);
         }
         let at = forward(truth, &settled, Branch::OUTER, x, &cfg)

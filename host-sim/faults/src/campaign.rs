@@ -545,13 +545,8 @@ fn running_cell(kind: FaultKind, condition: Condition, b: &mut Bench) -> Result<
 /// A cell of a kind with its own phase (homing, enabling).
 fn phase_cell(kind: FaultKind, b: &mut Bench, only: Only) -> Result<Cell, BenchError> {
     let exp = kind.expectation();
-    b.request(
-        &MasterToBoard::Hello {
-            protocol_version: master_link::PROTOCOL_VERSION,
-            nonce: b.master.session,
-        },
-        100,
-    )?;
+    let hello = b.hello_msg();
+    b.request(&hello, 100)?;
     let t_inj;
     let det;
     match only {
@@ -576,6 +571,7 @@ fn phase_cell(kind: FaultKind, b: &mut Bench, only: Only) -> Result<Cell, BenchE
             }
             t_inj = b.now_us();
             det = Detector::new(b, exp.detection, None);
+            b.command(&MasterToBoard::OperatorPresent { present: true })?;
             b.command(&MasterToBoard::Enable)?;
         }
     }

@@ -69,6 +69,8 @@ pub enum Outcome {
     HelloReply(HelloInfo),
     /// The answer to `FaultLogRequest`.
     FaultLog(FaultLogPage),
+    /// The answer to `EventLogRequest`.
+    EventLog(master_link::EventLogPage),
     /// A calibrated geometry stored, with its version.
     GeometryStored(u32),
     /// A calibrated geometry refused, with the board's reason.
@@ -143,7 +145,17 @@ impl Board {
     /// Opens the board at `path`: a Unix socket (waited for until `timeout`: a board may
     /// still be starting) or a serial device at `baud`.
     pub fn open(path: &Path, baud: u32, timeout: Duration) -> Result<Self, BoardError> {
-        let link = link::open(path, baud, timeout)?;
+        Self::open_with_key(path, baud, timeout, None)
+    }
+
+    /// [`Board::open`] on a link with the pre-shared key `key` (None: no tags).
+    pub fn open_with_key(
+        path: &Path,
+        baud: u32,
+        timeout: Duration,
+        key: Option<master_link::LinkKey>,
+    ) -> Result<Self, BoardError> {
+        let link = link::open_with_key(path, baud, timeout, key)?;
         Ok(Board {
             link,
             name: path.display().to_string(),
@@ -223,20 +235,26 @@ impl Board {
         self.pending.len()
     }
 
-    /// Sends `msg` and tracks it until its answer; its sequence number.
+    /// Sends `msg` and tracks it until its answer; its sequence number. A `Hello` always
+    /// goes out with this connection's nonce and clock (never less than one after the last
+    /// target stamp, so that it is newer than anything this master sent).
     pub fn send(&mut self, msg: MasterToBoard) -> Result<Seq, BoardError> {
+        let msg = match msg {
+            MasterToBoard::Hello { .. } => {
+                let stamp = ((self.now_s() * 1e6) as u64).max(self.last_stamp_us + 1);
+                self.last_stamp_us = stamp;
+                self.link.hello_message(stamp)
+            }
+            other => other,
+        };
         let seq = self.link.send(&msg)?;
         self.pending.push((seq, msg, self.now_s()));
         Ok(seq)
     }
 
-    /// Sends `Hello` with this connection's session nonce.
+    /// Sends `Hello` with this connection's nonce and clock.
     pub fn send_hello(&mut self) -> Result<Seq, BoardError> {
-        let nonce = self.link.session();
-        self.send(MasterToBoard::Hello {
-            protocol_version: PROTOCOL_VERSION,
-            nonce,
-        })
+        self.send(self.link.hello_message(0))
     }
 
     /// Sends a pose target (CRTK `servo_cp`) stamped with this connection's clock; its
@@ -293,12 +311,24 @@ impl Board {
                 self.backlog.push_back(BoardEvent::Status(r.t_s, s));
                 None
             }
+            // Another master's answer (on a shared line) is not this one's.
+            BoardToMaster::HelloReply { nonce, .. } | BoardToMaster::HelloRefused { nonce, .. }
+                if nonce != self.link.nonce() =>
+            {
+                None
+            }
+            BoardToMaster::HelloRefused { reason, .. } => answer(
+                &mut self.pending,
+                &|p| matches!(p.1, MasterToBoard::Hello { .. }),
+                Outcome::Refused(reason),
+            ),
             BoardToMaster::HelloReply {
                 firmware_version,
                 protocol_version,
                 session,
                 reset,
                 geometry_version,
+                ..
             } => {
                 let info = HelloInfo {
                     firmware: firmware_version,
@@ -322,6 +352,11 @@ impl Board {
                 &mut self.pending,
                 &|p| matches!(p.1, MasterToBoard::FaultLogRequest { first } if first == page.first),
                 Outcome::FaultLog(page),
+            ),
+            BoardToMaster::EventLog(page) => answer(
+                &mut self.pending,
+                &|p| matches!(p.1, MasterToBoard::EventLogRequest { first } if first == page.first),
+                Outcome::EventLog(page),
             ),
             BoardToMaster::GeometryStored { seq, version } => answer(
                 &mut self.pending,
@@ -494,6 +529,9 @@ impl Board {
             while self.now_s() < until {
                 self.receive_picking::<()>(Duration::from_millis(10), &mut |_| None)?;
                 if let Some(h) = self.hello {
+                    // A new owner starts with the operator absent; the operator at this
+                    // front end is present until its dead-man says otherwise.
+                    self.request(MasterToBoard::OperatorPresent { present: true })?;
                     return Ok(h);
                 }
             }
@@ -702,6 +740,7 @@ pub fn request_name(msg: &MasterToBoard) -> &'static str {
         MasterToBoard::AcknowledgeReset => "Acknowledge reset",
         MasterToBoard::FaultLogRequest { .. } => "Fault log",
         MasterToBoard::StoreGeometry(_) => "Store geometry",
+        MasterToBoard::EventLogRequest { .. } => "Event log",
     }
 }
 
@@ -729,5 +768,8 @@ pub fn refusal_text(reason: NackReason) -> &'static str {
         NackReason::SafetyRelayMismatch => "e-stop button and safety relay disagree",
         NackReason::BrakeCheckFailed => "the holding brakes failed their check",
         NackReason::OperatorAbsent => "operator absent (dead-man released)",
+        NackReason::NotOwner => "another master owns the board",
+        NackReason::TargetFromFuture => "the target's stamp is in the future",
+        NackReason::ReplayedHello => "an old Hello of this master: a replay",
     }
 }

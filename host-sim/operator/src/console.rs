@@ -152,9 +152,11 @@ impl Console {
         }
         let send = |m| vec![Action::Send(m)];
         match code {
+            // (The board's link puts this connection's nonce and clock in.)
             KeyCode::Char('h') => send(MasterToBoard::Hello {
                 protocol_version: master_link::PROTOCOL_VERSION,
                 nonce: 0,
+                clock_us: 0,
             }),
             KeyCode::Char('o') => {
                 if self.homed() == Some(true) {
@@ -341,6 +343,7 @@ impl Console {
                 )
             }
             Outcome::FaultLog(p) => (format!("{what} -> {} entries", p.len), false),
+            Outcome::EventLog(p) => (format!("{what} -> {} entries", p.len), false),
             Outcome::GeometryStored(v) => (format!("{what} -> stored, version {v}"), false),
             Outcome::GeometryRefused(reason) => (format!("{what} REFUSED ({reason:?})"), true),
             Outcome::NoReply => (format!("{what} -> no answer"), true),

@@ -252,6 +252,13 @@ impl SimConfig {
     /// The defaults overlaid with the keys of `text` (a `--config` file), validated.
     pub fn from_toml_str(text: &str) -> Result<Self, ConfigError> {
         let mut base = parse_table(DEFAULT_TOML, "the embedded default.toml")?;
+        // The control rate defaults to the board's (the board profile owns it).
+        if let Some(toml::Value::Table(control)) = base.get_mut("control") {
+            control.insert(
+                "rate_hz".to_string(),
+                toml::Value::Float(board_profile::BoardProfile::REFERENCE.rate_hz()),
+            );
+        }
         let user = parse_table(text, "the configuration")?;
         overlay(&mut base, user, &VARIABLE_LENGTH)?;
         let cfg: SimConfig =

@@ -13,7 +13,7 @@
 
 use control::homing::HomingError;
 use control::ToolLoad;
-use master_link::{FaultCause, MasterToBoard, ResetCause, RobotState, PROTOCOL_VERSION};
+use master_link::{FaultCause, MasterToBoard, ResetCause, RobotState};
 use simulation::bench::Bench;
 use simulation::board::{BoardSim, BoardSimConfig};
 
@@ -44,14 +44,7 @@ fn bench(cfg: BoardSimConfig) -> Bench {
 fn home(cfg: BoardSimConfig, setup: impl FnOnce(&mut BoardSim)) -> Run {
     let mut b = bench(cfg);
     setup(&mut b.board);
-    b.request(
-        &MasterToBoard::Hello {
-            protocol_version: PROTOCOL_VERSION,
-            nonce: b.master.session,
-        },
-        100,
-    )
-    .unwrap();
+    b.request(&b.hello_msg(), 100).unwrap();
     let p0 = b.board.truth().pose.t;
     let q0 = b.board.truth().q;
     let (mut low, mut high) = (q0, q0);
@@ -200,14 +193,7 @@ fn a_switch_stuck_after_it_closed_is_found_within_its_travel() {
     let cfg = reference();
     let switch = cfg.runtime.mechanics.leg_switch_m;
     let mut b = bench(cfg);
-    b.request(
-        &MasterToBoard::Hello {
-            protocol_version: PROTOCOL_VERSION,
-            nonce: b.master.session,
-        },
-        100,
-    )
-    .unwrap();
+    b.request(&b.hello_msg(), 100).unwrap();
     b.command(&MasterToBoard::Home { rehome: false }).unwrap();
     // Once l1's switch has closed, it stays actuated.
     b.run_until("l1 on its switch", 60_000, |s| s.hw.switch_levels()[0])

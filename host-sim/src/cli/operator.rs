@@ -51,25 +51,36 @@ fn stop_on_ctrl_c() -> Arc<AtomicBool> {
     stop
 }
 
+/// Where the board is: its socket or serial device, the baud rate, the link key.
+pub struct BoardLink<'a> {
+    /// A Unix socket or a serial device.
+    pub connect: &'a Path,
+    /// Serial devices: the baud rate.
+    pub baud: u32,
+    /// The link's pre-shared key, if any.
+    pub key: Option<master_link::LinkKey>,
+}
+
 /// `host-sim teleop --device ...`: bring the board up, teleoperate, disable, summarise.
 pub fn hand_controller(
-    connect: &Path,
-    baud: u32,
+    board: BoardLink<'_>,
     connect_timeout_s: f64,
     home_timeout_s: f64,
     stream_rate_hz: f64,
     args: &HandControllerArgs,
     device: &str,
 ) -> Result<(), CliError> {
+    let BoardLink { connect, baud, key } = board;
     let spec: DeviceSpec = device.parse()?;
     let stop = stop_on_ctrl_c();
     let mut master = devices::open(&spec, &stop)?;
     let keyboard = spec == DeviceSpec::Keyboard;
     let eol = if keyboard { "\r\n" } else { "\n" };
-    let mut board = Board::open(
+    let mut board = Board::open_with_key(
         connect,
         baud,
         Duration::from_secs_f64(connect_timeout_s.max(0.0)),
+        key,
     )?;
     let timeouts = BringUpTimeouts {
         hello_s: connect_timeout_s,
@@ -204,11 +215,18 @@ pub struct ConsoleArgs {
     /// Serial devices: the baud rate.
     #[arg(long, default_value_t = 1_000_000)]
     pub baud: u32,
+    #[command(flatten)]
+    pub key: super::KeyArgs,
 }
 
 /// Runs the console.
 pub fn console(args: &ConsoleArgs) -> Result<(), CliError> {
-    let board = Board::open(&args.connect, args.baud, Duration::from_secs(10))?;
+    let board = Board::open_with_key(
+        &args.connect,
+        args.baud,
+        Duration::from_secs(10),
+        args.key.key()?,
+    )?;
     operator::console::run(board)?;
     Ok(())
 }
@@ -243,6 +261,8 @@ pub struct IgtlArgs {
     /// Stop after this many seconds [default: until Ctrl-C].
     #[arg(long)]
     pub duration_s: Option<f64>,
+    #[command(flatten)]
+    pub key: super::KeyArgs,
 }
 
 /// Serves OpenIGTLink for the board until Ctrl-C (or the duration).
@@ -265,7 +285,12 @@ pub fn igtl(args: &IgtlArgs) -> Result<(), CliError> {
         Err(_) => args.listen.clone(),
     };
     let stop = stop_on_ctrl_c();
-    let mut board = Board::open(&args.connect, args.baud, Duration::from_secs(10))?;
+    let mut board = Board::open_with_key(
+        &args.connect,
+        args.baud,
+        Duration::from_secs(10),
+        args.key.key()?,
+    )?;
     if args.enable {
         board.bring_up(&BringUpTimeouts::default(), &mut |m| println!("board: {m}"))?;
     } else {

@@ -46,6 +46,10 @@ pub enum TeleopError {
     NoReply { seq: Seq, timeout_s: f64 },
     #[error("no HelloReply within {0} s")]
     NoHello(f64),
+    #[error("the link key file {} is not 64 hexadecimal digits", .0.display())]
+    KeyFile(std::path::PathBuf),
+    #[error("the board refused the Hello: {0:?}")]
+    HelloRefused(master_link::NackReason),
     /// A step needs a status that has not arrived (`when` says which step).
     #[error("no status {0}")]
     NoStatus(&'static str),

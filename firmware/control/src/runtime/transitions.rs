@@ -3,7 +3,7 @@
 
 use kinematics_core::guards::Subject;
 use kinematics_core::{Mechanism, Pose};
-use master_link::{FaultCause, Warnings};
+use master_link::{EventKind, FaultCause, StopReason, Warnings};
 use num_traits::Float;
 use servo::NUM_JOINTS;
 
@@ -259,20 +259,36 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         let hold = self.session.hold();
         let torque_on = self.outputs.torque_on();
         let cfg = self.cfg.stops;
+        let mut began = None;
         self.mode = match core::mem::replace(&mut self.mode, Mode::Boot) {
             Mode::Enabling { ctl, .. } | Mode::Following { ctl, .. } if hold.any() => {
                 let mut ctl = ctl;
                 ctl.hold();
-                Mode::Holding {
-                    ctl,
-                    sequence: StopSequence::start(cfg, hold_event(hold), now_us, torque_on),
-                }
+                let sequence = StopSequence::start(cfg, hold_event(hold), now_us, torque_on);
+                began = Some((hold_event(hold), sequence.stopper.status()));
+                Mode::Holding { ctl, sequence }
             }
             Mode::Enabling { ctl, .. } | Mode::Holding { ctl, .. } => {
+                self.last_target_us = now_us;
                 Mode::Following { ctl, jog: None }
             }
             other => other,
         };
+        if let Some((event, stop)) = began {
+            self.record_stop(event, stop, now_us);
+        }
+    }
+
+    /// A stop that is not a fault began: an entry of the event log.
+    fn record_stop(&mut self, event: StopEvent, stop: master_link::StopStatus, now_us: u64) {
+        let reason = match event {
+            StopEvent::Disable => StopReason::Disable,
+            StopEvent::HeartbeatLate => StopReason::HeartbeatLate,
+            StopEvent::ClutchEngaged => StopReason::ClutchEngaged,
+            StopEvent::OperatorAbsent => StopReason::OperatorAbsent,
+            StopEvent::Fault(_) => return,
+        };
+        self.record_event(EventKind::Stop { reason, stop }, now_us);
     }
 
     /// Into `Stopping` (SS1): `Disable` while driving, the end of the park move (the
@@ -348,7 +364,11 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
                 ctl.hold();
             }
         }
+        let status = stop.sequence.stopper.status();
         self.mode = Mode::Stopping { stop, homed };
+        if event == Event::Disable {
+            self.record_stop(StopEvent::Disable, status, now_us);
+        }
         self.settle_stop(now_us);
     }
 
@@ -477,6 +497,17 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             self.sensing.lose_reference();
         }
         self.log.record(record, status);
+        // The relay test's latch first: a safety-chain fault is written with it pending.
+        self.sync_relay_test(now_us);
+        self.record_event(
+            EventKind::Fault {
+                cause,
+                joint: record.joint,
+                value: record.value,
+                stop: status,
+            },
+            now_us,
+        );
         if from != ModeKind::Fault {
             self.session.note(Event::Fault(cause), false);
         }
