@@ -12,8 +12,8 @@
 use arbitrary::Arbitrary;
 use control::current::MotorModel;
 use hal::{
-    Brakes, CurrentSense, LimitSwitches, MotorOutputs, PowerStage, QuadratureCounter, SafeOutputs,
-    SafetyChain, NUM_JOINTS,
+    AbsolutePositions, Brakes, CurrentSense, LimitSwitches, MotorOutputs, PowerStage,
+    QuadratureCounter, SafeOutputs, SafetyChain, NUM_JOINTS,
 };
 
 /// The nominal supply of the bridges, V.
@@ -197,6 +197,9 @@ impl FakeHw {
         }
     }
 }
+
+/// The fuzzed board has no second position channel (the prototype's board).
+impl AbsolutePositions for FakeHw {}
 
 impl QuadratureCounter for FakeHw {
     fn counts(&mut self) -> [u16; NUM_JOINTS] {

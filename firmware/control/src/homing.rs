@@ -11,6 +11,15 @@
 //! A stall counts as the hard stop only within a window of the travel expected from the
 //! rest position (where the robot is when it is homed: its brakes held it where it was
 //! parked): a stall well before (an obstacle) or after is a failure.
+//!
+//! **Restoring instead of sweeping.** Where the board has the second position channel
+//! (an absolute position sensor per joint on the load side, [`JointReferences::absolute`]),
+//! [`Homing::start_restore`] takes every encoder's reference from it (averaged over the
+//! settle time) and then only verifies it ([`VerifyConfig`]): each joint in turn moves out
+//! by a few mm or degrees and back under the homing's servo, both channels must see the
+//! same move, and after the move out (the motor now on the flank of the motion, as the
+//! sweep's approach leaves it) the reference is taken again from the channel. No joint goes
+//! near its switch or stop: a robot with its tool inside a patient can be recovered.
 
 use hal::{CurrentSense, LimitSwitches};
 use num_traits::Float;
@@ -37,6 +46,11 @@ pub trait JointReferences<S> {
     fn counts(&self) -> [i64; NUM_JOINTS];
     /// Joint `joint` is at `q` now (its count is kept); false outside `0..6`.
     fn set_reference(&mut self, joint: usize, q: S) -> bool;
+    /// This tick's readings of the second position channel (absolute, load side), where
+    /// the board has it; none by default.
+    fn absolute(&self) -> Option<[S; NUM_JOINTS]> {
+        None
+    }
 }
 
 /// How a joint finds its reference.
@@ -118,6 +132,26 @@ pub struct HomingConfig<S> {
     /// After homing, move to these joints (e.g. the central configuration) through the
     /// supervisor, or stay where the last back-off ended.
     pub park: Option<[S; NUM_JOINTS]>,
+    /// The verification of references restored from the second channel.
+    pub verify: VerifyConfig<S>,
+}
+
+/// The verification of the references restored from the second position channel: each
+/// joint in turn moves out by `distance` and back under the homing's servo, and both
+/// channels must see the move.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VerifyConfig<S> {
+    /// How far each joint moves out and back (m, rad).
+    pub distance: [S; NUM_JOINTS],
+    /// Its speed (m/s, rad/s).
+    pub speed: [S; NUM_JOINTS],
+    /// Each move ends standing this long, µs; the channel's readings are averaged over it.
+    pub stand_us: u64,
+    /// How far the encoder may end from the commanded move (m, rad).
+    pub tolerance: [S; NUM_JOINTS],
+    /// How far the channel's move may differ from the encoder's (m, rad): the channels'
+    /// agreement and the backlash (`absolute::ChannelConfig`).
+    pub agree: [S; NUM_JOINTS],
 }
 
 /// The board's mechanics the homing and the joint-range monitor rely on (the drawing's
@@ -194,6 +228,8 @@ impl<S: Float> HomingConfig<S> {
             // 1.5 x the fastest of a homing on the reference plant (0.72 rad/s backing off).
             speed_limit: lit(1.1),
         };
+        let deg = |d: f64| lit::<S>(d.to_radians());
+        let per_kind = |l: S, r: S| core::array::from_fn(|j| if j < 3 { l } else { r });
         HomingConfig {
             joints: [leg(0), leg(1), leg(2), link(3), link(4), link(5)],
             order: [0, 1, 2, 3, 4, 5],
@@ -203,6 +239,17 @@ impl<S: Float> HomingConfig<S> {
             stall_counts: 4,
             phase_timeout_us: 30_000_000,
             park,
+            // 1 mm and 1 deg, out and back at 4 mm/s and 4 deg/s (a quarter second each
+            // way); the encoder within a tenth of the move of its end; the channels within
+            // the backlash of each other (the runtime's configuration sets it from the
+            // channel's monitor).
+            verify: VerifyConfig {
+                distance: per_kind(lit(1e-3), deg(1.0)),
+                speed: per_kind(lit(4e-3), deg(4.0)),
+                stand_us: 50_000,
+                tolerance: per_kind(lit(0.1e-3), deg(0.1)),
+                agree: per_kind(lit(0.25e-3), deg(0.05)),
+            },
         }
     }
 
@@ -243,7 +290,14 @@ impl<S: Float> HomingConfig<S> {
                 Some(p) => p.get(j).is_some_and(|x| x.is_finite()),
                 None => true,
             };
-            if !(ok && park_ok) {
+            let v = &self.verify;
+            let at = |a: &[S; NUM_JOINTS]| a.get(j).copied().unwrap_or_else(S::zero);
+            let verify_ok = pos(at(&v.distance))
+                && pos(at(&v.speed))
+                && pos(at(&v.tolerance))
+                && pos(at(&v.agree))
+                && v.stand_us > 0;
+            if !(ok && park_ok && verify_ok) {
                 return bad(j);
             }
         }
@@ -313,6 +367,12 @@ pub enum HomingError {
         /// Joint.
         joint: usize,
     },
+    /// A reference restored from the second channel did not verify: the encoder did not
+    /// reach the end of the verification's move, or the channel saw another move.
+    Unverified {
+        /// Joint.
+        joint: usize,
+    },
     /// The park move after the references (`reason`: 1 a guard along the path, 2 a point
     /// of the path without a pose, 3 invalid settings, 4 not settled at the park joints, 5
     /// the supervisor refused to start at the park pose).
@@ -339,6 +399,7 @@ impl HomingError {
             HomingError::Overspeed { joint } => (10, joint),
             HomingError::LoadTooHeavy { joint } => (11, joint),
             HomingError::NoProgress { joint } => (12, joint),
+            HomingError::Unverified { joint } => (13, joint),
         };
         (kind * 10 + joint) as f32
     }
@@ -355,7 +416,8 @@ impl HomingError {
             | HomingError::OutOfRange { joint }
             | HomingError::Overspeed { joint }
             | HomingError::LoadTooHeavy { joint }
-            | HomingError::NoProgress { joint } => Some(joint),
+            | HomingError::NoProgress { joint }
+            | HomingError::Unverified { joint } => Some(joint),
             HomingError::Park { .. } => None,
         }
     }
@@ -383,6 +445,13 @@ pub enum HomingPhase {
     BackOff {
         /// Joint.
         joint: usize,
+    },
+    /// Verifying a reference restored from the second channel: the move out, then back.
+    Verify {
+        /// Joint.
+        joint: usize,
+        /// The move back.
+        back: bool,
     },
     /// Every joint has its reference.
     Referenced,
@@ -442,6 +511,33 @@ pub struct Homing<S> {
     last_currents: [S; NUM_JOINTS],
     /// What held the moving joint's load when its phase began: the duty and the current.
     load: (S, S),
+    /// The references are restored from the second channel (and verified), not swept.
+    restore: bool,
+    /// The second channel's readings summed over the settle time, and their number.
+    channel_sum: ([S; NUM_JOINTS], u32),
+    /// The verification's move in progress.
+    leg: VerifyLeg<S>,
+}
+
+/// One move of a verification.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct VerifyLeg<S> {
+    /// The joint's setpoint from and to (m, rad).
+    from: S,
+    to: S,
+    /// The channel's reading at the start.
+    p0: S,
+    /// When the move started, µs.
+    t0: u64,
+    /// When the setpoint arrived, µs.
+    arrived: Option<u64>,
+    /// The channel's readings summed while standing, and their number.
+    p_sum: S,
+    p_n: u32,
+    /// The channel less the encoder's joint, summed over the middle half of the move (the
+    /// motor pushing the load at a steady speed), and their number.
+    d_sum: S,
+    d_n: u32,
 }
 
 /// The window over which the homing measures the motors' speeds, µs.
@@ -485,7 +581,25 @@ impl<S: Float> Homing<S> {
             last_duty: [S::zero(); NUM_JOINTS],
             last_currents: [S::zero(); NUM_JOINTS],
             load: (S::zero(), S::zero()),
+            restore: false,
+            channel_sum: ([S::zero(); NUM_JOINTS], 0),
+            leg: VerifyLeg {
+                from: S::zero(),
+                to: S::zero(),
+                p0: S::zero(),
+                t0: 0,
+                arrived: None,
+                p_sum: S::zero(),
+                p_n: 0,
+                d_sum: S::zero(),
+                d_n: 0,
+            },
         })
+    }
+
+    /// The references are restored from the second channel (not swept).
+    pub fn restored(&self) -> bool {
+        self.restore
     }
 
     /// The settings.
@@ -530,7 +644,25 @@ impl<S: Float> Homing<S> {
         self.last_us = now_us;
         self.last_duty = [S::zero(); NUM_JOINTS];
         self.last_currents = [S::zero(); NUM_JOINTS];
+        self.restore = false;
+        self.channel_sum = ([S::zero(); NUM_JOINTS], 0);
         self.enter(HomingPhase::Settle, now_us);
+    }
+
+    /// Starts a homing that restores the references from the second channel, which reads
+    /// the joints at `absolute` now (m, rad): like [`Homing::start`] with the channel's
+    /// positions as where the joints rest; at the end of the settle time every reference is
+    /// taken from the channel's readings averaged over it, then each joint's is verified.
+    pub fn start_restore(
+        &mut self,
+        q: &[S; NUM_JOINTS],
+        motor: &[S; NUM_JOINTS],
+        counts: &[i64; NUM_JOINTS],
+        absolute: &[S; NUM_JOINTS],
+        now_us: u64,
+    ) {
+        self.start(q, motor, counts, Some(absolute), now_us);
+        self.restore = true;
     }
 
     /// The end of the settle time: the first joint approaches.
@@ -796,11 +928,21 @@ impl<S: Float> Homing<S> {
         let joint = match self.phase {
             HomingPhase::Idle => return (HomingStatus::Running(HomingPhase::Idle), zero),
             HomingPhase::Settle => {
+                if self.restore {
+                    self.add_channel(sensing.absolute());
+                }
                 if now_us.saturating_sub(self.phase_start_us) >= self.cfg.settle_us {
-                    if let Err(e) = self.settled(now_us) {
+                    let settled = if self.restore {
+                        self.restore_references(sensing, now_us)
+                    } else {
+                        self.settled(now_us)
+                    };
+                    if let Err(e) = settled {
                         return (self.fail(e), zero);
                     }
                 }
+                let q = sensing.joints();
+                let motor = sensing.motors();
                 let duty = self.hold_others(&q, &motor, None, dt);
                 sensing.set_backlash(&self.servo.backlash_offsets());
                 self.last_duty = duty;
@@ -811,6 +953,18 @@ impl<S: Float> Homing<S> {
                 let duty = self.hold_others(&q, &motor, None, dt);
                 sensing.set_backlash(&self.servo.backlash_offsets());
                 return (HomingStatus::Referenced, duty);
+            }
+            HomingPhase::Verify { joint, back } => {
+                if let Err(e) = self.check_motion(&q, &motor, now_us) {
+                    return (self.fail(e), zero);
+                }
+                return match self.verify_step(joint, back, sensing, now_us, dt) {
+                    Ok(duty) => {
+                        self.last_duty = duty;
+                        (self.status(), duty)
+                    }
+                    Err(e) => (self.fail(e), zero),
+                };
             }
             HomingPhase::LeaveSwitch { joint }
             | HomingPhase::Approach { joint }
@@ -849,6 +1003,173 @@ impl<S: Float> Homing<S> {
         let duty = self.duties(joint, own, travel, dt, sensing);
         self.last_duty = duty;
         (self.status(), duty)
+    }
+
+    /// Adds one reading of the second channel to the settle time's sum (a missing one
+    /// leaves the sum: the monitors fault a channel that stops answering).
+    fn add_channel(&mut self, absolute: Option<[S; NUM_JOINTS]>) {
+        if let Some(p) = absolute {
+            for (s, x) in self.channel_sum.0.iter_mut().zip(p) {
+                *s = *s + x;
+            }
+            self.channel_sum.1 = self.channel_sum.1.saturating_add(1);
+        }
+    }
+
+    /// The end of a restoring homing's settle time: every joint's reference from the
+    /// channel's readings averaged over it, the joints held where they are (their loops
+    /// go on with what holds their loads), then the first joint's verification.
+    fn restore_references<R: JointReferences<S>>(
+        &mut self,
+        sensing: &mut R,
+        now_us: u64,
+    ) -> Result<(), HomingError> {
+        let (sum, n) = self.channel_sum;
+        let Some(first) = joint_of(&self.cfg, 0) else {
+            return Err(HomingError::Config { joint: 0 });
+        };
+        if n == 0 {
+            return Err(HomingError::Unverified { joint: first });
+        }
+        let n = S::from(n).unwrap_or_else(S::one);
+        for (j, s) in sum.iter().enumerate() {
+            self.restore_reference(sensing, j, *s / n);
+        }
+        self.start_leg(first, false, sensing, now_us);
+        Ok(())
+    }
+
+    /// Joint `joint` is at `q` by the channel: its reference, its hold there, its loop
+    /// going on with its integral.
+    fn restore_reference<R: JointReferences<S>>(&mut self, sensing: &mut R, joint: usize, q: S) {
+        self.reference(sensing, joint, q);
+        let motor = sensing.motors().get(joint).copied().unwrap_or_else(S::zero);
+        self.servo.rereference_joint(joint, motor);
+        set(&mut self.hold, joint, q);
+    }
+
+    /// Starts joint `joint`'s verification move out (`back`: back) from where it holds.
+    fn start_leg<R: JointReferences<S>>(
+        &mut self,
+        joint: usize,
+        back: bool,
+        sensing: &R,
+        now_us: u64,
+    ) {
+        let from = self.hold.get(joint).copied().unwrap_or_else(S::zero);
+        let d = self
+            .cfg
+            .verify
+            .distance
+            .get(joint)
+            .copied()
+            .unwrap_or_else(S::zero);
+        let p0 = sensing
+            .absolute()
+            .and_then(|p| p.get(joint).copied())
+            .unwrap_or(from);
+        self.leg = VerifyLeg {
+            from,
+            to: if back { from - d } else { from + d },
+            p0: if back { from } else { p0 },
+            t0: now_us,
+            arrived: None,
+            p_sum: S::zero(),
+            p_n: 0,
+            d_sum: S::zero(),
+            d_n: 0,
+        };
+        self.enter(HomingPhase::Verify { joint, back }, now_us);
+    }
+
+    /// One tick of a verification move: the joint's setpoint ramps from the move's start
+    /// to its end at the verification's speed (the other joints hold), stands, and then
+    /// both channels must have seen the move: the encoder within the tolerance of its end,
+    /// the channel within the agreement of the encoder. After the move out the reference
+    /// is taken again from the channel (the motor is now on the flank of the motion); after
+    /// the move back the next joint follows.
+    fn verify_step<R: JointReferences<S>>(
+        &mut self,
+        joint: usize,
+        back: bool,
+        sensing: &mut R,
+        now_us: u64,
+        dt: S,
+    ) -> Result<[S; NUM_JOINTS], HomingError> {
+        let v = self.cfg.verify;
+        let at = |a: &[S; NUM_JOINTS]| a.get(joint).copied().unwrap_or_else(S::zero);
+        let (speed, leg) = (at(&v.speed), self.leg);
+        let elapsed = S::from(now_us.saturating_sub(leg.t0)).unwrap_or_else(S::zero) * lit(1e-6);
+        let span = leg.to - leg.from;
+        let travelled = (speed * elapsed).min(span.abs());
+        let direction = span.signum();
+        let setpoint = leg.from + direction * travelled;
+        let moving = travelled < span.abs();
+        let mut sp = self.hold;
+        set(&mut sp, joint, setpoint);
+        let mut qdot = [S::zero(); NUM_JOINTS];
+        if moving {
+            set(&mut qdot, joint, direction * speed);
+        } else if leg.arrived.is_none() {
+            self.leg.arrived = Some(now_us);
+        }
+        let (motor, q_now) = (sensing.motors(), sensing.joints());
+        let channel = sensing.absolute().and_then(|p| p.get(joint).copied());
+        let middle = travelled >= span.abs() * lit(0.25) && travelled <= span.abs() * lit(0.75);
+        if let (true, Some(p), Some(q)) = (middle, channel, q_now.get(joint)) {
+            self.leg.d_sum = self.leg.d_sum + (p - *q);
+            self.leg.d_n = self.leg.d_n.saturating_add(1);
+        }
+        let out = self.servo.update(&sp, &qdot, &motor, dt);
+        sensing.set_backlash(&self.servo.backlash_offsets());
+        let limit = self.cfg.duty_limit;
+        let duty = out.duty.map(|d| d.max(-limit).min(limit));
+        let Some(arrived) = self.leg.arrived else {
+            return Ok(duty);
+        };
+        if let Some(p) = channel {
+            self.leg.p_sum = self.leg.p_sum + p;
+            self.leg.p_n = self.leg.p_n.saturating_add(1);
+        }
+        if now_us.saturating_sub(arrived) < v.stand_us {
+            return Ok(duty);
+        }
+        // Both channels saw the move.
+        let leg = self.leg;
+        let q = sensing.joints().get(joint).copied().unwrap_or_else(S::zero);
+        let unverified = HomingError::Unverified { joint };
+        let p = if leg.p_n > 0 {
+            leg.p_sum / S::from(leg.p_n).unwrap_or_else(S::one)
+        } else {
+            return Err(unverified);
+        };
+        let encoder_moved = q - leg.from;
+        let channel_moved = p - leg.p0;
+        if !((encoder_moved - span).abs() <= at(&v.tolerance)
+            && (channel_moved - encoder_moved).abs() <= at(&v.agree))
+        {
+            return Err(unverified);
+        }
+        set(&mut self.hold, joint, leg.to);
+        if back {
+            self.index += 1;
+            match joint_of(&self.cfg, self.index) {
+                Some(next) => self.start_leg(next, false, sensing, now_us),
+                None => self.phase = HomingPhase::Referenced,
+            }
+        } else {
+            // Over the middle of the move out the motor pushed the load at a steady speed
+            // (on the flank of the motion, as the sweep's approach reaches its switch): the
+            // channel less the encoder's joint then is what the reference is off by, the
+            // same wherever the load has settled in the gap since.
+            if leg.d_n == 0 {
+                return Err(unverified);
+            }
+            let off = leg.d_sum / S::from(leg.d_n).unwrap_or_else(S::one);
+            self.restore_reference(sensing, joint, q + off);
+            self.start_leg(joint, true, sensing, now_us);
+        }
+        Ok(duty)
     }
 
     /// Tracks the joint's motion and current: whether it has stalled (no motion of

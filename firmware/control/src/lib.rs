@@ -22,9 +22,10 @@
 //! - the board's behaviour: [`state_machine`], [`homing`], [`runtime`], [`service`];
 //! - safety: the stop categories and their table ([`stops`]), the holding brakes
 //!   ([`brakes`]), the current limits ([`current`]), the plausibility monitors
-//!   ([`monitors`]), the fault log ([`faults`]) and the non-volatile event log
-//!   ([`event_log`]), the heartbeat ([`heartbeat`]), the
-//!   e-stop's interrupt path ([`estop`]) and the deadline ([`watchdog`]);
+//!   ([`monitors`]), the second position channel against the encoders ([`absolute`]), the
+//!   fault log ([`faults`]) and the non-volatile event log ([`event_log`]), the heartbeat
+//!   ([`heartbeat`]), the e-stop's interrupt path ([`estop`]) and the deadline
+//!   ([`watchdog`]);
 //! - the calibrated geometry: [`geometry_store`] (the checks of a received
 //!   record, its flash layout and log);
 //! - the master link's board side: [`link`] (frames to requests, replies to frames),
@@ -40,6 +41,7 @@
 // never pass a check.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod absolute;
 pub mod brakes;
 pub mod controller;
 pub mod current;

@@ -18,8 +18,14 @@
 //! though the platform does not move. Homing sets the encoders' reference through
 //! [`Sensing::set_reference`]; the controller, the homing, the fault monitors and the
 //! telemetry all read the tick's [`Measured`], never the hardware or a second estimate.
+//!
+//! Where the board has the second position channel (an absolute position sensor per
+//! joint on the load side, `hal::AbsolutePositions`), [`Sensing::read_absolute`] reads it
+//! once per tick too, through its calibration ([`ChannelCalibration`]): the monitors
+//! check it against the encoders (`crate::absolute`), and homing takes the encoders'
+//! references from it.
 
-use hal::QuadratureCounter;
+use hal::{AbsolutePositions, QuadratureCounter};
 use kinematics_core::{
     Branch, FkConfig, FkError, FkTracker, Joints, Mechanism, Pose, Tracked, TrackerCounts,
 };
@@ -27,6 +33,7 @@ use servo::config::ConfigError;
 use servo::encoder::{EncoderConfig, Encoders};
 use servo::NUM_JOINTS;
 
+use crate::absolute::ChannelCalibration;
 use crate::homing::JointReferences;
 use crate::scalar::Scalar;
 
@@ -63,6 +70,10 @@ pub struct Measured<S: Scalar> {
     pub pose: Option<Pose<S>>,
     /// What the forward kinematics did on this tick.
     pub status: PoseStatus,
+    /// The second channel's raw readings (None: no channel, or the read failed).
+    pub absolute_raw: Option<[u16; NUM_JOINTS]>,
+    /// The joint positions they stand for (m, rad; load side, absolute).
+    pub absolute: Option<[S; NUM_JOINTS]>,
 }
 
 /// Counts kept by the sensing.
@@ -89,6 +100,12 @@ pub struct Sensing<S: Scalar, M: Mechanism<S>> {
     tracker: Option<FkTracker<S>>,
     measured: Measured<S>,
     counters: SensingCounters,
+    /// The second channel's calibration (None: the application reads no channel).
+    channel: Option<ChannelCalibration<S>>,
+    /// The board has the channel fitted (read with it).
+    channel_fitted: bool,
+    /// References set since power-up (each moves the encoders' joints at once).
+    references: u32,
 }
 
 /// Why the pose cannot be established after homing.
@@ -134,10 +151,15 @@ impl<S: Scalar, M: Mechanism<S>> Sensing<S, M> {
                 q: encoders.positions(),
                 pose: None,
                 status: PoseStatus::NotHomed,
+                absolute_raw: None,
+                absolute: None,
             },
             encoders,
             tracker: None,
             counters: SensingCounters::default(),
+            channel: None,
+            channel_fitted: false,
+            references: 0,
         })
     }
 
@@ -195,6 +217,38 @@ impl<S: Scalar, M: Mechanism<S>> Sensing<S, M> {
         &self.measured
     }
 
+    /// The second channel's calibration: from now on [`Sensing::read_absolute`] reads the
+    /// channel of a board that has it fitted.
+    pub fn set_channel(&mut self, calibration: ChannelCalibration<S>) {
+        self.channel = Some(calibration);
+    }
+
+    /// Reads the second channel once (a board with it fitted, and a calibration set):
+    /// the raw readings and the positions they stand for; none otherwise, or when the read
+    /// failed.
+    pub fn read_absolute<H: AbsolutePositions + ?Sized>(&mut self, hw: &mut H) -> &Measured<S> {
+        let m = &mut self.measured;
+        self.channel_fitted = self.channel.is_some() && hw.absolute_fitted();
+        m.absolute_raw = None;
+        m.absolute = None;
+        if let (true, Some(cal)) = (self.channel_fitted, self.channel.as_ref()) {
+            m.absolute_raw = hw.absolute_counts();
+            m.absolute = m.absolute_raw.as_ref().map(|r| cal.positions(r));
+        }
+        &self.measured
+    }
+
+    /// The board has the second channel fitted (and the application reads it).
+    pub fn channel_fitted(&self) -> bool {
+        self.channel_fitted
+    }
+
+    /// How many references were set since power-up (each moves the encoders' joints at
+    /// once: a monitor that compares their motion starts over when it changes).
+    pub fn reference_epoch(&self) -> u32 {
+        self.references
+    }
+
     /// The measured pose follows the joints of the last [`Sensing::read`] (once homed:
     /// a tracker update). The runtime calls it once the tick's outputs are written:
     /// nothing on the way from the readings to the outputs uses the pose (the servos
@@ -249,6 +303,7 @@ impl<S: Scalar, M: Mechanism<S>> Sensing<S, M> {
             .copied()
             .unwrap_or_else(S::zero);
         let ok = self.encoders.set_position(joint, q + offset);
+        self.references = self.references.wrapping_add(1);
         self.refresh_joints();
         ok
     }
@@ -331,6 +386,9 @@ impl<S: Scalar, M: Mechanism<S>> JointReferences<S> for Sensing<S, M> {
     }
     fn set_reference(&mut self, joint: usize, q: S) -> bool {
         Sensing::set_reference(self, joint, q)
+    }
+    fn absolute(&self) -> Option<[S; NUM_JOINTS]> {
+        self.measured.absolute
     }
 }
 

@@ -106,6 +106,12 @@ pub const fn reaction(event: StopEvent) -> Reaction {
             F::NoMotion => sto("driven hard without motion: stuck encoder, open motor or jam"),
             F::EncoderJump => sto("the encoder reading cannot be trusted"),
             F::EncoderDead => sto("the encoder stopped counting while the motor turns"),
+            F::EncoderDisagree => {
+                sto("the encoder lost counts the second channel saw: the servo's feedback fails")
+            }
+            F::PositionSensor => {
+                ss1("the second channel is lost; the encoders still serve: stop, then off")
+            }
             F::MotorOpen => sto("the motor cannot hold its joint: only the brakes can"),
             F::CurrentImplausible => sto("the motor circuit or its driver cannot be trusted"),
             F::Overcurrent => sto("the power stage cannot be trusted"),
@@ -143,7 +149,7 @@ pub const fn reaction(event: StopEvent) -> Reaction {
 
 /// Every row of the table, in the README's order: every fault cause, then the commands
 /// and conditions that stop without a fault.
-pub const TABLE: [StopEvent; 30] = [
+pub const TABLE: [StopEvent; 32] = [
     StopEvent::Fault(FaultCause::EmergencyStopButton),
     StopEvent::Fault(FaultCause::EmergencyStopMessage),
     StopEvent::Fault(FaultCause::SafetyRelayMismatch),
@@ -154,6 +160,8 @@ pub const TABLE: [StopEvent; 30] = [
     StopEvent::Fault(FaultCause::NoMotion),
     StopEvent::Fault(FaultCause::EncoderJump),
     StopEvent::Fault(FaultCause::EncoderDead),
+    StopEvent::Fault(FaultCause::EncoderDisagree),
+    StopEvent::Fault(FaultCause::PositionSensor),
     StopEvent::Fault(FaultCause::MotorOpen),
     StopEvent::Fault(FaultCause::CurrentImplausible),
     StopEvent::Fault(FaultCause::Overcurrent),

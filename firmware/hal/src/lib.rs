@@ -150,9 +150,41 @@ impl<T: SafetyChain + ?Sized> SafetyChain for &mut T {
     }
 }
 
+/// The second position channel: an absolute position sensor per joint on the load side
+/// (after the backlash), beside the incremental encoders on the motors, e.g. a
+/// potentiometer per joint read by a converter. A board without it implements the trait
+/// with its defaults: not fitted, no readings.
+///
+/// The readings are the converter's raw counts, `0 ..= 65535` over each sensor's
+/// electrical travel, counting up with motion towards `+q` (a sensor wired the other way
+/// round is inverted in the board's `hw` module, `65535 - raw`, as the encoders are); the
+/// calibration to joint units is the application's.
+pub trait AbsolutePositions {
+    /// The board has the channel fitted (the default: it has none).
+    fn absolute_fitted(&self) -> bool {
+        false
+    }
+    /// The six readings, joint order, converted as close together in time as the hardware
+    /// allows; `None` without the channel or when the read failed (a bus error: a fitted
+    /// channel that answers `None` has failed).
+    fn absolute_counts(&mut self) -> Option<[u16; NUM_JOINTS]> {
+        None
+    }
+}
+
+impl<T: AbsolutePositions + ?Sized> AbsolutePositions for &mut T {
+    fn absolute_fitted(&self) -> bool {
+        (**self).absolute_fitted()
+    }
+    fn absolute_counts(&mut self) -> Option<[u16; NUM_JOINTS]> {
+        (**self).absolute_counts()
+    }
+}
+
 /// Everything the board application drives and reads, in one bound.
 pub trait Hardware<S: Float>:
     QuadratureCounter
+    + AbsolutePositions
     + MotorOutputs<S>
     + CurrentSense<S>
     + LimitSwitches
@@ -164,6 +196,7 @@ pub trait Hardware<S: Float>:
 
 impl<S: Float, T> Hardware<S> for T where
     T: QuadratureCounter
+        + AbsolutePositions
         + MotorOutputs<S>
         + CurrentSense<S>
         + LimitSwitches

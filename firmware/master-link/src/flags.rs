@@ -136,6 +136,8 @@ bit_flags! {
         /// A motor circuit is open (current commanded, none flows) or draws far more than
         /// its model (a shorted winding).
         const MOTOR = 18;
+        /// The second position channel (a joint's absolute position sensor) failed.
+        const POSITION_SENSOR = 19;
     }
 }
 

@@ -58,7 +58,7 @@
 //!
 //! Frames longer than the decoder capacity `N` are discarded up to the
 //! next delimiter and counted as `oversized`. The largest frame, a status report with
-//! every varint at its maximum, is 246 bytes on the wire, 254 with its tag.
+//! every varint at its maximum, is 247 bytes on the wire, 255 with its tag (`MAX_FRAME_LEN`: no byte to spare).
 //!
 //! # Example
 //!

@@ -429,6 +429,11 @@ pub struct StatusReport {
     pub missed_ticks: u32,
     /// Times another master took the board over since boot (wrapping; protocol version 5).
     pub owner_changes: u16,
+    /// The board has the second position channel (an absolute position sensor per joint):
+    /// `Home` restores the encoders' references from it and only verifies them with a move
+    /// of a few mm or degrees per joint, no sweep to the switches. Without it `Home` sweeps
+    /// every joint to its switch or stop (protocol version 7).
+    pub position_channel: bool,
 }
 
 /// The stop in force and how far it has got (IEC 60204-1 stop categories; IEC 61800-5-2
@@ -519,6 +524,15 @@ pub enum FaultCause {
     NonFiniteInput,
     /// An internal error (value: a code).
     Internal,
+    /// The joint's encoder counted less motion than its absolute position sensor (the
+    /// second channel) saw: a stuck, dead or miscounting encoder (value: the disagreement,
+    /// m or rad).
+    EncoderDisagree,
+    /// The joint's absolute position sensor (the second channel) failed: no reading, a
+    /// reading at a rail (an open wire), a jump beyond the joint's speed, a drift, or less
+    /// motion than the encoder counted (value: the reading in counts at a rail or for a
+    /// jump, else the disagreement, m or rad).
+    PositionSensor,
 }
 
 impl FaultCause {
@@ -550,6 +564,8 @@ impl FaultCause {
             FaultCause::StandstillLost => Faults::STANDSTILL,
             FaultCause::BrakeCheck => Faults::BRAKE,
             FaultCause::NonFiniteInput | FaultCause::Internal => Faults::INTERNAL,
+            FaultCause::EncoderDisagree => Faults::ENCODER,
+            FaultCause::PositionSensor => Faults::POSITION_SENSOR,
         }
     }
 
@@ -584,11 +600,14 @@ impl FaultCause {
             FaultCause::BrakeCheck => "brake check",
             FaultCause::NonFiniteInput => "non-finite input",
             FaultCause::Internal => "internal",
+            FaultCause::EncoderDisagree => "encoder disagrees (second channel)",
+            FaultCause::PositionSensor => "position sensor (second channel)",
         }
     }
 
-    /// Every cause but `None`, in declaration order.
-    pub const ALL: [FaultCause; 26] = [
+    /// Every cause but `None`, in declaration order (at most 31: the runtime keeps the
+    /// causes raised in one 32-bit set).
+    pub const ALL: [FaultCause; 28] = [
         FaultCause::EmergencyStopButton,
         FaultCause::EmergencyStopMessage,
         FaultCause::SafetyRelayMismatch,
@@ -615,6 +634,8 @@ impl FaultCause {
         FaultCause::BrakeCheck,
         FaultCause::NonFiniteInput,
         FaultCause::Internal,
+        FaultCause::EncoderDisagree,
+        FaultCause::PositionSensor,
     ];
 }
 

@@ -45,7 +45,7 @@ fn tagged_frames_round_trip_and_fit() {
     )
     .len();
     println!("tagged: status {status} B, fault log {log} B, geometry {geometry} B");
-    assert_eq!(status, 246 + TAG_LEN);
+    assert_eq!(status, 247 + TAG_LEN);
     assert!(status <= MAX_FRAME_LEN && log <= MAX_FRAME_LEN && geometry <= MAX_FRAME_LEN);
 }
 

@@ -326,6 +326,20 @@ impl<S: Float> JointServo<S> {
         }
     }
 
+    /// One joint's measurement moved by a new reference while nothing moved (the setpoint
+    /// moves with it): its loop goes on with its integral (what holds its load), `measured`
+    /// taken as the previous measurement (no derivative kick). False outside `0..6`.
+    pub fn rereference_joint(&mut self, joint: usize, measured: S) -> bool {
+        match self.channels.get_mut(joint) {
+            Some(ch) => {
+                let integral = ch.pid.integral();
+                ch.pid.reset_with_integral(measured, integral);
+                true
+            }
+            None => false,
+        }
+    }
+
     /// Tells the backlash compensators which flank each joint is on (e.g. after homing)
     /// with the setpoints `setpoint_q` at that moment.
     pub fn reset_backlash(

@@ -86,6 +86,9 @@ pub struct BoardSimConfig {
     pub event_flash: (usize, usize),
     /// The link key (a key file's; None: a board on a desk, frames without tags).
     pub key: Option<master_link::LinkKey>,
+    /// The board has the second position channel fitted (it reads the plant's absolute
+    /// position sensors, and `Home` restores the references from them).
+    pub position_channel: bool,
 }
 
 /// The simulated board's reserved flash sector for the calibrated geometry (16 slots of
@@ -246,7 +249,7 @@ impl BoardSimConfig {
     /// The reference robot with the shipped plant, at rest at `rest` (None: legs 12 mm
     /// above their home switches and links 0.2 rad above their hard stops, as after a
     /// power-up), on the reference board (its profile's period and clock), 10 plant steps
-    /// per tick, no tool, no wall.
+    /// per tick, no tool, no wall, no second position channel.
     pub fn reference(rest: Option<[f64; NUM_JOINTS]>) -> Result<Self, BoardSimError> {
         let robot = RsprGeometry::<f64>::reference();
         let central = inverse(&robot, &Pose::central(robot.hc), Branch::OUTER)
@@ -273,6 +276,7 @@ impl BoardSimConfig {
             tool: None,
             wall: None,
             telemetry_us: 20_000,
+            position_channel: false,
             event_flash: (2, 128 * 1024),
             key: None,
         })
@@ -383,6 +387,7 @@ impl BoardSim {
             range: mech.range,
         });
         let mut hw = BoardOnPlant::at_rest(plant, rest)?.with_layout(&layout);
+        hw.position_channel = cfg.position_channel;
         let mut rt = Runtime::new(robot, cfg.runtime, 0).map_err(BoardSimError::Runtime)?;
         let (event_store, events) = control::event_log::boot(&mut flash.events, None);
         rt.restore_events(events);

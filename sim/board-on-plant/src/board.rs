@@ -1,8 +1,8 @@
 //! The board around the plant, behind the firmware's hardware traits (`hal`).
 
 use hal::{
-    Brakes, CurrentSense, LimitSwitches, MotorOutputs, PowerStage, QuadratureCounter, SafeOutputs,
-    SafetyChain,
+    AbsolutePositions, Brakes, CurrentSense, LimitSwitches, MotorOutputs, PowerStage,
+    QuadratureCounter, SafeOutputs, SafetyChain,
 };
 use plant::{Plant, PlantError, NUM_JOINTS};
 
@@ -58,6 +58,11 @@ pub struct BoardOnPlant {
     /// Counts added to each encoder's reading (a braked motor settled a count away,
     /// within its brake's play).
     pub count_offset: [i16; NUM_JOINTS],
+    /// The board reads the second position channel (the plant's absolute position
+    /// sensors, `plant::position_sensor`): a board with the channel fitted.
+    pub position_channel: bool,
+    /// The channel's read fails (a bus error): the board answers no readings.
+    pub position_channel_failed: bool,
     /// How many times the MCU disabled the outputs ([`MotorOutputs::disable`]).
     pub disables: u32,
     /// Plant steps each joint stood at a stop.
@@ -86,6 +91,8 @@ impl BoardOnPlant {
             stop_above: [None; NUM_JOINTS],
             current_offset_a: [0.0; NUM_JOINTS],
             count_offset: [0; NUM_JOINTS],
+            position_channel: false,
+            position_channel_failed: false,
             disables: 0,
             steps_at_stop: [0; NUM_JOINTS],
             at_stop: [None; NUM_JOINTS],
@@ -254,6 +261,18 @@ impl QuadratureCounter for BoardOnPlant {
         }
         self.last_counts = c;
         c
+    }
+}
+
+impl AbsolutePositions for BoardOnPlant {
+    fn absolute_fitted(&self) -> bool {
+        self.position_channel
+    }
+    /// The plant's absolute position sensors as the board's converter reads them, where
+    /// the board has the channel fitted and its read does not fail.
+    fn absolute_counts(&mut self) -> Option<[u16; NUM_JOINTS]> {
+        (self.position_channel && !self.position_channel_failed)
+            .then(|| self.plant.position_sensor_counts())
     }
 }
 

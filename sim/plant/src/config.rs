@@ -378,6 +378,26 @@ param_struct! {
     }
 }
 
+param_struct! {
+    /// The second position channel: an absolute position sensor per joint on the load side
+    /// (potentiometers read by a 16-bit converter on the board; `crate::position_sensor`).
+    pub struct PositionSensorConfig {
+        /// Electrical travel of a leg's linear potentiometer (65536 counts), mm.
+        leg_travel_mm: [1.0, 1000.0],
+        /// The leg length at the potentiometer's mid-travel, mm.
+        leg_mid_mm: [0.0, 1000.0],
+        /// Electrical angle of a link's single-turn potentiometer (65536 counts), deg.
+        link_travel_deg: [1.0, 360.0],
+        /// The link angle at the potentiometer's mid-angle, deg.
+        link_mid_deg: [-180.0, 180.0],
+        /// Noise of a reading, counts rms.
+        noise_lsb: [0.0, 1000.0],
+        /// The residual offset the channel's calibration leaves, counts (the same on every
+        /// joint).
+        offset_lsb: [-1000.0, 1000.0],
+    }
+}
+
 /// Kt and Ke of one motor must agree (they are the same constant in SI units).
 fn check_kt_ke(prefix: &str, kt: f64, ke: f64) -> Result<(), ConfigError> {
     let rel = (kt - ke).abs() / kt.max(ke);
@@ -396,6 +416,22 @@ fn check_kt_ke(prefix: &str, kt: f64, ke: f64) -> Result<(), ConfigError> {
 impl HBridgeConfig {
     fn check_consistency(&self, _prefix: &str) -> Result<(), ConfigError> {
         Ok(())
+    }
+}
+
+impl PositionSensorConfig {
+    fn check_consistency(&self, _prefix: &str) -> Result<(), ConfigError> {
+        Ok(())
+    }
+
+    /// Converter counts per metre of a leg.
+    pub fn leg_counts_per_m(&self) -> f64 {
+        65536.0 / (self.leg_travel_mm * 1e-3)
+    }
+
+    /// Converter counts per radian of a link.
+    pub fn link_counts_per_rad(&self) -> f64 {
+        65536.0 / self.link_travel_deg.to_radians()
     }
 }
 
@@ -503,6 +539,8 @@ pub struct PlantConfig {
     pub brake: BrakeConfig,
     /// `[encoder]`.
     pub encoder: EncoderConfig,
+    /// `[position_sensor]`.
+    pub position_sensor: PositionSensorConfig,
     /// `[prismatic]` merged with `[joint.l1]` .. `[joint.l3]`: joints l1, l2, l3.
     pub prismatic: [PrismaticConfig; 3],
     /// `[rotary]` merged with `[joint.theta1]` .. `[joint.theta3]`: joints theta1..theta3.
@@ -536,7 +574,13 @@ impl PlantConfig {
         for key in root.keys() {
             if !matches!(
                 key.as_str(),
-                "hbridge" | "brake" | "encoder" | "prismatic" | "rotary" | "joint"
+                "hbridge"
+                    | "brake"
+                    | "encoder"
+                    | "position_sensor"
+                    | "prismatic"
+                    | "rotary"
+                    | "joint"
             ) {
                 return Err(ConfigError::UnknownKey(key.clone()));
             }
@@ -544,18 +588,24 @@ impl PlantConfig {
         let hbridge = HBridgeConfig::from_table("hbridge", required_table(&root, "hbridge")?)?;
         let brake = BrakeConfig::from_table("brake", required_table(&root, "brake")?)?;
         let encoder = EncoderConfig::from_table("encoder", required_table(&root, "encoder")?)?;
+        let position_sensor = PositionSensorConfig::from_table(
+            "position_sensor",
+            required_table(&root, "position_sensor")?,
+        )?;
         let prismatic =
             PrismaticConfig::from_table("prismatic", required_table(&root, "prismatic")?)?;
         let rotary = RotaryConfig::from_table("rotary", required_table(&root, "rotary")?)?;
         // Whole sections first, so that errors name the section the value came from.
         hbridge.validate("hbridge")?;
         brake.validate("brake")?;
+        position_sensor.validate("position_sensor")?;
         prismatic.validate("prismatic")?;
         rotary.validate("rotary")?;
         let mut cfg = PlantConfig {
             hbridge,
             brake,
             encoder,
+            position_sensor,
             prismatic: [prismatic; 3],
             rotary: [rotary; 3],
         };
@@ -594,6 +644,7 @@ impl PlantConfig {
         self.hbridge.validate("hbridge")?;
         self.brake.validate("brake")?;
         self.encoder.validate("encoder")?;
+        self.position_sensor.validate("position_sensor")?;
         for (j, p) in self.prismatic.iter().enumerate() {
             p.validate(JOINT_NAMES[j])?;
         }
@@ -667,6 +718,14 @@ impl Default for PlantConfig {
             encoder: EncoderConfig {
                 lines_per_rev: 500,
                 quadrature_factor: 4,
+            },
+            position_sensor: PositionSensorConfig {
+                leg_travel_mm: 100.0,
+                leg_mid_mm: 177.0,
+                link_travel_deg: 340.0,
+                link_mid_deg: 0.0,
+                noise_lsb: 1.0,
+                offset_lsb: 2.0,
             },
             prismatic: [prismatic; 3],
             rotary: [rotary; 3],

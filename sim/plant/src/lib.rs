@@ -20,7 +20,10 @@
 //! H-bridge ([`hbridge`]) -> DC motor with current as a state ([`motor`]) -> gearing
 //! ([`gearing`], [`leadscrew`]) with load-proportional mesh friction (efficiency) ->
 //! backlash deadband ([`backlash`]) -> load mass or inertia with Coulomb/viscous friction
-//! and stiction ([`friction`]); a quadrature encoder on the motor shaft ([`encoder`]).
+//! and stiction ([`friction`]); a quadrature encoder on the motor shaft ([`encoder`]); an
+//! absolute position sensor on the load side, the second position channel
+//! ([`position_sensor`]: a potentiometer read by a 16-bit converter, with its noise,
+//! resolution, offset and faults).
 //! [`joint`] holds the time step, [`plant`] the six joints, [`config`] the parameters
 //! (`plant.toml`).
 //!
@@ -87,7 +90,9 @@ pub mod joint;
 pub mod leadscrew;
 pub mod motor;
 pub mod plant;
+pub mod position_sensor;
 
 pub use config::{ConfigError, PlantConfig, JOINT_NAMES};
 pub use joint::{BrakeModel, JointFaults, JointKind};
 pub use plant::{DutySaturation, Fault, Plant, PlantError, PlantStats, NUM_JOINTS};
+pub use position_sensor::{PositionSensor, SensorFaults};

@@ -10,6 +10,7 @@ use crate::hbridge::HBridge;
 use crate::joint::{BrakeModel, Joint, JointFaults, JointKind, JointModel};
 use crate::leadscrew::LeadScrew;
 use crate::motor::DcMotor;
+use crate::position_sensor::{PositionSensor, SensorFaults};
 use std::fmt;
 
 /// Number of actuated joints.
@@ -66,6 +67,17 @@ pub enum Fault {
     BrakeWorn {
         /// Remaining fraction of the holding torque.
         holding_ratio: f64,
+    },
+    /// The joint's absolute position sensor (the second channel) freezes at its reading
+    /// now (a worn track, a lifted wiper, a frozen converter channel).
+    PositionSensorStuck,
+    /// A wire of the joint's absolute position sensor is open: its input reads 0 counts.
+    PositionSensorOpen,
+    /// The joint's absolute position sensor's reading walks away from the position at
+    /// `per_s` joint units per second (m/s, rad/s; finite, not 0) from now on.
+    PositionSensorDrift {
+        /// The drift's rate, m/s or rad/s.
+        per_s: f64,
     },
 }
 
@@ -154,6 +166,8 @@ pub struct PlantStats {
 pub struct Plant {
     config: PlantConfig,
     joints: [Joint; NUM_JOINTS],
+    /// The second position channel: one absolute sensor per joint, on the load side.
+    sensors: [PositionSensor; NUM_JOINTS],
     time: f64,
     stats: PlantStats,
 }
@@ -273,9 +287,25 @@ impl Plant {
             };
             Joint::new(model, cpr)
         });
+        let ps = &config.position_sensor;
+        let sensors = std::array::from_fn(|j| {
+            let (cpu, mid) = if j < 3 {
+                (ps.leg_counts_per_m(), ps.leg_mid_mm * 1e-3)
+            } else {
+                (ps.link_counts_per_rad(), ps.link_mid_deg.to_radians())
+            };
+            PositionSensor::new(
+                cpu,
+                mid,
+                ps.noise_lsb,
+                ps.offset_lsb,
+                0x5EED_0000 + j as u64,
+            )
+        });
         Ok(Plant {
             config: config.clone(),
             joints,
+            sensors,
             time: 0.0,
             stats: PlantStats::default(),
         })
@@ -387,6 +417,20 @@ impl Plant {
         std::array::from_fn(|j| self.joints[j].encoder_counter())
     }
 
+    /// The second position channel's six converter readings (0 .. 65535 counts over each
+    /// sensor's electrical travel), of the load-side positions now
+    /// ([`crate::position_sensor`]).
+    pub fn position_sensor_counts(&self) -> [u16; NUM_JOINTS] {
+        std::array::from_fn(|j| self.sensors[j].reading(self.joints[j].position(), self.time))
+    }
+
+    /// Joint `joint`'s absolute position sensor.
+    pub fn position_sensor(&self, joint: usize) -> Result<&PositionSensor, PlantError> {
+        self.sensors
+            .get(joint)
+            .ok_or(PlantError::JointOutOfRange { joint })
+    }
+
     /// True load-side joint positions (after backlash): what the robot's pose uses.
     pub fn joint_positions(&self) -> [f64; NUM_JOINTS] {
         std::array::from_fn(|j| self.joints[j].position())
@@ -492,12 +536,43 @@ impl Plant {
 
     /// Injects a fault into joint `joint` (0..6); faults add up.
     pub fn inject(&mut self, joint: usize, fault: Fault) -> Result<(), PlantError> {
+        let q = self.joint(joint)?.position();
+        let now = self.time;
+        let sensor = self
+            .sensors
+            .get_mut(joint)
+            .ok_or(PlantError::JointOutOfRange { joint })?;
+        let mut sf = sensor.faults();
+        match fault {
+            Fault::PositionSensorStuck => {
+                sf.stuck = Some(sensor.reading(q, now));
+                sensor.set_faults(sf);
+                return Ok(());
+            }
+            Fault::PositionSensorOpen => {
+                sf.open_wire = true;
+                sensor.set_faults(sf);
+                return Ok(());
+            }
+            Fault::PositionSensorDrift { per_s } => {
+                if !(per_s.is_finite() && per_s != 0.0) {
+                    return Err(PlantError::InvalidFault(fault));
+                }
+                sf.drift = Some((per_s, now));
+                sensor.set_faults(sf);
+                return Ok(());
+            }
+            _ => {}
+        }
         let j = self
             .joints
             .get_mut(joint)
             .ok_or(PlantError::JointOutOfRange { joint })?;
         let mut f = j.faults();
         match fault {
+            Fault::PositionSensorStuck
+            | Fault::PositionSensorOpen
+            | Fault::PositionSensorDrift { .. } => {}
             Fault::EncoderStuck => f.encoder_stuck = true,
             Fault::EncoderLosesCounts { one_in } => {
                 if one_in == 0 {
@@ -541,15 +616,23 @@ impl Plant {
         Ok(())
     }
 
-    /// Removes every fault of joint `joint`. Counts missed while the encoder was faulty
-    /// stay missed.
+    /// Removes every fault of joint `joint`, its position sensor's too. Counts missed
+    /// while the encoder was faulty stay missed.
     pub fn clear_faults(&mut self, joint: usize) -> Result<(), PlantError> {
         let j = self
             .joints
             .get_mut(joint)
             .ok_or(PlantError::JointOutOfRange { joint })?;
         j.set_faults(JointFaults::default());
+        if let Some(s) = self.sensors.get_mut(joint) {
+            s.set_faults(SensorFaults::default());
+        }
         Ok(())
+    }
+
+    /// The faults injected into joint `joint`'s position sensor.
+    pub fn sensor_faults(&self, joint: usize) -> Result<SensorFaults, PlantError> {
+        Ok(self.position_sensor(joint)?.faults())
     }
 
     /// Replaces the set of faults injected into joint `joint` (e.g. a simulator's hard stop

@@ -6,6 +6,7 @@ use kinematics_core::{Branch, Mechanism, Pose};
 use servo::config::ConfigError;
 use servo::NUM_JOINTS;
 
+use crate::absolute::{ChannelCalibration, ChannelConfig};
 use crate::brakes::BrakeCheckConfig;
 use crate::controller::ControllerConfig;
 use crate::current::CurrentConfig;
@@ -48,6 +49,10 @@ pub struct RuntimeConfig<S: Scalar> {
     pub relay_debounce_ticks: u16,
     /// The park move after homing (speeds, path check, settling).
     pub park: ParkConfig<S>,
+    /// The second position channel's calibration (read where the board has it fitted).
+    pub channel_calibration: ChannelCalibration<S>,
+    /// The second position channel's monitor against the encoders.
+    pub channel: ChannelConfig<S>,
 }
 
 /// Why the runtime refuses its settings: each concern's own error.
@@ -128,19 +133,42 @@ pub fn reference_config_for<S: Scalar, M: Mechanism<S>>(
     };
     let mech = mech.unwrap_or_else(|| reference_mechanics(&controller.limits));
     let rest = rest.unwrap_or(central_q);
+    let encoder_check = EncoderCheckConfig::reference(controller.encoders.counts_per_unit);
+    let channel_calibration = ChannelCalibration::reference(&mech.range);
+    let widths = controller.servo.backlash.joints.map(|b| b.width);
+    let current = CurrentConfig::default();
+    let continuous = current.motors.map(|m| m.continuous_a);
+    let channel = ChannelConfig::reference(
+        &channel_calibration,
+        &controller.encoders.counts_per_unit,
+        &widths,
+        &encoder_check.top_speed,
+        &continuous,
+        S::one() / controller.rate_hz,
+    );
+    let mut homing = HomingConfig::for_mechanics(&mech, &central_q, &rest, Some(central_q));
+    // The verification's two channels agree within the monitor's bound over the move.
+    for (j, a) in homing.verify.agree.iter_mut().enumerate() {
+        let at = |x: &[S; NUM_JOINTS]| x.get(j).copied().unwrap_or_else(S::zero);
+        *a = at(&channel.agree)
+            + at(&channel.backlash)
+            + channel.scale * at(&homing.verify.distance);
+    }
     Ok(RuntimeConfig {
-        encoder_check: EncoderCheckConfig::reference(controller.encoders.counts_per_unit),
+        encoder_check,
         controller,
-        homing: HomingConfig::for_mechanics(&mech, &central_q, &rest, Some(central_q)),
+        homing,
         mechanics: mech,
         heartbeat: HeartbeatConfig::default(),
         targets: TargetClockConfig::default(),
         fk_failures_to_fault: 10,
         stops: StopConfig::default(),
         brakes: BrakeCheckConfig::default(),
-        current: CurrentConfig::default(),
+        current,
         power: PowerConfig::default(),
         relay_debounce_ticks: 20,
         park: ParkConfig::default(),
+        channel_calibration,
+        channel,
     })
 }

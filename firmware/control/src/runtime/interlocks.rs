@@ -5,8 +5,9 @@
 //! button still pressed, the safety chain (latched until a power cycle and a passed relay
 //! test), the heartbeat still late, a joint still beyond its range or a switch still
 //! closed, a current still above its trip, a winding still above its derating
-//! temperature, the supply out of range, and a missed deadline (the watchdog resets the
-//! board). The others cannot be re-tested at rest: a following error, an encoder, a homing
+//! temperature, the supply out of range, a missed deadline (the watchdog resets the
+//! board), and the second position channel without a reading or at a rail (an open wire).
+//! The others cannot be re-tested at rest: a following error, an encoder, a homing
 //! failure, a guard stop, and the drivers' fault line (a driver keeps its fault latched
 //! while it is disabled and releases it when enabled again, so the line says nothing until
 //! the next enable, whose brake check runs with the drivers on and the power stage
@@ -77,6 +78,11 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
                 .any(|h| !(*h <= current.derating_from())),
             FaultCause::SupplyVoltage => !self.monitors.power.supply_in_range(i.supply_v),
             FaultCause::DeadlineMissed => true,
+            FaultCause::PositionSensor => {
+                let raw = self.sensing.measured().absolute_raw;
+                self.sensing.channel_fitted()
+                    && self.monitors.channel.failed_reading(raw.as_ref()).is_some()
+            }
             _ => false,
         }
     }

@@ -8,7 +8,8 @@
 //! One tick, in every mode:
 //! ```text
 //! sense     counters -> extended counts -> motors -> joints (less the servo's backlash
-//!           offsets); currents, supply, driver fault, switches, e-stop button, relay
+//!           offsets); the second position channel (where fitted); currents, supply,
+//!           driver fault, switches, e-stop button, relay
 //! monitors  safety chain, power stage, currents (overcurrent, overload, I²t), encoders
 //!           (jump, dead), joint ranges and limit switches, standstill of a safe operating
 //!           stop, forward kinematics, heartbeat: each finding is a fault with its cause,
@@ -19,7 +20,8 @@
 //! stop      the stop's progress (standstill ends a deceleration; the brakes' engage time
 //!           ends SS1)
 //! outputs   duties capped by the current limit -> PWM; brakes; torque on or off
-//! after     the measured pose (FK tracker), the controller's evaluation phase
+//! after     the measured pose (FK tracker), the controller's evaluation phase, the second
+//!           position channel against the encoders (where the board has it)
 //! status    from what the tick computed (no second evaluation)
 //! ```
 //! Every change of mode goes through [`crate::modes::next`] (`transitions.rs`).
@@ -114,6 +116,8 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             cfg.controller.fk,
         )
         .map_err(|e| RuntimeError::Sensing(crate::sensing::SensingError::Config(e)))?;
+        let mut sensing = sensing;
+        sensing.set_channel(cfg.channel_calibration);
         cfg.heartbeat.validate().map_err(RuntimeError::Heartbeat)?;
         let rate = cfg.controller.rate_hz;
         let lit = kinematics_core::scalar::lit::<S>;
@@ -467,6 +471,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
                 ctl.evaluate();
             }
         }
+        self.check_channel(now_us);
         self.update_warnings(now_us);
         RuntimeTick {
             state: self.state(),

@@ -5,6 +5,7 @@ use hal::Hardware;
 use servo::NUM_JOINTS;
 
 use super::config::RuntimeConfig;
+use crate::absolute::ChannelCheck;
 use crate::current::CurrentMonitor;
 use crate::monitors::{EncoderCheck, MotorCheck, PowerCheck, SafetyChainCheck};
 use crate::scalar::Scalar;
@@ -72,6 +73,8 @@ pub struct Monitors<S> {
     pub power: PowerCheck<S>,
     /// The safety chain: the e-stop button against the relay's feedback.
     pub chain: SafetyChainCheck,
+    /// The second position channel against the encoders (where the board has it).
+    pub channel: ChannelCheck<S>,
 }
 
 impl<S: Scalar> Monitors<S> {
@@ -83,6 +86,7 @@ impl<S: Scalar> Monitors<S> {
             motor: MotorCheck::new(&cfg.current.motors),
             power: PowerCheck::new(cfg.power),
             chain: SafetyChainCheck::new(cfg.relay_debounce_ticks),
+            channel: ChannelCheck::new(cfg.channel),
         }
     }
 }

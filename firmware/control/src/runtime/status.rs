@@ -112,6 +112,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             fault_log_len: u16::try_from(self.log.len()).unwrap_or(u16::MAX),
             missed_ticks: self.missed_ticks,
             owner_changes: self.session.owner_changes(),
+            position_channel: self.sensing.channel_fitted(),
         }
     }
 }

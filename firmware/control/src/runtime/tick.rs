@@ -9,6 +9,7 @@ use servo::NUM_JOINTS;
 use super::mode::{cause_bit, Mode};
 use super::monitoring::Inputs;
 use super::Runtime;
+use crate::absolute::ChannelInputs;
 use crate::current::CurrentFault;
 use crate::modes::ModeKind;
 use crate::monitors::{check_ranges, DriveSample, Finding};
@@ -19,6 +20,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
     /// Reads the inputs and runs the monitors: every new finding becomes a fault.
     pub(super) fn sense_and_monitor<H: Hardware<S>>(&mut self, hw: &mut H, now_us: u64) {
         self.sensing.read(hw);
+        self.sensing.read_absolute(hw);
         self.inputs = Inputs::read(hw);
         if let Some(ev) = self.session.poll(now_us) {
             let _ = self.apply(ev, now_us);
@@ -26,17 +28,52 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         let findings = self.findings(now_us);
         // Every finding is acted on, not only the first: a later one may call for a
         // stronger stop than one already latched (an SS1 over-temperature must not mask an
-        // STO encoder jump). A cause already raised since the fault was latched is a
-        // repeat (a monitor reports a lasting condition every tick): neither logged nor
-        // acted on again.
+        // STO encoder jump).
         for f in findings.into_iter().flatten() {
-            let raised = self
-                .mode
-                .latched()
-                .is_some_and(|l| l.raised & cause_bit(f.cause) != 0);
-            if !raised {
-                self.fault(f, now_us);
-            }
+            self.report(f, now_us);
+        }
+    }
+
+    /// A monitor's finding: a fault, unless its cause was already raised since the fault
+    /// was latched (a monitor reports a lasting condition every tick: a repeat is neither
+    /// logged nor acted on again).
+    fn report(&mut self, f: Finding, now_us: u64) {
+        let raised = self
+            .mode
+            .latched()
+            .is_some_and(|l| l.raised & cause_bit(f.cause) != 0);
+        if !raised {
+            self.fault(f, now_us);
+        }
+    }
+
+    /// The second position channel against the encoders (`crate::absolute`), on a board
+    /// that has it. It runs once the tick's outputs are written (it feeds none of them): a
+    /// finding latches its fault now, and its stop drives the outputs from the next tick.
+    /// The robot holds while a safe operating stop holds, and while the brakes hold with
+    /// torque off (their engage time past).
+    pub(super) fn check_channel(&mut self, now_us: u64) {
+        if !self.sensing.channel_fitted() {
+            return;
+        }
+        let engaged = self
+            .outputs
+            .brakes_applied_at_us()
+            .is_none_or(|t| now_us.saturating_sub(t) >= self.cfg.stops.brake_engage_us);
+        let braked = !self.outputs.torque_on() && !self.outputs.brakes_released() && engaged;
+        let holding = braked || self.mode.stop_phase() == StopPhase::Holding;
+        let m = self.sensing.measured();
+        let p = m.absolute.unwrap_or([S::zero(); NUM_JOINTS]);
+        let inputs = ChannelInputs {
+            raw: m.absolute_raw.as_ref(),
+            p: &p,
+            motor: &m.motor,
+            current: &self.inputs.currents,
+            holding,
+            epoch: self.sensing.reference_epoch(),
+        };
+        if let Some(f) = self.monitors.channel.check(&inputs) {
+            self.report(f, now_us);
         }
     }
 

@@ -80,6 +80,8 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         }
         if from == ModeKind::Fault && to != ModeKind::Fault && event == Event::ClearFault {
             self.warnings.remove(Warnings::HEARTBEAT_LATE);
+            // A cleared disagreement starts over from where the channels stand now.
+            self.monitors.channel.restart();
         }
     }
 
@@ -113,7 +115,10 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
     }
 
     /// `Home`: the homing starts from where the joints are (a homed robot's known joints
-    /// start the travel windows); the master just spoke, so the heartbeat restarts.
+    /// start the travel windows); the master just spoke, so the heartbeat restarts. Where
+    /// the board has the second position channel and it reads, the references are restored
+    /// from it and verified (`Homing::start_restore`: no sweep to the switches, so no load
+    /// check of a sweep); otherwise every joint sweeps to its switch or stop.
     fn enter_homing(&mut self, now_us: u64) -> Result<(), Refusal> {
         let Ok(mut homing) = Homing::new(&self.cfg.homing, &self.cfg.controller.servo) else {
             return Err(Refusal::NotAllowed);
@@ -122,18 +127,26 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         self.session.rearm(now_us);
         self.sensing.lose_reference();
         let m = *self.sensing.measured();
-        homing.start(
-            &m.q,
-            &m.motor,
-            &self.sensing.encoders().counts(),
-            known.as_ref(),
-            now_us,
-        );
+        let counts = self.sensing.encoders().counts();
+        let restore = match m.absolute {
+            Some(p) if self.sensing.channel_fitted() => {
+                homing.start_restore(&m.q, &m.motor, &counts, &p, now_us);
+                true
+            }
+            _ => {
+                homing.start(&m.q, &m.motor, &counts, known.as_ref(), now_us);
+                false
+            }
+        };
         // Before any motion: a switch that cannot read what it reads, or a declared tool
-        // the homing cannot carry, fails it.
-        let checked = homing
-            .check_switches(&self.inputs.switches)
-            .and_then(|()| self.check_homing_load(known.as_ref()));
+        // the homing's sweep cannot carry, fails it.
+        let checked = homing.check_switches(&self.inputs.switches).and_then(|()| {
+            if restore {
+                Ok(())
+            } else {
+                self.check_homing_load(known.as_ref())
+            }
+        });
         self.mode = Mode::Homing(homing);
         if let Err(e) = checked {
             let finding = Finding {
@@ -428,6 +441,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
     /// stronger one). A fault whose cause makes the encoders' reference doubtful loses the
     /// homing.
     pub fn fault(&mut self, finding: Finding, now_us: u64) {
+        let finding = self.attributed(finding);
         let record = finding.record(now_us);
         let cause = finding.cause;
         if let Mode::Fault { latched, .. } = &self.mode {
@@ -500,6 +514,32 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         self.settle_stop(now_us);
     }
 
+    /// A finding a failing encoder explains (the motor model's current or back-EMF, the
+    /// servo's tracking, the standstill), on a joint whose encoder saw less motion than
+    /// the second channel (where fitted) by more than the channel's check allows, is named
+    /// as the encoder (`EncoderDisagree`): the monitors that judge the encoder through the
+    /// motor model would otherwise name it by its symptom.
+    fn attributed(&self, f: Finding) -> Finding {
+        const EXPLAINED: [FaultCause; 6] = [
+            FaultCause::EncoderDead,
+            FaultCause::MotorOpen,
+            FaultCause::CurrentImplausible,
+            FaultCause::NoMotion,
+            FaultCause::FollowingError,
+            FaultCause::StandstillLost,
+        ];
+        let explained = match f.joint {
+            Some(j) if self.sensing.channel_fitted() && EXPLAINED.contains(&f.cause) => {
+                self.monitors.channel.explains(j).map(|e| (j, e))
+            }
+            _ => None,
+        };
+        match explained {
+            Some((j, e)) => Finding::joint(FaultCause::EncoderDisagree, j, e),
+            None => f,
+        }
+    }
+
     /// The stop of `event` in a mode that had none, or the one in force made stronger.
     fn stop_of(
         &self,
@@ -535,13 +575,17 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
     }
 
     /// Every joint referenced: the pose is solved, and the park move starts (its path is
-    /// checked against the guards first), or, without a park position, the homing is done.
+    /// checked against the guards first), or, without a park position or after references
+    /// restored from the second channel (the robot stays where it is: its tool may be
+    /// inside a patient), the homing is done.
     fn start_park(&mut self, now_us: u64) {
         if self.sensing.track_pose().is_err() {
             return self.park_failed(ParkRefusal::NoPose { sample: 0 }, now_us);
         }
         let m = *self.sensing.measured();
-        let (Some(park), Some(pose)) = (self.cfg.homing.park, m.pose) else {
+        let restored = self.mode.homing().is_some_and(Homing::restored);
+        let park = self.cfg.homing.park.filter(|_| !restored);
+        let (Some(park), Some(pose)) = (park, m.pose) else {
             let _ = self.apply(Event::Parked, now_us);
             return;
         };

@@ -162,6 +162,7 @@ const EMPTY_STATUS: StatusReport = StatusReport {
     fault_log_len: 0,
     missed_ticks: 0,
     owner_changes: 0,
+    position_channel: false,
 };
 
 impl Default for Shared {

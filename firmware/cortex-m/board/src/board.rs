@@ -32,6 +32,7 @@
 //! | SWD                      | PA13 / PA14| debug (keep free)     |
 //! | HSE 8 MHz crystal        | PH0 / PH1  | RCC                   |
 //! | time driver              | -          | TIM12 (no pins)       |
+//! | position sensor l1..theta3 (second channel, `position-channel` boards only) | PF3..PF8 | ADC3 IN9, IN14, IN15, IN4, IN5, IN6 |
 //!
 //! The six PWM channels fit exactly on TIM9 (2 channels) + TIM10/11/13/14 (1 each):
 //! sign-magnitude drive, one PWM and one direction pin per H-bridge.
@@ -50,6 +51,20 @@
 //! 39.6 V full scale) onto PB0. The drivers regulate their current cycle by cycle at the
 //! joints' rated effort (ITRIP resistor: 5.2 A on the legs, 0.66 A on the links).
 //!
+//! **Second position channel (absolute position sensors).** A board with the channel has a
+//! conductive-plastic potentiometer per joint on the load side (a linear one per leg, a
+//! single-turn one per link), supplied from the ADC's reference (ratiometric: the reference
+//! cancels) and read through a 1.6 kHz RC filter per input. The STM32F405RG (LQFP64) has no
+//! analog input left for them: its sixteen ADC inputs (PA0..PA7, PB0, PB1, PC0..PC5) carry
+//! encoders, PWM, switches, the LED, the supply and the currents, and only PB2 is free.
+//! The channel is therefore fitted on the STM32F405ZG (LQFP144: the same die, memory and
+//! firmware, every pin above in the same place) whose port F brings ADC3's inputs out:
+//! PF3..PF8, ADC3 IN9, IN14, IN15, IN4, IN5, IN6, joint order. The image for it is built
+//! with `--no-default-features --features position-channel` (the chip's feature and the
+//! pins); the default image is the prototype's board, without the channel, and says so
+//! (`hal::AbsolutePositions::absolute_fitted`, the status report's `position_channel`).
+//! The 12-bit readings are scaled to the hal's 16 bits (`<< 4`).
+//!
 //! **Safety relay feedback.** The relay's force-guided auxiliary contact is closed to
 //! ground while the relay holds its main contacts closed (drivers powered); with the
 //! pull-up, high = relay open, and a broken feedback wire also reads open, which the
@@ -59,7 +74,7 @@ use embassy_stm32::adc::{Adc, AdcChannel, AnyAdcChannel};
 use embassy_stm32::flash::{Blocking, Flash};
 use embassy_stm32::gpio::{Input, Level, Output, OutputType, Pull, Speed};
 use embassy_stm32::peripherals::{
-    ADC1, IWDG, TIM1, TIM10, TIM11, TIM13, TIM14, TIM2, TIM3, TIM4, TIM5, TIM8, TIM9,
+    ADC1, ADC3, IWDG, TIM1, TIM10, TIM11, TIM13, TIM14, TIM2, TIM3, TIM4, TIM5, TIM8, TIM9,
 };
 use embassy_stm32::time::Hertz;
 use embassy_stm32::timer::low_level::CountingMode;
@@ -107,6 +122,10 @@ pub const CURRENT_ZERO_COUNT: f32 = 2048.0;
 /// Supply sense: volts of the bridges' supply per ADC count (3.3 V reference, 12:1
 /// divider).
 pub const SUPPLY_V_PER_COUNT: f32 = 3.3 / 4096.0 * 12.0;
+
+/// A position sensor (the second channel's potentiometer) wired the other way round: its
+/// reading is inverted, `65535 - raw` (hal sign convention: counts up towards +q).
+pub const INVERT_POSITION_SENSOR: [bool; 6] = [false; 6];
 
 /// The driver-enable pin at register level (for the interrupt-safe kill): GPIOA pin 10.
 const DRV_EN_PORT: pac::gpio::Gpio = pac::GPIOA;
@@ -175,7 +194,14 @@ pub struct Motors {
     pub brakes: [Output<'static>; 2],
 }
 
-/// Home switches, motor currents, the supply, the drivers' fault line, the relay feedback.
+/// The second position channel: a potentiometer per joint on ADC3 (joint order).
+pub struct Potentiometers {
+    pub adc: Adc<'static, ADC3>,
+    pub channels: [AnyAdcChannel<'static, ADC3>; 6],
+}
+
+/// Home switches, motor currents, the supply, the drivers' fault line, the relay feedback,
+/// and the second position channel where the board has it.
 pub struct Sensors {
     pub switches: [Input<'static>; 6],
     pub adc: Adc<'static, ADC1>,
@@ -183,6 +209,7 @@ pub struct Sensors {
     pub supply: AnyAdcChannel<'static, ADC1>,
     pub driver_fault: Input<'static>,
     pub relay_feedback: Input<'static>,
+    pub absolute: Option<Potentiometers>,
 }
 
 /// Everything the firmware uses.
@@ -316,6 +343,20 @@ impl Board {
             supply: p.PB0.degrade_adc(),
             driver_fault: Input::new(p.PC15, Pull::Up),
             relay_feedback: Input::new(p.PC14, Pull::Up),
+            #[cfg(feature = "position-channel")]
+            absolute: Some(Potentiometers {
+                adc: Adc::new(p.ADC3),
+                channels: [
+                    p.PF3.degrade_adc(),
+                    p.PF4.degrade_adc(),
+                    p.PF5.degrade_adc(),
+                    p.PF6.degrade_adc(),
+                    p.PF7.degrade_adc(),
+                    p.PF8.degrade_adc(),
+                ],
+            }),
+            #[cfg(not(feature = "position-channel"))]
+            absolute: None,
         };
 
         let estop_pull = if ESTOP_ACTIVE_HIGH {

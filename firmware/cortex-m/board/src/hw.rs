@@ -15,8 +15,8 @@ use embassy_stm32::peripherals::IWDG;
 use embassy_stm32::usart::{RingBufferedUartRx, UartTx};
 use embassy_stm32::wdg::IndependentWatchdog;
 use hal::{
-    Brakes, CurrentSense, LimitSwitches, MotorOutputs, PowerStage, QuadratureCounter, SafeOutputs,
-    SafetyChain,
+    AbsolutePositions, Brakes, CurrentSense, LimitSwitches, MotorOutputs, PowerStage,
+    QuadratureCounter, SafeOutputs, SafetyChain,
 };
 use kinematics_core::Mechanism;
 
@@ -165,6 +165,27 @@ impl CurrentSense<f32> for Hardware {
             *o = if inv { -i } else { i };
         }
         out
+    }
+}
+
+impl AbsolutePositions for Hardware {
+    fn absolute_fitted(&self) -> bool {
+        self.sensors.absolute.is_some()
+    }
+    /// The six potentiometers, one conversion each (56 ADC cycles of sampling: the RC
+    /// filter's capacitor charges the sampling capacitor), scaled from 12 to 16 bits.
+    fn absolute_counts(&mut self) -> Option<[u16; 6]> {
+        let pots = self.sensors.absolute.as_mut()?;
+        let mut out = [0u16; 6];
+        for ((o, ch), inv) in out
+            .iter_mut()
+            .zip(pots.channels.iter_mut())
+            .zip(board::INVERT_POSITION_SENSOR)
+        {
+            let raw = pots.adc.blocking_read(ch, SampleTime::CYCLES56) << 4;
+            *o = if inv { u16::MAX - raw } else { raw };
+        }
+        Some(out)
     }
 }
 

@@ -7,7 +7,7 @@
 //!
 //! [`step`]: PlantStub::step
 
-use hal::{MotorOutputs, QuadratureCounter};
+use hal::{AbsolutePositions, MotorOutputs, QuadratureCounter};
 use nalgebra::ComplexField;
 
 /// No-load speed at full duty: legs 0.378 m/s, links 28.5 rad/s.
@@ -24,6 +24,8 @@ pub struct PlantStub {
     q0: [f64; 6],
     raw0: [u16; 6],
     raw: [u16; 6],
+    /// The second channel's readings (updated by `step`, copied by the reads).
+    absolute: [u16; 6],
     duty: [f32; 6],
     enabled: bool,
     /// Calls of `set_duties` and `disable`.
@@ -47,6 +49,7 @@ impl PlantStub {
             q0,
             raw0,
             raw: raw0,
+            absolute: [32768; 6],
             duty: [0.0; 6],
             enabled: true,
             writes: 0,
@@ -79,7 +82,30 @@ impl PlantStub {
             self.v[j] = v_inf + (self.v[j] - v_inf) * e;
             let counts = ComplexField::round((self.q[j] - self.q0[j]) * counts_per_unit(j)) as i64;
             self.raw[j] = self.raw0[j].wrapping_add(counts as u16);
+            let c = 32768.0 + (self.q[j] - self.q0[j]) * absolute_counts_per_unit(j);
+            self.absolute[j] = ComplexField::round(c).clamp(0.0, 65535.0) as u16;
         }
+    }
+}
+
+/// Counts of the second channel's converter per joint unit: 100 mm over 65536 counts on a
+/// leg, 340 deg on a link (`control::absolute::ChannelCalibration::reference`).
+pub fn absolute_counts_per_unit(j: usize) -> f64 {
+    if j < 3 {
+        65536.0 / 0.1
+    } else {
+        65536.0 / 340f64.to_radians()
+    }
+}
+
+/// The second position channel: a potentiometer per joint on the load side, at mid-scale
+/// where the motors started (`q0`), read without noise.
+impl AbsolutePositions for PlantStub {
+    fn absolute_fitted(&self) -> bool {
+        true
+    }
+    fn absolute_counts(&mut self) -> Option<[u16; 6]> {
+        Some(self.absolute)
     }
 }
 

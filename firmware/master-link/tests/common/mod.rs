@@ -209,6 +209,7 @@ pub fn max_status() -> StatusReport {
         fault_log_len: u16::MAX,
         missed_ticks: u32::MAX,
         owner_changes: u16::MAX,
+        position_channel: true,
     }
 }
 

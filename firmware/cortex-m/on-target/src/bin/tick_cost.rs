@@ -13,6 +13,9 @@
 )]
 #![no_main]
 
+use control::absolute::{ChannelCalibration, ChannelCheck, ChannelConfig, ChannelInputs};
+use control::current::CurrentConfig;
+use control::monitors::EncoderCheckConfig;
 use control::{Controller, ControllerConfig, PoseStatus, Sensing, TickReport, ToolLoad};
 use core::hint::black_box;
 use cortex_m_rt::entry;
@@ -33,7 +36,7 @@ use kinematics_core::{
 use nalgebra::{ComplexField, Matrix6, RealField, Rotation3, Vector3, Vector6};
 use on_target::bench::{bench_profile_off, bench_profile_on, calibrate, measure};
 use on_target::hprintln;
-use on_target::stub::PlantStub;
+use on_target::stub::{absolute_counts_per_unit, PlantStub};
 use panic_semihosting as _;
 use servo::encoder::{EncoderConfig, Encoders};
 use servo::{JointServo, Pid, PidGains, PidInput, ServoConfig};
@@ -137,6 +140,22 @@ fn full_tick() {
     let Ok(mut ctl) = Controller::<f32, G32>::new(g, cfg, sensing.measured()) else {
         panic!("controller setup");
     };
+    // The second position channel, fitted: read in the tick with the counters, checked
+    // against the encoders after the outputs (as the runtime does).
+    let calibration = ChannelCalibration {
+        counts_per_unit: core::array::from_fn(|j| absolute_counts_per_unit(j) as f32),
+        mid: q0,
+    };
+    sensing.set_channel(calibration);
+    let mut channel = ChannelCheck::new(ChannelConfig::reference(
+        &calibration,
+        &cfg.encoders.counts_per_unit,
+        &cfg.servo.backlash.joints.map(|b| b.width),
+        &EncoderCheckConfig::reference(cfg.encoders.counts_per_unit).top_speed,
+        &CurrentConfig::default().motors.map(|m| m.continuous_a),
+        1.0 / cfg.rate_hz,
+    ));
+    let currents = [0.0f32; 6];
     let mut prev_mode = Mode::Holding;
     let mut now_us = 1_000u64;
     let (mut fk_iters, mut fk_ticks) = (0u32, 0u32);
@@ -194,7 +213,8 @@ fn full_tick() {
         // The full tick, from the readings to the outputs: the counters, then the planner's
         // step and the drive.
         measure(&mut || {
-            let measured = sensing.read(&mut plant);
+            sensing.read(&mut plant);
+            let measured = sensing.read_absolute(&mut plant);
             let r = ctl.tick(measured);
             r.apply(&mut plant);
             report = Some(r);
@@ -205,15 +225,28 @@ fn full_tick() {
         let tool = if k >= 200 { ", with the tool" } else { "" };
         hprintln!("@label Controller::tick: {}{}", kind, tool);
         // The rest of the period, after the outputs (out of the tick's profile): the
-        // measured pose (FK tracker) and the controller's evaluation phase.
+        // measured pose (FK tracker), the controller's evaluation phase and the second
+        // position channel against the encoders.
         let profiling = (window.0..window.1).contains(&k);
         if profiling {
             bench_profile_off();
         }
+        let mut finding = None;
         measure(&mut || {
             sensing.follow_pose();
             ctl.evaluate();
+            let m = sensing.measured();
+            let p = m.absolute.unwrap_or([0.0; 6]);
+            finding = channel.check(&ChannelInputs {
+                raw: m.absolute_raw.as_ref(),
+                p: &p,
+                motor: &m.motor,
+                current: &currents,
+                holding: false,
+                epoch: sensing.reference_epoch(),
+            });
         });
+        black_box(finding);
         if profiling {
             bench_profile_on();
         }
