@@ -17,6 +17,8 @@ use master_link::{
     Seq, StatusReport,
 };
 use std::collections::HashMap;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use std::time::Duration;
 
 /// The board's answer to a `StoreGeometry`.
@@ -98,6 +100,8 @@ pub struct Session {
     last_stamp_us: u64,
     /// Why the board refused this master's last `Hello`, if it did.
     pub hello_refused: Option<NackReason>,
+    /// Set from outside (a signal) to end every wait with [`TeleopError::Interrupted`].
+    pub stop: Option<Arc<AtomicBool>>,
 }
 
 impl Session {
@@ -122,6 +126,7 @@ impl Session {
             clock: BoardClock::default(),
             last_stamp_us: 0,
             hello_refused: None,
+            stop: None,
         }
     }
 
@@ -277,6 +282,13 @@ impl Session {
     /// heartbeats that fall due.
     pub fn poll_until(&mut self, t_end_s: f64) -> Result<(), TeleopError> {
         loop {
+            if self
+                .stop
+                .as_ref()
+                .is_some_and(|s| s.load(Ordering::Relaxed))
+            {
+                return Err(TeleopError::Interrupted);
+            }
             let now = self.now_s();
             if self.heartbeat && now - self.last_beat_s >= HEARTBEAT_PERIOD_S {
                 self.link.send(&MasterToBoard::Heartbeat)?;
