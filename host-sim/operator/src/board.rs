@@ -565,13 +565,23 @@ impl Board {
     pub fn hello(&mut self, timeout_s: f64) -> Result<HelloInfo, BoardError> {
         let end = self.now_s() + timeout_s;
         self.hello_refused = None;
+        let mut refused_since = None;
         while self.now_s() < end {
             self.send_hello()?;
             let until = (self.now_s() + 0.5).min(end);
             while self.now_s() < until {
                 self.receive_picking::<()>(Duration::from_millis(10), &mut |_| None)?;
-                if let Some(reason) = self.hello_refused {
-                    return Err(BoardError::HelloRefused(reason));
+                if let Some(reason) = self.hello_refused.take() {
+                    // The last owner's stop may still be ending: asked again for a while.
+                    let first = *refused_since.get_or_insert(self.now_s());
+                    if reason != NackReason::NotOwner
+                        || self.now_s() - first > teleop::session::HELLO_RETRY_S
+                    {
+                        return Err(BoardError::HelloRefused(reason));
+                    }
+                    let again = self.now_s() + 0.1;
+                    self.idle_until(again)?;
+                    break;
                 }
                 if let Some(h) = self.hello {
                     // A new owner starts with the operator absent; the operator at this

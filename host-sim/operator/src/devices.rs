@@ -21,7 +21,8 @@
 //! dead-man held) and `clutch` (clutch pressed) hold from that waypoint on. Between
 //! waypoints the pose moves linearly (position) and along the shortest arc (orientation)
 //! (`masters::script::ScriptedMaster`); after the last it rests. A last line
-//! `T error TEXT` makes the device fail at T s with TEXT (the front end's own error path).
+//! `T error TEXT` makes the device report a read error with TEXT from T s on (counted in
+//! the run's report; without samples the teleoperation holds).
 
 use crate::error::OperatorError;
 use masters::evdev::{DeviceMatch, EvdevMaster};

@@ -62,6 +62,10 @@ pub struct Refused {
     pub reason: NackReason,
 }
 
+/// How long a `Hello` refused with `NotOwner` is sent again, s: the stop that ends the
+/// last master's session (brakes engaging, about 100 ms) with margin.
+pub const HELLO_RETRY_S: f64 = 1.0;
+
 /// The master.
 pub struct Session {
     /// The link.
@@ -368,6 +372,7 @@ impl Session {
         let end = self.now_s() + timeout_s;
         self.hello = None;
         self.hello_refused = None;
+        let mut refused_since = None;
         while self.now_s() < end {
             let stamp = self.clock_stamp_us();
             let hello = self.link.hello_message(stamp);
@@ -380,8 +385,16 @@ impl Session {
                     self.request(MasterToBoard::OperatorPresent { present: true }, 1.0)?;
                     return Ok(h);
                 }
-                if let Some(reason) = self.hello_refused {
-                    return Err(TeleopError::HelloRefused(reason));
+                if let Some(reason) = self.hello_refused.take() {
+                    // The owner's robot may be in the last instants of its stop (brakes
+                    // engaging after a Disable): asked again within HELLO_RETRY_S.
+                    let first = *refused_since.get_or_insert(self.now_s());
+                    if reason != NackReason::NotOwner || self.now_s() - first > HELLO_RETRY_S {
+                        return Err(TeleopError::HelloRefused(reason));
+                    }
+                    let again = self.now_s() + 0.1;
+                    self.poll_until(again)?;
+                    break;
                 }
                 let step = (self.now_s() + 0.01).min(t);
                 self.poll_until(step)?;
