@@ -19,7 +19,7 @@ use crate::status::StatusCode;
 use crate::stream::{DecoderLimits, Event, Malformed, MalformedKind, StreamDecoder, StreamError};
 use crate::timestamp::Timestamp;
 use std::io::{ErrorKind, Read, Write};
-use std::net::{SocketAddr, TcpListener, TcpStream, ToSocketAddrs};
+use std::net::{IpAddr, SocketAddr, TcpListener, TcpStream, ToSocketAddrs};
 use std::time::{Duration, Instant};
 use thiserror::Error;
 
@@ -59,7 +59,18 @@ pub struct ServerConfig {
     pub stream_backlog: usize,
     /// Most bytes read from one client per poll.
     pub read_budget: usize,
+    /// The client addresses served (empty: any); a connection from another address is
+    /// closed at once ([`CloseReason::NotAllowed`]).
+    pub allow: Vec<IpAddr>,
+    /// A token every client must send before anything else: its first message must be a
+    /// STRING to device [`TOKEN_DEVICE`] whose text is the token. Until then the client
+    /// receives nothing; any other first message, or another text, closes the connection
+    /// ([`CloseReason::BadToken`]). None: no token.
+    pub token: Option<String>,
 }
+
+/// The device name of the STRING message that carries a client's token.
+pub const TOKEN_DEVICE: &str = "Token";
 
 impl Default for ServerConfig {
     fn default() -> Self {
@@ -80,6 +91,8 @@ impl Default for ServerConfig {
             max_output_backlog: 1 << 20,
             stream_backlog: 64 << 10,
             read_budget: 256 << 10,
+            allow: Vec::new(),
+            token: None,
         }
     }
 }
@@ -119,6 +132,10 @@ pub enum CloseReason {
     Backlog(usize),
     /// The server already had `max_clients` clients.
     ServerFull,
+    /// The client's address is not in the allow-list.
+    NotAllowed(IpAddr),
+    /// A token is required and the client's first message was not it (what came instead).
+    BadToken(String),
 }
 
 /// What one [`Server::poll`] did.
@@ -157,6 +174,8 @@ struct Client {
     push_state: bool,
     last_state: Option<(RobotState, Instant)>,
     close: Option<CloseReason>,
+    /// The token was sent (or none is required).
+    authenticated: bool,
 }
 
 /// The OpenIGTLink server.
@@ -252,6 +271,8 @@ impl Server {
     }
 
     fn add_client(&mut self, stream: TcpStream, peer: SocketAddr) {
+        let authenticated = self.config.token.is_none();
+        let stream_on_connect = self.config.stream_on_connect && authenticated;
         self.clients.push(Client {
             stream,
             peer,
@@ -259,12 +280,13 @@ impl Server {
             discarded_seen: 0,
             out: Vec::new(),
             version: HeaderVersion::V1,
-            stream_transform: self.config.stream_on_connect,
+            stream_transform: stream_on_connect,
             stream_position: None,
             next_pose_at: Instant::now(),
-            push_state: self.config.stream_on_connect,
+            push_state: stream_on_connect,
             last_state: None,
             close: None,
+            authenticated,
         });
     }
 
@@ -301,6 +323,14 @@ impl Server {
         loop {
             match self.listener.accept() {
                 Ok((stream, peer)) => {
+                    if !self.config.allow.is_empty() && !self.config.allow.contains(&peer.ip()) {
+                        self.counters.connections_refused += 1;
+                        report
+                            .closed
+                            .push((peer, CloseReason::NotAllowed(peer.ip())));
+                        drop(stream);
+                        continue;
+                    }
                     if self.clients.len() >= self.config.max_clients {
                         self.refuse_connection(stream);
                         continue;
@@ -384,6 +414,10 @@ impl Server {
                     budget -= n;
                     client.decoder.push(&chunk[..n]);
                     while let Some(event) = client.decoder.next_event() {
+                        if !client.authenticated {
+                            self.authenticate(client, event);
+                            continue;
+                        }
                         match event {
                             Event::Message(m) => self.handle_message(client, m, robot, report),
                             Event::Malformed(m) => self.handle_malformed(client, &m),
@@ -404,6 +438,55 @@ impl Server {
         let discarded = client.decoder.discarded_bytes();
         self.counters.discarded_bytes += discarded - client.discarded_seen;
         client.discarded_seen = discarded;
+    }
+
+    /// A client's first message, when a token is required: the token (then the client is
+    /// served as from its connection), or the connection is closed.
+    fn authenticate(&mut self, client: &mut Client, event: Event) {
+        if client.close.is_some() {
+            return;
+        }
+        let Some(token) = &self.config.token else {
+            client.authenticated = true;
+            return;
+        };
+        let refusal = match &event {
+            Event::Message(m) => {
+                self.counters.count_received(&m.type_name());
+                match &m.body {
+                    Body::String(text) if m.device_name == TOKEN_DEVICE => {
+                        if same_bytes(&text.bytes, token.as_bytes()) {
+                            None
+                        } else {
+                            Some("a wrong token".to_owned())
+                        }
+                    }
+                    _ => Some(format!(
+                        "{} to device {:?} before the token (a STRING to device {TOKEN_DEVICE:?})",
+                        m.type_name(),
+                        m.device_name
+                    )),
+                }
+            }
+            Event::Malformed(m) => {
+                self.counters.count_malformed(m.kind());
+                Some(format!(
+                    "a malformed message ({:?}) before the token",
+                    m.kind()
+                ))
+            }
+        };
+        match refusal {
+            None => {
+                client.authenticated = true;
+                client.stream_transform = self.config.stream_on_connect;
+                client.push_state = self.config.stream_on_connect;
+            }
+            Some(why) => {
+                self.counters.connections_refused += 1;
+                client.close = Some(CloseReason::BadToken(why));
+            }
+        }
     }
 
     fn is_target(&self, type_name: &str, device_name: &str) -> bool {
@@ -785,4 +868,9 @@ fn flush(client: &mut Client, max_backlog: usize) {
     if client.close.is_none() && client.out.len() > max_backlog {
         client.close = Some(CloseReason::Backlog(client.out.len()));
     }
+}
+
+/// Whether two byte strings are equal, in a time that does not depend on where they differ.
+fn same_bytes(a: &[u8], b: &[u8]) -> bool {
+    a.len() == b.len() && a.iter().zip(b).fold(0u8, |acc, (x, y)| acc | (x ^ y)) == 0
 }

@@ -645,3 +645,68 @@ fn the_server_can_connect_out_to_a_listening_client() {
         m.device_name == "Robot"
     });
 }
+
+/// With a token required, a client gets nothing before it sends the token as a STRING to
+/// device `Token`, and then is served; a target before the token, and a wrong token, close
+/// the connection and are counted as refused.
+#[test]
+fn a_required_token_comes_first_or_the_client_is_closed() {
+    let h = Harness::start(ServerConfig {
+        token: Some("s3cret".into()),
+        ..ServerConfig::default()
+    });
+    let goal = pose_mm(1.0, 2.0, 161.0, Rotation3::identity());
+
+    let mut good = Client::connect(h.addr);
+    assert!(
+        good.wait_for(Duration::from_millis(200), |_| true)
+            .is_none(),
+        "nothing is sent before the token"
+    );
+    good.send(
+        igtl::server::TOKEN_DEVICE,
+        Body::String(igtl::content::StringContent::text("s3cret")),
+    );
+    good.expect("the pose stream after the token", |m| {
+        m.device_name == "Robot"
+    });
+    good.send("Target", target(&goal));
+    good.expect("the pose at the target", |m| {
+        transform_near(m, "Robot", &goal)
+    });
+
+    let mut early = Client::connect(h.addr);
+    early.send("Target", target(&goal));
+    assert!(early.wait_for(WAIT, |_| false).is_none());
+    let mut wrong = Client::connect(h.addr);
+    wrong.send(
+        igtl::server::TOKEN_DEVICE,
+        Body::String(igtl::content::StringContent::text("guess")),
+    );
+    assert!(wrong.wait_for(WAIT, |_| false).is_none());
+    let counters = h.counters();
+    assert_eq!(counters.targets_accepted, 1);
+    assert_eq!(counters.connections_refused, 2);
+    assert_eq!(counters.connections_closed, 2);
+}
+
+/// A client whose address is not in the allow-list is closed before anything is read or
+/// sent; an allowed one is served.
+#[test]
+fn an_address_outside_the_allow_list_is_closed() {
+    let h = Harness::start(ServerConfig {
+        allow: vec!["10.9.8.7".parse().unwrap()],
+        ..ServerConfig::default()
+    });
+    let mut c = Client::connect(h.addr);
+    assert!(c.wait_for(WAIT, |_| true).is_none());
+    assert_eq!(h.counters().connections_refused, 1);
+
+    let h = Harness::start(ServerConfig {
+        allow: vec!["127.0.0.1".parse().unwrap()],
+        ..ServerConfig::default()
+    });
+    let mut c = Client::connect(h.addr);
+    c.expect("the pose stream", |m| m.device_name == "Robot");
+    assert_eq!(h.counters().connections_refused, 0);
+}

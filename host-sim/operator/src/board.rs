@@ -15,15 +15,18 @@
 
 use crate::conversions::wire_pose;
 use master_link::{
-    BoardToMaster, FaultLogPage, FirmwareVersion, MasterToBoard, NackReason, ResetStatus,
-    RobotState, Seq, StatusReport, Warnings, PROTOCOL_VERSION,
+    BoardToMaster, FaultLogPage, FirmwareVersion, MasterToBoard, NackReason, ResetCause,
+    ResetStatus, RobotState, Seq, StatusReport, Warnings, PROTOCOL_VERSION,
 };
 use masters::CartesianPose;
 use std::collections::VecDeque;
 use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use std::time::Duration;
 use teleop::link::{self, Link, Received};
 use teleop::pacing::{BoardClock, SILENCE_LIMIT_S};
+use teleop::start::{self, StartOptions};
 use thiserror::Error;
 
 /// How long a request waits for its answer before it counts as unanswered, s.
@@ -56,6 +59,21 @@ pub enum BoardError {
     NotEnabled { state: String },
     #[error("the board is in Fault: {cause}")]
     Faulted { cause: String },
+    /// A stop asked from outside (SIGINT, SIGTERM: [`crate::shutdown`]).
+    #[error("stopped on request (a signal)")]
+    Interrupted,
+    /// The board's last reset is not acknowledged, and the person did not allow it.
+    #[error("{}", teleop::start::unacknowledged_reset_text(*.0))]
+    ResetNotAcknowledged(ResetCause),
+    /// A latched fault the person did not allow to clear, or that would not clear.
+    #[error("{0}")]
+    FaultLatched(String),
+    /// The robot runs under another master.
+    #[error("{0}")]
+    Busy(String),
+    /// The board refused this master's Hello.
+    #[error("{}", teleop::start::hello_refused_text(*.0))]
+    HelloRefused(NackReason),
 }
 
 /// What a request came to.
@@ -139,6 +157,10 @@ pub struct Board {
     clock: BoardClock,
     /// The longest interval between two heartbeats sent, s.
     beat_gap_max_s: f64,
+    /// Set from outside (a signal): every wait ends with [`BoardError::Interrupted`].
+    interrupt: Option<Arc<AtomicBool>>,
+    /// Why the board refused this master's last Hello.
+    hello_refused: Option<NackReason>,
 }
 
 impl Board {
@@ -171,6 +193,8 @@ impl Board {
             paced: false,
             clock: BoardClock::default(),
             beat_gap_max_s: 0.0,
+            interrupt: None,
+            hello_refused: None,
         })
     }
 
@@ -191,6 +215,12 @@ impl Board {
     /// error.
     pub fn set_paced(&mut self, on: bool) {
         self.paced = on;
+    }
+
+    /// Ends every wait with [`BoardError::Interrupted`] once `flag` is set (None: never);
+    /// [`Board::disable_within`] takes it off.
+    pub fn set_interrupt(&mut self, flag: Option<Arc<AtomicBool>>) {
+        self.interrupt = flag;
     }
 
     /// The latest status and its arrival time.
@@ -317,11 +347,14 @@ impl Board {
             {
                 None
             }
-            BoardToMaster::HelloRefused { reason, .. } => answer(
-                &mut self.pending,
-                &|p| matches!(p.1, MasterToBoard::Hello { .. }),
-                Outcome::Refused(reason),
-            ),
+            BoardToMaster::HelloRefused { reason, .. } => {
+                self.hello_refused = Some(reason);
+                answer(
+                    &mut self.pending,
+                    &|p| matches!(p.1, MasterToBoard::Hello { .. }),
+                    Outcome::Refused(reason),
+                )
+            }
             BoardToMaster::HelloReply {
                 firmware_version,
                 protocol_version,
@@ -410,6 +443,13 @@ impl Board {
     /// Receives into the backlog: waits at most `wait` for the first message when nothing
     /// is there yet.
     fn receive(&mut self, wait: Duration) -> Result<(), BoardError> {
+        if self
+            .interrupt
+            .as_ref()
+            .is_some_and(|f| f.load(Ordering::Relaxed))
+        {
+            return Err(BoardError::Interrupted);
+        }
         if self.paced && self.clock.silent_too_long(self.link.now_s()) {
             return Err(teleop::TeleopError::Silent(SILENCE_LIMIT_S).into());
         }
@@ -521,13 +561,28 @@ impl Board {
     }
 
     /// Hello until the board answers (it may still be booting), at most `timeout_s`.
+    /// A Hello the board refuses (another master owns the robot) is an error.
     pub fn hello(&mut self, timeout_s: f64) -> Result<HelloInfo, BoardError> {
         let end = self.now_s() + timeout_s;
+        self.hello_refused = None;
+        let mut refused_since = None;
         while self.now_s() < end {
             self.send_hello()?;
             let until = (self.now_s() + 0.5).min(end);
             while self.now_s() < until {
                 self.receive_picking::<()>(Duration::from_millis(10), &mut |_| None)?;
+                if let Some(reason) = self.hello_refused.take() {
+                    // The last owner's stop may still be ending: asked again for a while.
+                    let first = *refused_since.get_or_insert(self.now_s());
+                    if reason != NackReason::NotOwner
+                        || self.now_s() - first > teleop::session::HELLO_RETRY_S
+                    {
+                        return Err(BoardError::HelloRefused(reason));
+                    }
+                    let again = self.now_s() + 0.1;
+                    self.idle_until(again)?;
+                    break;
+                }
                 if let Some(h) = self.hello {
                     // A new owner starts with the operator absent; the operator at this
                     // front end is present until its dead-man says otherwise.
@@ -554,37 +609,71 @@ impl Board {
         }
     }
 
-    /// Brings the board to following: hello, the reset acknowledged when it needs it,
-    /// homing when not homed (never re-homing), enable, and the `Enabled` state; `log`
-    /// hears each step.
+    /// Brings the board to following from whatever state it is in (`teleop::start`):
+    /// hello; an unacknowledged reset acknowledged only with `options.acknowledge_reset`;
+    /// a latched fault cleared only with `options.clear_fault`; a robot running under
+    /// another master refused; homing when not homed (never re-homing); enable, and the
+    /// `Enabled` state. `log` hears each step.
     pub fn bring_up(
         &mut self,
         timeouts: &BringUpTimeouts,
+        options: StartOptions,
         log: &mut dyn FnMut(&str),
     ) -> Result<StatusReport, BoardError> {
-        self.greet(timeouts.hello_s, log)?;
-        let status = self
-            .wait_status(2.0, |_| true)?
-            .ok_or(BoardError::NoStatus)?;
-        if status.state == RobotState::Fault {
-            return Err(BoardError::Faulted {
-                cause: format!("{:?}", status.fault.cause),
-            });
-        }
-        if status.state == RobotState::Enabled {
-            log("already enabled");
-            self.discard_events();
-            return Ok(status);
-        }
+        let status = self.connect(timeouts.hello_s, options, log)?;
         if status.warnings.contains(Warnings::NOT_HOMED) {
             self.home(timeouts.home_s, log)?;
+        } else {
+            log("already homed: homing skipped");
         }
         self.enable_and_wait(timeouts.enable_s, log)
     }
 
+    /// The first half of [`Board::bring_up`]: hello, the reset, the fault, the state
+    /// checked; the board's status, with the drives off (`Ready`, or `Disabled` when not
+    /// homed).
+    pub fn connect(
+        &mut self,
+        hello_timeout_s: f64,
+        options: StartOptions,
+        log: &mut dyn FnMut(&str),
+    ) -> Result<StatusReport, BoardError> {
+        self.greet(hello_timeout_s, options, log)?;
+        let mut status = self
+            .wait_status(2.0, |_| true)?
+            .ok_or(BoardError::NoStatus)?;
+        if status.state == RobotState::Fault {
+            let text = start::latched_fault_text(&status.fault);
+            if !options.clear_fault {
+                return Err(BoardError::FaultLatched(text));
+            }
+            log(&format!("{text}: clearing it (--clear-fault)"));
+            let outcome = self.request(MasterToBoard::ClearFault)?;
+            let cleared = match outcome {
+                Outcome::Ack => self.wait_status(1.0, |s| s.state != RobotState::Fault)?,
+                _ => None,
+            };
+            status = cleared.ok_or_else(|| {
+                BoardError::FaultLatched(format!(
+                    "{text}; Clear fault answered {outcome:?}: the fault stays"
+                ))
+            })?;
+            log("fault cleared");
+        }
+        if let Some(text) = start::busy_text(status.state) {
+            return Err(BoardError::Busy(text));
+        }
+        Ok(status)
+    }
+
     /// Hello (at most `timeout_s`), logged; the protocol version checked; the board's
-    /// last reset acknowledged when it is not yet.
-    fn greet(&mut self, timeout_s: f64, log: &mut dyn FnMut(&str)) -> Result<(), BoardError> {
+    /// last reset acknowledged when it is not yet, only with `options.acknowledge_reset`.
+    fn greet(
+        &mut self,
+        timeout_s: f64,
+        options: StartOptions,
+        log: &mut dyn FnMut(&str),
+    ) -> Result<(), BoardError> {
         let h = self.hello(timeout_s)?;
         log(&format!(
             "hello: firmware {}.{}.{}, protocol {}, last reset {:?}{}",
@@ -606,10 +695,35 @@ impl Board {
             });
         }
         if !h.reset.acknowledged {
+            if !options.acknowledge_reset {
+                return Err(BoardError::ResetNotAcknowledged(h.reset.cause));
+            }
             self.expect_ack(MasterToBoard::AcknowledgeReset)?;
-            log("reset acknowledged");
+            log(&format!(
+                "{:?} reset acknowledged (--acknowledge-reset)",
+                h.reset.cause
+            ));
         }
         Ok(())
+    }
+
+    /// Sends `Disable` and waits at most `timeout_s` of host time for its answer (None
+    /// came: `Outcome::NoReply`); the interrupt is taken off first, so that this is the
+    /// way out after a signal too.
+    pub fn disable_within(&mut self, timeout_s: f64) -> Result<Outcome, BoardError> {
+        self.interrupt = None;
+        let seq = self.send(MasterToBoard::Disable)?;
+        let end = self.link.now_s() + timeout_s;
+        while self.link.now_s() < end {
+            let got = self.receive_picking(Duration::from_millis(5), &mut |e| match e {
+                BoardEvent::Reply(r) if r.seq == seq => Some(r.outcome),
+                _ => None,
+            })?;
+            if let Some(o) = got {
+                return Ok(o);
+            }
+        }
+        Ok(Outcome::NoReply)
     }
 
     /// Homes (never re-homing) and waits at most `timeout_s` for `Ready` and homed.

@@ -20,8 +20,11 @@
 //! | `[`, `]` | jog speed down, up |
 //! | `k` | clutch engaged / released (engaged: the robot holds) |
 //! | `p` | operator present / absent (the dead-man: absent, the robot holds) |
-//! | `a` | acknowledge the board's last reset |
-//! | `q`, Esc | quit (Disable first when enabled) |
+//! | `a` | acknowledge the board's last reset: the console names the cause and asks; `y` sends `AcknowledgeReset` (no front end acknowledges a reset by itself) |
+//! | `q`, Esc | quit |
+//!
+//! Whatever ends the console (`q`, Ctrl-C, SIGINT, SIGTERM, an error), the robot is
+//! disabled on the way out (`crate::shutdown`).
 
 use crate::board::{refusal_text, request_name, Board, BoardEvent, HelloInfo, Outcome, Reply};
 use crate::conversions::{measured_cp, setpoint_cp};
@@ -36,6 +39,7 @@ use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Paragraph};
 use ratatui::Frame;
 use std::collections::VecDeque;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 /// How long one jog key press keeps the joint moving, s.
@@ -98,6 +102,8 @@ pub struct Console {
     pub present: bool,
     /// Waiting for `y` to re-home.
     pub confirm_rehome: bool,
+    /// Waiting for `y` to acknowledge the reset of this cause.
+    pub confirm_reset: Option<master_link::ResetCause>,
     jog: Option<JogStream>,
     enable_retry_until: Option<f64>,
     enable_retry_at: Option<f64>,
@@ -118,6 +124,7 @@ impl Console {
             clutch: false,
             present: true,
             confirm_rehome: false,
+            confirm_reset: None,
             jog: None,
             enable_retry_until: None,
             enable_retry_at: None,
@@ -139,6 +146,13 @@ impl Console {
 
     /// What a key does.
     pub fn key(&mut self, code: KeyCode, modifiers: KeyModifiers, t_s: f64) -> Vec<Action> {
+        if let Some(cause) = self.confirm_reset.take() {
+            if code == KeyCode::Char('y') {
+                return vec![Action::Send(MasterToBoard::AcknowledgeReset)];
+            }
+            self.note(t_s, format!("{cause:?} reset not acknowledged"), false);
+            return vec![];
+        }
         if self.confirm_rehome {
             self.confirm_rehome = false;
             if code == KeyCode::Char('y') {
@@ -197,7 +211,22 @@ impl Console {
             KeyCode::Char('p') => send(MasterToBoard::OperatorPresent {
                 present: !self.present,
             }),
-            KeyCode::Char('a') => send(MasterToBoard::AcknowledgeReset),
+            KeyCode::Char('a') => {
+                let reset = self
+                    .status
+                    .map(|(_, s)| s.reset)
+                    .or(self.hello.map(|h| h.reset));
+                match reset {
+                    Some(r) if !r.acknowledged => {
+                        self.confirm_reset = Some(r.cause);
+                        vec![]
+                    }
+                    _ => {
+                        self.note(t_s, "no reset to acknowledge".into(), false);
+                        vec![]
+                    }
+                }
+            }
             KeyCode::Char('q') | KeyCode::Esc => vec![Action::Quit],
             _ => vec![],
         }
@@ -499,7 +528,12 @@ impl Console {
 
     /// The keys, or the re-homing question being asked.
     fn key_lines(&self) -> [Line<'static>; 3] {
-        let heading = if self.confirm_rehome {
+        let heading = if let Some(cause) = self.confirm_reset {
+            Line::styled(
+                format!("Acknowledge the board's {cause:?} reset? y = yes, other = no"),
+                red(),
+            )
+        } else if self.confirm_rehome {
             Line::styled(
                 "Robot is homed. Re-home (every joint to its switch)? y = yes, other = no",
                 red(),
@@ -541,10 +575,17 @@ fn fault_line(s: &StatusReport) -> Line<'static> {
                     .unwrap_or("?")
             )
         };
-        format!(
+        let base = format!(
             "{:?}{joint} value {:.4} at {} ms",
             f.cause, f.value, f.time_ms
-        )
+        );
+        // In words when the line has room (78 columns less the label's 9).
+        let words = format!("{base}: {}; c clears", teleop::start::fault_words(f.cause));
+        if words.chars().count() <= 69 {
+            words
+        } else {
+            format!("{base}; c clears")
+        }
     };
     Line::from(vec![
         Span::raw("Fault    "),
@@ -624,7 +665,8 @@ fn board_link_line(s: &StatusReport) -> Line<'static> {
 /// holds up the link's loop: the heartbeats, the keys, the jog stream. The Link line
 /// shows the loop's longest interval between two heartbeats (`beat gap`; the board holds
 /// after 100 ms without one).
-pub fn run(mut board: Board) -> Result<(), OperatorError> {
+/// `stop` (SIGINT, SIGTERM) ends it like `q`.
+pub fn run(board: &mut Board, stop: &AtomicBool) -> Result<(), OperatorError> {
     let mut terminal = ratatui::try_init().map_err(OperatorError::Terminal)?;
     let result = std::thread::scope(|scope| {
         let (screen, frames) = std::sync::mpsc::sync_channel::<Console>(1);
@@ -637,7 +679,7 @@ pub fn run(mut board: Board) -> Result<(), OperatorError> {
             }
             Ok(())
         });
-        let looped = event_loop(&mut board, &screen);
+        let looped = event_loop(board, &screen, stop);
         drop(screen);
         let drawn = drawer.join().unwrap_or(Err(OperatorError::DrawerPanicked));
         looped.and(drawn)
@@ -652,11 +694,12 @@ pub fn run(mut board: Board) -> Result<(), OperatorError> {
 fn event_loop(
     board: &mut Board,
     screen: &std::sync::mpsc::SyncSender<Console>,
+    stop: &AtomicBool,
 ) -> Result<(), OperatorError> {
     let mut c = Console::new(board.name());
     board.send_hello()?;
     let mut last_draw = f64::NEG_INFINITY;
-    loop {
+    while !stop.load(Ordering::Relaxed) {
         let now = board.now_s();
         for e in board.poll(Duration::from_millis(5))? {
             if let Some(m) = c.board_event(&e) {
@@ -692,14 +735,8 @@ fn event_loop(
                             board.send(m)?;
                         }
                     }
-                    Action::Quit => {
-                        if c.status
-                            .is_some_and(|(_, s)| s.state == RobotState::Enabled)
-                        {
-                            let _ = board.request(MasterToBoard::Disable);
-                        }
-                        return Ok(());
-                    }
+                    // (The way out disables: crate::shutdown.)
+                    Action::Quit => return Ok(()),
                 }
             }
         }
@@ -712,6 +749,7 @@ fn event_loop(
             }
         }
     }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -43,7 +43,27 @@ pub enum OperatorError {
         source: std::io::Error,
     },
     #[error(
-        "device `{0}`: expected spacemouse, spacenavd[:SOCKET], evdev[:PATH], udp:PORT or keyboard"
+        "device `{0}`: expected spacemouse, spacenavd[:SOCKET], evdev[:PATH], udp:PORT, keyboard or scripted:FILE"
     )]
     DeviceSpec(String),
+    /// The SIGINT and SIGTERM handlers could not be installed.
+    #[error("cannot install the signal handlers: {source}")]
+    Signals { source: std::io::Error },
+    /// A device that needs a terminal started without one.
+    #[error("--device {0} reads the keys of a terminal, and this process has none (stdin is not a terminal): run it in a terminal, or use --device scripted:FILE")]
+    NoTerminal(String),
+    /// The scripted device's file.
+    #[error("{}:{line}: {reason}", path.display())]
+    Script {
+        path: PathBuf,
+        line: usize,
+        reason: String,
+    },
+}
+
+impl OperatorError {
+    /// Whether this is only the stop a signal asked for.
+    pub fn is_interrupted(&self) -> bool {
+        matches!(self, OperatorError::Board(BoardError::Interrupted))
+    }
 }

@@ -3,13 +3,16 @@
 //! real board; the same code path for all three).
 //!
 //! - [`board`]: the board as the front ends see it: requests tracked until answered, the
-//!   latest status, heartbeats, the bring-up (hello, homing, enable);
+//!   latest status, heartbeats, the bring-up from any state the board is in (hello, a
+//!   reset or a fault only with the person's say-so, homing when needed, enable);
 //! - [`teleoperation`]: master-slave teleoperation with a hand controller ([`devices`]:
 //!   SpaceMouse through spacenavd or evdev, a UDP position master, the keyboard), recorded
 //!   to MCAP, with the latency measured;
 //! - [`replay`]: a recorded session's summary and plots (`host-sim replay`);
 //! - [`console`]: the terminal console (ratatui) a person drives the robot with;
-//! - [`navigation`]: the OpenIGTLink bridge for 3D Slicer, PLUS and trackers.
+//! - [`navigation`]: the OpenIGTLink bridge for 3D Slicer, PLUS and trackers;
+//! - [`shutdown`]: the one way out of every front end (SIGINT, SIGTERM, an error): the
+//!   robot disabled.
 //!
 //! Names follow the dVRK/CRTK conventions: `measured_cp` (the measured pose),
 //! `setpoint_cp` (the supervisor's setpoint), `servo_cp` (a target streamed at the servo
@@ -22,6 +25,7 @@ pub mod devices;
 pub mod error;
 pub mod navigation;
 pub mod replay;
+pub mod shutdown;
 pub mod teleoperation;
 
 pub use board::{Board, BoardError, BoardEvent, BringUpTimeouts, Outcome, Reply};

@@ -34,8 +34,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 /// The board as the OpenIGTLink server's robot.
-pub struct BoardRobot {
-    board: Board,
+pub struct BoardRobot<'a> {
+    board: &'a mut Board,
     status: Option<StatusReport>,
     /// The supervisor's refusal counter when the last target was accepted.
     refused_at_accept: Option<u32>,
@@ -45,9 +45,9 @@ pub struct BoardRobot {
     pub refused: u64,
 }
 
-impl BoardRobot {
+impl<'a> BoardRobot<'a> {
     /// Around a board (brought up or not: the state tells the clients).
-    pub fn new(board: Board) -> Self {
+    pub fn new(board: &'a mut Board) -> Self {
         let status = board.status().map(|(_, s)| *s);
         BoardRobot {
             board,
@@ -60,7 +60,7 @@ impl BoardRobot {
 
     /// The board.
     pub fn board(&mut self) -> &mut Board {
-        &mut self.board
+        self.board
     }
 
     /// Receives from the board for at most `wait` (statuses, heartbeats).
@@ -117,7 +117,7 @@ pub fn refusal_reason(reason: NackReason, state: Option<RobotState>) -> RefusalR
     }
 }
 
-impl Robot for BoardRobot {
+impl Robot for BoardRobot<'_> {
     fn submit_target(&mut self, target: &TargetPose) -> Result<(), Refusal> {
         let orientation = match target.r {
             Some(r) => UnitQuaternion::from_rotation_matrix(&r),
@@ -265,7 +265,7 @@ pub fn state_of(s: &StatusReport, refused_at_accept: Option<u32>) -> IgtlState {
 /// polled every `tick`, the server after it; `report` hears connections and refusals.
 pub fn serve(
     server: &mut Server,
-    robot: &mut BoardRobot,
+    robot: &mut BoardRobot<'_>,
     stop: &AtomicBool,
     tick: Duration,
     report: &mut dyn FnMut(&str),
@@ -277,7 +277,15 @@ pub fn serve(
             report(&format!("client {a} connected"));
         }
         for (a, why) in &r.closed {
-            report(&format!("client {a} closed: {why:?}"));
+            match why {
+                igtl::server::CloseReason::NotAllowed(ip) => report(&format!(
+                    "client {a} refused: {ip} is not in the allow-list (--allow)"
+                )),
+                igtl::server::CloseReason::BadToken(what) => report(&format!(
+                    "client {a} refused: no valid token (--token-file): it sent {what}"
+                )),
+                _ => report(&format!("client {a} closed: {why:?}")),
+            }
         }
         if let Some(e) = &r.accept_error {
             report(&format!("accept: {e}"));

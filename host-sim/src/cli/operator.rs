@@ -7,13 +7,13 @@ use masters::{MotionScale, TeleopConfig, TeleopState};
 use operator::board::{Board, BringUpTimeouts};
 use operator::devices::{self, DeviceSpec};
 use operator::navigation::{self, BoardRobot};
+use operator::shutdown::{self, Shutdown};
 use operator::teleoperation::{self, TeleoperationSettings, TickView};
 use simulation::config::default_target_dir;
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
 use std::time::Duration;
+use teleop::start::StartOptions;
 
 /// The hand-controller options of `host-sim teleop` (with `--device`).
 #[derive(Debug, Args)]
@@ -42,13 +42,50 @@ pub struct HandControllerArgs {
     pub duration_s: Option<f64>,
 }
 
-/// Installs the Ctrl-C handler that sets `stop`.
-fn stop_on_ctrl_c() -> Arc<AtomicBool> {
-    let stop = Arc::new(AtomicBool::new(false));
-    let flag = Arc::clone(&stop);
-    // Without a handler (installed twice, or no signals) Ctrl-C ends the process as usual.
-    let _ = ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed));
-    stop
+/// What the person allows a front end to do at start (`teleop::start`): never done
+/// without the flag.
+#[derive(Debug, Args, Clone, Copy)]
+pub struct StartArgs {
+    /// Acknowledge the board's last reset when it is a watchdog or brown-out reset not
+    /// acknowledged yet (find out why first: `host-sim faultlog`); without it the tool
+    /// refuses to go on and names the cause.
+    #[arg(long)]
+    pub acknowledge_reset: bool,
+    /// Clear a latched fault (shown in words first); without it the tool shows the fault
+    /// and refuses to go on.
+    #[arg(long)]
+    pub clear_fault: bool,
+}
+
+impl StartArgs {
+    /// The options of `teleop::start`.
+    pub fn options(&self) -> StartOptions {
+        StartOptions {
+            acknowledge_reset: self.acknowledge_reset,
+            clear_fault: self.clear_fault,
+        }
+    }
+}
+
+/// The SIGINT and SIGTERM flag of a front end (`operator::shutdown`).
+pub fn shutdown_on_signals() -> Result<Shutdown, CliError> {
+    Ok(Shutdown::on_signals()?)
+}
+
+/// Runs a front end's body on `board` through the one way out (`operator::shutdown`):
+/// the robot disabled whatever ended it; the stop a signal asked is no error.
+fn with_board<T: Default>(
+    board: &mut Board,
+    shutdown: &Shutdown,
+    body: impl FnOnce(&mut Board) -> Result<T, CliError>,
+) -> Result<T, CliError> {
+    shutdown::with_board(
+        board,
+        shutdown,
+        &mut |m| eprintln!("board: {m}"),
+        body,
+        |e| matches!(e, CliError::Operator(o) if o.is_interrupted()),
+    )
 }
 
 /// Where the board is: its socket or serial device, the baud rate, the link key.
@@ -61,7 +98,8 @@ pub struct BoardLink<'a> {
     pub key: Option<master_link::LinkKey>,
 }
 
-/// `host-sim teleop --device ...`: bring the board up, teleoperate, disable, summarise.
+/// `host-sim teleop --device ...`: bring the board up from the state it is in,
+/// teleoperate, and, whatever ends it, disable (`operator::shutdown`); summarise.
 pub fn hand_controller(
     board: BoardLink<'_>,
     connect_timeout_s: f64,
@@ -69,11 +107,12 @@ pub fn hand_controller(
     stream_rate_hz: f64,
     args: &HandControllerArgs,
     device: &str,
+    start: StartOptions,
 ) -> Result<(), CliError> {
     let BoardLink { connect, baud, key } = board;
     let spec: DeviceSpec = device.parse()?;
-    let stop = stop_on_ctrl_c();
-    let mut master = devices::open(&spec, &stop)?;
+    let shutdown = shutdown_on_signals()?;
+    let mut master = devices::open(&spec, shutdown.flag())?;
     let keyboard = spec == DeviceSpec::Keyboard;
     let eol = if keyboard { "\r\n" } else { "\n" };
     let mut board = Board::open_with_key(
@@ -87,34 +126,43 @@ pub fn hand_controller(
         home_s: home_timeout_s,
         ..BringUpTimeouts::default()
     };
-    board.bring_up(&timeouts, &mut |m| print!("board: {m}{eol}"))?;
     let settings = teleoperation_settings(args, device, stream_rate_hz)?;
-    print!(
-        "teleoperating with {} at {stream_rate_hz} Hz, scale {} / {}; {}{eol}",
-        master.name(),
-        args.scale_translation,
-        args.scale_rotation,
-        if keyboard {
-            "keys: d/a w/s r/f move, i/k l/j u/o turn, +/- speed, c clutch, Space operator present, Esc stop, q quit"
-        } else {
-            "Ctrl-C to stop"
-        }
-    );
-    let mut last_print = f64::NEG_INFINITY;
-    let report = teleoperation::run(&mut board, master.as_mut(), &settings, &stop, &mut |v| {
-        if v.t_s - last_print < 0.2 {
-            return;
-        }
-        last_print = v.t_s;
-        eprint!("\r{}", live_line(v));
-        let _ = std::io::stderr().flush();
+    let report = with_board(&mut board, &shutdown, |board| {
+        board.bring_up(&timeouts, start, &mut |m| print!("board: {m}{eol}"))?;
+        print!(
+            "teleoperating with {} at {stream_rate_hz} Hz, scale {} / {}; {}{eol}",
+            master.name(),
+            args.scale_translation,
+            args.scale_rotation,
+            if keyboard {
+                "keys: d/a w/s r/f move, i/k l/j u/o turn, +/- speed, c clutch, Space operator present, Esc stop, q quit"
+            } else {
+                "Ctrl-C to stop"
+            }
+        );
+        let _ = std::io::stdout().flush();
+        let mut last_print = f64::NEG_INFINITY;
+        let report = teleoperation::run(
+            board,
+            master.as_mut(),
+            &settings,
+            shutdown.flag(),
+            &mut |v| {
+                if v.t_s - last_print < 0.2 {
+                    return;
+                }
+                last_print = v.t_s;
+                eprint!("\r{}", live_line(v));
+                let _ = std::io::stderr().flush();
+            },
+        );
+        eprint!("{eol}");
+        Ok(Some(report?))
     });
-    eprint!("{eol}");
     drop(master);
-    let report = report?;
-    // Leave the robot disabled (holding brakes on): nobody streams to it any more.
-    let _ = board.request(master_link::MasterToBoard::Disable);
-    print!("{}", report.summary());
+    if let Some(report) = report? {
+        print!("{}", report.summary());
+    }
     Ok(())
 }
 
@@ -219,16 +267,19 @@ pub struct ConsoleArgs {
     pub key: super::KeyArgs,
 }
 
-/// Runs the console.
+/// Runs the console; whatever ends it (q, SIGINT, SIGTERM, an error), the robot is
+/// disabled on the way out.
 pub fn console(args: &ConsoleArgs) -> Result<(), CliError> {
-    let board = Board::open_with_key(
+    let shutdown = shutdown_on_signals()?;
+    let mut board = Board::open_with_key(
         &args.connect,
         args.baud,
         Duration::from_secs(10),
         args.key.key()?,
     )?;
-    operator::console::run(board)?;
-    Ok(())
+    with_board(&mut board, &shutdown, |board| {
+        Ok(operator::console::run(board, shutdown.flag())?)
+    })
 }
 
 /// `host-sim igtl` options.
@@ -240,10 +291,19 @@ pub struct IgtlArgs {
     /// Serial devices: the baud rate.
     #[arg(long, default_value_t = 1_000_000)]
     pub baud: u32,
-    /// Where OpenIGTLink clients connect: a port (on all interfaces) or ADDR:PORT.
-    /// 18944 is 3D Slicer's default.
+    /// Where OpenIGTLink clients connect: a port (on 127.0.0.1, this machine only) or
+    /// ADDR:PORT (e.g. 0.0.0.0:18944 for every interface: then use --allow and
+    /// --token-file). 18944 is 3D Slicer's default.
     #[arg(long, default_value = "18944")]
     pub listen: String,
+    /// Serve only clients from this address (repeatable) [default: any that reaches the
+    /// listening address]; others are logged and closed.
+    #[arg(long, value_name = "IP")]
+    pub allow: Vec<std::net::IpAddr>,
+    /// Require every client to send the token in this file (its first line) as its first
+    /// message: a STRING to device `Token`; others are logged and closed.
+    #[arg(long, value_name = "PATH")]
+    pub token_file: Option<PathBuf>,
     /// Rate of the measured pose streamed as TRANSFORM (device `Robot`), Hz.
     #[arg(long, default_value_t = 50.0)]
     pub rate_hz: f64,
@@ -263,6 +323,26 @@ pub struct IgtlArgs {
     pub duration_s: Option<f64>,
     #[command(flatten)]
     pub key: super::KeyArgs,
+    #[command(flatten)]
+    pub start: StartArgs,
+}
+
+/// Reads a token file: its first line, trimmed; an error when empty.
+fn read_token(path: &Path) -> Result<String, CliError> {
+    let text = std::fs::read_to_string(path).map_err(|source| {
+        CliError::from(operator::OperatorError::Io {
+            path: path.to_path_buf(),
+            source,
+        })
+    })?;
+    let token = text.lines().next().unwrap_or_default().trim().to_string();
+    if token.is_empty() {
+        return Err(CliError::UnknownName {
+            what: "token (the first line of --token-file is empty)",
+            name: path.display().to_string(),
+        });
+    }
+    Ok(token)
 }
 
 /// Serves OpenIGTLink for the board until Ctrl-C (or the duration).
@@ -281,57 +361,59 @@ pub fn igtl(args: &IgtlArgs) -> Result<(), CliError> {
         });
     }
     let addr = match args.listen.parse::<u16>() {
-        Ok(port) => format!("0.0.0.0:{port}"),
+        Ok(port) => format!("127.0.0.1:{port}"),
         Err(_) => args.listen.clone(),
     };
-    let stop = stop_on_ctrl_c();
+    let mut config = navigation::server_config(args.rate_hz, registration);
+    config.allow = args.allow.clone();
+    config.token = args.token_file.as_deref().map(read_token).transpose()?;
+    let shutdown = shutdown_on_signals()?;
+    if let Some(d) = args.duration_s {
+        let s = shutdown.clone();
+        std::thread::spawn(move || {
+            std::thread::sleep(Duration::from_secs_f64(d.max(0.0)));
+            s.request();
+        });
+    }
     let mut board = Board::open_with_key(
         &args.connect,
         args.baud,
         Duration::from_secs(10),
         args.key.key()?,
     )?;
-    if args.enable {
-        board.bring_up(&BringUpTimeouts::default(), &mut |m| println!("board: {m}"))?;
-    } else {
-        board.hello(10.0).map_err(CliError::from)?;
-    }
-    let mut server = igtl::Server::bind_with(
-        addr.as_str(),
-        navigation::server_config(args.rate_hz, registration),
-    )
-    .map_err(operator::OperatorError::from)?;
-    println!(
-        "OpenIGTLink on {} for the board {}: targets TRANSFORM/POSITION to device Target, pose TRANSFORM from device Robot at {} Hz, state STATUS RobotStatus / STRING RobotState",
-        server.local_addr(),
-        args.connect.display(),
-        args.rate_hz
-    );
-    let _ = std::io::stdout().flush();
-    if let Some(d) = args.duration_s {
-        let flag = Arc::clone(&stop);
-        std::thread::spawn(move || {
-            std::thread::sleep(Duration::from_secs_f64(d.max(0.0)));
-            flag.store(true, Ordering::Relaxed);
-        });
-    }
-    let mut robot = BoardRobot::new(board);
-    navigation::serve(
-        &mut server,
-        &mut robot,
-        &stop,
-        Duration::from_millis(1),
-        &mut |m| {
-            eprintln!("igtl: {m}");
-        },
-    )?;
-    let c = server.counters();
-    println!(
-        "igtl: targets accepted {}, refused {}; counters {c:?}",
-        robot.accepted, robot.refused
-    );
-    if args.enable {
-        let _ = robot.board().request(master_link::MasterToBoard::Disable);
-    }
-    Ok(())
+    let start = args.start.options();
+    with_board(&mut board, &shutdown, |board| {
+        if args.enable {
+            board.bring_up(&BringUpTimeouts::default(), start, &mut |m| {
+                println!("board: {m}")
+            })?;
+        } else {
+            board.connect(10.0, start, &mut |m| println!("board: {m}"))?;
+        }
+        let mut server = igtl::Server::bind_with(addr.as_str(), config)
+            .map_err(operator::OperatorError::from)?;
+        println!(
+            "OpenIGTLink on {} for the board {}: targets TRANSFORM/POSITION to device Target, pose TRANSFORM from device Robot at {} Hz, state STATUS RobotStatus / STRING RobotState{}{}",
+            server.local_addr(),
+            args.connect.display(),
+            args.rate_hz,
+            if args.allow.is_empty() { String::new() } else { format!("; clients allowed: {:?}", args.allow) },
+            if args.token_file.is_some() { "; a token is required (STRING to device Token first)" } else { "" },
+        );
+        let _ = std::io::stdout().flush();
+        let mut robot = BoardRobot::new(board);
+        navigation::serve(
+            &mut server,
+            &mut robot,
+            shutdown.flag(),
+            Duration::from_millis(1),
+            &mut |m| eprintln!("igtl: {m}"),
+        )?;
+        let c = server.counters();
+        println!(
+            "igtl: targets accepted {}, refused {}; counters {c:?}",
+            robot.accepted, robot.refused
+        );
+        Ok(())
+    })
 }

@@ -48,6 +48,8 @@ pub struct TeleopArgs {
     pub hand: super::operator::HandControllerArgs,
     #[command(flatten)]
     pub key: super::KeyArgs,
+    #[command(flatten)]
+    pub start: super::operator::StartArgs,
 }
 
 /// Runs the master.
@@ -64,6 +66,7 @@ pub fn run(args: &TeleopArgs) -> Result<(), CliError> {
             args.stream_rate_hz,
             &args.hand,
             device,
+            args.start.options(),
         );
     }
     let cfg = SimConfig::builtin()?;
@@ -86,6 +89,9 @@ pub fn run(args: &TeleopArgs) -> Result<(), CliError> {
         laparoscope: cfg.scenario.laparoscope.clone(),
         master: cfg.master.limits(),
         key: args.key.key()?,
+        start: args.start.options(),
     };
-    Ok(teleop::run(&settings)?)
+    // SIGINT and SIGTERM end the run through its way out: the robot disabled.
+    let shutdown = super::operator::shutdown_on_signals()?;
+    Ok(teleop::run(&settings, shutdown.flag())?)
 }

@@ -3,6 +3,7 @@
 
 use crate::error::TeleopError;
 use crate::session::{Session, StatusRow};
+use crate::start::{self, StartOptions};
 use crate::tracking::{deviation, rms_max, Pass};
 use kinematics_core::Pose;
 use master_link::{
@@ -108,6 +109,97 @@ pub fn hello(s: &mut Session, checks: &mut Checks, timeout_s: f64) -> Result<(),
         ),
     );
     Ok(())
+}
+
+/// How long the way out waits for the answer to its `Disable`, s: well inside the
+/// board's heartbeat timeout, so that a front end that ends is never taken for a lost
+/// master.
+pub const DISABLE_TIMEOUT_S: f64 = 0.2;
+
+/// The board as found after the Hello (see [`crate::start`]): an unacknowledged reset
+/// acknowledged only with `options.acknowledge_reset`, a latched fault cleared only with
+/// `options.clear_fault`, a robot running under another master refused. Whether the robot
+/// is homed already (then the run skips homing).
+pub fn prepare(
+    s: &mut Session,
+    checks: &mut Checks,
+    options: StartOptions,
+) -> Result<bool, TeleopError> {
+    s.phase("prepare");
+    if let Some(reset) = s.reset.filter(|r| !r.acknowledged) {
+        if !options.acknowledge_reset {
+            return Err(TeleopError::ResetNotAcknowledged(reset.cause));
+        }
+        let nack = s.request(MasterToBoard::AcknowledgeReset, 1.0)?;
+        checks.check(
+            "acknowledges the reset",
+            nack.is_none(),
+            format!(
+                "{:?} reset acknowledged on --acknowledge-reset: {}",
+                reset.cause,
+                nack.map_or("Ack".into(), |r| format!("Nack {r:?}"))
+            ),
+        );
+    }
+    let since = s.statuses.len().saturating_sub(1);
+    let Some(mut row) = s.wait_for(since, 1.0, |_| true)? else {
+        return Err(TeleopError::NoStatus("after the Hello"));
+    };
+    if row.status.state == RobotState::Fault {
+        let text = start::latched_fault_text(&row.status.fault);
+        if !options.clear_fault {
+            return Err(TeleopError::Faulted(text));
+        }
+        println!("{text}: clearing it (--clear-fault)");
+        let since = s.statuses.len();
+        let nack = s.request(MasterToBoard::ClearFault, 1.0)?;
+        let cleared = match nack {
+            None => s.wait_for(since, 1.0, |st| st.state != RobotState::Fault)?,
+            Some(_) => None,
+        };
+        let Some(cleared) = cleared else {
+            return Err(TeleopError::Faulted(format!(
+                "{text}; ClearFault answered {}: the fault stays",
+                nack.map_or("Ack".into(), |r| format!("Nack {r:?} ({r:?})"))
+            )));
+        };
+        checks.check(
+            "clears the fault",
+            true,
+            format!(
+                "{} cleared on --clear-fault; now {:?}",
+                start::fault_text(&row.status.fault),
+                cleared.status.state
+            ),
+        );
+        row = cleared;
+    }
+    if let Some(text) = start::busy_text(row.status.state) {
+        return Err(TeleopError::Busy(text));
+    }
+    Ok(row.status.state == RobotState::Ready && !row.status.warnings.contains(Warnings::NOT_HOMED))
+}
+
+/// The way out of every run, whatever ended it (the end of the script, an error, a
+/// signal): unless the last status shows the drives off (`Boot`, `Disabled`, `Ready`),
+/// `Disable` is sent and its answer waited for at most [`DISABLE_TIMEOUT_S`]. What it came
+/// to, in words (None: nothing to do).
+pub fn disable_on_exit(s: &mut Session) -> Option<String> {
+    s.stop = None;
+    let state = s.last_status().map(|r| r.status.state);
+    if matches!(
+        state,
+        Some(RobotState::Boot | RobotState::Disabled | RobotState::Ready)
+    ) || s.hello.is_none()
+    {
+        return None;
+    }
+    s.phase("disable on exit");
+    Some(match s.request(MasterToBoard::Disable, DISABLE_TIMEOUT_S) {
+        Ok(None) => format!("robot disabled on the way out (was {state:?})"),
+        Ok(Some(r)) => format!("Disable on the way out refused: {r:?}"),
+        Err(e) => format!("Disable on the way out: {e}"),
+    })
 }
 
 /// Homing: Ack, then `Ready` without `NOT_HOMED` at the central configuration `central`.

@@ -48,8 +48,20 @@ pub enum TeleopError {
     NoHello(f64),
     #[error("the link key file {} is not 64 hexadecimal digits", .0.display())]
     KeyFile(std::path::PathBuf),
-    #[error("the board refused the Hello: {0:?}")]
+    #[error("{}", crate::start::hello_refused_text(*.0))]
     HelloRefused(master_link::NackReason),
+    /// A stop asked from outside (SIGINT, SIGTERM).
+    #[error("stopped on request (a signal)")]
+    Interrupted,
+    /// The board's last reset is a watchdog or brown-out reset not acknowledged.
+    #[error("{}", crate::start::unacknowledged_reset_text(*.0))]
+    ResetNotAcknowledged(master_link::ResetCause),
+    /// A latched fault the person did not allow to clear (or that would not clear).
+    #[error("{0}")]
+    Faulted(String),
+    /// The robot runs under another master.
+    #[error("{0}")]
+    Busy(String),
     /// A step needs a status that has not arrived (`when` says which step).
     #[error("no status {0}")]
     NoStatus(&'static str),

@@ -26,6 +26,7 @@ pub mod faultlog;
 pub mod link;
 pub mod pacing;
 pub mod session;
+pub mod start;
 pub mod tracking;
 
 pub use error::TeleopError;
@@ -36,6 +37,8 @@ use nalgebra::Vector3;
 use session::Session;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
 use std::time::Duration;
 use trajectory::{laparoscope, line, Laparoscope, MasterLimits, Trajectory};
 
@@ -98,6 +101,8 @@ pub struct Settings {
     pub master: MasterLimits,
     /// The link's pre-shared key (None: frames without tags, a board on a desk).
     pub key: Option<master_link::LinkKey>,
+    /// What the person allowed at start (`--acknowledge-reset`, `--clear-fault`).
+    pub start: start::StartOptions,
 }
 
 /// The path as a trajectory from the central pose, with its passes: the laparoscope path
@@ -141,8 +146,10 @@ pub fn scenario_name(scenario: TeleopScenario) -> &'static str {
     }
 }
 
-/// Runs the master (it prints the checks as they come, then the summary).
-pub fn run(args: &Settings) -> Result<(), TeleopError> {
+/// Runs the master (it prints the checks as they come, then the summary) until the path
+/// ends or `stop` is set (a signal): whatever ends the run, the robot is left disabled
+/// ([`ci::disable_on_exit`]).
+pub fn run(args: &Settings, stop: &Arc<AtomicBool>) -> Result<(), TeleopError> {
     let geometry = RsprGeometry::<f64>::reference();
     let centre = Pose::central(geometry.hc);
     let central_q = {
@@ -166,6 +173,7 @@ pub fn run(args: &Settings) -> Result<(), TeleopError> {
     let link = link::open_with_key(&args.connect, args.baud, timeout, args.key.clone())?;
     let mut s = Session::new(link);
     s.paced = args.clock == ClockChoice::Board;
+    s.stop = Some(Arc::clone(stop));
     let mut checks = ci::Checks::default();
     let result = steps(
         &mut s,
@@ -175,8 +183,22 @@ pub fn run(args: &Settings) -> Result<(), TeleopError> {
         &centre,
         &central_q,
     );
-    if let Err(e) = &result {
-        checks.check("run", false, format!("stopped: {e}"));
+    if let Some(done) = ci::disable_on_exit(&mut s) {
+        println!("{done}");
+    }
+    match result {
+        // What the person must decide (a reset, a fault, another master): no summary.
+        Err(
+            e @ (TeleopError::ResetNotAcknowledged(_)
+            | TeleopError::Faulted(_)
+            | TeleopError::Busy(_)
+            | TeleopError::HelloRefused(_)),
+        ) => return Err(e),
+        Err(TeleopError::Interrupted) => {
+            checks.check("run", false, "stopped by a signal".into());
+        }
+        Err(e) => checks.check("run", false, format!("stopped: {e}")),
+        Ok(()) => {}
     }
     let written = write_csv(&s, out);
     print!("{}", summary(&s, &checks));
@@ -210,7 +232,16 @@ fn steps(
     central_q: &[f64; 6],
 ) -> Result<(), TeleopError> {
     ci::hello(s, checks, args.connect_timeout_s)?;
-    if !ci::home(s, checks, args.home_timeout_s, central_q)? || !ci::enable(s, checks)? {
+    if ci::prepare(s, checks, args.start)? {
+        checks.check(
+            "homes",
+            true,
+            "already homed (Ready): homing skipped".into(),
+        );
+    } else if !ci::home(s, checks, args.home_timeout_s, central_q)? {
+        return Ok(());
+    }
+    if !ci::enable(s, checks)? {
         return Ok(());
     }
     ci::stream(

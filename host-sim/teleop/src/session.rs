@@ -17,6 +17,8 @@ use master_link::{
     Seq, StatusReport,
 };
 use std::collections::HashMap;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use std::time::Duration;
 
 /// The board's answer to a `StoreGeometry`.
@@ -60,6 +62,10 @@ pub struct Refused {
     pub reason: NackReason,
 }
 
+/// How long a `Hello` refused with `NotOwner` is sent again, s: the stop that ends the
+/// last master's session (brakes engaging, about 100 ms) with margin.
+pub const HELLO_RETRY_S: f64 = 1.0;
+
 /// The master.
 pub struct Session {
     /// The link.
@@ -98,6 +104,8 @@ pub struct Session {
     last_stamp_us: u64,
     /// Why the board refused this master's last `Hello`, if it did.
     pub hello_refused: Option<NackReason>,
+    /// Set from outside (a signal) to end every wait with [`TeleopError::Interrupted`].
+    pub stop: Option<Arc<AtomicBool>>,
 }
 
 impl Session {
@@ -122,6 +130,7 @@ impl Session {
             clock: BoardClock::default(),
             last_stamp_us: 0,
             hello_refused: None,
+            stop: None,
         }
     }
 
@@ -277,6 +286,13 @@ impl Session {
     /// heartbeats that fall due.
     pub fn poll_until(&mut self, t_end_s: f64) -> Result<(), TeleopError> {
         loop {
+            if self
+                .stop
+                .as_ref()
+                .is_some_and(|s| s.load(Ordering::Relaxed))
+            {
+                return Err(TeleopError::Interrupted);
+            }
             let now = self.now_s();
             if self.heartbeat && now - self.last_beat_s >= HEARTBEAT_PERIOD_S {
                 self.link.send(&MasterToBoard::Heartbeat)?;
@@ -356,6 +372,7 @@ impl Session {
         let end = self.now_s() + timeout_s;
         self.hello = None;
         self.hello_refused = None;
+        let mut refused_since = None;
         while self.now_s() < end {
             let stamp = self.clock_stamp_us();
             let hello = self.link.hello_message(stamp);
@@ -368,8 +385,16 @@ impl Session {
                     self.request(MasterToBoard::OperatorPresent { present: true }, 1.0)?;
                     return Ok(h);
                 }
-                if let Some(reason) = self.hello_refused {
-                    return Err(TeleopError::HelloRefused(reason));
+                if let Some(reason) = self.hello_refused.take() {
+                    // The owner's robot may be in the last instants of its stop (brakes
+                    // engaging after a Disable): asked again within HELLO_RETRY_S.
+                    let first = *refused_since.get_or_insert(self.now_s());
+                    if reason != NackReason::NotOwner || self.now_s() - first > HELLO_RETRY_S {
+                        return Err(TeleopError::HelloRefused(reason));
+                    }
+                    let again = self.now_s() + 0.1;
+                    self.poll_until(again)?;
+                    break;
                 }
                 let step = (self.now_s() + 0.01).min(t);
                 self.poll_until(step)?;

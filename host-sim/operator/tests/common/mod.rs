@@ -85,7 +85,7 @@ impl TestBoard {
     /// board's supervisor plans the move).
     pub fn enabled(&self) -> EnabledBoard {
         let mut b = self.connect();
-        b.bring_up(&BringUpTimeouts::default(), &mut |m| {
+        b.bring_up(&BringUpTimeouts::default(), Default::default(), &mut |m| {
             eprintln!("  board: {m}")
         })
         .unwrap();
