@@ -18,6 +18,7 @@ pub mod geometry_file;
 pub mod limits_file;
 pub mod overlay;
 pub mod per_chain_file;
+pub mod plausible;
 pub mod selection;
 pub mod task_box;
 pub mod toml_error;
