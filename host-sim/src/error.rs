@@ -77,6 +77,16 @@ pub enum CliError {
     },
     #[error("calibrate upload: the board {0}")]
     Upload(String),
+    /// `replay` of a file that does not start with MCAP's magic bytes.
+    #[error(
+        "{}: not an MCAP file (a session recording of `host-sim teleop --device` starts \
+         with the MCAP magic bytes; this one starts with {first:?})",
+        path.display()
+    )]
+    NotMcap {
+        path: std::path::PathBuf,
+        first: String,
+    },
 }
 
 /// Library errors that reach the command line through their crate's error.

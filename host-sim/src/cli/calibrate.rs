@@ -13,7 +13,6 @@ use clap::{Args, Subcommand};
 use kinematics_core::{PerChainGeometry, Robot};
 use robot_config::selection::{SelectedLimits, SelectedRobot};
 use robot_config::units::{deg_to_rad, mm_to_m};
-use simulation::config::default_target_dir;
 use std::path::{Path, PathBuf};
 
 /// `host-sim calibrate` arguments: identify from measurements, or one of the subcommands.
@@ -221,9 +220,7 @@ fn start(selected: &SelectedRobot) -> Result<PerChainGeometry<f64>, CliError> {
 }
 
 fn out_dir(out: &Option<PathBuf>, sub: &str) -> Result<PathBuf, CliError> {
-    let dir = out
-        .clone()
-        .unwrap_or_else(|| default_target_dir().join("calibration").join(sub));
+    let dir = robot_config::output::out_dir(out.as_deref(), &["calibration", sub]);
     std::fs::create_dir_all(&dir).map_err(|e| CliError::Output {
         path: dir.clone(),
         error: e.to_string(),

@@ -24,6 +24,11 @@ use std::path::PathBuf;
 /// x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg with (rx, ry, rz) the rotation vector (axis * angle).
 /// Every row-wise command has a single-pose form (flags) and a batch form (--csv: CSV with a
 /// header on stdin, CSV on stdout, one output row per input row).
+///
+/// Files: a command that writes files writes them to its --out DIR, else to
+/// target/<tool>/ under the current directory (target/sim/<scenario>/, target/faults/,
+/// target/replay/<recording>/, target/calibration/, target/teleop/<scenario>/,
+/// target/design/<command>/).
 #[derive(Debug, Parser)]
 #[command(name = "host-sim", version)]
 pub struct Cli {
@@ -246,7 +251,7 @@ pub enum Command {
     /// The fault log of a board (or the simulated board, or the emulator), read over its
     /// link: time, cause, joint, value, the stop it caused, repeats; and the last reset.
     Faultlog(board::FaultLogArgs),
-    /// Kinematic calibration from external measurements (issue 19).
+    /// Kinematic calibration from external measurements.
     ///
     /// --measurements FILE.csv: joint readings paired with the marker pose (or position)
     /// a tracker measured; identifies the per-chain geometry with the tracker-to-base and
