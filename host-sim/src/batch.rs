@@ -229,11 +229,27 @@ fn check_width(values: Vec<String>, width: usize) -> Result<Vec<String>, (usize,
     }
 }
 
+/// A column's value for the rows of an input that lacks the column, e.g. the branch a
+/// command's `--branch` flag names.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ColumnDefault {
+    /// The flag that gave it, e.g. `--branch`.
+    pub flag: &'static str,
+    /// The column, e.g. `branch`.
+    pub column: &'static str,
+    /// The value every row gets.
+    pub value: String,
+}
+
 /// Runs a calculation over a CSV table: header and rows from `input`, the result table to
 /// `output`. Returns the counts; fails only for whole-run problems (unreadable input, a
 /// missing column, an output error). Rows are numbered from 1, the header not counted.
+/// An input without one of the `defaults`' columns reads as if it had that column,
+/// filled with the default's value, appended after its own columns (and echoed, so the
+/// output says which value was used); a column the input has is read as it is.
 pub fn run_csv<C: Calculation + ?Sized>(
     calc: &C,
+    defaults: &[ColumnDefault],
     input: impl Read,
     output: impl Write,
 ) -> Result<BatchSummary, BatchError<C::Error>> {
@@ -243,12 +259,22 @@ pub fn run_csv<C: Calculation + ?Sized>(
         .flexible(true)
         .trim(csv::Trim::All)
         .from_reader(input);
-    let header: Vec<String> = reader
+    let mut header: Vec<String> = reader
         .headers()
         .map_err(|source| BatchError::Header { name, source })?
         .iter()
         .map(str::to_string)
         .collect();
+    let input_width = header.len();
+    let mut filled = Vec::new();
+    if header.iter().any(|h| !h.is_empty()) {
+        for d in defaults {
+            if !header.iter().any(|h| h == d.column) {
+                header.push(d.column.to_string());
+                filled.push(d.value.clone());
+            }
+        }
+    }
     check_header(calc, &header)?;
     let mut writer = csv::Writer::from_writer(output);
     let write_error = |source: csv::Error| BatchError::Write { name, source };
@@ -263,11 +289,14 @@ pub fn run_csv<C: Calculation + ?Sized>(
         let row_number = i + 1;
         let (fields, pre_error) = match record {
             Ok(r) => {
-                let fields: Vec<String> = r.iter().map(str::to_string).collect();
-                let pre_error = (fields.len() != header.len()).then(|| RowProblem::FieldCount {
+                let mut fields: Vec<String> = r.iter().map(str::to_string).collect();
+                let pre_error = (fields.len() != input_width).then(|| RowProblem::FieldCount {
                     fields: fields.len(),
-                    header: header.len(),
+                    header: input_width,
                 });
+                if pre_error.is_none() {
+                    fields.extend(filled.iter().cloned());
+                }
                 (fields, pre_error)
             }
             Err(source) if source.is_io_error() => {
@@ -407,7 +436,7 @@ mod tests {
 
     fn run(input: &str) -> Result<(String, BatchSummary), String> {
         let mut out = Vec::new();
-        let s = run_csv(&Double, input.as_bytes(), &mut out).map_err(|e| e.to_string())?;
+        let s = run_csv(&Double, &[], input.as_bytes(), &mut out).map_err(|e| e.to_string())?;
         Ok((String::from_utf8(out).unwrap(), s))
     }
 
@@ -433,6 +462,22 @@ mod tests {
         let e = run("x,y\n1,2\n").unwrap_err();
         assert!(e.contains("\"a\""), "{e}");
         assert!(run("").unwrap_err().contains("empty"));
+    }
+
+    #[test]
+    fn a_default_fills_an_absent_column_and_never_overrides_a_present_one() {
+        let defaults = [ColumnDefault {
+            flag: "--a",
+            column: "a",
+            value: "3".into(),
+        }];
+        let run_with = |input: &str| {
+            let mut out = Vec::new();
+            run_csv(&Double, &defaults, input.as_bytes(), &mut out).unwrap();
+            String::from_utf8(out).unwrap()
+        };
+        assert_eq!(run_with("x\n1\n2\n"), "x,a,b,error\n1,3,6,\n2,3,6,\n");
+        assert_eq!(run_with("x,a\n1,5\n"), "x,a,b,error\n1,5,10,\n");
     }
 
     #[test]

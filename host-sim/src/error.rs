@@ -77,6 +77,25 @@ pub enum CliError {
     },
     #[error("calibrate upload: the board {0}")]
     Upload(String),
+    /// Measurement rows whose joints lie outside the robot's ranges.
+    #[error(
+        "{count} joint readings outside the robot's ranges (a typo or another robot): {first}; \
+         fix them, or pass --drop-out-of-range to drop those rows"
+    )]
+    OutOfRange { count: usize, first: String },
+    /// Measurements that determine too few combinations (written, not trusted).
+    #[error("calibrate: {0}; --force accepts the result anyway")]
+    Underdetermined(String),
+    /// `replay` of a file that does not start with MCAP's magic bytes.
+    #[error(
+        "{}: not an MCAP file (a session recording of `host-sim teleop --device` starts \
+         with the MCAP magic bytes; this one starts with {first:?})",
+        path.display()
+    )]
+    NotMcap {
+        path: std::path::PathBuf,
+        first: String,
+    },
 }
 
 /// Library errors that reach the command line through their crate's error.

@@ -133,3 +133,87 @@ fn errors_name_the_problem() {
     let r = host_sim(&["calibrate", "--measurements", bad.to_str().unwrap()], "");
     assert!(r.stderr.contains("zz_mm"), "{}", r.stderr);
 }
+
+/// Simulated measurements (40 planned poses, seed 19) and their header and rows.
+fn simulated_measurements(name: &str) -> (PathBuf, Vec<String>) {
+    let sim = temp_dir(name);
+    ok(
+        &[
+            "calibrate",
+            "simulate",
+            "--poses",
+            "40",
+            "--validation",
+            "20",
+            "--out",
+            sim.to_str().unwrap(),
+        ],
+        "",
+    );
+    let text = std::fs::read_to_string(sim.join("measurements.csv")).unwrap();
+    (sim, text.lines().map(str::to_string).collect())
+}
+
+#[test]
+fn a_typo_row_is_refused_with_row_and_column_or_dropped_on_request() {
+    let (dir, mut lines) = simulated_measurements("typo");
+    // Row 3: l1 typed as 100 mm (stroke 144 .. 210 mm).
+    let mut cells: Vec<String> = lines[3].split(',').map(str::to_string).collect();
+    let l1 = lines[0].split(',').position(|c| c == "l1_mm").unwrap();
+    cells[l1] = "100".into();
+    lines[3] = cells.join(",");
+    let file = dir.join("typo.csv");
+    std::fs::write(&file, lines.join("\n") + "\n").unwrap();
+    let out = dir.join("out");
+    let args = [
+        "calibrate",
+        "--measurements",
+        file.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    let r = host_sim(&args, "");
+    assert_eq!(r.code, Some(1), "{}", r.stdout);
+    assert!(
+        r.stderr
+            .contains("row 3: l1_mm = 100 is outside the robot's range"),
+        "{}",
+        r.stderr
+    );
+    let r = host_sim(&[&args[..], &["--drop-out-of-range"]].concat(), "");
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+    assert!(r.stderr.contains("dropped 1 rows"), "{}", r.stderr);
+    assert!(
+        r.stdout.contains("Calibration from 39 measured poses"),
+        "{}",
+        r.stdout
+    );
+}
+
+#[test]
+fn five_poses_warn_and_exit_non_zero_unless_forced() {
+    let (dir, lines) = simulated_measurements("five");
+    let file = dir.join("five.csv");
+    std::fs::write(&file, lines[..6].join("\n") + "\n").unwrap();
+    let out = dir.join("out");
+    let args = [
+        "calibrate",
+        "--measurements",
+        file.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    let r = host_sim(&args, "");
+    assert_eq!(r.code, Some(1), "{}", r.stdout);
+    assert!(
+        r.stdout.contains("WARNING: the 5 measured poses determine"),
+        "{}",
+        r.stdout
+    );
+    assert!(r.stderr.contains("more poses"), "{}", r.stderr);
+    assert!(r.stderr.contains("--force"), "{}", r.stderr);
+    let report = std::fs::read_to_string(out.join("report.txt")).unwrap();
+    assert!(report.contains("WARNING"), "{report}");
+    let r = host_sim(&[&args[..], &["--force"]].concat(), "");
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+}

@@ -415,10 +415,10 @@ fn joint_and_measure_guards_at_their_boundaries() {
     );
     let forces = Table::parse(&forces);
     let force = (1..=3)
-        .map(|i| forces.num(0, &format!("tau{i}")).abs())
+        .map(|i| forces.num(0, &format!("f{i}_n")).abs())
         .fold(0.0, f64::max);
-    let torque = (4..=6)
-        .map(|i| forces.num(0, &format!("tau{i}")).abs())
+    let torque = (1..=3)
+        .map(|i| forces.num(0, &format!("t{i}_nm")).abs())
         .fold(0.0, f64::max);
     boundary(
         "force-warn",

@@ -147,7 +147,9 @@ fn virtual_work(robot: &[&str], poses: &[([f64; 6], u32)], wrench: [f64; 6]) {
         for name in POSE {
             assert!(!t.text(i, name).is_empty());
         }
-        let tau = Vector6::from_fn(|r, _| t.num(i, &format!("tau{}", r + 1)));
+        // tau in q order: the six result columns before `guards`, their units named.
+        let first = t.col("guards") - 6;
+        let tau = Vector6::from_fn(|r, _| t.num(i, &t.header[first + r]));
         let generic = Vector6::new(0.3, -0.7, 0.2, 1.1, -0.4, 0.9);
         for xdot in (0..6)
             .map(|k| Vector6::from_fn(|r, _| f64::from(u8::from(r == k))))

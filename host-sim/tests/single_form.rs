@@ -48,8 +48,8 @@ fn single_form_prints_the_batch_header_and_row() {
     let central = ok(&["ik", "--pose", "0,0,160,0,0,0", "--branch", "0"], "");
     assert_eq!(
         central,
-        "x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg,branch,l1_mm,l2_mm,l3_mm,theta1_deg,theta2_deg,theta3_deg,error\n\
-         0,0,160,0,0,0,0,170.880074906,170.880074906,170.880074906,0.000000000,0.000000000,0.000000000,\n"
+        "x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg,branch,l1_mm,l2_mm,l3_mm,theta1_deg,theta2_deg,theta3_deg,guards,error\n\
+         0,0,160,0,0,0,0,170.880074906,170.880074906,170.880074906,0.000000000,0.000000000,0.000000000,ok,\n"
     );
 }
 

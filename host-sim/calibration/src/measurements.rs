@@ -12,8 +12,10 @@
 //! A file either has the three rotation columns or not; a row whose rotation cells are
 //! empty is a **position-only** measurement (a laser tracker's reflector, one optical
 //! marker), which constrains the robot through the marker's position alone. Columns may
-//! come in any order; unknown columns are refused (a misspelt name would otherwise be
-//! silently ignored). `host-sim calibrate plan` writes the poses to visit; the operator
+//! come in any order; unknown and repeated columns are refused (a misspelt name would
+//! otherwise be silently ignored, a repeated one read from either copy). Joint readings
+//! outside the robot's ranges ([`JointRanges`], [`out_of_range`]) are a typo or a
+//! different robot: the command line refuses them, or drops and lists them on request. `host-sim calibrate plan` writes the poses to visit; the operator
 //! drives the robot to each, waits for it to settle, and records the board's joints and
 //! the tracker's reading in one row.
 
@@ -67,8 +69,89 @@ pub enum MeasurementError {
         column: &'static str,
         message: String,
     },
+    #[error("measurements: the column {0} appears more than once")]
+    RepeatedColumn(String),
     #[error("measurements: no rows")]
     Empty,
+}
+
+/// The joint readings a measurement of this robot can have: the stroke and the link
+/// angles of the limits, widened by a margin for the built robot's offsets (SI).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct JointRanges {
+    /// Shortest and longest leg, m.
+    pub stroke: [f64; 2],
+    /// Largest |θ_i| (central value 0 on the outer branch), rad.
+    pub link_angle_max: f64,
+    /// Added to both ends: a leg (m) and an angle (rad).
+    pub margin: [f64; 2],
+}
+
+impl JointRanges {
+    /// The ranges of `limits`, widened by 2 mm and 2 deg (four times the tolerances of a
+    /// robot built to drawings).
+    pub fn from_limits(limits: &kinematics_core::guards::Limits<f64>) -> Self {
+        JointRanges {
+            stroke: limits.stroke,
+            link_angle_max: limits.link_angle_max,
+            margin: [mm_to_m(2.0), deg_to_rad(2.0)],
+        }
+    }
+
+    /// The range of joint `j` (q order) at the edge, mm or deg.
+    pub fn edge_range(&self, j: usize) -> [f64; 2] {
+        if j < 3 {
+            [
+                m_to_mm(self.stroke[0] - self.margin[0]),
+                m_to_mm(self.stroke[1] + self.margin[0]),
+            ]
+        } else {
+            let a = rad_to_deg(self.link_angle_max + self.margin[1]);
+            [-a, a]
+        }
+    }
+}
+
+/// A joint reading outside its range.
+#[derive(Clone, Debug, PartialEq, Error)]
+#[error(
+    "measurements row {row}: {column} = {value} is outside the robot's range {:.1} .. {:.1}",
+    range[0],
+    range[1]
+)]
+pub struct OutOfRange {
+    /// The data row, from 1.
+    pub row: usize,
+    /// The column, e.g. `l1_mm`.
+    pub column: &'static str,
+    /// The reading, mm or deg.
+    pub value: f64,
+    /// The range, mm or deg.
+    pub range: [f64; 2],
+}
+
+/// Every joint reading outside `ranges`, by row (from 1) and column.
+pub fn out_of_range(rows: &[Measurement], ranges: &JointRanges) -> Vec<OutOfRange> {
+    let mut out = Vec::new();
+    for (k, m) in rows.iter().enumerate() {
+        for (j, &column) in JOINTS.iter().enumerate() {
+            let value = if j < 3 {
+                m_to_mm(m.joints[j])
+            } else {
+                rad_to_deg(m.joints[j])
+            };
+            let range = ranges.edge_range(j);
+            if !(range[0]..=range[1]).contains(&value) {
+                out.push(OutOfRange {
+                    row: k + 1,
+                    column,
+                    value,
+                    range,
+                });
+            }
+        }
+    }
+    out
 }
 
 const JOINTS: [&str; 6] = [
@@ -90,7 +173,10 @@ pub fn read(input: impl Read) -> Result<Vec<Measurement>, MeasurementError> {
         .from_reader(input);
     let header = rdr.headers()?.clone();
     let find = |name: &str| header.iter().position(|h| h == name);
-    for h in header.iter() {
+    for (i, h) in header.iter().enumerate() {
+        if header.iter().skip(i + 1).any(|o| o == h) {
+            return Err(MeasurementError::RepeatedColumn(h.to_string()));
+        }
         let known =
             JOINTS.contains(&h) || POSITION.contains(&h) || ROTATION.contains(&h) || h == "label";
         if !known {
@@ -238,5 +324,32 @@ mod tests {
         assert!(e.contains("foo"), "{e}");
         let e = read("l1_mm,l2_mm\n".as_bytes()).unwrap_err().to_string();
         assert!(e.contains("l3_mm"), "{e}");
+    }
+
+    #[test]
+    fn a_repeated_column_is_refused() {
+        let e = read(
+            "l1_mm,l2_mm,l3_mm,theta1_deg,theta2_deg,theta3_deg,x_mm,y_mm,z_mm,x_mm\n".as_bytes(),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("x_mm appears more than once"), "{e}");
+    }
+
+    #[test]
+    fn a_typo_in_a_leg_is_out_of_range_with_row_and_column() {
+        let text = "l1_mm,l2_mm,l3_mm,theta1_deg,theta2_deg,theta3_deg,x_mm,y_mm,z_mm\n\
+                    170.9,170.9,170.9,0,0,0,1,2,3\n100,170.9,170.9,0,0,95,1,2,3\n";
+        let rows = read(text.as_bytes()).unwrap();
+        let ranges = JointRanges::from_limits(&kinematics_core::guards::Limits::reference());
+        let bad = out_of_range(&rows, &ranges);
+        assert_eq!(bad.len(), 2, "{bad:?}");
+        assert_eq!((bad[0].row, bad[0].column), (2, "l1_mm"));
+        assert_eq!((bad[1].row, bad[1].column), (2, "theta3_deg"));
+        let e = bad[0].to_string();
+        assert!(
+            e.contains("row 2: l1_mm = 100 is outside the robot's range 142.0 .. 212.0"),
+            "{e}"
+        );
     }
 }

@@ -69,7 +69,7 @@ pub struct Tolerances {
 }
 
 impl Default for Tolerances {
-    /// ±0.5 mm, ±0.5 deg, ±20 counts.
+    /// ±0.5 mm, ±0.5 deg, ±20 counts: the tolerances of a robot built to drawings.
     fn default() -> Self {
         Tolerances {
             length_m: 0.5e-3,

@@ -1,5 +1,5 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
-//! The calibration's proof in simulation, on fixed seeds: a true robot perturbed by ±0.5 mm,
+//! The calibration proved in simulation, on fixed seeds: a true robot perturbed by ±0.5 mm,
 //! ±0.5 deg and ±20 counts, a tracker with 0.1 mm and 0.05 deg of noise, 60 planned poses;
 //! on 300 other poses of the task box the calibrated model is within 0.05 mm RMS and
 //! 0.15 mm at most, and within reach of the limit the noise allows.

@@ -31,12 +31,10 @@ pub enum OutputError {
     Plot(#[from] PlotError),
 }
 
-/// The output directory: `out` if given, else `target/design/<command>`; created.
+/// The output directory: `out` if given, else `target/design/<command>` under the current
+/// directory (`robot_config::output`); created.
 pub fn out_dir(out: Option<&Path>, command: &str) -> Result<PathBuf, FileError> {
-    let dir = match out {
-        Some(d) => d.to_path_buf(),
-        None => Path::new("target").join("design").join(command),
-    };
+    let dir = robot_config::output::out_dir(out, &["design", command]);
     std::fs::create_dir_all(&dir).map_err(|source| FileError::CreateDir {
         dir: dir.clone(),
         source,

@@ -8,10 +8,13 @@
 //! A per-chain (calibrated) RSPR has its own layout, `robot = "rspr-per-chain"`
 //! ([`crate::per_chain_file`]); [`parse`] and [`load`] take both.
 //!
-//! Unknown keys are rejected, and every error names the file and the key or value.
+//! Unknown keys are rejected, a dimension outside 1 .. 2000 mm (the eccentricity 0 ..
+//! 2000 mm) is refused as implausible ([`crate::plausible`]: metres in a millimetre key),
+//! and every error names the file and the key or value.
 //! `geometry/reference-rspr.toml` and `geometry/reference-usr.toml` are the built-in
 //! reference robots in this form.
 
+use crate::plausible::{PlausibleRange, DIMENSION, DIMENSION_OR_ZERO};
 use crate::toml_error::TomlError;
 use crate::units::mm_to_m;
 use kinematics_core::{GeometryError, Robot, RsprGeometry, UsrGeometry};
@@ -76,6 +79,9 @@ pub enum GeometryTextError {
     /// Dimensions that cannot be assembled (no one key is at fault).
     #[error("{0}")]
     Geometry(GeometryError),
+    /// A value no robot of this family has: most often metres in a millimetre key.
+    #[error(transparent)]
+    Implausible(#[from] crate::plausible::Implausible),
     /// A per-chain geometry file's problem.
     #[error(transparent)]
     PerChain(#[from] crate::per_chain_file::PerChainTextError),
@@ -117,6 +123,17 @@ pub enum GeometryFileError {
     },
 }
 
+/// Checks the positive, finite dimensions against their plausible ranges (the others are
+/// left to the core, whose reasons name them: negative, not finite).
+fn plausible(dims: &[(&str, f64, PlausibleRange)]) -> Result<(), GeometryTextError> {
+    for &(key, v, range) in dims {
+        if v.is_finite() && v > 0.0 {
+            range.check(key, v)?;
+        }
+    }
+    Ok(())
+}
+
 /// Parses and validates the text of a geometry file; messages name the key or value but
 /// not the file (see [`load`]).
 pub fn parse(text: &str) -> Result<Robot<f64>, GeometryTextError> {
@@ -130,6 +147,12 @@ pub fn parse(text: &str) -> Result<Robot<f64>, GeometryTextError> {
     match header.robot {
         Architecture::Rspr => {
             let g: RsprFile = toml::from_str(text).map_err(located)?;
+            plausible(&[
+                ("e_mm", g.e_mm, DIMENSION_OR_ZERO),
+                ("rb_mm", g.rb_mm, DIMENSION),
+                ("rp_mm", g.rp_mm, DIMENSION),
+                ("hc_mm", g.hc_mm, DIMENSION),
+            ])?;
             Ok(RsprGeometry::new(
                 mm_to_m(g.e_mm),
                 mm_to_m(g.rb_mm),
@@ -140,6 +163,13 @@ pub fn parse(text: &str) -> Result<Robot<f64>, GeometryTextError> {
         }
         Architecture::Usr => {
             let g: UsrFile = toml::from_str(text).map_err(located)?;
+            plausible(&[
+                ("e_mm", g.e_mm, DIMENSION_OR_ZERO),
+                ("rp_mm", g.rp_mm, DIMENSION),
+                ("l1_mm", g.l1_mm, DIMENSION),
+                ("l2_mm", g.l2_mm, DIMENSION),
+                ("hc_mm", g.hc_mm, DIMENSION),
+            ])?;
             Ok(UsrGeometry::new(
                 mm_to_m(g.e_mm),
                 mm_to_m(g.rp_mm),
@@ -196,6 +226,24 @@ mod tests {
         assert_eq!(rspr, Robot::Rspr(RsprGeometry::reference()));
         let usr = parse(include_str!("../geometry/reference-usr.toml")).unwrap();
         assert_eq!(usr, Robot::Usr(UsrGeometry::reference()));
+    }
+
+    #[test]
+    fn a_geometry_in_metres_is_refused_with_the_reason() {
+        let e = parse("robot = \"rspr\"\ne_mm = 0.02\nrb_mm = 0.09\nrp_mm = 0.05\nhc_mm = 0.16\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("rb_mm = 0.09"), "{e}");
+        assert!(e.contains("looks like metres (90 mm)"), "{e}");
+        let e = parse(
+            "robot = \"usr\"\ne_mm = 30\nrp_mm = 30\nl1_mm = 60\nl2_mm = 80\nhc_mm = 80000\n",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("hc_mm = 80000 is outside the plausible range"),
+            "{e}"
+        );
     }
 
     #[test]

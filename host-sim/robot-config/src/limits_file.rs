@@ -8,10 +8,14 @@
 //! ```
 //!
 //! Every key is optional and defaults to [`Limits::reference`], so a file may override a
-//! few; unknown keys are rejected. The result is checked with [`Limits::validate`]. Every
+//! few; unknown keys are rejected. Every length, angle, speed and acceleration must lie in
+//! a plausible range ([`crate::plausible`]; a stroke of 0.144 is metres in a millimetre
+//! key, a tilt of 0.52 radians in a degree key), and the result is checked with
+//! [`Limits::validate`]. Every
 //! error names the file and the key. `limits/reference.toml` lists every key with its
 //! meaning and where its default comes from.
 
+use crate::plausible::{Implausible, PlausibleRange};
 use crate::toml_error::TomlError;
 use crate::units::{deg_to_rad, mm_to_m};
 use kinematics_core::guards::{Limits, LimitsError};
@@ -112,6 +116,91 @@ fn si(x: f64) -> f64 {
 }
 
 impl LimitsFile {
+    /// The keys with a plausible range, their values (when given) and the range.
+    fn ranged(&self) -> Vec<(&'static str, Option<f64>, PlausibleRange)> {
+        let length = PlausibleRange::mm(1.0, 2000.0);
+        let angle = PlausibleRange::deg(1.0, 180.0);
+        let speed = PlausibleRange::mm(0.1, 1e4);
+        let accel = PlausibleRange::mm(1.0, 1e6);
+        let angular_speed = PlausibleRange::deg(0.1, 1e4);
+        let angular_accel = PlausibleRange::deg(1.0, 1e6);
+        let lever = PlausibleRange::mm(-2000.0, 2000.0);
+        let mut out = vec![
+            ("stroke_min_mm", self.stroke_min_mm, length),
+            ("stroke_max_mm", self.stroke_max_mm, length),
+            ("link_angle_max_deg", self.link_angle_max_deg, angle),
+            ("pitch_max_deg", self.pitch_max_deg, angle),
+            ("tilt_max_deg", self.tilt_max_deg, angle),
+            ("tilt_cone_deg", self.tilt_cone_deg, angle),
+            (
+                "collision_plane_height_mm",
+                self.collision_plane_height_mm,
+                lever,
+            ),
+            (
+                "collision_radius_mm",
+                self.collision_radius_mm,
+                PlausibleRange::mm(0.0, 2000.0),
+            ),
+            (
+                "box_margin_mm",
+                self.box_margin_mm,
+                PlausibleRange::mm(0.0, 1000.0),
+            ),
+            ("tip_speed_mm_s", self.tip_speed_mm_s, speed),
+            (
+                "angular_speed_deg_s",
+                self.angular_speed_deg_s,
+                angular_speed,
+            ),
+            ("tip_accel_mm_s2", self.tip_accel_mm_s2, accel),
+            (
+                "angular_accel_deg_s2",
+                self.angular_accel_deg_s2,
+                angular_accel,
+            ),
+            (
+                "joint_speed_linear_mm_s",
+                self.joint_speed_linear_mm_s,
+                speed,
+            ),
+            (
+                "joint_speed_angular_deg_s",
+                self.joint_speed_angular_deg_s,
+                angular_speed,
+            ),
+            (
+                "joint_accel_linear_mm_s2",
+                self.joint_accel_linear_mm_s2,
+                accel,
+            ),
+            (
+                "joint_accel_angular_deg_s2",
+                self.joint_accel_angular_deg_s2,
+                angular_accel,
+            ),
+            ("payload_lever_x_mm", self.payload_lever_x_mm, lever),
+            ("payload_lever_y_mm", self.payload_lever_y_mm, lever),
+            ("payload_lever_z_mm", self.payload_lever_z_mm, lever),
+        ];
+        if let Some(h) = self.box_half_mm {
+            for v in h {
+                out.push(("box_half_mm", Some(v), PlausibleRange::mm(1.0, 1000.0)));
+            }
+        }
+        out
+    }
+
+    /// Checks every given value against its plausible range.
+    fn plausible(&self) -> Result<(), Implausible> {
+        for (key, value, range) in self.ranged() {
+            if let Some(v) = value {
+                range.check(key, v)?;
+            }
+        }
+        Ok(())
+    }
+
     /// The reference limits with this file's keys applied, in SI.
     fn apply(&self, l: &mut Limits<f64>) {
         set(&mut l.stroke[0], self.stroke_min_mm, mm_to_m);
@@ -197,11 +286,14 @@ fn keys_of(field: &str) -> Option<&'static str> {
 
 /// What is wrong with the text of a limits file (the file is named by
 /// [`LimitsFileError`]).
-#[derive(Clone, Debug, PartialEq, Eq, Error)]
+#[derive(Clone, Debug, PartialEq, Error)]
 pub enum LimitsTextError {
     /// Not TOML, an unknown key, a value of the wrong type.
     #[error(transparent)]
     Toml(#[from] TomlError),
+    /// A value outside its key's plausible range (metres, radians).
+    #[error(transparent)]
+    Implausible(#[from] Implausible),
     /// Limits that [`Limits::validate`] refuses; `keys` lists the file's keys when the
     /// core names a group of them.
     #[error("{error}{}", keys.map(|k| format!(" (keys {k})")).unwrap_or_default())]
@@ -241,7 +333,9 @@ pub fn parse(text: &str) -> Result<Limits<f64>, LimitsTextError> {
     let file: LimitsFile = toml::from_str(text).map_err(|e| TomlError::located(text, &e))?;
     let mut limits = Limits::reference();
     file.apply(&mut limits);
+    // The core's reasons (negative, inconsistent) first, then the plausible ranges.
     limits.validate()?;
+    file.plausible()?;
     Ok(limits)
 }
 
@@ -288,6 +382,20 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn limits_in_metres_or_radians_are_refused_with_the_reason() {
+        let e = parse("stroke_min_mm = 0.144\n").unwrap_err().to_string();
+        assert!(e.contains("stroke_min_mm = 0.144"), "{e}");
+        assert!(e.contains("looks like metres (144 mm)"), "{e}");
+        let e = parse("tilt_max_deg = 0.5\n").unwrap_err().to_string();
+        assert!(e.contains("looks like radians"), "{e}");
+        let e = parse("box_half_mm = [0.02, 0.02, 0.01]\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("box_half_mm = 0.02"), "{e}");
+        assert!(parse("stroke_max_mm = 5000\n").is_err());
     }
 
     #[test]

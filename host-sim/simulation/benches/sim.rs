@@ -1,4 +1,4 @@
-//! Speed of the closed-loop simulation : "at least 100x faster than real time".
+//! Speed of the closed-loop simulation; the target is at least 100x faster than real time.
 //!
 //! `cargo bench -p simulation --bench sim`
 //!

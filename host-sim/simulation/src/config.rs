@@ -315,7 +315,7 @@ impl SimConfig {
     }
 
     /// The output directory of `scenario`: `--out` if given, else `output.dir`, else
-    /// `target/sim/<scenario>` in the binary's cargo target directory.
+    /// `target/sim/<scenario>` under the current directory (`robot_config::output`).
     pub fn output_dir(&self, out: Option<&Path>, scenario: &str) -> PathBuf {
         if let Some(o) = out {
             return o.to_path_buf();
@@ -323,23 +323,8 @@ impl SimConfig {
         if !self.output.dir.is_empty() {
             return PathBuf::from(&self.output.dir);
         }
-        default_target_dir().join("sim").join(scenario)
+        robot_config::output::default_dir(&["sim", scenario])
     }
-}
-
-/// The cargo target directory the binary was built in (`<target>/<profile>/host-sim`
-/// whose `<target>` holds cargo's `CACHEDIR.TAG`), else `./target`.
-pub fn default_target_dir() -> PathBuf {
-    std::env::current_exe()
-        .ok()
-        .and_then(|exe| {
-            exe.ancestors()
-                .skip(1)
-                .take(3)
-                .find(|d| d.join("CACHEDIR.TAG").is_file())
-                .map(Path::to_path_buf)
-        })
-        .unwrap_or_else(|| PathBuf::from("target"))
 }
 
 impl ControlSection {

@@ -4,7 +4,7 @@
 
 use crate::error::CliError;
 use clap::Args;
-use simulation::config::default_target_dir;
+use robot_config::output;
 use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
 use std::time::Duration;
@@ -26,7 +26,7 @@ pub struct FaultsArgs {
     /// Threads [default: 2].
     #[arg(long, default_value_t = 2)]
     pub threads: usize,
-    /// Output directory [default: target/faults in the binary's target dir].
+    /// Output directory [default: target/faults/ under the current directory].
     #[arg(long)]
     pub out: Option<PathBuf>,
 }
@@ -72,10 +72,7 @@ pub fn faults(args: &FaultsArgs) -> Result<(), CliError> {
         );
     })?;
     print!("{}", faults::report::matrix_text(&cells));
-    let out = args
-        .out
-        .clone()
-        .unwrap_or_else(|| default_target_dir().join("faults"));
+    let out = output::out_dir(args.out.as_deref(), &["faults"]);
     std::fs::create_dir_all(&out).map_err(|source| CliError::CreateDir {
         path: out.display().to_string(),
         source,

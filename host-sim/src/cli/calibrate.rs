@@ -4,8 +4,9 @@
 use crate::error::CliError;
 use crate::flags::{numbers, FlagError};
 use calibration::identify::{identify, Loss, Options};
+use calibration::measurements::JointRanges;
 use calibration::model::Noise;
-use calibration::plan::{default_marker, plan, PlanOptions};
+use calibration::plan::{default_marker, plan, shortfall, PlanOptions};
 use calibration::rigid::Rigid;
 use calibration::simulate::{run as simulate, Scenario};
 use calibration::{measurements, report};
@@ -13,7 +14,6 @@ use clap::{Args, Subcommand};
 use kinematics_core::{PerChainGeometry, Robot};
 use robot_config::selection::{SelectedLimits, SelectedRobot};
 use robot_config::units::{deg_to_rad, mm_to_m};
-use simulation::config::default_target_dir;
 use std::path::{Path, PathBuf};
 
 /// `host-sim calibrate` arguments: identify from measurements, or one of the subcommands.
@@ -139,6 +139,14 @@ pub struct IdentifyArgs {
     /// The calibration's version written into the geometry file (the board reports it).
     #[arg(long, default_value_t = 1)]
     pub version: u32,
+    /// Drop the rows whose joints lie outside the robot's ranges (the limits' stroke and
+    /// link angle, widened by 2 mm and 2 deg) and list them, instead of refusing the file.
+    #[arg(long)]
+    pub drop_out_of_range: bool,
+    /// Write the calibration and exit 0 even when the poses determine fewer parameter
+    /// combinations than the planner's 60 poses (the report warns either way).
+    #[arg(long)]
+    pub force: bool,
     #[command(flatten)]
     pub noise: NoiseArgs,
     #[command(flatten)]
@@ -221,9 +229,7 @@ fn start(selected: &SelectedRobot) -> Result<PerChainGeometry<f64>, CliError> {
 }
 
 fn out_dir(out: &Option<PathBuf>, sub: &str) -> Result<PathBuf, CliError> {
-    let dir = out
-        .clone()
-        .unwrap_or_else(|| default_target_dir().join("calibration").join(sub));
+    let dir = robot_config::output::out_dir(out.as_deref(), &["calibration", sub]);
     std::fs::create_dir_all(&dir).map_err(|e| CliError::Output {
         path: dir.clone(),
         error: e.to_string(),
@@ -248,11 +254,18 @@ pub fn run(
         Some(CalibrateAction::Plan(a)) => run_plan(a, selected, limits),
         Some(CalibrateAction::Simulate(a)) => run_simulate(a),
         Some(CalibrateAction::Upload(a)) => run_upload(a),
-        None => run_identify(&args.identify, selected),
+        None => run_identify(&args.identify, selected, limits),
     }
 }
 
-fn run_identify(args: &IdentifyArgs, selected: &SelectedRobot) -> Result<(), CliError> {
+/// The planner's pose count the measurements are compared with.
+const PLANNED_POSES: usize = 60;
+
+fn run_identify(
+    args: &IdentifyArgs,
+    selected: &SelectedRobot,
+    limits: &SelectedLimits,
+) -> Result<(), CliError> {
     let Some(path) = &args.measurements else {
         return Err(FlagError::Invalid {
             flag: "--measurements",
@@ -265,7 +278,29 @@ fn run_identify(args: &IdentifyArgs, selected: &SelectedRobot) -> Result<(), Cli
         path: path.clone(),
         error: e.to_string(),
     })?;
-    let rows = measurements::read(file).map_err(calibration::CalibrationError::from)?;
+    let mut rows = measurements::read(file).map_err(calibration::CalibrationError::from)?;
+    let bad = measurements::out_of_range(&rows, &JointRanges::from_limits(&limits.limits));
+    if !bad.is_empty() {
+        let lines: Vec<String> = bad.iter().map(ToString::to_string).collect();
+        if !args.drop_out_of_range {
+            return Err(CliError::OutOfRange {
+                count: bad.len(),
+                first: lines.join("; "),
+            });
+        }
+        let mut dropped: Vec<usize> = bad.iter().map(|b| b.row).collect();
+        dropped.dedup();
+        eprintln!("dropped {} rows out of range:", dropped.len());
+        for l in &lines {
+            eprintln!("  {l}");
+        }
+        rows = rows
+            .into_iter()
+            .enumerate()
+            .filter(|(k, _)| !dropped.contains(&(k + 1)))
+            .map(|(_, m)| m)
+            .collect();
+    }
     let reference = start(selected)?;
     let opts = Options {
         noise: args.noise.noise()?,
@@ -274,7 +309,22 @@ fn run_identify(args: &IdentifyArgs, selected: &SelectedRobot) -> Result<(), Cli
     };
     let id = identify(&reference, &rows, marker(&args.marker)?, &opts)?;
     let dir = out_dir(&args.out, "")?;
-    let text = report::identification_text(&id);
+    let planned = plan(
+        &reference,
+        &PlanOptions {
+            poses: PLANNED_POSES,
+            position_only: rows.iter().all(|m| m.rotation.is_none()),
+            noise: opts.noise,
+            limits: limits.limits,
+            marker_in_platform: marker(&args.marker)?,
+            ..PlanOptions::default()
+        },
+    )?;
+    let short = shortfall(&id.identifiability, rows.len(), &planned);
+    let mut text = report::identification_text(&id);
+    if let Some(s) = &short {
+        text.push_str(&format!("\nWARNING: {s}.\n"));
+    }
     print!("{text}");
     let source = format!("host-sim calibrate --measurements {}", path.display());
     write(
@@ -289,7 +339,10 @@ fn run_identify(args: &IdentifyArgs, selected: &SelectedRobot) -> Result<(), Cli
         args.version,
         dir.display()
     );
-    Ok(())
+    match short {
+        Some(s) if !args.force => Err(CliError::Underdetermined(s.to_string())),
+        _ => Ok(()),
+    }
 }
 
 fn run_plan(

@@ -13,6 +13,7 @@ use design::report::Task;
 use design::synth::{grid, SynthTask};
 use design::workspace::Scan;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use kinematics_core::guards::Limits;
 use kinematics_core::{Mechanism, Robot, RobotKind};
 use robot_config::selection::{SelectedLimits, SelectedRobot};
 use robot_config::task_box::TaskBox;
@@ -82,9 +83,13 @@ pub struct PathArgs {
 }
 
 /// Runs `forces`: the path form when `--path` is given, else the row-wise form.
-pub fn forces(args: &ForcesCommandArgs, robot: &Robot<f64>) -> Result<(), CliError> {
+pub fn forces(
+    args: &ForcesCommandArgs,
+    robot: &Robot<f64>,
+    limits: &Limits<f64>,
+) -> Result<(), CliError> {
     let Some(choice) = args.path.path else {
-        return row_forces::run(&args.row, robot);
+        return row_forces::run(&args.row, robot, limits);
     };
     let PathChoice::Diagonal = choice;
     let p = &args.path;

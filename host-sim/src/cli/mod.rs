@@ -24,6 +24,11 @@ use std::path::PathBuf;
 /// x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg with (rx, ry, rz) the rotation vector (axis * angle).
 /// Every row-wise command has a single-pose form (flags) and a batch form (--csv: CSV with a
 /// header on stdin, CSV on stdout, one output row per input row).
+///
+/// Files: a command that writes files writes them to its --out DIR, else to
+/// target/<tool>/ under the current directory (target/sim/<scenario>/, target/faults/,
+/// target/replay/<recording>/, target/calibration/, target/teleop/<scenario>/,
+/// target/design/<command>/).
 #[derive(Debug, Parser)]
 #[command(name = "host-sim", version)]
 pub struct Cli {
@@ -97,28 +102,32 @@ impl RobotArgs {
 pub enum Command {
     /// Inverse kinematics: the joints q1..q6 of a pose on a branch.
     ///
-    /// In: x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg,branch. Out: the input, then RSPR
-    /// l1_mm,l2_mm,l3_mm,theta1_deg,theta2_deg,theta3_deg or USR
-    /// alpha1_deg,alpha2_deg,alpha3_deg,beta1_deg,beta2_deg,beta3_deg, then error.
+    /// In: x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg, optionally branch (else --branch). Out:
+    /// the input, then RSPR l1_mm,l2_mm,l3_mm,theta1_deg,theta2_deg,theta3_deg or USR
+    /// alpha1_deg,alpha2_deg,alpha3_deg,beta1_deg,beta2_deg,beta3_deg, then guards (ok, or
+    /// the first limit of the worst severity broken, with its value and limit, under
+    /// --limits) and error.
     Ik(ik::IkArgs),
     /// Forward kinematics: the pose of joints q1..q6 on a branch (Newton iteration).
     ///
-    /// In: branch, the joints (the names ik writes), optionally the initial pose
-    /// x0_mm..rz0_deg (absent or empty = [0, 0, hc], R = I). Out: the
-    /// input, then x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg,iterations,error. Input columns
-    /// named like an output column are echoed as in_<name>.
+    /// In: the joints (the names ik writes), optionally branch (else --branch) and the
+    /// initial pose x0_mm..rz0_deg (absent or empty = [0, 0, hc], R = I). Out: the input,
+    /// then x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg,iterations, guards (the verdict on the pose
+    /// found, as ik's) and error. Input columns named like an output column are echoed as
+    /// in_<name>.
     Fk(fk::FkArgs),
     /// The Jacobian J = dq/dx (SI, rows in q order, columns [v; w]) and its conditioning.
     ///
-    /// In: x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg,branch. Out: the input, then j11..j66
-    /// (row-major; m/m, m/rad, rad/m, rad/rad), inv_cond (of the tripod Jacobian with its
-    /// moment columns divided by rp), error.
+    /// In: x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg, optionally branch (else --branch). Out:
+    /// the input, then j11..j66 (row-major; m/m, m/rad, rad/m, rad/rad), inv_cond (of the
+    /// tripod Jacobian with its moment columns divided by rp), guards (as ik's), error.
     Jacobian(jacobian::JacobianArgs),
     /// Actuator forces tau = J^-T s_e for a wrench the platform exerts on its environment.
     ///
-    /// In: x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg,branch,fx_n,fy_n,fz_n,tx_nm,ty_nm,tz_nm.
-    /// Out: the input, then tau1..tau6 in q order (RSPR: N on l1..l3, N m on theta1..3;
-    /// USR: N m), error.
+    /// In: x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg,fx_n,fy_n,fz_n,tx_nm,ty_nm,tz_nm, optionally
+    /// branch (else --branch). Out: the input, then tau in q order (RSPR f1_n,f2_n,f3_n on
+    /// the legs, t1_nm,t2_nm,t3_nm on the rotating links; USR t_alpha1_nm..t_beta3_nm),
+    /// guards (as ik's), error.
     ///
     /// --path diagonal: the forces along a straight path at a fixed orientation (default
     /// the thesis's diagonal [-20,-20,-10] -> [20,20,10] mm about [0, 0, hc], 20 deg about
@@ -262,10 +271,10 @@ impl Command {
     pub fn run(&self, selected: &SelectedRobot, limits: &SelectedLimits) -> Result<(), CliError> {
         let robot = &selected.robot;
         match self {
-            Command::Ik(args) => Ok(ik::run(args, robot)?),
-            Command::Fk(args) => Ok(fk::run(args, robot)?),
-            Command::Jacobian(args) => Ok(jacobian::run(args, robot)?),
-            Command::Forces(args) => design::forces(args, robot),
+            Command::Ik(args) => Ok(ik::run(args, robot, &limits.limits)?),
+            Command::Fk(args) => Ok(fk::run(args, robot, &limits.limits)?),
+            Command::Jacobian(args) => Ok(jacobian::run(args, robot, &limits.limits)?),
+            Command::Forces(args) => design::forces(args, robot, &limits.limits),
             Command::Singularity(args) => Ok(singularity::run(args, robot)?),
             Command::Report(args) => design::report(args, selected),
             Command::Check(args) => Ok(check::run(args, selected, limits)?),

@@ -9,7 +9,7 @@ use operator::devices::{self, DeviceSpec};
 use operator::navigation::{self, BoardRobot};
 use operator::shutdown::{self, Shutdown};
 use operator::teleoperation::{self, TeleoperationSettings, TickView};
-use simulation::config::default_target_dir;
+use robot_config::output;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -178,10 +178,7 @@ fn teleoperation_settings(
         let unix = std::time::SystemTime::now()
             .duration_since(std::time::UNIX_EPOCH)
             .map_or(0, |d| d.as_secs());
-        default_target_dir()
-            .join("teleop")
-            .join("sessions")
-            .join(format!("session-{unix}.mcap"))
+        output::default_dir(&["teleop", "sessions"]).join(format!("session-{unix}.mcap"))
     });
     let mut teleop = TeleopConfig {
         stream_rate_hz,
@@ -236,14 +233,37 @@ pub struct ReplayArgs {
     pub out: Option<PathBuf>,
 }
 
+/// The magic bytes every MCAP file starts with (MCAP specification, "Magic").
+const MCAP_MAGIC: &[u8; 8] = b"\x89MCAP0\r\n";
+
+/// Refuses a file that is not MCAP (a CSV trace, a status log) before it is parsed.
+fn check_mcap(path: &std::path::Path) -> Result<(), CliError> {
+    use std::io::Read as _;
+    let mut head = Vec::with_capacity(MCAP_MAGIC.len());
+    std::fs::File::open(path)
+        .and_then(|f| f.take(MCAP_MAGIC.len() as u64).read_to_end(&mut head))
+        .map_err(|e| CliError::Input {
+            path: path.to_path_buf(),
+            error: e.to_string(),
+        })?;
+    if head.as_slice() == MCAP_MAGIC {
+        return Ok(());
+    }
+    Err(CliError::NotMcap {
+        path: path.to_path_buf(),
+        first: String::from_utf8_lossy(&head).into_owned(),
+    })
+}
+
 /// Prints a recording's summary and writes its plots.
 pub fn replay(args: &ReplayArgs) -> Result<(), CliError> {
+    check_mcap(&args.file)?;
     let out = args.out.clone().unwrap_or_else(|| {
         let stem = args
             .file
             .file_stem()
             .map_or("session".into(), |s| s.to_string_lossy().into_owned());
-        default_target_dir().join("replay").join(stem)
+        output::default_dir(&["replay", &stem])
     });
     let r = operator::replay::replay(&args.file, &out)?;
     println!("{}", args.file.display());

@@ -4,7 +4,8 @@
 
 use crate::error::CliError;
 use clap::Args;
-use simulation::config::{default_target_dir, SimConfig};
+use robot_config::output;
+use simulation::config::SimConfig;
 use std::path::PathBuf;
 use teleop::{ClockChoice, PathChoice, Settings, TeleopScenario};
 
@@ -41,7 +42,7 @@ pub struct TeleopArgs {
     /// streamed path, mm (default: the legs' following-error window of the servo, 1 mm).
     #[arg(long, default_value_t = 1.0)]
     pub max_deviation_mm: f64,
-    /// Output directory [default: target/teleop/<scenario> in the binary's target dir].
+    /// Output directory [default: target/teleop/<scenario>/ under the current directory].
     #[arg(long)]
     pub out: Option<PathBuf>,
     #[command(flatten)]
@@ -70,11 +71,10 @@ pub fn run(args: &TeleopArgs) -> Result<(), CliError> {
         );
     }
     let cfg = SimConfig::builtin()?;
-    let out = args.out.clone().unwrap_or_else(|| {
-        default_target_dir()
-            .join("teleop")
-            .join(teleop::scenario_name(args.scenario))
-    });
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| output::default_dir(&["teleop", teleop::scenario_name(args.scenario)]));
     let settings = Settings {
         connect: args.connect.clone(),
         scenario: args.scenario,

@@ -118,6 +118,33 @@ pub fn violation_text(r: &Reading<f64>) -> String {
     )
 }
 
+/// The column of `ik`, `fk`, `jacobian` and `forces` that carries the guards' verdict.
+pub const GUARDS_COLUMN: &str = "guards";
+
+/// A reading in words: severity, guard, subject, value and the limit it broke, in the
+/// guard's edge unit, e.g. `stop: stroke of chain 1 is 404.100 mm, limit 210.000 mm`.
+pub fn reading_words(r: &Reading<f64>) -> String {
+    let unit = r.guard.edge_unit().1;
+    let unit = if unit.is_empty() {
+        String::new()
+    } else {
+        format!(" {unit}")
+    };
+    let subject = match r.subject {
+        Subject::Robot => String::new(),
+        Subject::Chain(c) => format!(" of chain {}", c.number()),
+        Subject::Joint(j) => format!(" of q{j}"),
+        Subject::Axis(_) => format!(" along {}", r.subject),
+    };
+    let severity = r.severity.map(|s| s.to_string()).unwrap_or_default();
+    format!(
+        "{severity}: {}{subject} is {}{unit}, limit {}{unit}",
+        r.guard.name(),
+        edge_text(r.guard, r.value),
+        edge_text(r.guard, r.limit),
+    )
+}
+
 /// The guards prepared for a robot and limits on every branch.
 pub struct Check {
     /// Index = branch bits; a branch whose guards cannot be set up keeps the reason.
@@ -160,6 +187,24 @@ impl Check {
             }
         });
         Ok(out)
+    }
+}
+
+impl Check {
+    /// The guards' verdict at a pose on a branch, for the `guards` column: `ok` when no
+    /// guard is violated, else the first violation of the worst severity in words
+    /// ([`reading_words`]), followed by the count of the other violations.
+    pub fn verdict(&self, pose: &Pose<f64>, branch: Branch) -> Result<String, RowError> {
+        let violations = self.violations(pose, branch)?;
+        let worst = violations.iter().filter_map(|r| r.severity).max();
+        let Some(first) = violations.iter().find(|r| r.severity == worst) else {
+            return Ok("ok".to_string());
+        };
+        let more = violations.len() - 1;
+        Ok(match more {
+            0 => reading_words(first),
+            n => format!("{} (and {n} more: see check)", reading_words(first)),
+        })
     }
 }
 
@@ -216,6 +261,7 @@ pub fn run(
         &Check::new(&selected.robot, &limits.limits),
         args.csv,
         &flags,
+        &[],
     )?)
 }
 

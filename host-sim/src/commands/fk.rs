@@ -1,23 +1,27 @@
 //! `fk`: the pose of joints on a branch, by the core's Newton iteration.
 
+use super::check::{Check, GUARDS_COLUMN};
 use super::{execute, RowError};
-use crate::batch::{BatchError, Calculation, FlagValue};
+use crate::batch::{BatchError, Calculation, ColumnDefault, FlagValue};
 use crate::columns::Row;
 use crate::columns::{
     joint_columns, pose_to_edge, read_branch, read_initial_pose, read_joints, BRANCH, INITIAL_POSE,
     POSE,
 };
 use clap::Args;
+use kinematics_core::guards::Limits;
 use kinematics_core::{forward, FkConfig, Mechanism, Pose, Robot};
 use robot_config::units::fixed9;
 
 /// `host-sim fk`: in branch, the joints (the column names `ik` writes) and optionally an
-/// initial pose x0_mm..rz0_deg; out the input, then x_mm..rz_deg, iterations and `error`.
+/// initial pose x0_mm..rz0_deg; out the input, then x_mm..rz_deg, iterations, the guards'
+/// verdict on the pose found and `error`.
 #[derive(Debug, Args)]
 pub struct FkArgs {
     /// Batch form: CSV on stdin (columns branch, the joints, optional x0_mm..rz0_deg; an
-    /// empty initial pose means the central configuration), CSV on stdout.
-    #[arg(long, conflicts_with_all = ["joints", "initial", "branch"])]
+    /// empty initial pose means the central configuration), CSV on stdout. An input
+    /// without a `branch` column takes --branch for every row.
+    #[arg(long, conflicts_with_all = ["joints", "initial"])]
     pub csv: bool,
     /// Joints q1..q6 in q order: RSPR l1_mm,l2_mm,l3_mm,theta1_deg,theta2_deg,theta3_deg;
     /// USR alpha1_deg,alpha2_deg,alpha3_deg,beta1_deg,beta2_deg,beta3_deg.
@@ -32,7 +36,8 @@ pub struct FkArgs {
     /// [default: the central configuration [0, 0, hc], R = I].
     #[arg(long, value_name = "X,Y,Z,RX,RY,RZ", allow_hyphen_values = true)]
     pub initial: Option<String>,
-    /// Inverse-kinematics branch 0..=7 the joints belong to.
+    /// Inverse-kinematics branch 0..=7 the joints belong to; with --csv, the branch of rows
+    /// without a `branch` column.
     #[arg(long, value_name = "0..7", default_value = "0")]
     pub branch: String,
 }
@@ -40,6 +45,8 @@ pub struct FkArgs {
 /// Forward kinematics of each row.
 pub struct Fk<'a> {
     pub robot: &'a Robot<f64>,
+    /// The guards whose verdict on the pose found goes to the `guards` column.
+    pub guards: Check,
 }
 
 impl Calculation for Fk<'_> {
@@ -58,6 +65,7 @@ impl Calculation for Fk<'_> {
     fn result_columns(&self) -> Vec<&'static str> {
         let mut c = POSE.to_vec();
         c.push("iterations");
+        c.push(GUARDS_COLUMN);
         c
     }
     fn compute(&self, row: &Row<'_>) -> Result<Vec<String>, RowError> {
@@ -68,12 +76,17 @@ impl Calculation for Fk<'_> {
             forward(self.robot, &q, branch, &guess, &FkConfig::default()).map_err(RowError::Fk)?;
         let mut out: Vec<String> = pose_to_edge(&fk.pose).map(fixed9).to_vec();
         out.push(fk.iterations.to_string());
+        out.push(self.guards.verdict(&fk.pose, branch)?);
         Ok(out)
     }
 }
 
 /// Runs `fk`.
-pub fn run(args: &FkArgs, robot: &Robot<f64>) -> Result<(), BatchError<RowError>> {
+pub fn run(
+    args: &FkArgs,
+    robot: &Robot<f64>,
+    limits: &Limits<f64>,
+) -> Result<(), BatchError<RowError>> {
     let mut flags = vec![
         FlagValue::new("--branch", &[BRANCH], &args.branch),
         FlagValue::new(
@@ -85,5 +98,14 @@ pub fn run(args: &FkArgs, robot: &Robot<f64>) -> Result<(), BatchError<RowError>
     if let Some(initial) = &args.initial {
         flags.push(FlagValue::new("--initial", &INITIAL_POSE, initial));
     }
-    execute(&Fk { robot }, args.csv, &flags)
+    let calc = Fk {
+        robot,
+        guards: Check::new(robot, limits),
+    };
+    let defaults = [ColumnDefault {
+        flag: "--branch",
+        column: BRANCH,
+        value: args.branch.clone(),
+    }];
+    execute(&calc, args.csv, &flags, &defaults)
 }

@@ -1,17 +1,21 @@
 //! `forces`: the actuator forces and torques that hold a wrench, tau = J^-T s_e.
 
+use super::check::{Check, GUARDS_COLUMN};
 use super::{execute, pose_columns, solve_row, PoseInput, RowError};
 use crate::batch::{Calculation, FlagValue};
-use crate::columns::Row;
-use crate::columns::{read_wrench, WRENCH};
+use crate::columns::{read_branch, read_pose, read_wrench, Row, WRENCH};
 use crate::error::CliError;
 use crate::flags::min_inv_cond;
 use clap::Args;
+use design::forces_path::tau_columns;
+use kinematics_core::guards::Limits;
 use kinematics_core::{actuator_forces, jacobian, Mechanism, Robot};
 use robot_config::units::significant;
 
-/// `host-sim forces`: in x_mm..rz_deg, branch, fx_n..tz_nm; out the input, then tau1..tau6
-/// (RSPR: N on the prismatic joints, N m on the rotating links; USR: all N m) and `error`.
+/// `host-sim forces`: in x_mm..rz_deg, branch, fx_n..tz_nm; out the input, then tau in q
+/// order with its unit in the column name (RSPR f1_n..f3_n on the prismatic joints,
+/// t1_nm..t3_nm on the rotating links; USR t_alpha1_nm..t_beta3_nm), the guards' verdict
+/// on the pose and `error`.
 #[derive(Debug, Args)]
 pub struct ForcesArgs {
     #[command(flatten)]
@@ -37,6 +41,8 @@ pub struct ForcesArgs {
 pub struct Forces<'a> {
     pub robot: &'a Robot<f64>,
     pub min_inv_cond: f64,
+    /// The guards whose verdict on the pose goes to the `guards` column.
+    pub guards: Check,
 }
 
 impl Calculation for Forces<'_> {
@@ -50,7 +56,9 @@ impl Calculation for Forces<'_> {
         c
     }
     fn result_columns(&self) -> Vec<&'static str> {
-        vec!["tau1", "tau2", "tau3", "tau4", "tau5", "tau6"]
+        let mut c = tau_columns(self.robot.kind()).to_vec();
+        c.push(GUARDS_COLUMN);
+        c
     }
     fn compute(&self, row: &Row<'_>) -> Result<Vec<String>, RowError> {
         let wrench = read_wrench(row)?;
@@ -58,12 +66,14 @@ impl Calculation for Forces<'_> {
         let jac = jacobian(self.robot, &sol).map_err(RowError::Jacobian)?;
         let statics = actuator_forces(&jac, self.robot.rp(), &wrench, self.min_inv_cond)
             .map_err(RowError::Forces)?;
-        Ok(statics.tau.iter().map(|&x| significant(x)).collect())
+        let mut out: Vec<String> = statics.tau.iter().map(|&x| significant(x)).collect();
+        out.push(self.guards.verdict(&read_pose(row)?, read_branch(row)?)?);
+        Ok(out)
     }
 }
 
 /// Runs `forces`.
-pub fn run(args: &ForcesArgs, robot: &Robot<f64>) -> Result<(), CliError> {
+pub fn run(args: &ForcesArgs, robot: &Robot<f64>, limits: &Limits<f64>) -> Result<(), CliError> {
     min_inv_cond(args.min_inv_cond)?;
     let mut flags = args.input.flags();
     flags.push(FlagValue::new(
@@ -74,6 +84,12 @@ pub fn run(args: &ForcesArgs, robot: &Robot<f64>) -> Result<(), CliError> {
     let calc = Forces {
         robot,
         min_inv_cond: args.min_inv_cond,
+        guards: Check::new(robot, limits),
     };
-    Ok(execute(&calc, args.input.csv, &flags)?)
+    Ok(execute(
+        &calc,
+        args.input.csv,
+        &flags,
+        &args.input.defaults(),
+    )?)
 }

@@ -1,15 +1,17 @@
 //! `jacobian`: J = dq/dx at a pose, and the conditioning of the tripod Jacobian.
 
+use super::check::{Check, GUARDS_COLUMN};
 use super::{execute, pose_columns, solve_row, PoseInput, RowError};
 use crate::batch::{BatchError, Calculation};
-use crate::columns::Row;
+use crate::columns::{read_branch, read_pose, Row};
 use clap::Args;
+use kinematics_core::guards::Limits;
 use kinematics_core::singularity::parallel_inv_cond;
 use kinematics_core::{jacobian, Mechanism, Robot};
 use robot_config::units::significant;
 
 /// `host-sim jacobian`: in x_mm..rz_deg,branch; out the input, then j11..j66 (SI, row-major,
-/// rows in q order, columns [v; w]), inv_cond and `error`.
+/// rows in q order, columns [v; w]), inv_cond, the guards' verdict and `error`.
 #[derive(Debug, Args)]
 pub struct JacobianArgs {
     #[command(flatten)]
@@ -26,6 +28,8 @@ const ENTRIES: [&str; 36] = [
 /// The Jacobian of each row.
 pub struct JacobianCalc<'a> {
     pub robot: &'a Robot<f64>,
+    /// The guards whose verdict on the pose goes to the `guards` column.
+    pub guards: Check,
 }
 
 impl Calculation for JacobianCalc<'_> {
@@ -39,6 +43,7 @@ impl Calculation for JacobianCalc<'_> {
     fn result_columns(&self) -> Vec<&'static str> {
         let mut c = ENTRIES.to_vec();
         c.push("inv_cond");
+        c.push(GUARDS_COLUMN);
         c
     }
     fn compute(&self, row: &Row<'_>) -> Result<Vec<String>, RowError> {
@@ -49,11 +54,25 @@ impl Calculation for JacobianCalc<'_> {
         // nalgebra stores column-major; the output is row-major.
         let mut out: Vec<String> = jac.j.transpose().iter().map(|&x| significant(x)).collect();
         out.push(significant(inv_cond));
+        out.push(self.guards.verdict(&read_pose(row)?, read_branch(row)?)?);
         Ok(out)
     }
 }
 
 /// Runs `jacobian`.
-pub fn run(args: &JacobianArgs, robot: &Robot<f64>) -> Result<(), BatchError<RowError>> {
-    execute(&JacobianCalc { robot }, args.input.csv, &args.input.flags())
+pub fn run(
+    args: &JacobianArgs,
+    robot: &Robot<f64>,
+    limits: &Limits<f64>,
+) -> Result<(), BatchError<RowError>> {
+    let calc = JacobianCalc {
+        robot,
+        guards: Check::new(robot, limits),
+    };
+    execute(
+        &calc,
+        args.input.csv,
+        &args.input.flags(),
+        &args.input.defaults(),
+    )
 }

@@ -8,8 +8,8 @@ pub mod ik;
 pub mod jacobian;
 pub mod singularity;
 
-use crate::batch::{self, BatchError, Calculation, FlagValue};
-use crate::columns::{self, FieldError, Row, BRANCH, POSE};
+use crate::batch::{self, BatchError, Calculation, ColumnDefault, FlagValue, FlagValueError};
+use crate::columns::{self, check_field, FieldError, Row, BRANCH, POSE};
 use clap::Args;
 use kinematics_core::guards::GuardSetupError;
 use kinematics_core::singularity::SvdDidNotConverge;
@@ -49,8 +49,9 @@ pub enum RowError {
 pub struct PoseInput {
     /// Batch form: read CSV with a header from stdin (columns found by name, extra columns
     /// echoed), write CSV to stdout, one row per input row; bad rows are reported in the
-    /// `error` column and do not stop the run.
-    #[arg(long, conflicts_with_all = ["pose", "branch"])]
+    /// `error` column and do not stop the run. An input without a `branch` column takes
+    /// --branch for every row (and the output echoes it).
+    #[arg(long, conflicts_with = "pose")]
     pub csv: bool,
     /// Single pose x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg; (rx, ry, rz) is the rotation
     /// vector (axis * angle) in degrees.
@@ -62,7 +63,8 @@ pub struct PoseInput {
     )]
     pub pose: Option<String>,
     /// Inverse-kinematics branch 0..=7, one bit per chain, chain 1 in bit 0 (0 = the
-    /// prototype's all-outer branch).
+    /// prototype's all-outer branch); with --csv, the branch of rows without a `branch`
+    /// column.
     #[arg(long, value_name = "0..7", default_value = "0")]
     pub branch: String,
 }
@@ -71,6 +73,15 @@ impl PoseInput {
     /// The columns of the single-pose form, in batch order (pose, then branch).
     pub fn flags(&self) -> Vec<FlagValue> {
         pose_flags(self.pose.as_deref(), &self.branch)
+    }
+
+    /// The batch form's default for an input without a `branch` column.
+    pub fn defaults(&self) -> Vec<ColumnDefault> {
+        vec![ColumnDefault {
+            flag: "--branch",
+            column: BRANCH,
+            value: self.branch.clone(),
+        }]
     }
 }
 
@@ -96,16 +107,28 @@ pub fn solve_row(robot: &Robot<f64>, row: &Row<'_>) -> Result<Solution<f64>, Row
     inverse(robot, &pose, branch).map_err(RowError::Ik)
 }
 
-/// Runs a calculation in the batch form (stdin to stdout, a count of bad rows on stderr)
-/// or the single form (the flags' one row).
+/// Runs a calculation in the batch form (stdin to stdout, a count of bad rows on stderr;
+/// `defaults` fill the columns an input lacks) or the single form (the flags' one row).
 pub fn execute<C: Calculation<Error = RowError>>(
     calc: &C,
     csv: bool,
     flags: &[FlagValue],
+    defaults: &[ColumnDefault],
 ) -> Result<(), BatchError<RowError>> {
+    if csv {
+        // The default's value is checked like the single form's flag.
+        for d in defaults {
+            check_field(d.column, &d.value).map_err(|error| {
+                BatchError::Flag(FlagValueError::Field {
+                    flag: d.flag,
+                    error,
+                })
+            })?;
+        }
+    }
     let stdout = std::io::stdout();
     if csv {
-        let summary = batch::run_csv(calc, std::io::stdin().lock(), stdout.lock())?;
+        let summary = batch::run_csv(calc, defaults, std::io::stdin().lock(), stdout.lock())?;
         eprintln!(
             "{}: {} rows, {} with errors (see the error column)",
             calc.name(),

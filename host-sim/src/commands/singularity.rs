@@ -62,5 +62,10 @@ impl Calculation for Singularity<'_> {
 
 /// Runs `singularity`.
 pub fn run(args: &SingularityArgs, robot: &Robot<f64>) -> Result<(), BatchError<RowError>> {
-    execute(&Singularity { robot }, args.input.csv, &args.input.flags())
+    execute(
+        &Singularity { robot },
+        args.input.csv,
+        &args.input.flags(),
+        &args.input.defaults(),
+    )
 }

@@ -81,6 +81,10 @@ pub fn fault_words(cause: FaultCause) -> &'static str {
         FaultCause::StandstillLost => "the robot moved during a safe stop",
         FaultCause::BrakeCheck => "a holding brake failed its check",
         FaultCause::NonFiniteInput => "a value that is not a number reached the servo",
+        FaultCause::EncoderDisagree => {
+            "an encoder disagrees with the joint's second position sensor (stuck, dead or miscounting)"
+        }
+        FaultCause::PositionSensor => "a joint's second position sensor failed",
         FaultCause::Internal => "an internal error",
     }
 }
