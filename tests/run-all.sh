@@ -3,6 +3,23 @@
 # Installs what it needs when missing (the Cortex-M4F target, Debian packages, PyPI test
 # clients). Every check passes or fails: nothing is retried. Property tests run from a fixed
 # seed (tests/proptest-config); RSPR_PROPTEST_FRESH=1 draws fresh seeds and more cases.
+#
+# Load cannot fail it (tests/under-load.sh runs it beside CPU burners): every test that
+# talks to a board runs in the board's time, on a board of its own or one in a known state.
+# - The emulated board in lockstep, in process (board-emulator's tests, board-scenarios):
+#   virtual time only, the master driven by the emulator's clock; one board per run.
+# - The simulated board in process (the control, simulation, board-on-plant and faults
+#   tests): virtual time, a board per test.
+# - The simulated board served on a socket (`simulation::serve`: scripted_operator,
+#   latency_recording, faultlog, served_board, hand_controller, igtl-board.sh): a board per
+#   test, its clock virtual, paced by the wall clock and its master (it pauses, never
+#   jumps, and waits for a master its host holds up).
+# - The emulated board served on a socket (against-emulator.sh): `serve --master-lead-ms`,
+#   the same pacing; a fresh board after any test that failed or left it not Ready.
+# - The exception: teleop_fake_board's small fake board keeps the host's clock (its
+#   heartbeat hold and stop, and the master's windows for them, are host time).
+# The masters of the Rust tests and the warm-up run on the board's clock
+# (teleop::pacing); wall-clock bounds are failure detectors only.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 source firmware/cortex-m/scripts.sh

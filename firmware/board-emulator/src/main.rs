@@ -3,7 +3,10 @@
 //!
 //! * `serve --socket PATH`: boots the image with the plant and serves its master link
 //!   (USART3) on a Unix socket, virtual time paced to the wall clock, so that
-//!   `host-sim teleop --connect PATH` talks to it as to a board on a desk.
+//!   `host-sim teleop --connect PATH` talks to it as to a board on a desk. With
+//!   `--master-lead-ms`, virtual time is also paced by the master (see [`MasterLead`]):
+//!   the board never runs further than that beyond the master's last message, so that a
+//!   master its host holds up is not taken for a lost one; tests run it so.
 //! * `fit`: whether the image fits the real STM32F405 (flash, SRAM, CCM).
 
 use std::io::{ErrorKind, Read, Write};
@@ -67,6 +70,21 @@ enum Command {
         /// on the wall clock measures then is the emulator's host, not the board.
         #[arg(long, value_name = "MS")]
         report_lag_ms: Option<f64>,
+        /// Pace the board by its master too: while a master is connected, the board's clock
+        /// runs at most this many ms beyond the instant (board time) it last received
+        /// anything from the master, then waits for the master's next bytes. A master that
+        /// its host holds up (a loaded machine) then holds the board with it, and the board
+        /// sees its heartbeats on time by its own clock. Keep it below the board's
+        /// heartbeat hold (100 ms) and above the master's heartbeat period (20 ms); 50 is
+        /// what the tests use. Default: off (the board runs whatever the master does).
+        #[arg(long, value_name = "MS")]
+        master_lead_ms: Option<f64>,
+        /// With `--master-lead-ms`: how long, by the host's clock, the board waits for a
+        /// silent master before it runs on without it (a master that stopped its
+        /// heartbeats on purpose, or died with the socket open): a failure detector, not a
+        /// deadline of the board's.
+        #[arg(long, value_name = "MS", default_value_t = 2000.0)]
+        master_wait_ms: f64,
     },
     /// Check that the image fits the STM32F405; exit 1 when it does not.
     Fit,
@@ -83,6 +101,8 @@ fn main() -> ExitCode {
             without_tool,
             catch_up_ms,
             report_lag_ms,
+            master_lead_ms,
+            master_wait_ms,
         } => serve(
             firmware,
             &socket,
@@ -90,6 +110,7 @@ fn main() -> ExitCode {
             seconds,
             !without_tool,
             Pacing::new(speed, catch_up_ms, report_lag_ms),
+            MasterLead::new(master_lead_ms, master_wait_ms),
         ),
         Command::Fit => fit(&firmware),
     };
@@ -118,11 +139,13 @@ fn serve(
     seconds: Option<f64>,
     with_tool: bool,
     pacing: Result<Pacing, String>,
+    lead: Result<Option<MasterLead>, String>,
 ) -> Result<bool, String> {
     if !(speed.is_finite() && speed > 0.0) {
         return Err(format!("--speed must be positive, got {speed}"));
     }
     let mut pacing = pacing?;
+    let mut lead = lead?;
     if socket.exists() {
         std::fs::remove_file(socket).map_err(|e| format!("{}: {e}", socket.display()))?;
     }
@@ -133,8 +156,12 @@ fn serve(
     let config = BenchConfig::reference(firmware).map_err(|e| e.to_string())?;
     let mut bench = Bench::start(config).map_err(|e| e.to_string())?;
     println!(
-        "board on {} (virtual time paced to {speed}x the wall clock); connect with: host-sim teleop --connect {}",
+        "board on {} (virtual time paced to {speed}x the wall clock{}); connect with: host-sim teleop --connect {}",
         socket.display(),
+        lead.as_ref().map_or(String::new(), |l| format!(
+            " and to at most {:.0} ms beyond the master's last message",
+            l.lead_s * 1e3
+        )),
         socket.display()
     );
     pacing.start();
@@ -153,15 +180,19 @@ fn serve(
                 last_rx_s = bench.now_s();
                 stream = Some(s);
                 pacing.master_connected();
+                if let Some(l) = lead.as_mut() {
+                    l.master_connected();
+                }
             }
         }
         if let Some(s) = stream.as_mut() {
             match s.read(&mut buf) {
                 Ok(0) => {
                     println!(
-                        "{:.3} s: master gone{}",
+                        "{:.3} s: master gone{}{}",
                         bench.now_s(),
-                        pacing.master_gone()
+                        pacing.master_gone(),
+                        lead.as_ref().map_or(String::new(), MasterLead::report)
                     );
                     stream = None;
                 }
@@ -175,17 +206,33 @@ fn serve(
                         );
                     }
                     last_rx_s = bench.now_s();
+                    if let Some(l) = lead.as_mut() {
+                        l.received();
+                    }
                     bench.act(Action::Send(buf.get(..n).unwrap_or_default().to_vec()))
                 }
                 Err(e) if e.kind() == ErrorKind::WouldBlock => {}
                 Err(e) => {
                     println!(
-                        "{:.3} s: master gone ({e}){}",
+                        "{:.3} s: master gone ({e}){}{}",
                         bench.now_s(),
-                        pacing.master_gone()
+                        pacing.master_gone(),
+                        lead.as_ref().map_or(String::new(), MasterLead::report)
                     );
                     stream = None;
                 }
+            }
+        }
+        if let Some(l) = lead.as_mut() {
+            if stream.is_some() && l.hold(bench.now_s() - last_rx_s) {
+                // The board waits for its master: its clock stands, and the wall time
+                // this takes is not a lag of the board's.
+                let t0 = Instant::now();
+                std::thread::sleep(Duration::from_micros(200));
+                let held = t0.elapsed();
+                l.held(held);
+                pacing.hold(held);
+                continue;
             }
         }
         bench.run_for(1_000_000).map_err(|e| e.to_string())?;
@@ -220,9 +267,10 @@ fn serve(
                 let _ = s.set_nonblocking(false);
                 if let Err(e) = s.write_all(&bytes) {
                     println!(
-                        "{:.3} s: master gone ({e}){}",
+                        "{:.3} s: master gone ({e}){}{}",
                         bench.now_s(),
-                        pacing.master_gone()
+                        pacing.master_gone(),
+                        lead.as_ref().map_or(String::new(), MasterLead::report)
                     );
                     stream = None;
                 } else {
@@ -239,6 +287,119 @@ fn serve(
     let gaps = bench.finish().map_err(|e| e.to_string())?;
     println!("emulator gaps: {gaps}");
     Ok(true)
+}
+
+/// How `serve` paces virtual time by its master (`--master-lead-ms`): the board and the
+/// master each run on the other's clock. The master (`teleop::pacing`) advances its clock
+/// by the board's statuses; the board runs at most `lead_s` of its own time beyond the
+/// instant it last heard from the master. Neither then sees the other late because their
+/// host held one of them up: a master held up for 600 ms of wall time holds the board at
+/// `lead_s` past its last heartbeat, and the board's heartbeat watch (hold after 100 ms,
+/// `HeartbeatTimeout` after 500 ms, by the board's clock) sees no gap. A master that stays
+/// silent longer than `wait` of wall time is let go: the board runs on, and its own
+/// heartbeat watch judges the silence.
+///
+/// No deadlock: the master's heartbeats are due every 20 ms of its clock, which the
+/// board's statuses (every 20 ms of board time) advance, so the master's next heartbeat is
+/// due before the board reaches `lead_s` (50 ms) beyond the last one.
+struct MasterLead {
+    lead_s: f64,
+    wait: Duration,
+    /// Host time of the master's last bytes.
+    last_rx: Instant,
+    /// Since the current master connected: how often the board waited for it (spells),
+    /// the total and the longest wait, s; waiting now.
+    spells: u32,
+    total_s: f64,
+    longest_s: f64,
+    spell_s: f64,
+    waiting: bool,
+    /// The master was let go (silent beyond `wait`) this many times.
+    let_go: u32,
+}
+
+impl MasterLead {
+    fn new(lead_ms: Option<f64>, wait_ms: f64) -> Result<Option<Self>, String> {
+        let Some(lead_ms) = lead_ms else {
+            return Ok(None);
+        };
+        if !(lead_ms.is_finite() && lead_ms > 0.0) {
+            return Err(format!(
+                "--master-lead-ms must be a number of ms > 0, got {lead_ms}"
+            ));
+        }
+        if !(wait_ms.is_finite() && wait_ms >= 0.0) {
+            return Err(format!(
+                "--master-wait-ms must be a number of ms >= 0, got {wait_ms}"
+            ));
+        }
+        Ok(Some(MasterLead::fresh(
+            lead_ms * 1e-3,
+            Duration::from_secs_f64(wait_ms * 1e-3),
+        )))
+    }
+
+    fn fresh(lead_s: f64, wait: Duration) -> Self {
+        MasterLead {
+            lead_s,
+            wait,
+            last_rx: Instant::now(),
+            spells: 0,
+            total_s: 0.0,
+            longest_s: 0.0,
+            spell_s: 0.0,
+            waiting: false,
+            let_go: 0,
+        }
+    }
+
+    fn master_connected(&mut self) {
+        *self = MasterLead::fresh(self.lead_s, self.wait);
+    }
+
+    /// Bytes from the master arrived.
+    fn received(&mut self) {
+        self.last_rx = Instant::now();
+        self.waiting = false;
+    }
+
+    /// Whether the board waits, `quiet_s` of board time after the master's last bytes.
+    fn hold(&mut self, quiet_s: f64) -> bool {
+        if quiet_s < self.lead_s {
+            return false;
+        }
+        if self.last_rx.elapsed() >= self.wait {
+            if self.waiting {
+                self.let_go += 1;
+                self.waiting = false;
+            }
+            return false;
+        }
+        if !self.waiting {
+            self.waiting = true;
+            self.spells += 1;
+            self.spell_s = 0.0;
+        }
+        true
+    }
+
+    /// The board waited `d` more.
+    fn held(&mut self, d: Duration) {
+        self.spell_s += d.as_secs_f64();
+        self.total_s += d.as_secs_f64();
+        self.longest_s = self.longest_s.max(self.spell_s);
+    }
+
+    /// What the board waited for the master that goes.
+    fn report(&self) -> String {
+        format!(
+            " (the board waited for it {} times, {:.1} ms in all, longest {:.1} ms; let it go {} times)",
+            self.spells,
+            self.total_s * 1e3,
+            self.longest_s * 1e3,
+            self.let_go
+        )
+    }
 }
 
 /// How `serve` paces virtual time against the wall clock, and what it reports of it.
@@ -289,6 +450,12 @@ impl Pacing {
 
     fn master_connected(&mut self) {
         self.master = (0.0, 0.0);
+    }
+
+    /// The board's clock stood for `d` of wall time, waiting for its master: virtual time
+    /// 0 moves on by as much (a wait is not a lag).
+    fn hold(&mut self, d: Duration) {
+        self.origin += d;
     }
 
     /// What the pacing was while the master that goes was connected.

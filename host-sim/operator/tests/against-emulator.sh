@@ -14,10 +14,13 @@
 #   4. a fresh emulated board, warmed up (see warm_up): the tests of
 #      tests/latency_recording.rs and tests/scripted_operator.rs, one at a time (a board
 #      serves one master at a time), each in a process of its own, so that the board's log
-#      gives the pacing of each test's masters. The board outlives each test: each test
-#      sends the robot to the central pose once enabled, and leaves it there, disabled
-#      (tests/common/mod.rs);
-#   5. on the same board: igtl-board.sh (the bridge enables it);
+#      gives the pacing of each test's masters. A board outlives a test that passed and
+#      left it Ready (homed, disabled): each test sends the robot to the central pose once
+#      enabled, and leaves it there, disabled (tests/common/mod.rs). After a test that
+#      failed, or left the board in any other state, the next test gets a fresh board,
+#      warmed up (see known_state): one failure cannot cascade into the tests after it;
+#   5. igtl-board.sh (the bridge enables it) on the board the Rust tests left Ready, or a
+#      fresh one;
 #   6. a fresh emulated board, not homed: console-tmux.sh's steps on a board not homed
 #      (the screen, the Hello, Enable refused) through a serial device (a pseudo-terminal
 #      that socat bridges to the board's socket: the front ends' serial path), then the
@@ -32,13 +35,22 @@
 # while it homes or is enabled, so the steps on a board not homed are safe from it.
 #
 # The console gets a board of its own (it starts from a board not homed); the Rust tests
-# and the bridge share one, warmed up once (the warm-up takes about 40 s). `serve` puts
-# the tool (1.2 kg on 0.1 m) on once the board is Ready.
-# The emulator runs with --catch-up-ms and --report-lag-ms (see start_emulator): when its
-# virtual time falls behind the wall clock, it says by how much and for how long, and the
-# largest lag each master saw; each group prints that log. Every check passes or fails;
-# nothing is retried. Every group runs; the script exits non-zero when any step failed,
-# after the table of the steps with their wall times.
+# and the bridge share one while each leaves it Ready (a warm-up takes about 40 s).
+# `serve` puts the tool (1.2 kg on 0.1 m) on once the board is Ready.
+#
+# Virtual time (see start_emulator): the emulated board's clock follows the wall clock
+# where its host lets it and pauses where it does not (--catch-up-ms), and it runs at most
+# 50 ms beyond its master's last message (--master-lead-ms): a master that a loaded
+# machine holds up holds the board with it, so the board never takes a loaded host for a
+# lost master (HeartbeatTimeout). The Rust tests' masters and the warm-up run on the
+# board's clock (teleop::pacing): their replies are awaited in the board's time. The
+# host's clock bounds only failure detectors (a board silent for 5 s, a socket that does
+# not appear within 30 s), never what a test checks. --report-lag-ms: when the board's
+# clock falls behind the wall clock, the log says by how much and for how long, and for
+# each master how often and how long the board waited for it; each group prints its
+# boards' logs. Every check passes or fails; nothing is retried. Every group runs; the
+# script exits non-zero when any step failed, after the table of the steps with their wall
+# times.
 set -uo pipefail
 cd "$(dirname "$0")/../../.."
 source firmware/cortex-m/scripts.sh
@@ -137,12 +149,14 @@ echo "image $RSPR_BOARD_ELF"
 echo "emulator $emulator"
 
 # start_emulator NAME [SERVE-OPTION...]: a fresh board on $work/NAME.sock, its output in
-# $work/NAME.log. The socket must appear within 30 s (the image boots in milliseconds of
-# wall time).
+# $work/NAME-N.log (N counts the boards of the group; logs lists them). The socket must
+# appear within 30 s (the image boots in milliseconds of wall time).
+logs=()
 start_emulator() {
     stop_emulator
     export RSPR_BOARD_SOCKET="$work/$1.sock"
-    log="$work/$1.log"
+    log="$work/$1-$((${#logs[@]} + 1)).log"
+    logs+=("$log")
     shift
     # The emulated board stands for a board with a processor of its own: it runs before
     # the other work of the machine (see raise_priority), so that its virtual time keeps
@@ -151,9 +165,12 @@ start_emulator() {
     # up, which would make the masters on the wall clock late for it (heartbeats) and
     # their targets stale (more than 50 ms later than the fastest). The Rust tests' masters
     # are paced by the board's clock (tests/common/mod.rs) and pause with it.
+    # --master-lead-ms: the board waits for a master its host holds up (at most 50 ms of
+    # the board's time beyond the master's last message; a master silent for 2 s of host
+    # time is let go: the board's own heartbeat watch judges it).
     # --report-lag-ms says when and by how much the board's clock slipped.
     "$emulator" --firmware "$RSPR_BOARD_ELF" serve --socket "$RSPR_BOARD_SOCKET" \
-        --catch-up-ms 10 --report-lag-ms 20 "$@" >"$log" 2>&1 &
+        --catch-up-ms 10 --report-lag-ms 20 --master-lead-ms 50 "$@" >"$log" 2>&1 &
     emu_pid=$!
     local end=$(($(date +%s) + 30))
     while [ ! -S "$RSPR_BOARD_SOCKET" ]; do
@@ -185,8 +202,10 @@ warm_up() {
 }
 
 # wait_on_time: until the emulated board keeps up with the wall clock again (every
-# "behind the wall clock" of its log followed by an "on time again"), within 30 s, so
-# that each test starts with a board on time (the warm-up's master leaves it behind).
+# "behind the wall clock" of its log followed by an "on time again"), for at most 30 s,
+# so that each test starts with a board on time where the machine allows (the warm-up's
+# master leaves it behind). Not a verdict: on a machine too loaded to run the board in
+# real time the test starts anyway (its masters wait for the board in the board's time).
 wait_on_time() {
     local t0 end behind back
     t0=$(now)
@@ -197,30 +216,67 @@ wait_on_time() {
         [ "$behind" -gt "$back" ] || break
         if [ "$(date +%s)" -ge "$end" ]; then
             echo "the emulated board is still behind the wall clock after 30 s:" \
-                "this machine does not run it in real time now"
-            return 1
+                "this machine does not run it in real time now (not a verdict)"
+            return 0
         fi
         sleep 0.1
     done
     echo "the emulated board on the wall clock (waited $(since "$t0") s)"
 }
 
+# board_state: the emulated board's state by its log (the last "board STATE" line), or
+# "stopped" when the emulator no longer runs.
+board_state() {
+    if [ -z "$emu_pid" ] || ! kill -0 "$emu_pid" 2>/dev/null; then
+        echo stopped
+        return
+    fi
+    sed -n 's/^[0-9.]* s: board \([A-Za-z]*\) .*/\1/p' "$log" | tail -1
+}
+
+# fresh_board NAME: a fresh emulated board, warmed up (homed, Ready).
+fresh_board() {
+    start_emulator "$1" || return 1
+    warm_up "$1"
+}
+
+# known_state NAME: the board the next test starts from is Ready (homed, disabled): the
+# current one when it is, else a fresh one, warmed up. A test that failed leaves nothing
+# behind it: `dirty` (set after a failure) forces a fresh board too.
+dirty=0
+known_state() {
+    local state
+    state="$(board_state)"
+    if [ "$dirty" -eq 0 ] && [ "$state" = Ready ]; then
+        return 0
+    fi
+    echo "--- a fresh board for the next test (the last one: ${state:-no state yet}$([ "$dirty" -eq 0 ] || echo ', after a failed test'))"
+    dirty=0
+    fresh_board "$1"
+}
+
 # group NAME WARM COMMAND...: COMMAND against a fresh emulated board (warmed up first when
-# WARM is warm), then the board's log (its state changes, the masters, the pacing). The
-# board must still be running after.
+# WARM is warm), then the logs of the group's boards (their state changes, the masters,
+# the pacing). The board must still be running after.
 group() {
     local name="$1" warm="$2"
     shift 2
+    logs=()
+    dirty=0
     start_emulator "$name" || return 1
     local status=0
     if [ "$warm" = warm ]; then warm_up "$name"; fi
     wait_on_time && "$@" || status=$?
-    echo "--- the emulated board ($name):"
-    cat "$log"
-    echo "pacing: per master, the largest lag behind the wall clock (ms) and what the" \
-        "board's clock slipped (ms):" \
-        "$(sed -n "s/.*meanwhile \([0-9.]*\) ms; the board's clock slipped \([0-9.]*\) ms.*/\1 (\2)/p" \
-            "$log" | paste -sd',')"
+    local l
+    for l in "${logs[@]}"; do
+        echo "--- the emulated board ($name, $(basename "$l" .log)):"
+        cat "$l"
+        echo "pacing: per master, the largest lag behind the wall clock (ms) and what the" \
+            "board's clock slipped (ms):" \
+            "$(sed -n "s/.*meanwhile \([0-9.]*\) ms; the board's clock slipped \([0-9.]*\) ms.*/\1 (\2)/p" \
+                "$l" | paste -sd',')"
+        echo "waits for the masters: $(sed -n 's/.*(the board waited for it \([^)]*\)).*/\1/p' "$l" | paste -sd';')"
+    done
     if ! kill -0 "$emu_pid" 2>/dev/null; then
         echo "the emulated board stopped during the tests"
         status=1
@@ -240,11 +296,17 @@ rust_tests() {
         for name in $names; do
             printf '\n--- %s: %s\n' "$bin" "$name"
             local before
+            if ! known_state rust; then
+                failures+=("$bin::$name (no board)")
+                status=1
+                continue
+            fi
             before=$(grep -c 'master gone' "$log")
             if ! wait_on_time ||
                 ! cargo test -q --workspace --test "$bin" -- --exact "$name" --nocapture; then
                 failures+=("$bin::$name")
                 status=1
+                dirty=1
             fi
             # The board's pacing while the test's master was connected (the emulator logs it
             # when the master goes, at the latest 2 s after the test's process ends).
@@ -258,15 +320,16 @@ rust_tests() {
     [ "$status" -eq 0 ] || printf 'failed: %s\n' "${failures[@]}"
     return "$status"
 }
-# The Rust tests, then the OpenIGTLink bridge on the same board, warmed up once (the
-# tests leave it homed, centred and disabled; the bridge enables it).
+# The Rust tests, then the OpenIGTLink bridge on the board they left Ready (homed,
+# centred, disabled; the bridge enables it), or a fresh one.
 rust_then_igtl() {
     local status=0
     step "Rust tests: latency_recording, scripted_operator" rust_tests || status=1
-    step "igtl-board.sh, on the same board" \
-        on_time bash host-sim/operator/tests/igtl-board.sh || status=1
+    step "igtl-board.sh, on the board the tests left Ready (or a fresh one)" \
+        igtl_on_known_state || status=1
     return "$status"
 }
+igtl_on_known_state() { known_state rust && on_time bash host-sim/operator/tests/igtl-board.sh; }
 on_time() { wait_on_time && "$@"; }
 group rust warm rust_then_igtl || failed=1
 # The console on a board not homed, through a serial device, then the whole of its test on

@@ -626,17 +626,6 @@ impl BoardSim {
         }
     }
 
-    /// Jumps the board's clock forward to `t_us` (a period boundary at or before it)
-    /// without simulating the time in between: the plant stands still (a served board
-    /// whose host fell behind the wall clock).
-    pub fn skip_to(&mut self, t_us: u64) {
-        let period = u64::from(self.cfg.service.watchdog.period_us).max(1);
-        let t = t_us / period * period;
-        if t > self.t_us {
-            self.t_us = t;
-        }
-    }
-
     /// Runs `ticks` control periods.
     pub fn run(&mut self, ticks: u32) -> Result<(), BoardSimError> {
         for _ in 0..ticks {

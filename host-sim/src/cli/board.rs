@@ -123,7 +123,7 @@ pub fn board(args: &BoardArgs) -> Result<(), CliError> {
     let stop = AtomicBool::new(false);
     let socket = args.socket.display().to_string();
     simulation::serve::serve(&args.socket, cfg, &stop, &|| {
-        println!("simulated board on {socket} (the board application on the plant, paced by the wall clock; stop with Ctrl-C){}", if keyed { "; link key set: frames without a valid tag are dropped" } else { "" });
+        println!("simulated board on {socket} (the board application on the plant, its clock paced by the wall clock and its masters; stop with Ctrl-C){}", if keyed { "; link key set: frames without a valid tag are dropped" } else { "" });
     })?;
     Ok(())
 }

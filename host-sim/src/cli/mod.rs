@@ -245,8 +245,9 @@ pub enum Command {
     /// measured pose is streamed as TRANSFORM from device Robot, the state as STATUS and
     /// STRING; GET_ requests are answered.
     Igtl(operator::IgtlArgs),
-    /// The simulated board (the board application on the plant) on a Unix socket, paced
-    /// by the wall clock, for `teleop`, the console, `igtl` and `faultlog`.
+    /// The simulated board (the board application on the plant) on a Unix socket, its
+    /// virtual clock paced by the wall clock and by its masters (it pauses, never jumps,
+    /// when the host falls behind), for `teleop`, the console, `igtl` and `faultlog`.
     Board(board::BoardArgs),
     /// The fault log and the non-volatile event log of a board (or the simulated board, or
     /// the emulator), read over its link: time, cause, joint, value, the stop it caused,

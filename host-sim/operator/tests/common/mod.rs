@@ -3,7 +3,8 @@
 //! board image, `firmware/board-emulator ... serve --socket PATH`; a board serves one
 //! master at a time, so run the tests one at a time then), else the simulated
 //! board (the board application on the plant, `simulation::serve`) in a thread of the
-//! test, paced by the wall clock.
+//! test, its virtual clock paced by the wall clock and by the test's master
+//! (`simulation::serve`): a loaded host pauses it, never makes it jump.
 //!
 //! The tests' masters run on the board's clock (`Board::set_paced`, `teleop::pacing`): an
 //! emulated board whose host stalls it (a loaded machine) pauses its virtual time, and
