@@ -251,8 +251,9 @@ proptest! {
         }
     }
 
-    /// No output exceeds the limits: jittered ticks, master jumps up to 50 mm and 30 deg
-    /// per tick, random clutch presses.
+    /// No output exceeds the limits (the speed caps with the acceleration limits on):
+    /// jittered ticks, master jumps up to 50 mm and 30 deg per tick, random clutch
+    /// presses, with the tremor suppression on or off.
     #[test]
     fn limits_hold(
         steps in proptest::collection::vec(
@@ -261,9 +262,10 @@ proptest! {
         ),
         filter_on in any::<bool>(),
     ) {
-        let limits = MotionLimits::default();
+        let limits = MotionLimits::with_acceleration();
         let mut tele = Teleop::new(TeleopConfig {
             tremor: if filter_on { TeleopConfig::default().tremor } else { None },
+            limits,
             ..TeleopConfig::default()
         }).unwrap();
         tele.start(0.0, robot_start()).unwrap();
