@@ -18,7 +18,9 @@ mod common;
 
 use common::proptest_config;
 use masters::pose::{rotate, rotation_increment, CartesianPose, Twist};
-use masters::teleop::{HoldReason, MotionScale, Teleop, TeleopConfig, TeleopError, TeleopOutput};
+use masters::teleop::{
+    HoldReason, MotionScale, Teleop, TeleopConfig, TeleopError, TeleopOutput, TremorSuppression,
+};
 use masters::{MasterInput, MasterSample, MotionLimits, OperatorButtons};
 use nalgebra::{UnitQuaternion, Vector3};
 use proptest::prelude::*;
@@ -396,8 +398,8 @@ fn master_lost_and_stream_gap() {
     ));
 }
 
-/// The pipeline delays a slow motion by the filter's phase delay: a 1 Hz, 2 mm sine of
-/// the master (scale 1, limits out of reach) comes out of `Teleop` 60.7 ms late (the
+/// The pipeline delays a slow motion by the classic filter's phase delay: a 1 Hz, 2 mm
+/// sine of the master (scale 1, limits out of reach) comes out of `Teleop` 60.7 ms late (the
 /// filter's phase delay at 1 Hz, `TremorFilter::phase_delay_s`), measured by the phase
 /// of the output's 1 Hz Fourier component over whole periods after the transient.
 #[test]
@@ -409,6 +411,7 @@ fn pipeline_delay_is_the_filter_delay() {
             linear_accel_m_s2: 100.0,
             angular_accel_rad_s2: 1000.0,
         },
+        tremor: Some(TremorSuppression::classic()),
         ..TeleopConfig::default()
     })
     .unwrap();
