@@ -1,6 +1,6 @@
 //! `masters`: what the surgeon holds. Input devices behind one small trait ([`Master`]),
 //! the teleoperation semantics ([`Teleop`]: clutch, motion scaling, operator presence,
-//! tremor filter, velocity/acceleration limits; [`EdgeCue`]) and recorded sessions
+//! tremor canceller or filter, speed limits; [`EdgeCue`]) and recorded sessions
 //! ([`recording`], MCAP). Names follow the surgical-robotics community's conventions
 //! (dVRK, CRTK): `measured_cp`, `servo_cp`, `setpoint_cp`, clutch, operator present.
 //!
@@ -14,6 +14,7 @@
 //! as `CONVENTIONS.md` says. See the crate's README for the formats and a
 //! SpaceMouse walkthrough.
 
+pub mod canceller;
 pub mod device;
 pub mod evdev;
 pub mod keyboard;
@@ -24,17 +25,20 @@ pub mod rate;
 pub mod recording;
 pub mod script;
 pub mod spacenav;
+pub mod synthetic;
 pub mod teleop;
 pub mod tremor;
 pub mod udp;
 pub mod workspace_cue;
 
+pub use canceller::{CancellerConfig, TremorCanceller};
 pub use device::{DeviceError, Master, MasterInput, MasterKind, MasterSample, OperatorButtons};
 pub use limits::MotionLimits;
 pub use pose::{CartesianPose, Twist};
 pub use recording::{Recording, RecordingWriter};
 pub use teleop::{
     HoldReason, MotionScale, Teleop, TeleopConfig, TeleopError, TeleopOutput, TeleopState,
+    TremorSuppression,
 };
 pub use tremor::{TremorFilter, TremorFilterConfig};
 pub use workspace_cue::{CueLevel, EdgeCue, EdgeCueConfig};

@@ -2,10 +2,17 @@
 //!
 //! The board's supervisor enforces its own limits (tip speed 25 mm/s, angular speed
 //! 30 deg/s, tip acceleration 250 mm/s², angular acceleration 300 deg/s²: see
-//! `Limits::reference()` in `kinematics-core`); the master stays below them so that the
-//! supervisor never has to cut a target stream the surgeon is driving. Defaults: 20 mm/s,
-//! 25 deg/s, 200 mm/s², 250 deg/s² (to be confirmed by the integrator against the
-//! robot's limits file).
+//! `Limits::reference()` in `kinematics-core`) and shapes the motion to them: its profile
+//! accelerates and brakes within them, and its lead puts the robot on the master's pose
+//! despite the braking curve. The master therefore sends the operator's intent as soon as
+//! it has it: by default it only caps the speed, at 20 mm/s and 25 deg/s, below the
+//! supervisor's (which a motion under the cap never meets, so the cap delays nothing the
+//! operator does within it), and limits no acceleration (an acceleration limit
+//! `f64::INFINITY`). An acceleration limit on the master lags every start of a motion at
+//! speed `v` by up to `v / (2 a)` (25 ms at 10 mm/s and 200 mm/s²), a delay the
+//! supervisor's profile would add again; it stays available
+//! ([`MotionLimits::with_acceleration`]: 200 mm/s², 250 deg/s²) for a board without
+//! that shaping.
 //!
 //! # The limiter
 //!
@@ -20,6 +27,9 @@
 //! 3. the velocity is limited to `v_max` (in norm; a projection onto a ball that holds
 //!    the previous velocity, so step 2's bound still holds);
 //! 4. the pose moves by `v·dt`.
+//!
+//! Without an acceleration limit (`a_max` infinite) a tick goes to the desired pose, or
+//! `v_max·dt` towards it.
 //!
 //! So every output satisfies `|Δx|/dt ≤ v_max` and `|Δx_k/dt_k − Δx_{k−1}/dt_{k−1}| ≤
 //! a_max·dt_k` (up to rounding), and a pose that is already where it is wanted stays
@@ -36,27 +46,39 @@ pub struct MotionLimits {
     pub linear_speed_m_s: f64,
     /// Largest angular speed, rad/s.
     pub angular_speed_rad_s: f64,
-    /// Largest tip acceleration, m/s².
+    /// Largest tip acceleration, m/s² (`f64::INFINITY`: none on the master).
     pub linear_accel_m_s2: f64,
-    /// Largest angular acceleration, rad/s².
+    /// Largest angular acceleration, rad/s² (`f64::INFINITY`: none on the master).
     pub angular_accel_rad_s2: f64,
 }
 
 impl Default for MotionLimits {
-    /// 20 mm/s, 25 deg/s, 200 mm/s², 250 deg/s².
+    /// 20 mm/s, 25 deg/s, no acceleration limit (the board's supervisor has its own).
     fn default() -> Self {
         MotionLimits {
             linear_speed_m_s: 0.020,
             angular_speed_rad_s: 25f64.to_radians(),
-            linear_accel_m_s2: 0.200,
-            angular_accel_rad_s2: 250f64.to_radians(),
+            linear_accel_m_s2: f64::INFINITY,
+            angular_accel_rad_s2: f64::INFINITY,
         }
     }
 }
 
-/// A limit that is not positive and finite.
+impl MotionLimits {
+    /// The default speed caps with acceleration limits below the supervisor's: 200 mm/s²,
+    /// 250 deg/s².
+    pub fn with_acceleration() -> Self {
+        MotionLimits {
+            linear_accel_m_s2: 0.200,
+            angular_accel_rad_s2: 250f64.to_radians(),
+            ..MotionLimits::default()
+        }
+    }
+}
+
+/// A limit that is not positive (speeds: and finite).
 #[derive(Clone, Copy, Debug, Error, PartialEq)]
-#[error("motion limits: {field} = {value} is not positive and finite")]
+#[error("motion limits: {field} = {value} is not positive (and finite, for a speed)")]
 pub struct LimitsError {
     /// The field.
     pub field: &'static str,
@@ -65,15 +87,16 @@ pub struct LimitsError {
 }
 
 impl MotionLimits {
-    /// Checks every limit is positive and finite.
+    /// Checks every limit is positive, the speeds finite (an infinite acceleration limit
+    /// is none).
     pub fn validate(&self) -> Result<(), LimitsError> {
-        for (field, value) in [
-            ("linear_speed_m_s", self.linear_speed_m_s),
-            ("angular_speed_rad_s", self.angular_speed_rad_s),
-            ("linear_accel_m_s2", self.linear_accel_m_s2),
-            ("angular_accel_rad_s2", self.angular_accel_rad_s2),
+        for (field, value, infinite_ok) in [
+            ("linear_speed_m_s", self.linear_speed_m_s, false),
+            ("angular_speed_rad_s", self.angular_speed_rad_s, false),
+            ("linear_accel_m_s2", self.linear_accel_m_s2, true),
+            ("angular_accel_rad_s2", self.angular_accel_rad_s2, true),
         ] {
-            if !(value.is_finite() && value > 0.0) {
+            if !((value.is_finite() || (infinite_ok && value == f64::INFINITY)) && value > 0.0) {
                 return Err(LimitsError { field, value });
             }
         }
@@ -96,6 +119,13 @@ impl Channel {
         let d = error.norm();
         let (desired, mut limited) = if d == 0.0 {
             (Vector3::zeros(), false)
+        } else if self.a_max == f64::INFINITY {
+            // No acceleration limit: there at once (exactly), or at v_max towards it.
+            if d / dt <= self.v_max {
+                self.v = error / dt;
+                return (*error, false);
+            }
+            (error * (self.v_max / d), true)
         } else {
             let half = self.a_max * dt / 2.0;
             let s_brake = -half + (half * half + 2.0 * self.a_max * d).sqrt();
@@ -105,7 +135,7 @@ impl Channel {
         let mut dv = desired - self.v;
         let dv_max = self.a_max * dt;
         let n = dv.norm();
-        if n > dv_max {
+        if n > dv_max && self.a_max.is_finite() {
             dv *= dv_max / n;
             limited = true;
         }

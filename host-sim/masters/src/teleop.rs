@@ -8,7 +8,10 @@
 //!   since engagement, scaled: `p = p_r0 + s_t·C·(p_m − p_m0)`,
 //!   `R = exp(s_r·C·log(R_m·R_m0⁻¹))·R_r0`, where `C` is the registration (tracker frame
 //!   → robot frame {0}; rate masters already speak {0}). It then goes through the tremor
-//!   filter and the velocity/acceleration limits, and is emitted as `servo_cp`.
+//!   suppression (the adaptive canceller, [`crate::canceller`], by default; the classic
+//!   low-pass and notch, [`crate::tremor`], as an option) and the master-side limits (a
+//!   speed cap; an acceleration limit only when asked for, the board's supervisor
+//!   enforcing its own), and is emitted as `servo_cp` the same tick.
 //! - **Clutch** (indexing): pressed, the master is decoupled and the robot holds; the
 //!   surgeon repositions the master. **Operator presence** (dead-man): released, the
 //!   robot holds. **Master lost**: no sample for `master_timeout_s`, the robot holds.
@@ -31,6 +34,7 @@
 //!   pose, `p_v += v·dt`, `R_v = exp(ω·dt)·R_v`, which then goes through the same
 //!   mapping; a position master's pose is used as it is.
 
+use crate::canceller::{CancellerConfig, CancellerError, TremorCanceller};
 use crate::device::{MasterInput, MasterSample};
 use crate::limits::{LimitsError, MotionLimits, PoseLimiter};
 use crate::pose::{rotate, rotation_increment, CartesianPose};
@@ -84,8 +88,8 @@ pub struct TeleopConfig {
     pub scale: MotionScale,
     /// Position masters: rotation from the tracker frame to the robot frame {0}.
     pub registration: UnitQuaternion<f64>,
-    /// The tremor filter (None: off).
-    pub tremor: Option<TremorFilterConfig>,
+    /// The tremor suppression (None: off).
+    pub tremor: Option<TremorSuppression>,
     /// Master-side limits.
     pub limits: MotionLimits,
     /// The master is lost when its newest sample is older than this, s.
@@ -95,17 +99,68 @@ pub struct TeleopConfig {
 }
 
 impl Default for TeleopConfig {
-    /// 100 Hz, 1:1, identity registration, the default tremor filter and limits, master
+    /// 100 Hz, 1:1, identity registration, the adaptive tremor canceller and the default
+    /// limits (speed caps, no acceleration limit), master
     /// timeout 0.1 s, stream gap 0.1 s.
     fn default() -> Self {
         TeleopConfig {
             stream_rate_hz: 100.0,
             scale: MotionScale::default(),
             registration: UnitQuaternion::identity(),
-            tremor: Some(TremorFilterConfig::default()),
+            tremor: Some(TremorSuppression::Canceller(CancellerConfig::default())),
             limits: MotionLimits::default(),
             master_timeout_s: 0.1,
             max_tick_s: 0.1,
+        }
+    }
+}
+
+/// How the tremor is taken out of the master's motion.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum TremorSuppression {
+    /// The adaptive canceller ([`crate::canceller`]): estimates the tremor (frequency,
+    /// amplitude, phase per axis) and subtracts it; the voluntary motion is not delayed.
+    Canceller(CancellerConfig),
+    /// The classic filter ([`crate::tremor`]): a low-pass and a notch, which delay the
+    /// voluntary motion by their group delay (60 ms with the defaults).
+    Filter(TremorFilterConfig),
+}
+
+impl TremorSuppression {
+    /// The classic filter with its default corners.
+    pub fn classic() -> Self {
+        TremorSuppression::Filter(TremorFilterConfig::default())
+    }
+}
+
+/// The tremor suppression at work.
+#[derive(Clone, Debug)]
+enum Suppressor {
+    Canceller(Box<TremorCanceller>),
+    Filter(TremorFilter),
+}
+
+impl Suppressor {
+    fn new(config: &TremorSuppression, fs_hz: f64) -> Result<Self, TeleopError> {
+        Ok(match config {
+            TremorSuppression::Canceller(c) => {
+                Suppressor::Canceller(Box::new(TremorCanceller::new(c, fs_hz)?))
+            }
+            TremorSuppression::Filter(f) => Suppressor::Filter(TremorFilter::design(f, fs_hz)?),
+        })
+    }
+
+    fn reset(&mut self) {
+        match self {
+            Suppressor::Canceller(c) => c.reset(),
+            Suppressor::Filter(f) => f.reset(),
+        }
+    }
+
+    fn step(&mut self, u: [f64; 6]) -> [f64; 6] {
+        match self {
+            Suppressor::Canceller(c) => c.step(u),
+            Suppressor::Filter(f) => f.step(u),
         }
     }
 }
@@ -181,6 +236,9 @@ pub enum TeleopError {
     /// The tremor filter could not be designed.
     #[error(transparent)]
     Filter(#[from] FilterDesignError),
+    /// The tremor canceller's settings are out of range.
+    #[error(transparent)]
+    Canceller(#[from] CancellerError),
     /// The limits are not usable.
     #[error(transparent)]
     Limits(#[from] LimitsError),
@@ -248,7 +306,7 @@ struct Anchor {
 #[derive(Clone, Debug)]
 pub struct Teleop {
     config: TeleopConfig,
-    filter: Option<TremorFilter>,
+    filter: Option<Suppressor>,
     limiter: PoseLimiter,
     last_t: Option<f64>,
     latest: Option<MasterSample>,
@@ -276,7 +334,7 @@ impl Teleop {
         let filter = config
             .tremor
             .as_ref()
-            .map(|t| TremorFilter::design(t, config.stream_rate_hz))
+            .map(|t| Suppressor::new(t, config.stream_rate_hz))
             .transpose()?;
         let limiter = PoseLimiter::new(&config.limits, CartesianPose::identity())?;
         Ok(Teleop {
@@ -363,9 +421,20 @@ impl Teleop {
         self.commanded
     }
 
-    /// The tremor filter, when on.
+    /// The classic tremor filter, when it is the suppression on.
     pub fn filter(&self) -> Option<&TremorFilter> {
-        self.filter.as_ref()
+        match &self.filter {
+            Some(Suppressor::Filter(f)) => Some(f),
+            _ => None,
+        }
+    }
+
+    /// The tremor canceller, when it is the suppression on.
+    pub fn canceller(&self) -> Option<&TremorCanceller> {
+        match &self.filter {
+            Some(Suppressor::Canceller(c)) => Some(c),
+            _ => None,
+        }
     }
 
     fn hold(&mut self, reason: HoldReason) -> TeleopOutput {

@@ -62,6 +62,18 @@ impl Biquad {
         }
     }
 
+    /// 2nd-order Butterworth high-pass at `fc_hz`, sample rate `fs_hz` (pre-warped): the
+    /// band the tremor canceller's estimator sees.
+    pub fn butterworth_highpass(fc_hz: f64, fs_hz: f64) -> Self {
+        let k = (PI * fc_hz / fs_hz).tan();
+        let q = std::f64::consts::FRAC_1_SQRT_2;
+        let n = 1.0 / (1.0 + k / q + k * k);
+        Biquad {
+            b: [n, -2.0 * n, n],
+            a: [2.0 * (k * k - 1.0) * n, (1.0 - k / q + k * k) * n],
+        }
+    }
+
     /// Notch at `f0_hz` with quality `q` (pre-warped).
     pub fn notch(f0_hz: f64, q: f64, fs_hz: f64) -> Self {
         let k = (PI * f0_hz / fs_hz).tan();

@@ -18,7 +18,9 @@ mod common;
 
 use common::proptest_config;
 use masters::pose::{rotate, rotation_increment, CartesianPose, Twist};
-use masters::teleop::{HoldReason, MotionScale, Teleop, TeleopConfig, TeleopError, TeleopOutput};
+use masters::teleop::{
+    HoldReason, MotionScale, Teleop, TeleopConfig, TeleopError, TeleopOutput, TremorSuppression,
+};
 use masters::{MasterInput, MasterSample, MotionLimits, OperatorButtons};
 use nalgebra::{UnitQuaternion, Vector3};
 use proptest::prelude::*;
@@ -251,8 +253,9 @@ proptest! {
         }
     }
 
-    /// No output exceeds the limits: jittered ticks, master jumps up to 50 mm and 30 deg
-    /// per tick, random clutch presses.
+    /// No output exceeds the limits (the speed caps with the acceleration limits on):
+    /// jittered ticks, master jumps up to 50 mm and 30 deg per tick, random clutch
+    /// presses, with the tremor suppression on or off.
     #[test]
     fn limits_hold(
         steps in proptest::collection::vec(
@@ -261,9 +264,10 @@ proptest! {
         ),
         filter_on in any::<bool>(),
     ) {
-        let limits = MotionLimits::default();
+        let limits = MotionLimits::with_acceleration();
         let mut tele = Teleop::new(TeleopConfig {
             tremor: if filter_on { TeleopConfig::default().tremor } else { None },
+            limits,
             ..TeleopConfig::default()
         }).unwrap();
         tele.start(0.0, robot_start()).unwrap();
@@ -394,8 +398,8 @@ fn master_lost_and_stream_gap() {
     ));
 }
 
-/// The pipeline delays a slow motion by the filter's phase delay: a 1 Hz, 2 mm sine of
-/// the master (scale 1, limits out of reach) comes out of `Teleop` 60.7 ms late (the
+/// The pipeline delays a slow motion by the classic filter's phase delay: a 1 Hz, 2 mm
+/// sine of the master (scale 1, limits out of reach) comes out of `Teleop` 60.7 ms late (the
 /// filter's phase delay at 1 Hz, `TremorFilter::phase_delay_s`), measured by the phase
 /// of the output's 1 Hz Fourier component over whole periods after the transient.
 #[test]
@@ -407,6 +411,7 @@ fn pipeline_delay_is_the_filter_delay() {
             linear_accel_m_s2: 100.0,
             angular_accel_rad_s2: 1000.0,
         },
+        tremor: Some(TremorSuppression::classic()),
         ..TeleopConfig::default()
     })
     .unwrap();

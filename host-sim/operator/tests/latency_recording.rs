@@ -1,6 +1,6 @@
 //! End-to-end latency on the board, the session recording and its
 //! replay. A scripted operator moves the master at a constant 10 mm/s for 1.5 s, twice on
-//! one board: with the tremor filter, then without. The latency is the lag along the path
+//! one board: with the classic tremor filter, then without. The latency is the lag along the path
 //! (`masters::latency`): from the operator's command (the scaled master input, stamped
 //! with the input sample's time) to the target sent, to the board's setpoint (as its
 //! status arrives) and to the measured pose.
@@ -11,7 +11,7 @@ mod common;
 use common::{master_at, wp, TestBoard, PRESENT};
 use masters::recording::Recording;
 use masters::script::ScriptedMaster;
-use masters::TeleopConfig;
+use masters::{TeleopConfig, TremorSuppression};
 use operator::teleoperation::{run, RunReport, TeleoperationSettings};
 use std::sync::atomic::AtomicBool;
 
@@ -49,8 +49,9 @@ fn go(
 /// of what it takes without it: a ramp through a filter of unit DC gain lags by its DC
 /// group delay (60.0 ms; the medians' difference within 3 ms: the host's loop runs at the
 /// 100 Hz stream and stamps each target when sent). Without the filter, the master-side
-/// acceleration limit lags the ramp by at most v / (2 a) plus one stream period (measured
-/// 20 ms); with that limit out of reach too, within one stream period (10 ms). The
+/// acceleration limit (none by default: v / (2 a) = 0) lags the ramp by at most v / (2 a)
+/// plus one stream period; with that limit out of reach too, within one stream period
+/// (10 ms). The
 /// board's part (target to setpoint) is positive and, with the same host, the same with
 /// and without the filter (medians within 20 ms). The recording read back gives the same
 /// figures (within 1 µs: poses are stored in mm and degrees), and replay writes its five
@@ -64,7 +65,10 @@ fn latency_measured_recorded_and_replayed() {
     let filtered = go(
         &mut b,
         &mut ramp(0.0, 15.0),
-        TeleopConfig::default(),
+        TeleopConfig {
+            tremor: Some(TremorSuppression::classic()),
+            ..TeleopConfig::default()
+        },
         Some(file.clone()),
     );
     let plain = go(
