@@ -23,7 +23,8 @@
 //! - safety: the stop categories and their table ([`stops`]), the holding brakes
 //!   ([`brakes`]), the current limits ([`current`]), the plausibility monitors
 //!   ([`monitors`]), the fault log ([`faults`]), the heartbeat ([`heartbeat`]), the
-//!   e-stop's interrupt path ([`estop`]) and the deadline ([`watchdog`]);
+//!   e-stop's interrupt path ([`estop`]) and the deadline ([`watchdog`]); the safety
+//!   requirements all of it serves, with their bounds ([`safety`]);
 //! - the calibrated geometry (issue 19): [`geometry_store`] (the checks of a received
 //!   record, its flash layout and log);
 //! - the master link's board side: [`link`] (frames to requests, replies to frames),
@@ -54,6 +55,7 @@ pub mod monitors;
 pub mod park;
 pub mod planner;
 pub mod runtime;
+pub mod safety;
 pub mod scalar;
 pub mod sensing;
 pub mod service;
