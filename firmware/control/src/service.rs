@@ -7,7 +7,8 @@
 //!
 //! **Deadline policy.** A tick that starts more than `max_lateness_us` after its period
 //! (missed periods included: they are skipped, not run back to back), or the third tick
-//! within `overrun_window` ticks that runs longer than `max_execution_us`, is a missed
+//! that runs longer than `max_execution_us` within any `overrun_window` consecutive ticks
+//! (a sliding window: the overruns are counted wherever the window starts), is a missed
 //! deadline: the fault `DeadlineMissed` is latched (its stop: STO with brakes) and the
 //! watchdog is no longer fed, so that it resets the board (the fault log survives the
 //! reset; the board then waits for the master to acknowledge it).
@@ -35,7 +36,7 @@ pub struct ServiceConfig {
     /// the period).
     pub exec_warn_us: u32,
     /// Overruns of `watchdog.max_execution_us` within `overrun_window` ticks that are a
-    /// missed deadline (default 3).
+    /// missed deadline (default 3; at most [`MAX_OVERRUNS`]).
     pub overruns_to_fault: u32,
     /// The window of the overrun count, ticks (default 100).
     pub overrun_window: u32,
@@ -101,6 +102,9 @@ impl Indicator {
     }
 }
 
+/// The most overruns [`ServiceConfig::overruns_to_fault`] may count.
+pub const MAX_OVERRUNS: usize = 8;
+
 /// The runtime and what the board measures around its ticks.
 #[derive(Clone, Debug)]
 pub struct TickService<S: Scalar, M: Mechanism<S> + Clone> {
@@ -111,8 +115,11 @@ pub struct TickService<S: Scalar, M: Mechanism<S> + Clone> {
     last_start_us: Option<u64>,
     tick_start_state: State,
     missed_periods: u64,
-    /// Ticks since the start of the overrun window, and the overruns in it.
-    window: (u32, u32),
+    /// Ticks so far, and the ticks of the last overruns (the newest last; `overrun_count`
+    /// of them kept, at most [`MAX_OVERRUNS`]).
+    ticks: u64,
+    overruns: [u64; MAX_OVERRUNS],
+    overrun_count: usize,
     /// A deadline was missed: the watchdog is starved from then on.
     starved: bool,
     log_total: u32,
@@ -132,7 +139,9 @@ impl<S: Scalar, M: Mechanism<S> + Clone> TickService<S, M> {
             timing: TickTiming::default(),
             last_start_us: None,
             missed_periods: 0,
-            window: (0, 0),
+            ticks: 0,
+            overruns: [0; MAX_OVERRUNS],
+            overrun_count: 0,
             starved: false,
         }
     }
@@ -202,6 +211,30 @@ impl<S: Scalar, M: Mechanism<S> + Clone> TickService<S, M> {
         }
     }
 
+    /// Records an overrun at this tick: whether it is the `overruns_to_fault`-th within
+    /// the last `overrun_window` ticks (counted from this one back, wherever the window
+    /// starts). A fault starts the count afresh.
+    fn overrun_in_window(&mut self) -> bool {
+        let n = (self.cfg.overruns_to_fault as usize).clamp(1, MAX_OVERRUNS);
+        if self.overrun_count == MAX_OVERRUNS {
+            self.overruns.rotate_left(1);
+            self.overrun_count -= 1;
+        }
+        if let Some(slot) = self.overruns.get_mut(self.overrun_count) {
+            *slot = self.ticks;
+            self.overrun_count += 1;
+        }
+        let oldest = self
+            .overrun_count
+            .checked_sub(n)
+            .and_then(|i| self.overruns.get(i).copied());
+        let full = oldest.is_some_and(|t| self.ticks - t < u64::from(self.cfg.overrun_window));
+        if full {
+            self.overrun_count = 0;
+        }
+        full
+    }
+
     fn missed_deadline(&mut self, late_us: u64, now_us: u64) {
         self.runtime.deadline_missed(late_us, now_us);
         self.starved = true;
@@ -242,17 +275,10 @@ impl<S: Scalar, M: Mechanism<S> + Clone> TickService<S, M> {
         let jitter = self.timing.last_jitter_us;
         self.timing.record(jitter, cycles);
         let exec_us = TickTiming::cycles_to_us(cycles, self.cfg.cpu_hz);
-        // Overruns within the window.
-        self.window.0 += 1;
-        if exec_us > self.cfg.watchdog.max_execution_us {
-            self.window.1 += 1;
-        }
-        if self.window.1 >= self.cfg.overruns_to_fault {
+        if exec_us > self.cfg.watchdog.max_execution_us && self.overrun_in_window() {
             self.missed_deadline(u64::from(exec_us), start_us);
-            self.window = (0, 0);
-        } else if self.window.0 >= self.cfg.overrun_window {
-            self.window = (0, 0);
         }
+        self.ticks = self.ticks.saturating_add(1);
         self.runtime
             .set_warning(Warnings::CYCLE_OVERRUN, exec_us > self.cfg.exec_warn_us);
         self.runtime.set_tick_timing(

@@ -559,6 +559,50 @@ fn a_missed_deadline_is_a_fault_and_starves_the_watchdog() {
     }
 }
 
+/// Property: the overruns are counted in a sliding window: three overruns within any 100
+/// consecutive ticks latch `DeadlineMissed`, wherever the ticks start counting (three in a
+/// row from the 99th tick on, found by the search: a window that restarts every 100 ticks
+/// split them two and one and never latched), and three spread over more than 100 ticks
+/// do not (SR-5: a missed deadline detected within its 3 ticks).
+#[test]
+fn overruns_are_counted_in_a_sliding_window() {
+    let cfg = ServiceConfig::for_period(1000, 168_000_000, control::link::FIRMWARE_VERSION);
+    let cycles = |us: u32| us * 168;
+    let run = |overrun_at: &[u32], ticks: u32| -> Option<u32> {
+        let (rt, mut hw, t0) = enabled();
+        let mut svc = TickService::new(rt, cfg);
+        let mut t = t0;
+        for k in 0..ticks {
+            t += 1000;
+            svc.runtime_mut()
+                .command(&MasterToBoard::Heartbeat, t)
+                .unwrap();
+            svc.begin(t, 0, control::estop::EStopTrip::NONE);
+            svc.tick(&mut hw, t);
+            let exec = if overrun_at.contains(&k) { 900 } else { 300 };
+            let out = svc.finish(t, cycles(exec));
+            hw.step_ms();
+            if out.status.fault.cause == FaultCause::DeadlineMissed {
+                return Some(k);
+            }
+        }
+        None
+    };
+    for start in [0, 97, 98, 99, 100, 150, 199] {
+        assert_eq!(
+            run(&[start, start + 1, start + 2], start + 10),
+            Some(start + 2),
+            "three overruns in a row from tick {start}"
+        );
+    }
+    assert_eq!(
+        run(&[10, 60, 109], 120),
+        Some(109),
+        "three within 100 ticks"
+    );
+    assert_eq!(run(&[10, 60, 110], 120), None, "spread over 101 ticks");
+}
+
 /// Property: the fault log survives a reset in RAM the start-up code does not clear: what
 /// `persist` wrote, `restore` gives back entry for entry; garbage and a corrupted word are
 /// refused; a runtime booted with the log reports it and the reset cause.
