@@ -5,7 +5,8 @@
 use faults::{report, Condition, FaultKind};
 
 /// Property: every fault kind in every condition is detected within its bound, gets the
-/// stop its cause calls for, and the platform moves no further than allowed.
+/// stop its cause calls for, and the platform moves no further than allowed (SR-1, SR-2,
+/// SR-5, SR-7: each cell names the requirements it checks).
 #[test]
 fn every_cell_of_the_campaign_passes() {
     let t0 = std::time::Instant::now();
