@@ -270,6 +270,22 @@ fn counterexamples_found_once_hold_now() {
     };
     let cases: Vec<(&str, Start, Vec<Action>)> = vec![
         (
+            "SR-3: Home during the SS1 of a Disable ended the stop and homed under power",
+            Start::Following,
+            vec![
+                stream(10, 25, 400),
+                A::Command(Cmd::Disable),
+                A::Wait(5),
+                A::Command(Cmd::Home { rehome: true }),
+                A::Wait(400),
+            ],
+        ),
+        (
+            "SR-1: a leg's dead home switch drove the leg through its travel while homing",
+            Start::Homing,
+            vec![A::Fault(Injection::SwitchDead(1)), A::Wait(4_000)],
+        ),
+        (
             "SR-5: the safety relay opening while the robot moves was named MotorOpen (the \
              drives had lost their supply; the monitors judged the motors)",
             Start::Following,

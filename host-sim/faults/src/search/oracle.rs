@@ -370,12 +370,13 @@ impl Oracle {
         if fresh_start {
             self.sto_latched = false;
         }
-        self.cleared = replies.iter().any(|r| match r {
-            BoardToMaster::Ack { seq } => delivered
-                .iter()
-                .any(|d| d.seq == *seq && d.message == MasterToBoard::ClearFault),
-            _ => false,
-        });
+        self.cleared = fresh_start
+            || replies.iter().any(|r| match r {
+                BoardToMaster::Ack { seq } => delivered
+                    .iter()
+                    .any(|d| d.seq == *seq && d.message == MasterToBoard::ClearFault),
+                _ => false,
+            });
         if s.stop == StopStatus::SafeTorqueOff {
             self.sto_latched = true;
         }
@@ -436,9 +437,9 @@ impl Oracle {
         let idle = matches!(s.state, RobotState::Ready | RobotState::Disabled);
         let completed = is == 0 && idle && !s.drives && !probe::brakes_released(board);
         let hold_ended = prev.state == RobotState::Enabled && s.state == RobotState::Enabled;
-        // A stop that had done its work (torque off, brakes applied) ended by a ClearFault
-        // the board took in this tick: whatever followed it in the same tick is a fresh
-        // command.
+        // A stop that had done its work (torque off, brakes applied) ended by a ClearFault,
+        // an Enable or a Home the board took in this tick: whatever followed it in the
+        // same tick is a fresh command.
         let done = matches!(
             prev.stop,
             StopStatus::SafeTorqueOff | StopStatus::SafeStop1Done
