@@ -107,7 +107,7 @@ fn main() {
         }
     }
     if target == "commands" {
-        println!("  ticks {ticks}; replies (HelloReply, Ack, Nack, Status, FaultLog) {replies:?}");
+        println!("  ticks {ticks}; replies (HelloReply, Ack, Nack, Status, FaultLog/EventLog, Geometry) {replies:?}");
         println!("  duty outside [-1, 1] from the current limit (finding 1): {over} joint-ticks");
         println!("  STO rows masked by a latched OverTemperature (finding 2): {masked} ticks");
         println!("  states reached (inputs): {states:?}");

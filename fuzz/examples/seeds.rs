@@ -1,8 +1,9 @@
 //! Writes the seed corpora and the dictionary of the fuzz targets (generated, never
 //! committed): `seeds [DIR]` (default `seeds`) writes
 //! * `DIR/decoder/`: every master and every board message as a frame, both as whole
-//!   sessions, and a stream with garbage, an over-long frame, a replay, a frame of another
-//!   session and an emergency stop of another session;
+//!   sessions (also tagged with the fuzzing key), and a stream with garbage, an over-long
+//!   frame, a replay, a frame of another session, an emergency stop of another session and
+//!   a frame beyond the sequence window;
 //! * `DIR/link.dict`: libFuzzer dictionary (the delimiter, the version byte, every master
 //!   frame of at most 64 bytes);
 //! * `DIR/commands/`: scenarios drawn from a fixed-seed generator, each kept when it reaches
@@ -92,10 +93,29 @@ fn decoder_seeds(dir: &Path) -> usize {
         &MasterToBoard::Hello {
             protocol_version: PROTOCOL_VERSION - 1,
             nonce: 9,
+            clock_us: 0,
         },
         Header { session: 0, seq: 0 },
     ));
+    // A frame far beyond the sequence window.
+    mixed.extend(frames::frame(
+        &MasterToBoard::Heartbeat,
+        Header {
+            session: SESSION,
+            seq: 30_013,
+        },
+    ));
     put("mixed".into(), &mixed);
+    // The sessions again, tagged with the fuzzing key (the keyed decoders' seeds).
+    let key = rspr_fuzz::decoder::fuzz_key();
+    put(
+        "master-session-keyed".into(),
+        &frames::stream_keyed(&master, 100, Some(&key)),
+    );
+    put(
+        "board-session-keyed".into(),
+        &frames::stream_keyed(&board, 100, Some(&key)),
+    );
     n
 }
 

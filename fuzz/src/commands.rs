@@ -32,8 +32,9 @@
 use std::sync::OnceLock;
 
 use arbitrary::Arbitrary;
+use board_profile::BoardProfile;
 use control::estop::{emergency_stop_isr, emergency_stop_message, EStopLatch};
-use control::link::{Inbound, LinkRx, LinkTx, Request, FIRMWARE_VERSION};
+use control::link::{opened_session, Inbound, LinkRx, LinkTx, Request, FIRMWARE_VERSION};
 use control::modes::{State, ALL_STATES};
 use control::runtime::RuntimeTick;
 use control::service::{ServiceConfig, TickService};
@@ -60,10 +61,10 @@ pub const MAX_BYTES: usize = 256;
 pub const MAX_TICKS: u32 = 1024;
 /// Ticks per `Tick` action at most.
 pub const TICKS_PER_ACTION: u8 = 64;
-/// The control period, µs (1 kHz).
-pub const PERIOD_US: u64 = 1000;
-/// The board's core clock, Hz (STM32F405 at 168 MHz).
-pub const CPU_HZ: u32 = 168_000_000;
+/// The control period, µs (the board profile's).
+pub const PERIOD_US: u64 = BoardProfile::REFERENCE.control_period_us as u64;
+/// The board's core clock, Hz (the board profile's).
+pub const CPU_HZ: u32 = BoardProfile::REFERENCE.cpu_hz;
 /// Cycles per unit of `Tick::exec` (255 units: 910 µs at 168 MHz, above the 800 µs budget).
 pub const CYCLES_PER_EXEC_UNIT: u32 = 600;
 /// A tick's execution time when the input does not say, cycles (about 180 µs).
@@ -196,8 +197,10 @@ pub enum Msg {
     Hello {
         /// Protocol version.
         version: Option<u8>,
-        /// The session nonce.
+        /// The master's nonce.
         nonce: u32,
+        /// The master's clock in it.
+        clock: Stamp,
     },
     /// Enable.
     Enable,
@@ -246,6 +249,11 @@ pub enum Msg {
     AcknowledgeReset,
     /// Fault log page.
     FaultLogRequest {
+        /// First entry.
+        first: u16,
+    },
+    /// Event log page.
+    EventLogRequest {
         /// First entry.
         first: u16,
     },
@@ -323,7 +331,7 @@ pub enum Supply {
     Raw(f64),
 }
 
-/// The service's settings: 1 kHz on the 168 MHz core.
+/// The service's settings: the board profile's period and core clock.
 pub fn service_config() -> ServiceConfig {
     ServiceConfig::for_period(PERIOD_US as u32, CPU_HZ, FIRMWARE_VERSION)
 }
@@ -392,7 +400,8 @@ pub fn snapshots() -> &'static Snapshots {
 pub struct Outcome {
     /// States seen after ticks.
     pub states: Vec<State>,
-    /// Replies sent, by kind: (HelloReply, Ack, Nack, Status, FaultLog, Geometry*).
+    /// Replies sent, by kind: (HelloReply, Ack, Nack, Status, FaultLog or EventLog,
+    /// Geometry*).
     pub replies: [u32; 6],
     /// Nack reasons seen.
     pub nacks: Vec<NackReason>,
@@ -472,16 +481,22 @@ impl Board {
         (hw.enabled, hw.duty, hw.brakes_released) = snap.outputs;
         hw.strict_duty = strict.duty;
         let hc = runtime.robot().hc as f32;
+        // The master that brought the board up (from homing on) has its session open.
+        let owned = !matches!(start, Start::Booted | Start::Rebooted(_));
+        let mut rx = LinkRx::new();
+        if owned {
+            rx.open_session(snapshots::OWNER_SESSION, u16::MAX);
+        }
         Board {
             service,
             hw,
-            rx: LinkRx::new(),
+            rx,
             tx: LinkTx::new(),
             queue: Vec::new(),
             geometry: None,
             latch: EStopLatch::new(),
             now: snap.now_us,
-            session: 0,
+            session: if owned { snapshots::OWNER_SESSION } else { 0 },
             seq: SeqCounter::new(0),
             last_seq: 0,
             master_rx: MasterDecoder::new(),
@@ -577,9 +592,14 @@ impl Board {
             Stamp::Raw(x) => *x,
         };
         match *msg {
-            Msg::Hello { version, nonce } => MasterToBoard::Hello {
+            Msg::Hello {
+                version,
+                nonce,
+                clock,
+            } => MasterToBoard::Hello {
                 protocol_version: version.unwrap_or(PROTOCOL_VERSION),
                 nonce,
+                clock_us: stamp(&clock),
             },
             Msg::Enable => MasterToBoard::Enable,
             Msg::Disable => MasterToBoard::Disable,
@@ -618,6 +638,7 @@ impl Board {
             Msg::OperatorPresent { present } => MasterToBoard::OperatorPresent { present },
             Msg::AcknowledgeReset => MasterToBoard::AcknowledgeReset,
             Msg::FaultLogRequest { first } => MasterToBoard::FaultLogRequest { first },
+            Msg::EventLogRequest { first } => MasterToBoard::EventLogRequest { first },
         }
     }
 
@@ -649,9 +670,6 @@ impl Board {
             HeaderChoice::Raw { session, seq } => Header { session, seq },
         };
         self.last_seq = header.seq;
-        if let MasterToBoard::Hello { nonce, .. } = wire {
-            self.session = nonce;
-        }
         let mut buf = [0u8; MAX_FRAME_LEN + 1];
         let n = match encode(&wire, header, buf.get_mut(1..).unwrap_or_default()) {
             Ok(n) => n,
@@ -703,7 +721,10 @@ impl Board {
                         matches!(
                             reply,
                             BoardToMaster::Nack {
-                                reason: NackReason::NotConnected | NackReason::UnsupportedVersion,
+                                reason: NackReason::NotConnected,
+                                ..
+                            } | BoardToMaster::HelloRefused {
+                                reason: NackReason::UnsupportedVersion,
                                 ..
                             }
                         ),
@@ -755,8 +776,14 @@ impl Board {
                 2
             }
             BoardToMaster::Status(_) => 3,
-            BoardToMaster::FaultLog(_) => 4,
+            BoardToMaster::FaultLog(_) | BoardToMaster::EventLog(_) => 4,
             BoardToMaster::GeometryStored { .. } | BoardToMaster::GeometryRefused { .. } => 5,
+            BoardToMaster::HelloRefused { reason, .. } => {
+                if !self.outcome.nacks.contains(&reason) {
+                    self.outcome.nacks.push(reason);
+                }
+                0
+            }
         };
         if let Some(k) = self.outcome.replies.get_mut(kind) {
             *k += 1;
@@ -790,6 +817,11 @@ impl Board {
             matches!(results.as_slice(), [Ok((seq, _))] if *seq == header.seq),
             "the master's decoder gave {results:?} for {msg:?} ({header:?})"
         );
+        // The master (every Hello is the harness's) opens the session the board issued.
+        if let BoardToMaster::HelloReply { session, .. } = msg {
+            self.session = session;
+            self.master_rx.open_session(session, header.seq);
+        }
     }
 
     /// One control tick `dt_us` after the last, as the board's control task runs it.
@@ -807,6 +839,10 @@ impl Board {
             let reply = self.service.request(&req, now);
             self.answered += 1;
             self.check_reply(&req, &reply);
+            // As the board: an accepted Hello's session opens before the reply goes out.
+            if let Some(session) = opened_session(&reply) {
+                self.rx.open_session(session, req.seq);
+            }
             self.send(reply);
         }
         // As the board's control task: the runtime's checks, then the store (this board's
@@ -855,14 +891,36 @@ impl Board {
         let ack = *reply == BoardToMaster::Ack { seq };
         let ack_or_nack = ack || matches!(reply, BoardToMaster::Nack { seq: s, .. } if *s == seq);
         let fits = match req.message {
-            Command::Hello { nonce: session, .. } => matches!(
-                reply,
-                BoardToMaster::HelloReply { session: s, protocol_version, .. }
-                    if *s == session && *protocol_version == PROTOCOL_VERSION
-            ),
+            // The session the link issued, the nonce echoed; or refused, echoed too.
+            Command::Hello { nonce, .. } => match reply {
+                BoardToMaster::HelloReply {
+                    session,
+                    nonce: n,
+                    protocol_version,
+                    ..
+                } => {
+                    *session == req.session
+                        && *session != 0
+                        && *n == nonce
+                        && *protocol_version == PROTOCOL_VERSION
+                }
+                BoardToMaster::HelloRefused {
+                    seq: s, nonce: n, ..
+                } => *s == seq && *n == nonce,
+                _ => false,
+            },
             Command::StatusRequest => matches!(reply, BoardToMaster::Status(_)),
             Command::FaultLogRequest { .. } => matches!(reply, BoardToMaster::FaultLog(_)),
-            Command::EmergencyStop | Command::Heartbeat | Command::AcknowledgeReset => ack,
+            Command::EventLogRequest { .. } => matches!(reply, BoardToMaster::EventLog(_)),
+            Command::EmergencyStop | Command::Heartbeat => ack,
+            // Taken only with the drives off (the transition table); refused otherwise.
+            Command::AcknowledgeReset => {
+                ack || *reply
+                    == BoardToMaster::Nack {
+                        seq,
+                        reason: NackReason::InvalidState,
+                    }
+            }
             _ => ack_or_nack,
         };
         assert!(fits, "{:?} answered {reply:?}", req.message);
@@ -1050,9 +1108,11 @@ mod tests {
     #[test]
     fn enabled_robot_follows_then_stops() {
         let mut actions = vec![
+            // Another master's: refused (the robot is enabled); the owner carries on.
             frame(Msg::Hello {
                 version: None,
                 nonce: 77,
+                clock: Stamp::Now,
             }),
             frame(Msg::PoseTarget {
                 stamp: Stamp::Now,
@@ -1216,9 +1276,11 @@ mod tests {
     #[test]
     fn finding_3_estop_path_is_seen_by_the_next_enable() {
         let actions = [
+            // The owner reconnects (a fresh session, its operator still present).
             frame(Msg::Hello {
                 version: None,
-                nonce: 3,
+                nonce: snapshots::OWNER_NONCE,
+                clock: Stamp::Now,
             }),
             frame(Msg::EmergencyStop),
             frame(Msg::ClearFault),

@@ -1,5 +1,6 @@
 //! The `decoder` target: arbitrary bytes, one at a time, into the board's decoder
-//! (`BoardDecoder`, master messages) and the master's (`MasterDecoder`, board messages).
+//! (`BoardDecoder`, master messages) and the master's (`MasterDecoder`, board messages),
+//! each without a key and with the fuzzing key ([`FUZZ_KEY`]).
 //!
 //! Invariants, each an assertion:
 //! * no panic;
@@ -7,11 +8,14 @@
 //!   non-empty frame gives exactly one result, after an empty one none (so every completed
 //!   frame gives at most one result);
 //! * the result is the one the documented rules give: frames longer than the decoder's
-//!   buffer are `Oversized`; otherwise `decode_frame` (COBS, length, CRC, version, body),
-//!   then the session rule (a `Hello`/`HelloReply` opens a session whatever its header;
-//!   frames of another session are `WrongSession`), the sequence rule (not newer than the
-//!   last accepted: `OutOfOrder`) and the emergency-stop bypass (an intact `EmergencyStop`
-//!   is accepted whatever its session and sequence, leaving the reference as it was);
+//!   buffer are `Oversized`; otherwise `decode_frame_with` (COBS, length, CRC, the tag with
+//!   a key, version, body), then the session rule (a handshake is accepted whatever its
+//!   header and changes nothing; the harness then opens the session it names, as the
+//!   board does for an accepted `Hello` and the master for its `HelloReply`; frames of
+//!   another session are `WrongSession`), the sequence rule (not newer than the last
+//!   accepted, or newer by more than the window: `OutOfOrder`, the reference kept) and the
+//!   emergency-stop bypass (an intact `EmergencyStop` is accepted whatever its session and
+//!   sequence, leaving the reference as it was);
 //! * the counters: each result increments exactly its own counter by one, `dropped` grows
 //!   by exactly the sequence numbers skipped, nothing else changes (so no counter ever
 //!   decreases), and `frames_ok + rejected() ==` the results returned;
@@ -21,17 +25,55 @@
 //!   `MAX_FRAME_LEN` bytes.
 
 use master_link::{
-    decode_frame, encode, seq_is_newer, BoardToMaster, FrameDecoder, FrameError, Header,
-    LinkCounters, MasterToBoard, Seq, WireMessage, MAX_FRAME_LEN,
+    decode_frame_with, encode_with, seq_is_newer, BoardToMaster, FrameDecoder, FrameError, Header,
+    LinkCounters, LinkKey, MasterToBoard, Seq, WireMessage, MAX_FRAME_LEN,
 };
 
-/// Runs both decoders over `data` with every check; returns their counters (board's,
+/// The key of the keyed runs (and of the keyed seeds).
+pub const FUZZ_KEY: [u8; 32] = [0x42; 32];
+
+/// The fuzzing key.
+pub fn fuzz_key() -> LinkKey {
+    LinkKey::new(&FUZZ_KEY)
+}
+
+/// Runs both decoders over `data` with every check, without a key and with
+/// [`FUZZ_KEY`]; returns their counters (board's, master's, then the keyed board's and
 /// master's).
-pub fn check(data: &[u8]) -> [LinkCounters; 2] {
+pub fn check(data: &[u8]) -> [LinkCounters; 4] {
+    let k = fuzz_key();
     [
-        check_stream::<MasterToBoard>(data),
-        check_stream::<BoardToMaster>(data),
+        check_stream::<MasterToBoard>(data, None),
+        check_stream::<BoardToMaster>(data, None),
+        check_stream::<MasterToBoard>(data, Some(&k)),
+        check_stream::<BoardToMaster>(data, Some(&k)),
     ]
+}
+
+/// The session a handshake names: a `Hello`'s nonce, a `HelloReply`'s session (a
+/// `HelloRefused` names none). The harness opens it once the decoder has taken the frame,
+/// as the board does when its runtime accepts a `Hello`.
+pub trait NamedSession {
+    /// The session, if the message names one.
+    fn named_session(&self) -> Option<u32>;
+}
+
+impl NamedSession for MasterToBoard {
+    fn named_session(&self) -> Option<u32> {
+        match self {
+            MasterToBoard::Hello { nonce, .. } => Some(*nonce),
+            _ => None,
+        }
+    }
+}
+
+impl NamedSession for BoardToMaster {
+    fn named_session(&self) -> Option<u32> {
+        match self {
+            BoardToMaster::HelloReply { session, .. } => Some(*session),
+            _ => None,
+        }
+    }
 }
 
 /// The documented rules, as a model of the decoder's session and sequence state.
@@ -46,18 +88,21 @@ struct Model {
 type Expected<M> = (Result<(Header, M), FrameError>, u32);
 
 impl Model {
-    fn expect<M: WireMessage>(&mut self, frame: &[u8], buffer: usize) -> Expected<M> {
+    fn expect<M: WireMessage>(
+        &mut self,
+        frame: &[u8],
+        buffer: usize,
+        key: Option<&LinkKey>,
+    ) -> Expected<M> {
         if frame.len() > buffer {
             return (Err(FrameError::Oversized), 0);
         }
         let mut copy = frame.to_vec();
-        let (header, msg) = match decode_frame::<M>(&mut copy) {
+        let (header, msg) = match decode_frame_with::<M>(&mut copy, key) {
             Ok(x) => x,
             Err(e) => return (Err(e), 0),
         };
-        if let Some(opened) = msg.opens_session() {
-            self.session = Some(opened);
-            self.last_seq = Some(header.seq);
+        if msg.is_handshake() {
             return (Ok((header, msg)), 0);
         }
         let refused = match (self.session, self.last_seq) {
@@ -86,9 +131,13 @@ impl Model {
 }
 
 /// The encoded frame of `msg` with `header`; panics if an accepted message does not encode.
-fn reencode<M: WireMessage + core::fmt::Debug>(msg: &M, header: Header) -> Vec<u8> {
+fn reencode<M: WireMessage + core::fmt::Debug>(
+    msg: &M,
+    header: Header,
+    key: Option<&LinkKey>,
+) -> Vec<u8> {
     let mut buf = [0u8; MAX_FRAME_LEN];
-    match encode(msg, header, &mut buf) {
+    match encode_with(msg, header, key, &mut buf) {
         Ok(n) => {
             assert!(n <= MAX_FRAME_LEN, "re-encoded frame of {n} bytes: {msg:?}");
             buf.get(..n).map(<[u8]>::to_vec).unwrap_or_default()
@@ -112,14 +161,18 @@ fn counted<M>(
         Err(FrameError::WrongVersion { .. }) => &mut c.wrong_version,
         Err(FrameError::OutOfOrder { .. }) => &mut c.out_of_order,
         Err(FrameError::WrongSession { .. }) => &mut c.wrong_session,
+        Err(FrameError::BadTag) => &mut c.bad_tag,
     };
     *counter += 1;
     c.dropped = c.dropped.wrapping_add(lost);
     c
 }
 
-fn check_stream<M: WireMessage + core::fmt::Debug>(data: &[u8]) -> LinkCounters {
-    let mut dec = FrameDecoder::<M, MAX_FRAME_LEN>::new();
+fn check_stream<M: WireMessage + NamedSession + core::fmt::Debug>(
+    data: &[u8],
+    key: Option<&LinkKey>,
+) -> LinkCounters {
+    let mut dec = FrameDecoder::<M, MAX_FRAME_LEN>::with_key(key.cloned());
     let mut model = Model::default();
     // The bytes since the last delimiter (all of them: a frame may outgrow the buffer).
     let mut frame: Vec<u8> = Vec::with_capacity(MAX_FRAME_LEN + 1);
@@ -150,7 +203,7 @@ fn check_stream<M: WireMessage + core::fmt::Debug>(data: &[u8]) -> LinkCounters 
             "an empty frame gave a result: {result:?}"
         );
         results += 1;
-        let (expected, lost) = model.expect::<M>(&frame, MAX_FRAME_LEN);
+        let (expected, lost) = model.expect::<M>(&frame, MAX_FRAME_LEN, key);
         match (&result, &expected) {
             (Ok((seq, msg)), Ok((header, model_msg))) => {
                 assert_eq!(*seq, header.seq, "sequence number of an accepted frame");
@@ -160,20 +213,20 @@ fn check_stream<M: WireMessage + core::fmt::Debug>(data: &[u8]) -> LinkCounters 
                     "a frame of {} bytes (+ delimiter) was accepted",
                     frame.len()
                 );
-                let wire = reencode(msg, *header);
+                let wire = reencode(msg, *header, key);
                 assert_eq!(
                     wire,
-                    reencode(model_msg, *header),
+                    reencode(model_msg, *header, key),
                     "decoder and decode_frame disagree on the message"
                 );
                 let mut again = wire;
                 again.pop();
-                match decode_frame::<M>(&mut again) {
+                match decode_frame_with::<M>(&mut again, key) {
                     Ok((h, m)) => {
                         assert_eq!(h, *header, "header after a round trip");
                         assert_eq!(
-                            reencode(&m, h),
-                            reencode(msg, *header),
+                            reencode(&m, h, key),
+                            reencode(msg, *header, key),
                             "message after a round trip: {msg:?} -> {m:?}"
                         );
                     }
@@ -182,6 +235,15 @@ fn check_stream<M: WireMessage + core::fmt::Debug>(data: &[u8]) -> LinkCounters 
             }
             (Err(got), Err(want)) => assert_eq!(got, want, "rejection reason"),
             _ => panic!("decoder gave {result:?}, the documented rules {expected:?}"),
+        }
+        // The owner opens the session a handshake names (the board: an accepted Hello;
+        // the master: its HelloReply).
+        if let Ok((seq, msg)) = &result {
+            if let Some(session) = msg.named_session() {
+                dec.open_session(session, *seq);
+                model.session = Some(session);
+                model.last_seq = Some(*seq);
+            }
         }
         let after = *dec.counters();
         assert_eq!(
@@ -216,10 +278,21 @@ mod tests {
     fn sample_streams_pass() {
         let m = frames::stream(&frames::master_messages(), 100);
         let b = frames::stream(&frames::board_messages(), 100);
-        let [on_board, _] = check(&m);
+        let [on_board, _, keyed_board, _] = check(&m);
         assert_eq!(on_board.frames_ok as usize, frames::master_messages().len());
-        let [_, on_master] = check(&b);
+        // A keyed decoder drops every untagged frame.
+        assert_eq!(
+            keyed_board.bad_tag as usize,
+            frames::master_messages().len()
+        );
+        let [_, on_master, _, _] = check(&b);
         assert_eq!(on_master.frames_ok as usize, frames::board_messages().len());
+        // Tagged with the fuzzing key: the keyed decoders take them all.
+        let k = fuzz_key();
+        let mt = frames::stream_keyed(&frames::master_messages(), 100, Some(&k));
+        let [plain, _, keyed, _] = check(&mt);
+        assert_eq!(keyed.frames_ok as usize, frames::master_messages().len());
+        assert_eq!(plain.frames_ok, 0);
         let mut rx = master_link::BoardDecoder::new();
         let n = rx.feed(&m).filter(Result::is_ok).count();
         assert_eq!(n, frames::master_messages().len());
@@ -236,7 +309,7 @@ mod tests {
         data.extend(frames::stream(&frames::master_messages(), 5));
         data.extend(frames::stream(&frames::master_messages()[1..], 5));
         data.extend([1, 2, 3, 0, 0, 0, 9]);
-        let [c, _] = check(&data);
+        let [c, _, _, _] = check(&data);
         assert_eq!(c.oversized, 1, "{c:?}");
         // The replay: 16 frames not newer than the last, all refused but the
         // EmergencyStop, which bypasses the sequence check.

@@ -2,9 +2,10 @@
 //! the dictionary that get the fuzzers past COBS and the CRC at once.
 
 use master_link::{
-    encode, BoardToMaster, FaultCause, FaultLogEntry, FaultLogPage, FaultRecord, FirmwareVersion,
-    Header, MasterToBoard, NackReason, ResetCause, ResetStatus, RobotState, StatusReport,
-    StopStatus, WireMessage, FAULT_LOG_PAGE, MAX_FRAME_LEN, PROTOCOL_VERSION,
+    encode_with, BoardToMaster, EventEntry, EventKind, EventLogPage, FaultCause, FaultLogEntry,
+    FaultLogPage, FaultRecord, FirmwareVersion, Header, LinkKey, MasterToBoard, NackReason,
+    ResetCause, ResetStatus, RobotState, StatusReport, StopStatus, WireMessage, EVENT_LOG_PAGE,
+    FAULT_LOG_PAGE, MAX_FRAME_LEN, PROTOCOL_VERSION,
 };
 
 /// The session of the samples' master.
@@ -16,6 +17,7 @@ pub fn master_messages() -> Vec<MasterToBoard> {
         MasterToBoard::Hello {
             protocol_version: PROTOCOL_VERSION,
             nonce: SESSION,
+            clock_us: 1_000,
         },
         MasterToBoard::Enable,
         MasterToBoard::Disable,
@@ -43,7 +45,8 @@ pub fn master_messages() -> Vec<MasterToBoard> {
     ]
 }
 
-/// Every board message, once (a full status and a full fault-log page: the longest frames).
+/// Every board message, once (a full status, a full fault-log page and a full event-log
+/// page: the longest frames).
 pub fn board_messages() -> Vec<BoardToMaster> {
     let record = FaultRecord {
         cause: FaultCause::FollowingError,
@@ -82,8 +85,14 @@ pub fn board_messages() -> Vec<BoardToMaster> {
             },
             protocol_version: PROTOCOL_VERSION,
             session: SESSION,
+            nonce: SESSION,
             reset: ResetStatus::default(),
             geometry_version: 3,
+        },
+        BoardToMaster::HelloRefused {
+            seq: 4,
+            nonce: SESSION,
+            reason: NackReason::NotOwner,
         },
         BoardToMaster::GeometryStored { seq: 5, version: 3 },
         BoardToMaster::GeometryRefused {
@@ -103,13 +112,38 @@ pub fn board_messages() -> Vec<BoardToMaster> {
             count: FAULT_LOG_PAGE as u8,
             entries: [entry; FAULT_LOG_PAGE],
         }),
+        BoardToMaster::EventLog(EventLogPage {
+            len: 32,
+            total: 90,
+            first: 8,
+            count: EVENT_LOG_PAGE as u8,
+            lost: 0,
+            entries: [EventEntry {
+                seq: 60,
+                boot: 4,
+                time_ms: 12_345,
+                event: EventKind::Fault {
+                    cause: record.cause,
+                    joint: record.joint,
+                    value: record.value,
+                    stop: StopStatus::SafeTorqueOff,
+                },
+                count: 2,
+                relay_test_pending: false,
+            }; EVENT_LOG_PAGE],
+        }),
     ]
 }
 
 /// The frame of `msg` with `header` (delimiter included).
 pub fn frame<M: WireMessage>(msg: &M, header: Header) -> Vec<u8> {
+    frame_keyed(msg, header, None)
+}
+
+/// The frame of `msg` with `header`, tagged with `key` if any (delimiter included).
+pub fn frame_keyed<M: WireMessage>(msg: &M, header: Header, key: Option<&LinkKey>) -> Vec<u8> {
     let mut buf = [0u8; MAX_FRAME_LEN];
-    match encode(msg, header, &mut buf) {
+    match encode_with(msg, header, key, &mut buf) {
         Ok(n) => buf.get(..n).map(<[u8]>::to_vec).unwrap_or_default(),
         Err(e) => panic!("a sample message does not encode: {e:?}"),
     }
@@ -117,15 +151,21 @@ pub fn frame<M: WireMessage>(msg: &M, header: Header) -> Vec<u8> {
 
 /// The frames of `msgs` in one session, sequence numbers from `first_seq` up.
 pub fn stream<M: WireMessage>(msgs: &[M], first_seq: u16) -> Vec<u8> {
+    stream_keyed(msgs, first_seq, None)
+}
+
+/// [`stream`], tagged with `key` if any.
+pub fn stream_keyed<M: WireMessage>(msgs: &[M], first_seq: u16, key: Option<&LinkKey>) -> Vec<u8> {
     let mut out = Vec::new();
     for (i, m) in msgs.iter().enumerate() {
         let seq = first_seq.wrapping_add(u16::try_from(i).unwrap_or(u16::MAX));
-        out.extend(frame(
+        out.extend(frame_keyed(
             m,
             Header {
                 session: SESSION,
                 seq,
             },
+            key,
         ));
     }
     out

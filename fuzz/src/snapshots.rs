@@ -10,9 +10,9 @@
 
 use board_on_plant::{BoardOnPlant, Layout, ReferenceMechanics};
 use control::link::Request;
+use control::modes::State;
 use control::runtime::{reference_config_for, reference_mechanics, Runtime};
 use control::service::{ServiceConfig, TickService};
-use control::modes::State;
 use hal::{QuadratureCounter, NUM_JOINTS};
 use kinematics_core::{inverse, Branch, Pose, RsprGeometry};
 use master_link::MasterToBoard as Command;
@@ -70,10 +70,7 @@ fn ok<T, E: core::fmt::Debug>(r: Result<T, E>, what: &str) -> T {
 fn step(sv: &mut Service, hw: &mut BoardOnPlant, t: &mut u64, cycles: u32) {
     *t += 1000;
     sv.begin(*t, 0, control::estop::EStopTrip::NONE);
-    let beat = Request {
-        seq: 0,
-        message: Command::Heartbeat,
-    };
+    let beat = Request::new(0, Command::Heartbeat);
     let _ = sv.request(&beat, *t);
     sv.tick(hw, *t);
     let _ = sv.finish(*t, cycles);
@@ -93,6 +90,12 @@ fn snap(sv: Option<&Service>, rt: &Rt, hw: &mut BoardOnPlant, t: u64) -> Snapsho
 /// Takes every snapshot: the reference robot resting with its legs at 160 mm and its links
 /// 0.2 rad above their hard stops, homed, parked and enabled on the plant (a few seconds of
 /// simulated time), in the tick service `cfg` with ticks of `cycles` cycles.
+/// The nonce of the master that brought the snapshots' board up (homing on), and the
+/// session the board issued it: a board started from one of them has it open.
+pub const OWNER_NONCE: u32 = 0x0F0F_0F0F;
+/// See [`OWNER_NONCE`].
+pub const OWNER_SESSION: u32 = 0x5e55_0001;
+
 pub fn build(cfg_service: ServiceConfig, cycles: u32) -> Snapshots {
     let g = RsprGeometry::<f64>::reference();
     let central = ok(
@@ -101,7 +104,7 @@ pub fn build(cfg_service: ServiceConfig, cycles: u32) -> Snapshots {
     )
     .q();
     let c: [f64; NUM_JOINTS] = std::array::from_fn(|j| central[j]);
-    let mech = reference_mechanics(&c, &kinematics_core::guards::Limits::reference());
+    let mech = reference_mechanics(&kinematics_core::guards::Limits::reference());
     let stops = [3, 4, 5].map(|j| c[j] - mech.link_stop_below_central_rad);
     let rest = [
         0.16,
@@ -138,7 +141,7 @@ pub fn build(cfg_service: ServiceConfig, cycles: u32) -> Snapshots {
     let state = |sv: &Service| sv.runtime().state();
     let fault = |sv: &Service| sv.runtime().status().fault;
     let request = |sv: &mut Service, message: Command, t: u64| {
-        let reply = sv.request(&Request { seq: 0, message }, t);
+        let reply = sv.request(&Request::new(0, message), t);
         assert_eq!(
             reply,
             BoardToMaster::Ack { seq: 0 },
@@ -146,6 +149,29 @@ pub fn build(cfg_service: ServiceConfig, cycles: u32) -> Snapshots {
         );
     };
     let booted = take(&sv, &mut hw, t);
+    // The master says Hello (it owns the board from now on) and that its operator is
+    // present.
+    let hello = Request {
+        seq: 0,
+        message: Command::Hello {
+            protocol_version: master_link::PROTOCOL_VERSION,
+            nonce: OWNER_NONCE,
+            clock_us: t,
+        },
+        session: OWNER_SESSION,
+    };
+    let reply = sv.request(&hello, t);
+    assert!(
+        matches!(
+            reply,
+            BoardToMaster::HelloReply {
+                session: OWNER_SESSION,
+                ..
+            }
+        ),
+        "snapshots: {reply:?}"
+    );
+    request(&mut sv, Command::OperatorPresent { present: true }, t);
 
     request(&mut sv, Command::Home { rehome: false }, t);
     for _ in 0..300 {

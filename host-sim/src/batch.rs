@@ -6,7 +6,7 @@
 //! The single-pose form of a command goes through the same row code: its flags become a
 //! one-row table with the same column names, so both forms print identical lines.
 
-use crate::columns::{check_field, parse_number, FieldError};
+use crate::columns::{check_field, FieldError, Row};
 use std::io::{Read, Write};
 use thiserror::Error;
 
@@ -121,45 +121,6 @@ enum RowProblem<E: std::error::Error> {
         given: usize,
         width: usize,
     },
-}
-
-/// One input row, its fields found by column name.
-#[derive(Clone, Copy, Debug)]
-pub struct Row<'a> {
-    header: &'a [String],
-    fields: &'a [String],
-}
-
-impl<'a> Row<'a> {
-    /// A row of `fields` under `header` (extra or missing fields are tolerated here).
-    pub fn new(header: &'a [String], fields: &'a [String]) -> Self {
-        Row { header, fields }
-    }
-
-    /// The field of a column, if the column exists and the row has it.
-    pub fn get(&self, column: &str) -> Option<&'a str> {
-        let i = self.header.iter().position(|h| h == column)?;
-        self.fields.get(i).map(String::as_str)
-    }
-
-    /// A required numeric field.
-    pub fn number(&self, column: &str) -> Result<f64, FieldError> {
-        match self.get(column) {
-            Some(text) => parse_number(column, text),
-            None => Err(FieldError::Missing {
-                column: column.into(),
-            }),
-        }
-    }
-
-    /// Several required numeric fields; the first bad one is reported.
-    pub fn numbers<const N: usize>(&self, columns: &[&str; N]) -> Result<[f64; N], FieldError> {
-        let mut out = [0.0; N];
-        for (o, c) in out.iter_mut().zip(columns.iter()) {
-            *o = self.number(c)?;
-        }
-        Ok(out)
-    }
 }
 
 /// Counts of a batch run.

@@ -1,8 +1,7 @@
-//! Column names of the CSV edge and the readers that turn a row's fields into the core's
-//! SI types. Every name carries its unit (CONVENTIONS.md, "Units"); the pose and joint
+//! Column names of the CSV edge, a row's fields found by column name ([`Row`]), and the
+//! readers that turn a row's fields into the core's SI types. Every name carries its unit (CONVENTIONS.md, "Units"); the pose and joint
 //! names and their conversions are `robot-config`'s ([`robot_config::edge`]).
 
-use crate::batch::Row;
 use kinematics_core::{Branch, Joints, Pose, Robot, Wrench};
 pub use robot_config::edge::{
     joint_columns, joints_from_edge, joints_to_edge, pose_from_edge, pose_to_edge, EdgeError, POSE,
@@ -38,6 +37,45 @@ pub enum FieldError {
     /// Some but not all initial-pose columns.
     #[error("{0} (give all six initial-pose columns or none)")]
     PartialInitialPose(Box<FieldError>),
+}
+
+/// One input row, its fields found by column name.
+#[derive(Clone, Copy, Debug)]
+pub struct Row<'a> {
+    header: &'a [String],
+    fields: &'a [String],
+}
+
+impl<'a> Row<'a> {
+    /// A row of `fields` under `header` (extra or missing fields are tolerated here).
+    pub fn new(header: &'a [String], fields: &'a [String]) -> Self {
+        Row { header, fields }
+    }
+
+    /// The field of a column, if the column exists and the row has it.
+    pub fn get(&self, column: &str) -> Option<&'a str> {
+        let i = self.header.iter().position(|h| h == column)?;
+        self.fields.get(i).map(String::as_str)
+    }
+
+    /// A required numeric field.
+    pub fn number(&self, column: &str) -> Result<f64, FieldError> {
+        match self.get(column) {
+            Some(text) => parse_number(column, text),
+            None => Err(FieldError::Missing {
+                column: column.into(),
+            }),
+        }
+    }
+
+    /// Several required numeric fields; the first bad one is reported.
+    pub fn numbers<const N: usize>(&self, columns: &[&str; N]) -> Result<[f64; N], FieldError> {
+        let mut out = [0.0; N];
+        for (o, c) in out.iter_mut().zip(columns.iter()) {
+            *o = self.number(c)?;
+        }
+        Ok(out)
+    }
 }
 
 /// Parses one numeric field; the message names the column.

@@ -7,7 +7,8 @@ use crate::commands::RowError;
 use crate::flags::FlagError;
 use design::compare::PairError;
 use design::ranges::RangesError;
-use design::synth::SynthTaskError;
+use design::synth::{SynthError, SynthTaskError};
+use design::workspace::WorkspaceError;
 use design::{DesignError, FileError};
 use robot_config::{GeometryFileError, LimitsFileError};
 use simulation::{ConfigError, OutputError, RunError, SimError, UnknownScenario};
@@ -91,10 +92,14 @@ macro_rules! through {
 
 through!(
     FileError => Design,
+    design::OutputError => Design,
+    WorkspaceError => Design,
+    SynthError => Design,
     PairError => Design,
     RangesError => Design,
     ConfigError => Sim,
     UnknownScenario => Sim,
     RunError => Sim,
     OutputError => Sim,
+    operator::BoardError => Operator,
 );

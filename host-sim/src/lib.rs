@@ -9,7 +9,8 @@
 //! - `commands`: the row-wise commands `ik`, `fk`, `jacobian`, `forces`, `singularity`,
 //!   `check` (whose `--task-box` form sweeps the task);
 //! - `batch`: the one CSV loop (and single-pose form) all row-wise commands share;
-//! - `columns`: CSV column names and the readers of poses, joints, wrenches, branches;
+//! - `columns`: CSV column names, a row's fields found by name, and the readers of
+//!   poses, joints, wrenches, branches;
 //! - `flags`: the values of the flags (number lists, grids, scan ranges, the task box);
 //! - `error`: what a failed command reports.
 

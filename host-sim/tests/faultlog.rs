@@ -1,6 +1,6 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 //! `host-sim faultlog` against the simulated board served on a socket: a master presses
-//! the e-stop over the link, then the command reads the log back and prints it.
+//! the e-stop over the link, then the command reads the logs back and prints them.
 
 use std::process::Command as Process;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -55,4 +55,12 @@ fn faultlog_prints_what_the_board_logged() {
     assert!(text.contains("1 entries"), "{text}");
     assert!(text.contains("EmergencyStopMessage"), "{text}");
     assert!(text.contains("SafeTorqueOff"), "{text}");
+    // The event log in plain words: the boot, the master, the e-stop with its stop.
+    assert!(text.contains("event log (kept in flash"), "{text}");
+    assert!(text.contains("board started after power-on"), "{text}");
+    assert!(text.contains("a master took charge"), "{text}");
+    assert!(
+        text.contains("fault: e-stop message; then STO: torque off, brakes applied"),
+        "{text}"
+    );
 }

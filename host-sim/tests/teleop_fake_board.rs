@@ -171,25 +171,35 @@ fn fake_board(mut stream: UnixStream) {
         let mut out: Vec<BoardToMaster> = Vec::new();
         match stream.read(&mut buf) {
             Ok(0) => return,
-            Ok(n) => rx.feed(&buf[..n], |inbound| match inbound {
-                Inbound::Reply(r) => out.push(r),
-                Inbound::Request(req) => {
-                    let result = match req.message {
-                        Command::Hello { nonce, .. } => Ok(Answer::Hello {
-                            session: nonce,
-                            reset: ResetStatus::default(),
-                            geometry_version: 0,
-                        }),
-                        Command::StatusRequest => Ok(Answer::Status),
-                        c => board.command(&c, now).map(|()| Answer::Ack),
-                    };
-                    out.push(req.reply(result, &board.status(now), version));
+            Ok(n) => {
+                let mut opened = None;
+                rx.feed(&buf[..n], |inbound| match inbound {
+                    Inbound::Reply(r) => out.push(r),
+                    Inbound::Request(req) => {
+                        let result = match req.message {
+                            Command::Hello { nonce, .. } => Ok(Answer::Hello {
+                                nonce,
+                                reset: ResetStatus::default(),
+                                geometry_version: 0,
+                            }),
+                            Command::StatusRequest => Ok(Answer::Status),
+                            c => board.command(&c, now).map(|()| Answer::Ack),
+                        };
+                        let reply = req.reply(result, &board.status(now), version);
+                        if let Some(session) = control::link::opened_session(&reply) {
+                            opened = Some((session, req.seq));
+                        }
+                        out.push(reply);
+                    }
+                    Inbound::Geometry { seq, .. } => out.push(BoardToMaster::GeometryRefused {
+                        seq,
+                        reason: master_link::GeometryRefusal::Unsupported,
+                    }),
+                });
+                if let Some((session, seq)) = opened {
+                    rx.open_session(session, seq);
                 }
-                Inbound::Geometry { seq, .. } => out.push(BoardToMaster::GeometryRefused {
-                    seq,
-                    reason: master_link::GeometryRefusal::Unsupported,
-                }),
-            }),
+            }
             Err(e)
                 if e.kind() == std::io::ErrorKind::WouldBlock
                     || e.kind() == std::io::ErrorKind::TimedOut => {}

@@ -6,19 +6,23 @@
 //! steps the mechanics under the outputs read off the pins at the previous step, hands the
 //! new signals to the board (the MCU applies them at that same instant, before the core runs
 //! on), and reads the outputs for the next step; every millisecond it refreshes the tool's
-//! loads and drains RTT as a probe would. When the run reaches the instant the master asked
-//! for ([`Bench::run_until`]) it hands the master a [`Report`] and waits for its next
+//! loads and drains RTT as a probe would. The event log's flash sectors are kept in a
+//! shadow the next run starts from ([`crate::flash`]: each programmed word also holds the
+//! core for the programming time, as the part's single bank stalls it). When the run
+//! reaches the instant the master asked for ([`Bench::run_until`]) it hands the master a
+//! [`Report`] and waits for its next
 //! [`Command`] (bytes for the link, changes of the surroundings, watches), so the master runs
 //! on the caller's thread in strict alternation with the core: nothing depends on the wall
 //! clock, and two runs are the same run.
 
 use std::path::PathBuf;
 use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
+use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::Instant;
 
 use rigless::device::ResetCause;
-use rigless::emulator::{self, Driver, Host, Settled, Start, Stop, Watch};
+use rigless::emulator::{self, Driver, HitKind, Host, Settled, Start, Stop, Watch};
 use rigless::mcu::{Mcu, Operate};
 use rigless::session::Session;
 use rigless::soc::stm32f427::generated::rcc::Register as RccRegister;
@@ -27,11 +31,19 @@ use rigless::time::VirtualNanos;
 use sha2::{Digest, Sha256};
 
 use crate::board::{BoardError, Outputs, RsprBoard};
+use crate::flash::{
+    FlashOp, FlashShadow, Staged, EVENTS_BASE, EVENTS_LEN, FLASH_CR, MAILBOX_WORDS,
+};
 use crate::image::{Firmware, ImageError};
 use crate::mechanics::{Mechanics, MechanicsConfig, MechanicsError, Surroundings};
 
 /// Nanoseconds in a second.
 pub const NANOS_PER_SECOND: u64 = 1_000_000_000;
+
+/// The longest a 32-bit word takes to program on the F405, ns (DS8626, "Flash memory
+/// programming", x32 parallelism: 16 µs typical, 100 µs maximum): the bench's default, the
+/// worst case.
+pub const FLASH_WORD_MAX_NS: u64 = 100_000;
 
 /// Why the bench failed.
 #[derive(Debug, thiserror::Error)]
@@ -72,6 +84,12 @@ pub struct BenchConfig {
     pub mechanics: MechanicsConfig,
     /// Record every peripheral access from the first instruction up to this instant, ns.
     pub record_until_ns: u64,
+    /// The event log's flash sectors at power-up (from [`crate::flash::EVENTS_BASE`]; a
+    /// previous run's [`Bench::flash`]), or erased.
+    pub flash: Option<Vec<u8>>,
+    /// How long each programmed word holds the core, ns (DS8626, "Flash memory
+    /// programming", x32: 16 µs typical, 100 µs at most).
+    pub flash_word_ns: u64,
 }
 
 impl BenchConfig {
@@ -83,6 +101,8 @@ impl BenchConfig {
             plant_step_ns: 100_000,
             mechanics: MechanicsConfig::reference(None)?,
             record_until_ns: 0,
+            flash: None,
+            flash_word_ns: FLASH_WORD_MAX_NS,
         })
     }
 }
@@ -173,6 +193,9 @@ pub struct Report {
     pub pin_writes: Vec<Recorded>,
     /// Every reset of the part so far.
     pub resets: Vec<ResetSeen>,
+    /// The event log's flash operations (programmed words, erased sectors) since the last
+    /// report.
+    pub flash_ops: Vec<FlashOp>,
     /// `RCC_CSR` (reset flags) now.
     pub rcc_csr: u64,
     /// RTT bytes (defmt frames) drained so far.
@@ -199,6 +222,7 @@ impl Report {
             peeked: Vec::new(),
             pin_writes: Vec::new(),
             resets: Vec::new(),
+            flash_ops: Vec::new(),
             rcc_csr: 0,
             rtt_bytes: 0,
             digest: [0; 32],
@@ -250,6 +274,11 @@ struct Lockstep {
     rtt_bytes: u64,
     hasher: Sha256,
     failed: Option<String>,
+    /// The event log's flash, shared with the master's handle.
+    flash: Arc<Mutex<FlashShadow>>,
+    /// The image's program mailbox, if it has one.
+    mailbox: Option<u64>,
+    flash_word_ns: u64,
 }
 
 const MS: u64 = 1_000_000;
@@ -315,6 +344,51 @@ impl Lockstep {
             at = (at + 1) % size;
         }
         let _ = host.write(up + 16, Width::W32, write);
+    }
+
+    /// The image's program mailbox now (address, length, words), as a probe reads it.
+    fn staged(&self, host: &mut dyn Host) -> Option<Staged> {
+        let at = self.mailbox?;
+        let word = |host: &mut dyn Host, a: u64| host.read(a, Width::W32).ok();
+        let address = word(host, at)?;
+        let len = usize::try_from(word(host, at + 4)?).ok()?;
+        let mut words = [0u32; MAILBOX_WORDS];
+        for (i, w) in words.iter_mut().enumerate() {
+            *w = u32::try_from(word(host, at + 8 + 4 * i as u64)?).ok()?;
+        }
+        Some(Staged {
+            address,
+            len: len.min(MAILBOX_WORDS),
+            words,
+        })
+    }
+
+    /// A store landed in the event log's sectors: programmed into the shadow, and the core
+    /// held for the word's programming time, the run stopping when it ends.
+    fn flash_store(
+        &mut self,
+        session: &mut Session<RsprBoard>,
+        host: &mut dyn Host,
+        at: VirtualNanos,
+        address: u64,
+    ) {
+        let staged = self.staged(host);
+        let word = match self.flash.lock() {
+            Ok(mut f) => f.stored(at, address, staged),
+            Err(_) => None,
+        };
+        if let Some(word) = word {
+            self.hasher.update(at.0.to_le_bytes());
+            self.hasher.update(address.to_le_bytes());
+            self.hasher.update(word.to_le_bytes());
+            if self.flash_word_ns > 0 {
+                let until = at.0 + self.flash_word_ns;
+                host.hold(true);
+                self.hold_until = Some(self.hold_until.map_or(until, |h| h.max(until)));
+                let next = session.until().0.min(until);
+                session.run_until(VirtualNanos(next));
+            }
+        }
     }
 
     fn plant_step(&mut self, session: &mut Session<RsprBoard>, now: u64) {
@@ -450,6 +524,11 @@ impl Lockstep {
             peeked: std::mem::take(&mut self.peeked),
             pin_writes: std::mem::take(&mut self.pin_writes),
             resets,
+            flash_ops: self
+                .flash
+                .lock()
+                .map(|mut f| f.take_ops())
+                .unwrap_or_default(),
             rcc_csr,
             rtt_bytes: self.rtt_bytes,
             digest: self.hasher.clone().finalize().into(),
@@ -462,7 +541,7 @@ impl Driver<RsprBoard> for Lockstep {
     fn on_settled(
         &mut self,
         session: &mut Session<RsprBoard>,
-        _host: &mut dyn Host,
+        host: &mut dyn Host,
         settled: Settled,
     ) {
         match settled {
@@ -477,11 +556,20 @@ impl Driver<RsprBoard> for Lockstep {
                 if r.write && is_pin_write(r.address) {
                     self.pin_writes.push(r);
                 }
+                if r.write && r.address == FLASH_CR {
+                    if let Ok(mut f) = self.flash.lock() {
+                        f.control_written(r.at, r.value);
+                    }
+                }
                 if access.virtual_time.0 <= self.record_until {
                     self.recorded.push(r);
                 }
             }
             Settled::Hit(hit) => {
+                if hit.kind == HitKind::Write && FlashShadow::holds(hit.address) {
+                    self.flash_store(session, host, hit.at, hit.address);
+                    return;
+                }
                 if let Some(armed) = &self.armed {
                     if hit.address == armed.address && self.estop_at.is_none() {
                         let at = hit.at.0 + armed.delay;
@@ -583,6 +671,10 @@ pub struct Bench {
     pub pin_writes: Vec<Recorded>,
     /// The image.
     pub firmware: Firmware,
+    /// The event log's flash operations not yet taken.
+    pub flash_ops: Vec<FlashOp>,
+    /// The event log's flash, as the run has programmed it.
+    flash: Arc<Mutex<FlashShadow>>,
     /// Wall time at the start (before the first instruction).
     pub started: Instant,
     /// Wall time at the first report.
@@ -609,6 +701,8 @@ impl Bench {
         let rtt_block = firmware.symbol("_SEGGER_RTT").ok();
         let mechanics = Mechanics::new(config.mechanics)?;
         let board = RsprBoard::new()?;
+        let flash = Arc::new(Mutex::new(FlashShadow::new(config.flash.as_deref())));
+        let mailbox = firmware.symbol(crate::flash::MAILBOX_SYMBOL).ok();
         let (to_master, from_driver) = sync_channel::<Report>(1);
         let (to_driver, from_master) = sync_channel::<Command>(1);
         let driver = Lockstep {
@@ -635,17 +729,37 @@ impl Bench {
             rtt_bytes: 0,
             hasher: Sha256::new(),
             failed: None,
+            flash: Arc::clone(&flash),
+            mailbox,
+            flash_word_ns: config.flash_word_ns,
         };
         let image = firmware
             .rigless_image()
             .map_err(|e| BenchError::Emulator(e.to_string()))?;
-        let session = Session::new(Box::new(board), 0, VirtualNanos(config.plant_step_ns))
+        // The event log's sectors as the last power cycle left them.
+        let kept = match &config.flash {
+            Some(bytes) => Some(
+                rigless::image::Image::new(
+                    std::path::Path::new("event-log-flash"),
+                    bytes.clone(),
+                    Some(EVENTS_BASE),
+                )
+                .map_err(|e| BenchError::Emulator(e.to_string()))?,
+            ),
+            None => None,
+        };
+        let mut session = Session::new(Box::new(board), 0, VirtualNanos(config.plant_step_ns))
             .map_err(|e| BenchError::Emulator(e.to_string()))?;
+        session.watch(Watch::Writes {
+            address: EVENTS_BASE,
+            length: EVENTS_LEN as u64,
+        });
         let started = Instant::now();
         let thread = std::thread::Builder::new()
             .name("board-emulator".into())
             .spawn(move || {
-                let images = [image];
+                let images: Vec<rigless::image::Image> =
+                    std::iter::once(image).chain(kept).collect();
                 let start = Start::new(&images);
                 match emulator::run(session, &start, driver) {
                     Ok(finished) => {
@@ -683,6 +797,8 @@ impl Bench {
             peeked: Vec::new(),
             pin_writes: Vec::new(),
             firmware,
+            flash_ops: Vec::new(),
+            flash,
             started,
             first_report: None,
         };
@@ -704,6 +820,7 @@ impl Bench {
                 }
                 self.peeked.append(&mut r.peeked);
                 self.pin_writes.append(&mut r.pin_writes);
+                self.flash_ops.append(&mut r.flash_ops);
                 self.last = r;
                 Ok(())
             }
@@ -722,6 +839,25 @@ impl Bench {
     /// Virtual time now.
     pub fn now(&self) -> VirtualNanos {
         self.now
+    }
+
+    /// The event log's flash sectors as the run has programmed them (from
+    /// [`crate::flash::EVENTS_BASE`]): what the next power-up starts from
+    /// ([`BenchConfig::flash`]).
+    pub fn flash(&self) -> Vec<u8> {
+        self.flash
+            .lock()
+            .map(|f| f.bytes().to_vec())
+            .unwrap_or_default()
+    }
+
+    /// The event log's flash counters: words programmed, sectors erased, stores with `PG`
+    /// set whose word the image did not stage, stores with `PG` clear.
+    pub fn flash_counts(&self) -> (u64, u64, u64, u64) {
+        self.flash
+            .lock()
+            .map(|f| (f.programmed, f.erases, f.unknown, f.dropped))
+            .unwrap_or_default()
     }
 
     /// Virtual time now, s.

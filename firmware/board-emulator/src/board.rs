@@ -24,10 +24,10 @@ use crate::pins::{
 /// The high-speed crystal on PH0/PH1.
 pub const HSE_HZ: u64 = 8_000_000;
 /// The core clock the firmware sets (8 MHz HSE, PLL to 168 MHz).
-pub const CORE_HZ: u64 = 168_000_000;
+pub const CORE_HZ: u64 = board_profile::BoardProfile::REFERENCE.cpu_hz as u64;
 /// Instructions per second of virtual time: one per core cycle (no flash wait states or
 /// pipeline stalls are modelled, so cycle figures are approximate).
-pub const INSTRUCTIONS_PER_SECOND: u64 = 168_000_000;
+pub const INSTRUCTIONS_PER_SECOND: u64 = CORE_HZ;
 /// The board's 3.3 V rail, mV.
 pub const RAIL_MV: u32 = 3300;
 /// The master link's wire (USART3), as `Board::hosts` names it.

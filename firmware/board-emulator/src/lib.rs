@@ -5,13 +5,15 @@
 //! TIM9..TIM14, EXTI and SYSCFG added here), on the RSPR board ([`board::RsprBoard`]: 8 MHz
 //! crystal, the master link on USART3, the pins of [`pins`]), stepped in lockstep with the
 //! robot of `sim/` ([`mechanics`]: the plant and the board's surroundings of
-//! `sim/board-on-plant` at pin level; [`bench`]) in virtual time. A master drives it
-//! through the bench's handle: `host-sim/board-scenarios` runs the host's master against
-//! it, `serve` a master on a socket. See README.md.
+//! `sim/board-on-plant` at pin level; [`bench`]) in virtual time, with the event log's
+//! flash kept across a power cycle ([`flash`]). A master drives it through the bench's
+//! handle: `host-sim/board-scenarios` runs the host's master against it, `serve` a master
+//! on a socket. See README.md.
 
 pub mod bench;
 pub mod board;
 pub mod exti;
+pub mod flash;
 pub mod image;
 pub mod mcu;
 pub mod mechanics;

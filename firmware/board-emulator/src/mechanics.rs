@@ -90,7 +90,7 @@ impl MechanicsConfig {
     /// stops where the firmware's `reference_mechanics` puts them, carrying `tool`.
     pub fn reference(tool: Option<Tool>) -> Result<Self, MechanicsError> {
         let central = central_q()?;
-        let mech = control::runtime::reference_mechanics(&central, &Limits::<f64>::reference());
+        let mech = control::runtime::reference_mechanics(&Limits::<f64>::reference());
         Ok(MechanicsConfig {
             start_q: central,
             central_q: central,

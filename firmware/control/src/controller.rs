@@ -22,7 +22,7 @@ pub use crate::scalar::Scalar;
 /// Everything the controller needs. `Default` gives the reference robot's values.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ControllerConfig<S: Scalar> {
-    /// Control rate, Hz (default 1000; 100 .. 10 000).
+    /// Control rate, Hz (default: the board profile's; 100 .. 10 000).
     pub rate_hz: S,
     /// Inverse-kinematics branch the robot is assembled on (default 0, all outer).
     pub branch: Branch,
@@ -45,7 +45,7 @@ pub struct ControllerConfig<S: Scalar> {
 impl<S: Scalar> Default for ControllerConfig<S> {
     fn default() -> Self {
         ControllerConfig {
-            rate_hz: scalar::lit(1000.0),
+            rate_hz: scalar::lit(board_profile::BoardProfile::REFERENCE.rate_hz()),
             branch: Branch::OUTER,
             limits: Limits::reference(),
             supervisor: SupervisorConfig::default(),

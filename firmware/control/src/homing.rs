@@ -85,6 +85,17 @@ pub struct JointHoming<S> {
     pub range: [S; 2],
     /// The fastest the joint's motor may move while homing (m/s, rad/s, over 10 ms).
     pub speed_limit: S,
+    /// The largest share of the approach's push (the effort of `approach_duty` at stall)
+    /// that a known load (a declared tool) may take against the approach at any point of
+    /// the homing: the homing drives open loop, so a heavier load would stop or drive the
+    /// joint itself (`LoadTooHeavy`, found at `Home` before anything moves).
+    pub load_share: S,
+    /// The least travel towards its hard stop before a stall counts as the stop: less is
+    /// a joint that did not move (`NoProgress`).
+    pub stall_min_travel: S,
+    /// How far the joint may move backwards (against its approach) before its load is
+    /// taken to overcome the homing's push (`LoadTooHeavy`).
+    pub backward_slack: S,
 }
 
 /// Homing settings.
@@ -96,6 +107,8 @@ pub struct HomingConfig<S> {
     pub order: [u8; NUM_JOINTS],
     /// Largest |duty| of any homing move.
     pub duty_limit: S,
+    /// How long every joint holds under servo before the first moves, µs.
+    pub settle_us: u64,
     /// No motion of at least `stall_counts` for this long while driving is a stall, µs.
     pub stall_time_us: u64,
     /// Counts that make "motion".
@@ -148,6 +161,9 @@ impl<S: Float> HomingConfig<S> {
             // Under the overload monitor's 90 % of the 5.2 A peak.
             current_limit: lit(3.0),
             switch_travel_max: lit(0.003),
+            load_share: lit(0.5),
+            backward_slack: lit(0.0002),
+            stall_min_travel: lit(0.0005),
             range: at2(&mech.range, j),
             // 1.5 x the fastest of a homing on the reference plant (14 mm/s backing off).
             speed_limit: lit(0.022),
@@ -166,6 +182,9 @@ impl<S: Float> HomingConfig<S> {
             // the homing's limit is not an overload.
             current_limit: lit(0.4),
             switch_travel_max: lit(3f64.to_radians()),
+            load_share: lit(0.5),
+            backward_slack: lit(0.5f64.to_radians()),
+            stall_min_travel: lit(2f64.to_radians()),
             range: {
                 // Down to the hard stop and a degree beyond it.
                 let [lo, hi] = at2(&mech.range, j);
@@ -179,6 +198,7 @@ impl<S: Float> HomingConfig<S> {
             joints: [leg(0), leg(1), leg(2), link(3), link(4), link(5)],
             order: [0, 1, 2, 3, 4, 5],
             duty_limit: lit(0.3),
+            settle_us: 100_000,
             stall_time_us: 150_000,
             stall_counts: 4,
             phase_timeout_us: 30_000_000,
@@ -210,6 +230,10 @@ impl<S: Float> HomingConfig<S> {
                 && pos(h.max_travel)
                 && pos(h.switch_travel_max)
                 && pos(h.speed_limit)
+                && pos(h.load_share)
+                && pos(h.stall_min_travel)
+                && h.load_share <= S::one()
+                && pos(h.backward_slack)
                 && h.range[0] < h.range[1]
                 && h.home_position >= h.range[0]
                 && h.home_position <= h.range[1]
@@ -276,6 +300,19 @@ pub enum HomingError {
         /// Joint.
         joint: usize,
     },
+    /// The joint's load (the tool's weight) takes so much of the homing's push that the
+    /// open-loop push cannot control the joint, or it pushed the joint backwards: remove
+    /// the tool, or support it, and home again.
+    LoadTooHeavy {
+        /// Joint.
+        joint: usize,
+    },
+    /// The joint stalled before it moved towards its hard stop: a load or a jam holds it
+    /// (or it rests at the stop already); not taken for the stop.
+    NoProgress {
+        /// Joint.
+        joint: usize,
+    },
     /// The park move after the references (`reason`: 1 a guard along the path, 2 a point
     /// of the path without a pose, 3 invalid settings, 4 not settled at the park joints, 5
     /// the supervisor refused to start at the park pose).
@@ -300,6 +337,8 @@ impl HomingError {
             HomingError::SwitchImplausible { joint } => (8, joint),
             HomingError::OutOfRange { joint } => (9, joint),
             HomingError::Overspeed { joint } => (10, joint),
+            HomingError::LoadTooHeavy { joint } => (11, joint),
+            HomingError::NoProgress { joint } => (12, joint),
         };
         (kind * 10 + joint) as f32
     }
@@ -314,7 +353,9 @@ impl HomingError {
             | HomingError::SwitchStuck { joint }
             | HomingError::SwitchImplausible { joint }
             | HomingError::OutOfRange { joint }
-            | HomingError::Overspeed { joint } => Some(joint),
+            | HomingError::Overspeed { joint }
+            | HomingError::LoadTooHeavy { joint }
+            | HomingError::NoProgress { joint } => Some(joint),
             HomingError::Park { .. } => None,
         }
     }
@@ -325,6 +366,9 @@ impl HomingError {
 pub enum HomingPhase {
     /// Not started.
     Idle,
+    /// Every joint holds under servo for the settle time before anything moves: the
+    /// currents that hold the robot's load (the tool's weight) are measured.
+    Settle,
     /// Driving off a switch that was already actuated at the start.
     LeaveSwitch {
         /// Joint.
@@ -393,6 +437,11 @@ pub struct Homing<S> {
     referenced: [bool; NUM_JOINTS],
     /// The motors' positions and the time at the start of the speed window.
     speed_window: ([S; NUM_JOINTS], u64),
+    /// The duties and the currents of the last step.
+    last_duty: [S; NUM_JOINTS],
+    last_currents: [S; NUM_JOINTS],
+    /// What held the moving joint's load when its phase began: the duty and the current.
+    load: (S, S),
 }
 
 /// The window over which the homing measures the motors' speeds, µs.
@@ -433,6 +482,9 @@ impl<S: Float> Homing<S> {
             start_q: [S::zero(); NUM_JOINTS],
             referenced: [false; NUM_JOINTS],
             speed_window: ([S::zero(); NUM_JOINTS], 0),
+            last_duty: [S::zero(); NUM_JOINTS],
+            last_currents: [S::zero(); NUM_JOINTS],
+            load: (S::zero(), S::zero()),
         })
     }
 
@@ -476,12 +528,20 @@ impl<S: Float> Homing<S> {
         self.servo.resume_backlash(q, &offsets);
         self.index = 0;
         self.last_us = now_us;
+        self.last_duty = [S::zero(); NUM_JOINTS];
+        self.last_currents = [S::zero(); NUM_JOINTS];
+        self.enter(HomingPhase::Settle, now_us);
+    }
+
+    /// The end of the settle time: the first joint approaches.
+    fn settled(&mut self, now_us: u64) -> Result<(), HomingError> {
         match joint_of(&self.cfg, 0) {
             Some(j) => {
-                self.approach_start_q = q.get(j).copied().unwrap_or_else(S::zero);
+                self.approach_start_q = self.q.get(j).copied().unwrap_or_else(S::zero);
                 self.enter(HomingPhase::Approach { joint: j }, now_us);
+                Ok(())
             }
-            None => self.phase = HomingPhase::Failed(HomingError::Config { joint: 0 }),
+            None => Err(HomingError::Config { joint: 0 }),
         }
     }
 
@@ -572,6 +632,14 @@ impl<S: Float> Homing<S> {
         {
             self.phase_start_q = self.q.get(joint).copied().unwrap_or_else(S::zero);
             self.motion_count = self.counts.get(joint).copied().unwrap_or(0);
+            // The joint was held under servo until now: what held it holds its load.
+            self.load = (
+                self.last_duty.get(joint).copied().unwrap_or_else(S::zero),
+                self.last_currents
+                    .get(joint)
+                    .copied()
+                    .unwrap_or_else(S::zero),
+            );
         }
     }
 
@@ -724,8 +792,20 @@ impl<S: Float> Homing<S> {
         self.counts = counts;
         let (switches, currents) = (hw.switches(), hw.currents());
         let zero = [S::zero(); NUM_JOINTS];
+        self.last_currents = currents;
         let joint = match self.phase {
             HomingPhase::Idle => return (HomingStatus::Running(HomingPhase::Idle), zero),
+            HomingPhase::Settle => {
+                if now_us.saturating_sub(self.phase_start_us) >= self.cfg.settle_us {
+                    if let Err(e) = self.settled(now_us) {
+                        return (self.fail(e), zero);
+                    }
+                }
+                let duty = self.hold_others(&q, &motor, None, dt);
+                sensing.set_backlash(&self.servo.backlash_offsets());
+                self.last_duty = duty;
+                return (self.status(), duty);
+            }
             HomingPhase::Failed(e) => return (HomingStatus::Failed(e), zero),
             HomingPhase::Referenced => {
                 let duty = self.hold_others(&q, &motor, None, dt);
@@ -766,7 +846,9 @@ impl<S: Float> Homing<S> {
             Ok(own) => own,
             Err(e) => return (self.fail(e), zero),
         };
-        (self.status(), self.duties(joint, own, travel, dt, sensing))
+        let duty = self.duties(joint, own, travel, dt, sensing);
+        self.last_duty = duty;
+        (self.status(), duty)
     }
 
     /// Tracks the joint's motion and current: whether it has stalled (no motion of
@@ -811,7 +893,13 @@ impl<S: Float> Homing<S> {
         };
         let limit = self.cfg.duty_limit;
         let switch = h.method == HomeMethod::Switch;
+        // The load leaves the push too little current (checked as each phase begins), or
+        // it drives the joint backwards.
+        let progress = sign * (seen.qj - self.phase_start_q);
         match self.phase {
+            HomingPhase::Approach { .. } if progress < -h.backward_slack => {
+                return Err(HomingError::LoadTooHeavy { joint });
+            }
             HomingPhase::Approach { .. } => {
                 if switch && seen.switch && seen.fresh {
                     // Already on the switch at the start: leave it first.
@@ -827,7 +915,10 @@ impl<S: Float> Homing<S> {
                     // A stall is the hard stop only within the expected travel.
                     let rest = self.rest.get(joint).copied().unwrap_or(h.rest_position);
                     let expected = (rest - h.home_position).abs();
-                    let from_start = (seen.qj - self.approach_start_q).abs();
+                    let from_start = sign * (seen.qj - self.approach_start_q);
+                    if from_start < h.stall_min_travel {
+                        return Err(HomingError::NoProgress { joint });
+                    }
                     if (from_start - expected).abs() > h.travel_tolerance {
                         return Err(HomingError::StalledOutsideWindow { joint });
                     }

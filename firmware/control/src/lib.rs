@@ -22,9 +22,10 @@
 //! - the board's behaviour: [`state_machine`], [`homing`], [`runtime`], [`service`];
 //! - safety: the stop categories and their table ([`stops`]), the holding brakes
 //!   ([`brakes`]), the current limits ([`current`]), the plausibility monitors
-//!   ([`monitors`]), the fault log ([`faults`]), the heartbeat ([`heartbeat`]), the
-//!   e-stop's interrupt path ([`estop`]) and the deadline ([`watchdog`]); the safety
-//!   requirements all of it serves, with their bounds ([`safety`]);
+//!   ([`monitors`]), the fault log ([`faults`]) and the non-volatile event log
+//!   ([`event_log`]), the heartbeat ([`heartbeat`]), the e-stop's interrupt path
+//!   ([`estop`]) and the deadline ([`watchdog`]); the safety requirements all of it
+//!   serves, with their bounds ([`safety`]);
 //! - the calibrated geometry (issue 19): [`geometry_store`] (the checks of a received
 //!   record, its flash layout and log);
 //! - the master link's board side: [`link`] (frames to requests, replies to frames),
@@ -45,10 +46,12 @@ pub mod controller;
 pub mod current;
 pub mod drive;
 pub mod estop;
+pub mod event_log;
 pub mod faults;
 pub mod geometry_store;
 pub mod heartbeat;
 pub mod homing;
+pub mod homing_load;
 pub mod link;
 pub mod modes;
 pub mod monitors;

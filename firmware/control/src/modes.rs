@@ -28,6 +28,12 @@
 //! replaces it only if it is stronger ([`crate::stops::Stopper::request`]). The holds of
 //! `Holding` are ended by their own cause going away (the clutch released, the operator's
 //! hand back, the heartbeat back).
+//!
+//! **One owner.** A `Hello` from the master that owns the board (its nonce) keeps the
+//! mode and the holds; one from another master is refused (`NotOwner`) unless the robot is
+//! disabled (`Boot`, `Disabled`, `Ready`, or `Fault` with torque off), and then the new
+//! master starts with the clutch released and the operator absent: `Enable` is refused
+//! (`OperatorAbsent`) until it says `OperatorPresent { present: true }`.
 
 use master_link::{FaultCause, Faults, NackReason, RobotState};
 
@@ -166,16 +172,13 @@ impl Hold {
 
     /// The holds after `event` (`enabled`: the robot is enabled, where a late heartbeat
     /// holds): the clutch and the dead-man as the master sends them, a late heartbeat until
-    /// a heartbeat arrives, nothing of the previous master's after a `Hello`.
+    /// a heartbeat arrives (a `Hello` changes none: the owner's keeps them, and a new
+    /// owner's starts from its own, `MasterSession::take_over`).
     pub const fn after(self, event: Event, enabled: bool) -> Hold {
         let mut h = self;
         match event {
             Event::Clutch { engaged } => h.clutch = engaged,
             Event::OperatorPresent { present } => h.operator_absent = !present,
-            Event::Hello => {
-                h.clutch = false;
-                h.operator_absent = false;
-            }
             Event::HeartbeatLate => h.heartbeat = h.heartbeat || enabled,
             Event::HeartbeatRestored => h.heartbeat = false,
             _ => {}
@@ -192,8 +195,12 @@ impl Hold {
 pub enum Event {
     /// Power-up done.
     BootDone,
-    /// Master: `Hello` (a session opens).
-    Hello,
+    /// Master: `Hello` (a session opens), from the master that owns the board (`owner`: a
+    /// reconnect) or from another.
+    Hello {
+        /// The `Hello`'s nonce is the owner's.
+        owner: bool,
+    },
     /// Master: enable the drives.
     Enable,
     /// Master: drives off.
@@ -225,7 +232,7 @@ pub enum Event {
     StatusRequest,
     /// Master: acknowledge the last reset.
     AcknowledgeReset,
-    /// Master: a page of the fault log.
+    /// Master: a page of the fault log or of the event log.
     FaultLogRequest,
     /// Master: store a calibrated geometry (drives off only).
     StoreGeometry,
@@ -248,8 +255,9 @@ pub enum Event {
 impl Event {
     /// The master's commands, one of each (both values of their flags), in the table's
     /// order.
-    pub const COMMANDS: [Event; 18] = [
-        Event::Hello,
+    pub const COMMANDS: [Event; 19] = [
+        Event::Hello { owner: true },
+        Event::Hello { owner: false },
         Event::Enable,
         Event::Disable,
         Event::Home { rehome: false },
@@ -284,7 +292,8 @@ impl Event {
     pub fn name(&self) -> &'static str {
         match self {
             Event::BootDone => "boot done",
-            Event::Hello => "`Hello`",
+            Event::Hello { owner: true } => "`Hello`, the owner's",
+            Event::Hello { owner: false } => "`Hello`, another master's",
             Event::Enable => "`Enable`",
             Event::Disable => "`Disable`",
             Event::Home { rehome: false } => "`Home`",
@@ -299,7 +308,7 @@ impl Event {
             Event::ClearFault => "`ClearFault`",
             Event::StatusRequest => "`StatusRequest`",
             Event::AcknowledgeReset => "`AcknowledgeReset`",
-            Event::FaultLogRequest => "`FaultLogRequest`",
+            Event::FaultLogRequest => "`FaultLogRequest`, `EventLogRequest`",
             Event::StoreGeometry => "`StoreGeometry`",
             Event::HeartbeatLate => "heartbeat late (100 ms)",
             Event::HeartbeatRestored => "heartbeat back",
@@ -356,6 +365,8 @@ pub enum Refusal {
     ResetNotAcknowledged,
     /// The e-stop button and the safety relay's feedback disagree.
     SafetyRelayMismatch,
+    /// Another master owns the board and the robot is not disabled.
+    NotOwner,
 }
 
 impl Refusal {
@@ -372,6 +383,7 @@ impl Refusal {
             Refusal::UnsafeStart => NackReason::OutOfWorkspace,
             Refusal::ResetNotAcknowledged => NackReason::ResetNotAcknowledged,
             Refusal::SafetyRelayMismatch => NackReason::SafetyRelayMismatch,
+            Refusal::NotOwner => NackReason::NotOwner,
         }
     }
 
@@ -390,6 +402,7 @@ impl Refusal {
             Refusal::UnsafeStart => "UnsafeStart",
             Refusal::ResetNotAcknowledged => "ResetNotAcknowledged",
             Refusal::SafetyRelayMismatch => "SafetyRelayMismatch",
+            Refusal::NotOwner => "NotOwner",
         }
     }
 }
@@ -431,13 +444,16 @@ pub const fn next(mode: ModeKind, event: Event, cx: Context) -> Result<ModeKind,
         }),
         (E::Fault(_) | E::EmergencyStop, _) => Ok(M::Fault),
 
+        // One owner: another master takes over only while the robot is disabled (torque
+        // off, nothing moving); the owner's own Hello (a reconnect) changes nothing.
+        (E::Hello { owner: true }, m) => Ok(m),
+        (E::Hello { owner: false }, M::Boot | M::Disabled | M::Ready) => Ok(mode),
+        (E::Hello { owner: false }, M::Fault) if !cx.powered => Ok(mode),
+        (E::Hello { owner: false }, _) => Err(Refusal::NotOwner),
+
         // The master session's conditions: holds begin and end while enabled.
         (
-            E::Clutch { .. }
-            | E::OperatorPresent { .. }
-            | E::HeartbeatLate
-            | E::HeartbeatRestored
-            | E::Hello,
+            E::Clutch { .. } | E::OperatorPresent { .. } | E::HeartbeatLate | E::HeartbeatRestored,
             m,
         ) => Ok(match m {
             M::Following if cx.hold.any() => M::Holding,
@@ -464,6 +480,8 @@ pub const fn next(mode: ModeKind, event: Event, cx: Context) -> Result<ModeKind,
             Err(Refusal::SafetyRelayMismatch)
         }
 
+        // A new owner must say its operator is present before the robot moves.
+        (E::Enable, M::Ready) if cx.hold.operator_absent => Err(Refusal::OperatorAbsent),
         (E::Enable, M::Ready) => Ok(M::Enabling),
         (E::Enable, M::Enabling | M::Following | M::Holding) => Ok(mode),
         (E::Enable, M::Disabled) => Err(Refusal::NotHomed),
@@ -529,7 +547,6 @@ const fn is_hold_event(event: Event) -> bool {
         event,
         Event::Clutch { .. }
             | Event::OperatorPresent { .. }
-            | Event::Hello
             | Event::HeartbeatLate
             | Event::HeartbeatRestored
     )
@@ -588,8 +605,23 @@ fn contexts(mode: ModeKind, event: Event) -> &'static [(Context, &'static str)] 
         ..BASE
     };
     match (mode, event) {
-        (ModeKind::Ready, Event::Enable)
-        | (ModeKind::Disabled | ModeKind::Ready, Event::Home { .. }) => &[
+        (ModeKind::Ready, Event::Enable) => &[
+            (RESET, "reset not acknowledged"),
+            (CHAIN, "relay test pending"),
+            (ABSENT, "operator absent"),
+            (BASE, "otherwise"),
+        ],
+        (ModeKind::Fault, Event::Hello { owner: false }) => &[
+            (
+                Context {
+                    powered: true,
+                    ..BASE
+                },
+                "stop under power",
+            ),
+            (BASE, "torque off"),
+        ],
+        (ModeKind::Disabled | ModeKind::Ready, Event::Home { .. }) => &[
             (RESET, "reset not acknowledged"),
             (CHAIN, "relay test pending"),
             (BASE, "otherwise"),

@@ -101,7 +101,8 @@ impl Requirement {
             Requirement::Torque => {
                 "The drives are on only in the modes that allow torque (homing, parking, \
                  enabling, enabled, a stop under power), the brakes released only with them, \
-                 and never after an STO until a fresh Enable or Home"
+                 never after an STO until a fresh Enable or Home, and never with a welded \
+                 safety relay found and not repaired"
             }
             Requirement::Detection => {
                 "A fault is detected within its stated time of showing, logged with its \
@@ -110,8 +111,9 @@ impl Requirement {
             }
             Requirement::Authority => {
                 "No motion follows a command from anyone but the owning master: a second \
-                 master's Hello does not take a live session, and no foreign, replayed or \
-                 far-ahead frame, nor a target stamped in the future, is taken"
+                 master's Hello takes the board only while the robot is disabled, no \
+                 foreign, replayed or far-ahead frame, nor a target stamped in the future, \
+                 is taken, and none locks the owner out or makes its targets stale"
             }
             Requirement::Reaction => {
                 "Once a fault is detected, the stop in force is at least the stop table's for \

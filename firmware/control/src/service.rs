@@ -77,8 +77,12 @@ pub struct TickOutcome {
     pub status: StatusReport,
     /// This tick's execution time, µs.
     pub exec_us: u32,
-    /// The fault log has new entries since the last tick (persist it).
+    /// The fault log has new entries or a new count since the last tick (persist it).
     pub log_changed: bool,
+    /// The event log's view changed since the last tick (keep it across a watchdog reset).
+    pub events_changed: bool,
+    /// The drives are off and the brakes applied: a flash erase may stall the core.
+    pub drives_off: bool,
 }
 
 /// How the board's status LED shows the state: solid in `Fault`, fast blink while the
@@ -122,8 +126,10 @@ pub struct TickService<S: Scalar, M: Mechanism<S> + Clone> {
     overrun_count: usize,
     /// A deadline was missed: the watchdog is starved from then on.
     starved: bool,
-    log_total: u32,
-    log_len: usize,
+    /// The fault log's total, length and newest count at the last tick.
+    log_mark: (u32, usize, u16),
+    /// The event log's changes at the last tick.
+    events_mark: u32,
 }
 
 impl<S: Scalar, M: Mechanism<S> + Clone> TickService<S, M> {
@@ -131,8 +137,8 @@ impl<S: Scalar, M: Mechanism<S> + Clone> TickService<S, M> {
     pub fn new(runtime: Runtime<S, M>, cfg: ServiceConfig) -> Self {
         TickService {
             tick_start_state: runtime.state(),
-            log_total: runtime.fault_log().total(),
-            log_len: runtime.fault_log().len(),
+            log_mark: log_mark(runtime.fault_log()),
+            events_mark: runtime.events().changes(),
             runtime,
             cfg,
             watchdog: WatchdogPolicy::new(cfg.watchdog),
@@ -289,10 +295,13 @@ impl<S: Scalar, M: Mechanism<S> + Clone> TickService<S, M> {
         let feed_watchdog = self.watchdog.on_tick(start_us, exec_us).feed() && !self.starved;
         let state = self.runtime.state();
         let from = self.tick_start_state;
-        let log = self.runtime.fault_log();
-        let log_changed = log.total() != self.log_total || log.len() != self.log_len;
-        self.log_total = log.total();
-        self.log_len = log.len();
+        let mark = log_mark(self.runtime.fault_log());
+        let log_changed = mark != self.log_mark;
+        self.log_mark = mark;
+        let events = self.runtime.events().changes();
+        let events_changed = events != self.events_mark;
+        self.events_mark = events;
+        let out = self.runtime.outputs();
         TickOutcome {
             feed_watchdog,
             state_change: (from != state).then_some((from, state)),
@@ -300,6 +309,13 @@ impl<S: Scalar, M: Mechanism<S> + Clone> TickService<S, M> {
             status: self.runtime.status(),
             exec_us,
             log_changed,
+            events_changed,
+            drives_off: !out.torque_on() && !out.brakes_released(),
         }
     }
+}
+
+/// What says the fault log changed: its total, length and newest entry's count.
+fn log_mark(log: &crate::faults::FaultLog) -> (u32, usize, u16) {
+    (log.total(), log.len(), log.newest().map_or(0, |e| e.count))
 }

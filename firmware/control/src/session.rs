@@ -1,13 +1,54 @@
 //! The master session: what the master in charge says about itself and its operator, as
-//! the board keeps it between commands. The clutch pedal and the dead-man (sent by the
+//! the board keeps it between commands. Who owns the board (the nonce of the `Hello` it
+//! accepted last, with the master's clock), the clutch pedal and the dead-man (sent by the
 //! master), the heartbeat's timing and the clock of its targets; from them, the holds
 //! ([`Hold`]) that keep an enabled robot still.
+//!
+//! **One owner.** A `Hello` with the owner's nonce is the owner reconnecting: a fresh
+//! session, its holds kept (unless its clock is not newer than the owner's last: a
+//! recording replayed, refused). A `Hello` with another nonce is another master
+//! ([`HelloFrom::Other`]): the runtime's table ([`crate::modes::next`]) lets it take over
+//! only while the robot is disabled, and then it starts with the clutch released and the
+//! operator absent, so that it must say `OperatorPresent { present: true }` before an
+//! `Enable` is taken. Every change of owner is counted and kept ([`OwnerChange`]): the hook
+//! for the board's event log.
 
 use master_link::NackReason;
 
 use crate::heartbeat::{HeartbeatConfig, HeartbeatLevel, HeartbeatMonitor};
 use crate::modes::{Event, Hold};
 use crate::targets::{TargetClock, TargetClockConfig};
+
+/// Who a `Hello` comes from, as the session sees it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum HelloFrom {
+    /// The owner (its nonce) with a clock newer than its last: a reconnect.
+    Owner,
+    /// The owner's nonce with a clock not newer than the owner's last: a replay.
+    Replay,
+    /// Another master (or the first, while nobody owns the board).
+    Other,
+}
+
+/// A change of the board's owner (the event the board's log records).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct OwnerChange {
+    /// The previous owner's nonce (None: nobody owned the board).
+    pub from: Option<u32>,
+    /// The new owner's nonce.
+    pub to: u32,
+    /// Board time of the change, µs.
+    pub at_us: u64,
+}
+
+/// The master that owns the board.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Owner {
+    /// Its `Hello`'s nonce.
+    pub nonce: u32,
+    /// The latest master clock it sent (its `Hello`'s, or a later target's stamp), µs.
+    pub clock_us: u64,
+}
 
 /// The master session.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -16,6 +57,9 @@ pub struct MasterSession {
     targets: TargetClock,
     /// The holds the master's conditions call for ([`Hold::after`]).
     hold: Hold,
+    owner: Option<Owner>,
+    owner_changes: u16,
+    last_change: Option<OwnerChange>,
 }
 
 impl MasterSession {
@@ -30,7 +74,70 @@ impl MasterSession {
                 operator_absent: false,
                 heartbeat: false,
             },
+            owner: None,
+            owner_changes: 0,
+            last_change: None,
         }
+    }
+
+    /// Who a `Hello` with `nonce`, sent at the master's `clock_us`, comes from.
+    pub fn hello_from(&self, nonce: u32, clock_us: u64) -> HelloFrom {
+        match self.owner {
+            Some(o) if o.nonce == nonce && clock_us > self.owner_clock_us(o) => HelloFrom::Owner,
+            Some(o) if o.nonce == nonce => HelloFrom::Replay,
+            _ => HelloFrom::Other,
+        }
+    }
+
+    /// The owner's latest clock: its `Hello`'s or its latest target's.
+    fn owner_clock_us(&self, o: Owner) -> u64 {
+        self.targets
+            .last_master_us()
+            .map_or(o.clock_us, |t| t.max(o.clock_us))
+    }
+
+    /// The owner's `Hello` was accepted at `now_us` (a reconnect): a fresh session on the
+    /// master's clock `clock_us`, the holds kept.
+    pub fn reconnect(&mut self, clock_us: u64, now_us: u64) {
+        if let Some(o) = &mut self.owner {
+            o.clock_us = clock_us;
+        }
+        self.targets.start_session(clock_us, now_us);
+    }
+
+    /// Another master's `Hello` was accepted at `now_us` (the robot is disabled): it owns
+    /// the board, with the clutch released and the operator absent; the change is counted
+    /// and kept.
+    pub fn take_over(&mut self, nonce: u32, clock_us: u64, now_us: u64) {
+        let from = self.owner.map(|o| o.nonce);
+        self.owner = Some(Owner { nonce, clock_us });
+        self.hold = Hold {
+            clutch: false,
+            operator_absent: true,
+            heartbeat: false,
+        };
+        self.targets.start_session(clock_us, now_us);
+        if from.is_some() {
+            self.owner_changes = self.owner_changes.wrapping_add(1);
+        }
+        self.last_change = Some(OwnerChange {
+            from,
+            to: nonce,
+            at_us: now_us,
+        });
+    }
+
+    /// The master that owns the board, if any.
+    pub fn owner(&self) -> Option<Owner> {
+        self.owner
+    }
+    /// Times another master took over from an owner since boot (wrapping).
+    pub fn owner_changes(&self) -> u16 {
+        self.owner_changes
+    }
+    /// The last change of owner (the first owner's `Hello` included), for the event log.
+    pub fn last_owner_change(&self) -> Option<OwnerChange> {
+        self.last_change
     }
 
     /// Notes what `event` says of the master's conditions (`enabled`: the robot is

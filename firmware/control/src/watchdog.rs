@@ -6,7 +6,7 @@
 /// Control-tick timing the watchdog is fed for, µs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct WatchdogConfig {
-    /// The control period (default 1000 µs).
+    /// The control period, µs (default: the board profile's).
     pub period_us: u32,
     /// Largest start delay against the schedule (default 250 µs).
     pub max_lateness_us: u32,
@@ -15,11 +15,13 @@ pub struct WatchdogConfig {
 }
 
 impl Default for WatchdogConfig {
+    /// The reference board's period, a quarter of it late at most, 80 % of it to run.
     fn default() -> Self {
+        let period_us = board_profile::BoardProfile::REFERENCE.control_period_us;
         WatchdogConfig {
-            period_us: 1000,
-            max_lateness_us: 250,
-            max_execution_us: 800,
+            period_us,
+            max_lateness_us: period_us / 4,
+            max_execution_us: period_us / 5 * 4,
         }
     }
 }

@@ -25,6 +25,9 @@ use master_link::{FaultCause, Faults, NackReason, ResetCause, StopStatus, Warnin
 mod common;
 use common::PlantHw;
 
+/// The reference board (its period and clock).
+const PROFILE: board_profile::BoardProfile = board_profile::BoardProfile::REFERENCE;
+
 // ---------------------------------------------------------------------------------------
 // Fixture: the runtime on the plant model
 // ---------------------------------------------------------------------------------------
@@ -70,7 +73,7 @@ fn snapshots() -> Vec<(State, Rt, PlantHw, u64)> {
         tick(&mut rt, &mut hw, &mut t, true);
         assert!(t < 60_000_000);
     }
-    assert_eq!(rt.state(), State::Ready);
+    assert_eq!(rt.state(), State::Ready, "{:?}", rt.status().fault);
     for _ in 0..100 {
         tick(&mut rt, &mut hw, &mut t, true);
     }
@@ -256,7 +259,11 @@ fn emergency_stop_from_every_state() {
         emergency_stop_isr(&mut regs, &latch);
         assert!(!regs.pwm_on && !regs.driver_enable && !regs.brake_coils && regs.forced == 1);
         assert!(latch.is_tripped());
-        let cfg = ServiceConfig::for_period(1000, 168_000_000, control::link::FIRMWARE_VERSION);
+        let cfg = ServiceConfig::for_period(
+            PROFILE.control_period_us,
+            PROFILE.cpu_hz,
+            control::link::FIRMWARE_VERSION,
+        );
         let mut svc = TickService::new(rt, cfg);
         svc.begin(t + 1000, 0, latch.take());
         assert_eq!(latch.take(), control::estop::EStopTrip::NONE, "taken once");
@@ -307,7 +314,11 @@ fn the_estop_path_forcing_outputs_safe_is_seen_by_the_next_enable() {
     use hal::{Brakes, MotorOutputs};
     let (rt, mut hw, t) = enabled();
     assert!(hw.enabled);
-    let cfg = ServiceConfig::for_period(1000, 168_000_000, control::link::FIRMWARE_VERSION);
+    let cfg = ServiceConfig::for_period(
+        PROFILE.control_period_us,
+        PROFILE.cpu_hz,
+        control::link::FIRMWARE_VERSION,
+    );
     let mut svc = TickService::new(rt, cfg);
     // What `SafeOutputs::force_safe` does to the board: bridges off, brakes applied.
     let latch = EStopLatch::new();
@@ -502,7 +513,11 @@ fn outputs_stay_off_outside_the_driving_states() {
 /// is never fed again (it resets the board).
 #[test]
 fn a_missed_deadline_is_a_fault_and_starves_the_watchdog() {
-    let cfg = ServiceConfig::for_period(1000, 168_000_000, control::link::FIRMWARE_VERSION);
+    let cfg = ServiceConfig::for_period(
+        PROFILE.control_period_us,
+        PROFILE.cpu_hz,
+        control::link::FIRMWARE_VERSION,
+    );
     let cycles = |us: u32| us * 168;
     // Late start.
     let (rt, mut hw, t0) = enabled();
@@ -566,8 +581,12 @@ fn a_missed_deadline_is_a_fault_and_starves_the_watchdog() {
 /// do not (SR-5: a missed deadline detected within its 3 ticks).
 #[test]
 fn overruns_are_counted_in_a_sliding_window() {
-    let cfg = ServiceConfig::for_period(1000, 168_000_000, control::link::FIRMWARE_VERSION);
-    let cycles = |us: u32| us * 168;
+    let cfg = ServiceConfig::for_period(
+        PROFILE.control_period_us,
+        PROFILE.cpu_hz,
+        control::link::FIRMWARE_VERSION,
+    );
+    let cycles = |us: u32| us * (PROFILE.cpu_hz / 1_000_000);
     let run = |overrun_at: &[u32], ticks: u32| -> Option<u32> {
         let (rt, mut hw, t0) = enabled();
         let mut svc = TickService::new(rt, cfg);
@@ -643,7 +662,7 @@ fn the_fault_log_survives_a_watchdog_reset() {
 #[test]
 fn watchdog_is_fed_only_for_ticks_on_time() {
     let cfg = WatchdogConfig {
-        period_us: 1000,
+        period_us: PROFILE.control_period_us,
         max_lateness_us: 200,
         max_execution_us: 700,
     };
@@ -685,5 +704,5 @@ fn tick_timing_keeps_the_worst_case() {
     assert_eq!(tt.worst_jitter_us, 12);
     assert_eq!(tt.worst_cycles, 84_000);
     assert_eq!(tt.last_cycles, 84_000);
-    assert_eq!(TickTiming::cycles_to_us(84_000, 168_000_000), 500);
+    assert_eq!(TickTiming::cycles_to_us(84_000, 84_000_000), 1000);
 }

@@ -10,7 +10,9 @@
 //! session rules; the clutch, the reset acknowledgement and the fault log at the wire
 //! level; timestamps; status contents.
 
-use control::link::{geometry_reply, Inbound, LinkRx, LinkTx, Request, FIRMWARE_VERSION};
+use control::link::{
+    geometry_reply, opened_session, Inbound, LinkRx, LinkTx, Request, FIRMWARE_VERSION,
+};
 use control::modes::State;
 use control::runtime::Runtime;
 use control::targets::{TargetClock, TargetClockConfig};
@@ -33,7 +35,7 @@ use common::PlantHw;
 // Helpers
 // ---------------------------------------------------------------------------------------
 
-/// The session of the tests' master.
+/// The session of the tests' frames built by hand (and the nonce of the tests' master).
 const SESSION: u32 = 0x5e55_1011;
 
 fn frame_in<M: master_link::WireMessage>(msg: &M, session: u32, seq: Seq) -> Vec<u8> {
@@ -74,19 +76,33 @@ fn feed(rx: &mut LinkRx, bytes: &[u8]) -> Vec<Inbound> {
     v
 }
 
-/// The master side: encodes with its session and sequence, decodes the board's replies.
+/// The master side: its nonce, the session the board issued it, its sequence and clock;
+/// decodes the board's replies.
 struct Master {
+    nonce: u32,
     session: u32,
     seq: SeqCounter,
     rx: MasterDecoder,
+    clock_us: u64,
 }
 
 impl Master {
     fn new() -> Self {
         Master {
-            session: SESSION,
+            nonce: SESSION,
+            session: 0,
             seq: SeqCounter::new(100),
             rx: MasterDecoder::new(),
+            clock_us: 1_000,
+        }
+    }
+    /// The master's `Hello` now (its clock advances).
+    fn hello_msg(&mut self) -> MasterToBoard {
+        self.clock_us += 1_000;
+        MasterToBoard::Hello {
+            protocol_version: PROTOCOL_VERSION,
+            nonce: self.nonce,
+            clock_us: self.clock_us,
         }
     }
     fn send(&mut self, msg: &MasterToBoard) -> (Seq, Vec<u8>) {
@@ -117,7 +133,11 @@ impl<H> Board<H> {
                     let result = self.rt.command(&req.message, self.now);
                     let mut status = self.rt.status();
                     status.link = self.rx.counters();
-                    req.reply(result, &status, FIRMWARE_VERSION)
+                    let reply = req.reply(result, &status, FIRMWARE_VERSION);
+                    if let Some(session) = opened_session(&reply) {
+                        self.rx.open_session(session, req.seq);
+                    }
+                    reply
                 }
                 // A target without flash answers the runtime's verdict.
                 Inbound::Geometry { seq, record } => {
@@ -187,8 +207,11 @@ fn home(m: &mut Master, b: &mut Board<PlantHw>) {
     home_with(m, b, false)
 }
 
-/// Sends `Enable` and runs the brake check and release.
+/// Says the operator is present, sends `Enable` and runs the brake check and release.
 fn enable(m: &mut Master, b: &mut Board<PlantHw>) {
+    let present = MasterToBoard::OperatorPresent { present: true };
+    let (s, r) = exchange(m, b, &present);
+    assert_eq!(r, BoardToMaster::Ack { seq: s });
     let (s, r) = exchange(m, b, &MasterToBoard::Enable);
     assert_eq!(r, BoardToMaster::Ack { seq: s });
     let mut ms = 0;
@@ -200,20 +223,28 @@ fn enable(m: &mut Master, b: &mut Board<PlantHw>) {
     assert_eq!(b.rt.state(), State::Enabled, "{:?}", b.rt.status().fault);
 }
 
-/// Opens the master's session; returns the reply's reset status.
+/// Opens the master's session (the board issues it, echoing the nonce); returns the
+/// reply's reset status.
 fn hello(m: &mut Master, b: &mut Board<PlantHw>) -> ResetStatus {
-    let (_, r) = exchange(
-        m,
-        b,
-        &MasterToBoard::Hello {
-            protocol_version: PROTOCOL_VERSION,
-            nonce: m.session,
-        },
-    );
+    match hello_reply(m, b) {
+        BoardToMaster::HelloReply { reset, .. } => reset,
+        r => panic!("{r:?}"),
+    }
+}
+
+/// Opens the master's session; returns the `HelloReply`.
+fn hello_reply(m: &mut Master, b: &mut Board<PlantHw>) -> BoardToMaster {
+    let msg = m.hello_msg();
+    let (seq, bytes) = m.send(&msg);
+    let out = b.receive(&bytes);
+    let got: Vec<_> = m.rx.feed(&out).map(|r| r.unwrap()).collect();
+    assert_eq!(got.len(), 1, "{got:?}");
+    let (reply_seq, r) = got[0];
     let BoardToMaster::HelloReply {
         firmware_version,
         protocol_version,
         session,
+        nonce,
         reset,
         ..
     } = r
@@ -222,8 +253,13 @@ fn hello(m: &mut Master, b: &mut Board<PlantHw>) -> ResetStatus {
     };
     assert_eq!(firmware_version, FIRMWARE_VERSION);
     assert_eq!(protocol_version, PROTOCOL_VERSION);
-    assert_eq!(session, m.session);
-    reset
+    assert_eq!(nonce, m.nonce);
+    assert_ne!(session, 0);
+    assert_eq!(b.rx.session(), Some(session), "opened for {seq}");
+    let _ = reset;
+    m.session = session;
+    m.rx.open_session(session, reply_seq);
+    r
 }
 
 // ---------------------------------------------------------------------------------------
@@ -243,7 +279,7 @@ fn every_message_round_trips_with_its_reply() {
         }
     );
     assert!(b.rx.connected());
-    assert_eq!(b.rx.session(), Some(SESSION));
+    assert_eq!(b.rx.session(), Some(m.session));
     let ack = |s| BoardToMaster::Ack { seq: s };
     let nack = |s, reason| BoardToMaster::Nack { seq: s, reason };
     // Disabled, not homed.
@@ -458,12 +494,14 @@ fn commands_before_hello_are_refused_except_the_emergency_stop() {
         &MasterToBoard::Hello {
             protocol_version: 9,
             nonce: SESSION,
+            clock_us: 0,
         },
     );
     assert_eq!(
         r,
-        BoardToMaster::Nack {
+        BoardToMaster::HelloRefused {
             seq: s,
+            nonce: SESSION,
             reason: NackReason::UnsupportedVersion
         }
     );
@@ -477,6 +515,7 @@ fn commands_before_hello_are_refused_except_the_emergency_stop() {
     assert_eq!(b.rt.state(), State::Disabled);
     // After a disconnect the master must say Hello again.
     b.rx.disconnect();
+    m.rx = MasterDecoder::new();
     let (s, r) = exchange(&mut m, &mut b, &MasterToBoard::Heartbeat);
     assert_eq!(
         r,
@@ -498,10 +537,13 @@ fn bad_frames_are_counted_and_dropped() {
         &MasterToBoard::Hello {
             protocol_version: PROTOCOL_VERSION,
             nonce: SESSION,
+            clock_us: 0,
         },
         1,
     );
     assert_eq!(feed(&mut rx, &good).len(), 1);
+    // (The runtime accepted it: the board opens the session.)
+    rx.open_session(SESSION, 1);
     // Malformed: garbage, invalid COBS, a truncated frame.
     assert!(feed(&mut rx, &[0x13, 0x37, 0xff, 0x00]).is_empty());
     assert!(feed(&mut rx, &[0x05, 0x01, 0x00]).is_empty());
@@ -536,10 +578,7 @@ fn bad_frames_are_counted_and_dropped() {
     let got = feed(&mut rx, &hb);
     assert_eq!(
         got,
-        vec![Inbound::Request(Request {
-            seq: 2,
-            message: MasterToBoard::Heartbeat
-        })]
+        vec![Inbound::Request(Request::new(2, MasterToBoard::Heartbeat))]
     );
     assert!(feed(&mut rx, &hb).is_empty());
     let old = frame(&MasterToBoard::Enable, 1);
@@ -594,6 +633,7 @@ fn target_clock_checks_order_and_latency() {
     let mut c = TargetClock::new(TargetClockConfig {
         max_latency_us: 5_000,
         window_us: 100_000,
+        ..TargetClockConfig::default()
     });
     // Master clock 1 s ahead of the board's.
     let s1 = c.accept(1_001_000, 1_000).unwrap();
@@ -635,6 +675,7 @@ fn target_clock_forgets_windows_older_than_two() {
     let mut c = TargetClock::new(TargetClockConfig {
         max_latency_us: 5_000,
         window_us: 100_000,
+        ..TargetClockConfig::default()
     });
     assert!(c.accept(slow_at(1_000), 1_000).is_ok());
     for k in 1..=5u64 {
@@ -722,6 +763,7 @@ fn tx_sequence_and_status_encoding() {
             out_of_order: u32::MAX,
             dropped: u32::MAX,
             wrong_session: u32::MAX,
+            bad_tag: u32::MAX,
         },
         tick_jitter_max_us: 12,
         tick_exec_max_us: 431,
@@ -791,10 +833,11 @@ fn an_older_session_is_refused_but_never_an_emergency_stop() {
     let (_, old_home) = m.send(&MasterToBoard::Home { rehome: false });
     // ... then the master reconnects with a new nonce.
     let mut m2 = Master::new();
-    m2.session = SESSION ^ 0xffff_0000;
+    m2.nonce = SESSION ^ 0xffff_0000;
     m2.seq = SeqCounter::new(5);
     hello(&mut m2, &mut b);
     assert_eq!(b.rx.session(), Some(m2.session));
+    assert_ne!(m2.session, m.session, "a fresh session");
     // The old frame, replayed (its sequence number is far ahead): refused.
     assert!(b.receive(&old_home).is_empty());
     assert_eq!(b.rt.state(), State::Disabled);
@@ -802,7 +845,7 @@ fn an_older_session_is_refused_but_never_an_emergency_stop() {
     assert_eq!(
         b.rx.last_error(),
         Some(FrameError::WrongSession {
-            received: SESSION,
+            received: m.session,
             expected: m2.session
         })
     );
@@ -810,7 +853,7 @@ fn an_older_session_is_refused_but_never_an_emergency_stop() {
     let (s, r) = exchange(&mut m2, &mut b, &MasterToBoard::Heartbeat);
     assert_eq!(r, BoardToMaster::Ack { seq: s });
     // An emergency stop of the old session, with a stale sequence number: taken.
-    let estop = frame_in(&MasterToBoard::EmergencyStop, SESSION, 1);
+    let estop = frame_in(&MasterToBoard::EmergencyStop, m.session, 1);
     let replies = m2.receive(&b.receive(&estop));
     assert_eq!(replies.len(), 1);
     assert_eq!(b.rt.state(), State::Fault);
@@ -858,6 +901,8 @@ fn a_watchdog_reset_must_be_acknowledged_before_enabling() {
             assert!(b.rt.status().reset.acknowledged);
         }
         home(&mut m, &mut b);
+        let present = MasterToBoard::OperatorPresent { present: true };
+        exchange(&mut m, &mut b, &present);
         let (s, r) = exchange(&mut m, &mut b, &MasterToBoard::Enable);
         assert_eq!(r, BoardToMaster::Ack { seq: s }, "{cause:?}");
     }
@@ -918,15 +963,7 @@ fn a_calibrated_geometry_is_checked_before_it_is_stored() {
     );
     // The stored version is what the hello reply reports.
     b.rt.set_geometry_version(3);
-    let nonce = m.session;
-    let (_, r) = exchange(
-        &mut m,
-        &mut b,
-        &MasterToBoard::Hello {
-            protocol_version: PROTOCOL_VERSION,
-            nonce,
-        },
-    );
+    let r = hello_reply(&mut m, &mut b);
     assert!(
         matches!(
             r,

@@ -80,10 +80,6 @@ fn after(mut cx: Context, mode: ModeKind, event: Event) -> Context {
     match event {
         Event::Clutch { engaged } => cx.hold.clutch = engaged,
         Event::OperatorPresent { present } => cx.hold.operator_absent = !present,
-        Event::Hello => {
-            cx.hold.clutch = false;
-            cx.hold.operator_absent = false;
-        }
         Event::HeartbeatLate if enabled => cx.hold.heartbeat = true,
         Event::HeartbeatRestored => cx.hold.heartbeat = false,
         _ => {}
@@ -93,7 +89,7 @@ fn after(mut cx: Context, mode: ModeKind, event: Event) -> Context {
 
 /// The expected table, one row per event, one cell per column. `=` keeps the mode, `!X`
 /// refuses with X.
-const TABLE: [(Event, [&str; 14]); 27] = {
+const TABLE: [(Event, [&str; 14]); 28] = {
     use Event as E;
     const R: [&str; 14] = ["="; 14];
     const FLT: [&str; 14] = ["Flt"; 14];
@@ -110,10 +106,24 @@ const TABLE: [(Event, [&str; 14]); 27] = {
                 "!NA", "!NA",
             ],
         ),
+        (E::Hello { owner: true }, R),
         (
-            E::Hello,
+            E::Hello { owner: false },
             [
-                "=", "=", "=", "=", "=", "=", "=", "Fol", "=", "=", "=", "=", "=", "=",
+                "=",
+                "=",
+                "!NotOwner",
+                "!NotOwner",
+                "=",
+                "!NotOwner",
+                "!NotOwner",
+                "!NotOwner",
+                "!NotOwner",
+                "!NotOwner",
+                "=",
+                "=",
+                "!NotOwner",
+                "=",
             ],
         ),
         (
@@ -295,6 +305,7 @@ fn parse(code: &str, mode: ModeKind) -> Result<ModeKind, Refusal> {
         "!Faulted" => return Err(Refusal::Faulted),
         "!StillActive" => return Err(Refusal::FaultStillActive),
         "!Holding" => return Err(Refusal::Holding),
+        "!NotOwner" => return Err(Refusal::NotOwner),
         other => panic!("bad table code {other}"),
     })
 }
@@ -319,7 +330,7 @@ fn every_mode_times_every_event_is_the_written_table() {
             checked += 1;
         }
     }
-    assert_eq!(checked, 27 * 14);
+    assert_eq!(checked, 28 * 14);
     for e in Event::COMMANDS.iter().chain(Event::CONDITIONS.iter()) {
         assert!(TABLE.iter().any(|(t, _)| t == e), "{e:?} not in the table");
     }
@@ -368,6 +379,11 @@ fn every_mode_times_every_event_is_the_written_table() {
     };
     assert_eq!(
         next(ModeKind::Holding, Event::Target, absent),
+        Err(Refusal::OperatorAbsent)
+    );
+    // A new owner starts with the operator absent: no Enable until it says otherwise.
+    assert_eq!(
+        next(ModeKind::Ready, Event::Enable, absent),
         Err(Refusal::OperatorAbsent)
     );
     // Every fault cause but the heartbeat's latches from every mode.
@@ -561,8 +577,11 @@ fn commands(b: &mut Bench) -> Vec<(MasterToBoard, Event)> {
             MasterToBoard::Hello {
                 protocol_version: PROTOCOL_VERSION,
                 nonce: 7,
+                clock_us: 1,
             },
-            Event::Hello,
+            // The benches never said Hello: nobody owns the board, so it is another
+            // master's.
+            Event::Hello { owner: false },
         ),
         (MasterToBoard::Enable, Event::Enable),
         (MasterToBoard::Disable, Event::Disable),

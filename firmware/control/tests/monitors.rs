@@ -11,16 +11,11 @@ use control::current::{CurrentConfig, CurrentMonitor};
 use control::monitors::{DriveSample, EncoderCheck, EncoderCheckConfig, MotorCheck};
 use master_link::FaultCause;
 use proptest::prelude::*;
-use servo::encoder::{LEG_COUNTS_PER_M, LINK_COUNTS_PER_RAD};
 
-const CPU: [f64; 6] = [
-    LEG_COUNTS_PER_M,
-    LEG_COUNTS_PER_M,
-    LEG_COUNTS_PER_M,
-    LINK_COUNTS_PER_RAD,
-    LINK_COUNTS_PER_RAD,
-    LINK_COUNTS_PER_RAD,
-];
+/// The reference board's encoder counts per unit (the board profile's).
+fn cpu() -> [f64; 6] {
+    board_profile::BoardProfile::REFERENCE.counts_per_unit()
+}
 
 proptest! {
     #![proptest_config(proptest_config::cases(256))]
@@ -50,7 +45,7 @@ proptest! {
 /// joint's top speed allows (+2), never below.
 #[test]
 fn an_encoder_jump_is_the_top_speed_with_its_margin() {
-    let cfg = EncoderCheckConfig::reference(CPU);
+    let cfg = EncoderCheckConfig::reference(cpu());
     let motors = CurrentConfig::<f64>::default().motors;
     let drive = DriveSample {
         duty: [0.0; 6],
@@ -59,7 +54,7 @@ fn an_encoder_jump_is_the_top_speed_with_its_margin() {
         torque: false,
     };
     for j in 0..6 {
-        let limit = cfg.top_speed[j] * cfg.jump_margin * 1e-3 * CPU[j] + 2.0;
+        let limit = cfg.top_speed[j] * cfg.jump_margin * 1e-3 * cpu()[j] + 2.0;
         for (counts, jump) in [
             (limit.floor() as i64, false),
             (limit.ceil() as i64 + 1, true),
@@ -139,7 +134,7 @@ proptest! {
         let mut check = MotorCheck::new(&motors);
         // Position in counts (fractional), from a random phase between counts.
         let mut pos = phase;
-        let resolution: [f64; 6] = std::array::from_fn(|j| 1.0 / (CPU[j] * dt));
+        let resolution: [f64; 6] = std::array::from_fn(|j| 1.0 / (cpu()[j] * dt));
         for w in &wobble {
             let d: [f64; 6] = std::array::from_fn(|j| base[j] + w[j]);
             let mut current = [0.0; 6];
@@ -152,8 +147,8 @@ proptest! {
                 current[j] = ((v * d[j] - m.back_emf_v_s_per_rad * w_motor) / r)
                     .clamp(-lim[j], lim[j]);
                 let before = pos[j].floor();
-                pos[j] += w_motor / m.motor_rad_per_unit * CPU[j] * dt;
-                qdot[j] = (pos[j].floor() - before) / CPU[j] / dt;
+                pos[j] += w_motor / m.motor_rad_per_unit * cpu()[j] * dt;
+                qdot[j] = (pos[j].floor() - before) / cpu()[j] / dt;
             }
             let sample = DriveSample { duty: d, current, supply_v: v, torque: true };
             let found = check.check(&sample, &qdot, &resolution, &motors, &lim);

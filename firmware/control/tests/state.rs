@@ -19,7 +19,7 @@ use kinematics_core::{Branch, Pose, RsprGeometry};
 use master_link::MasterToBoard;
 use master_link::{NackReason, ResetCause};
 use nalgebra::{Rotation3, Vector3};
-use servo::encoder::{EncoderConfig, LEG_COUNTS_PER_M, LINK_COUNTS_PER_RAD};
+use servo::encoder::EncoderConfig;
 use servo::ServoConfig;
 
 mod common;
@@ -50,14 +50,7 @@ impl Fake {
         Fake {
             q,
             vmax: [0.4, 0.4, 0.4, 28.0, 28.0, 28.0],
-            cpu: [
-                LEG_COUNTS_PER_M,
-                LEG_COUNTS_PER_M,
-                LEG_COUNTS_PER_M,
-                LINK_COUNTS_PER_RAD,
-                LINK_COUNTS_PER_RAD,
-                LINK_COUNTS_PER_RAD,
-            ],
+            cpu: board_profile::BoardProfile::REFERENCE.counts_per_unit(),
             switch_below: [None; 6],
             stop_below: [None; 6],
             duty: [0.0; 6],
@@ -260,14 +253,37 @@ fn starting_on_the_switch_leaves_it_first() {
     let mut s = sensing(&mut hw);
     start(&mut h, &s, 1_000);
     hw.enable();
-    let st = step(&mut h, &mut hw, &mut s, 1_000);
+    // Every joint holds for the settle time first; then the first joint's approach finds
+    // it on its switch.
+    let settle = cfg.settle_us;
+    let mut t = 1_000;
+    while t < 1_000 + settle {
+        let st = step(&mut h, &mut hw, &mut s, t);
+        assert_eq!(st, HomingStatus::Running(HomingPhase::Settle));
+        t += 1_000;
+    }
+    let st = step(&mut h, &mut hw, &mut s, t);
+    assert_eq!(
+        st,
+        HomingStatus::Running(HomingPhase::Approach { joint: 1 })
+    );
+    t += 1_000;
+    let st = step(&mut h, &mut hw, &mut s, t);
     assert_eq!(
         st,
         HomingStatus::Running(HomingPhase::LeaveSwitch { joint: 1 })
     );
-    step(&mut h, &mut hw, &mut s, 2_000);
+    t += 1_000;
+    step(&mut h, &mut hw, &mut s, t);
     assert!(hw.duty[1] > 0.0, "drives off the switch (away from -q)");
-    let (st, _) = run_homing(&mut h, &mut hw, &mut s, 60_000);
+    let st = loop {
+        hw.advance(1e-3);
+        t += 1_000;
+        let st = step(&mut h, &mut hw, &mut s, t);
+        if !matches!(st, HomingStatus::Running(_)) || t > 60_000_000 {
+            break st;
+        }
+    };
     let HomingStatus::Referenced = st else {
         panic!("{st:?}")
     };
@@ -414,7 +430,8 @@ fn a_switch_that_never_closes_stops_the_joint_at_its_range() {
     let (st, _) = run_homing(&mut h, &mut hw, &mut s, 60_000);
     assert_eq!(st, HomingStatus::Failed(HomingError::NotFound { joint: 0 }));
     // Seen at the next tick's reading: one tick of the approach and one count late.
-    let late = cfg.joints[0].approach_duty * hw.vmax[0] * 1e-3 + 1.0 / LEG_COUNTS_PER_M;
+    let late = cfg.joints[0].approach_duty * hw.vmax[0] * 1e-3
+        + 1.0 / board_profile::BoardProfile::REFERENCE.joints[0].counts_per_unit();
     println!(
         "l1 stopped at {:.4} mm, range from {:.4} mm",
         hw.q[0] * 1e3,
@@ -872,11 +889,13 @@ fn measured_joints_are_the_load_side_through_disable_and_enable() {
     assert!(joints_moved < 10e-6, "the legs moved {joints_moved} m");
 }
 
-/// A master session starts with `Hello`: the board forgets the previous master's clutch
-/// and operator-presence flags (a master that left clutched, or with its dead-man
-/// released, does not hold the robot for the next one, who has no way to know why).
+/// One owner: a `Hello` from another master while the robot holds for the owner's clutch
+/// and dead-man is refused (`NotOwner`) and changes nothing: the holds stay, the robot
+/// keeps holding, targets stay refused. Once the robot is disabled another master may take
+/// over, and it starts with the clutch released and the operator absent: its `Enable` is
+/// refused (`OperatorAbsent`) until it says `OperatorPresent { present: true }`.
 #[test]
-fn hello_forgets_the_previous_masters_clutch_and_presence() {
+fn another_masters_hello_ends_no_hold_and_takes_over_only_when_disabled() {
     let (mut rt, mut hw) = runtime_and_plant();
     let mut t = 0;
     home_and_enable(&mut rt, &mut hw, &mut t);
@@ -887,24 +906,43 @@ fn hello_forgets_the_previous_masters_clutch_and_presence() {
     run(&mut rt, &mut hw, &mut t, 200);
     assert_eq!(rt.status().stop, master_link::StopStatus::SafeOperatingStop);
     assert!(rt.session().clutch_engaged());
-    rt.command(
-        &MasterToBoard::Hello {
-            protocol_version: master_link::PROTOCOL_VERSION,
-            nonce: 7,
-        },
-        t,
-    )
-    .unwrap();
-    assert!(!rt.session().clutch_engaged());
-    assert_ne!(rt.mode().kind(), ModeKind::Holding);
+    let hello = |clock_us| MasterToBoard::Hello {
+        protocol_version: master_link::PROTOCOL_VERSION,
+        nonce: 7,
+        clock_us,
+    };
+    assert_eq!(rt.command(&hello(1), t), Err(NackReason::NotOwner));
+    assert!(rt.session().clutch_engaged());
+    assert!(!rt.session().operator_present());
+    assert_eq!(rt.mode().kind(), ModeKind::Holding);
     run(&mut rt, &mut hw, &mut t, 2);
-    assert_eq!(rt.status().stop, master_link::StopStatus::None);
+    assert_eq!(rt.status().stop, master_link::StopStatus::SafeOperatingStop);
     let cmd = MasterToBoard::PoseTarget {
         timestamp_us: 9_000_000,
         position_m: [0.001, 0.0, 0.160],
         rotation_vector_rad: [0.0; 3],
     };
-    rt.command(&cmd, t).unwrap();
+    assert!(rt.command(&cmd, t).is_err());
+    // Disabled: the other master takes over, released and absent.
+    rt.command(&MasterToBoard::Disable, t).unwrap();
+    run(&mut rt, &mut hw, &mut t, 1500);
+    assert_eq!(rt.state(), State::Ready);
+    assert!(rt.command(&hello(2), t).is_ok());
+    assert_eq!(rt.session().owner().map(|o| o.nonce), Some(7));
+    assert!(!rt.session().clutch_engaged());
+    assert!(!rt.session().operator_present());
+    assert_eq!(
+        rt.command(&MasterToBoard::Enable, t),
+        Err(NackReason::OperatorAbsent)
+    );
+    assert_eq!(rt.state(), State::Ready);
+    // Its own Hello again (a reconnect) is taken and keeps the flags; an old one (its
+    // clock not newer) is a replay.
+    assert!(rt.command(&hello(3), t).is_ok());
+    assert_eq!(rt.command(&hello(3), t), Err(NackReason::ReplayedHello));
+    rt.command(&MasterToBoard::OperatorPresent { present: true }, t)
+        .unwrap();
+    assert!(rt.command(&MasterToBoard::Enable, t).is_ok());
 }
 
 /// A robot disabled at the workspace edge can be enabled again. The supervisor keeps the

@@ -1,6 +1,6 @@
 //! Linker scripts of the board image: cortex-m-rt's `link.x` with this crate's `memory.x`
-//! (the STM32F405RG's map with the last flash sector reserved for the calibrated geometry)
-//! and defmt's.
+//! (the STM32F405RG's map with the last three flash sectors reserved: two for the event
+//! log, one for the calibrated geometry) and defmt's.
 
 use std::path::PathBuf;
 

@@ -15,7 +15,7 @@
 #    table of instructions per call and the profile of the full control tick.
 #
 # Environment: CPI (cycles per instruction assumed for the % column, default 1.3), MHZ
-# (default 168), RATE_HZ (default 1000), PROFILE (cargo profile, default release; `os`,
+# and RATE_HZ (default: the board profile's clock and rate), PROFILE (cargo profile, default release; `os`,
 # `o3`, `hot3`: see opt-levels.sh), QEMU_TIMEOUT (seconds per QEMU run, default 300),
 # TICK_BUDGET (the script fails when the worst control tick of the scenario, from the
 # readings to the outputs, exceeds it; default 8000, issue 18's target) and PERIOD_BUDGET
@@ -29,8 +29,10 @@ cd "$HERE"
 WHAT="${1:-all}"
 PROFILE="${PROFILE:-release}"
 CPI="${CPI:-1.3}"
-MHZ="${MHZ:-168}"
-RATE_HZ="${RATE_HZ:-1000}"
+# The board's clock and rate: the board profile's (firmware/profile/reference.toml).
+PROFILE_TOML="$HERE/../../profile/reference.toml"
+MHZ="${MHZ:-$(awk '$1 == "cpu_hz" { print $3 / 1e6 }' "$PROFILE_TOML")}"
+RATE_HZ="${RATE_HZ:-$(awk '$1 == "control_period_us" { print 1e6 / $3 }' "$PROFILE_TOML")}"
 QEMU_TIMEOUT="${QEMU_TIMEOUT:-300}"
 TARGET_DIR="$(target_dir)"
 OUT="$TARGET_DIR/$TARGET/$PROFILE"

@@ -2,15 +2,25 @@
 
 use core::marker::PhantomData;
 
-use crate::frame::{decode_frame, FrameError, Header, MAX_FRAME_LEN};
+use crate::auth::LinkKey;
+use crate::frame::{decode_frame_with, FrameError, Header, MAX_FRAME_LEN};
 use crate::messages::{BoardToMaster, LinkCounters, MasterToBoard, Seq, WireMessage};
 
-/// Half of the sequence space: `seq` is newer than `last` when
-/// `seq - last` (wrapping) is in `1..=SEQ_WINDOW`.
-pub const SEQ_WINDOW: Seq = Seq::MAX / 2;
+/// The sequence window: a frame is taken when `seq - last` (wrapping) is in
+/// `1..=SEQ_WINDOW`. Older numbers are replays or reordered frames; numbers further ahead
+/// are refused without moving the reference, so that one stray frame cannot lock the
+/// sender out (the sender's next frames stay in the window).
+///
+/// **Why 256.** The host masters send at most about 200 frames a second (targets at
+/// 100 Hz, heartbeats at 50 Hz, requests); a gap of 256 lost frames is more than a second
+/// of silence, while the board holds after 100 ms and stops after 500 ms without a
+/// heartbeat, so a live session never skips that many (a master that was cut off longer
+/// says `Hello` again). A frame with a random number falls in the window with probability
+/// 256 / 65,536 = 0.4 %.
+pub const SEQ_WINDOW: Seq = 256;
 
 /// Serial-number arithmetic (RFC 1982 style) on the wrapping `u16` sequence:
-/// `true` when `seq` is strictly newer than `last`.
+/// `true` when `seq` is newer than `last` by at most [`SEQ_WINDOW`].
 pub const fn seq_is_newer(seq: Seq, last: Seq) -> bool {
     let delta = seq.wrapping_sub(last);
     delta != 0 && delta <= SEQ_WINDOW
@@ -62,15 +72,23 @@ enum RxState {
 /// bytes). Rejected frames are counted in [`LinkCounters`] and returned as
 /// `Err` so the caller can log them; the caller simply continues feeding.
 ///
-/// Session rule: a message that opens a session (`Hello` / `HelloReply`) is accepted
-/// whatever its header and sets the current session; once there is one, frames of any
-/// other session are rejected as `WrongSession` (an earlier connection's frames, replayed).
+/// Key rule: a decoder with the link's key ([`with_key`](Self::with_key)) drops every
+/// frame whose authentication tag does not verify (`BadTag`), handshakes and emergency
+/// stops included.
 ///
-/// Sequence rule: the first frame after construction / [`reset`](Self::reset)
-/// and every session-opening message are accepted whatever their sequence number and
-/// become the reference; any other frame must be newer than the last accepted one
-/// ([`seq_is_newer`]), else it is rejected as `OutOfOrder`. Skipped numbers are counted
-/// in `dropped`.
+/// Session rule: a handshake message (`Hello`; `HelloReply`, `HelloRefused`) is accepted
+/// whatever its header and changes nothing: the decoder's owner opens a session when it
+/// accepts one ([`open_session`](Self::open_session): the board when its runtime accepted
+/// a `Hello`, the master when the board's `HelloReply` echoes its nonce). While a session
+/// is open, frames of any other session are rejected as `WrongSession` (an earlier
+/// connection's frames replayed, a master that does not own the board); before one, every
+/// frame passes this check.
+///
+/// Sequence rule: the first frame after construction / [`reset`](Self::reset) is accepted
+/// whatever its sequence number and becomes the reference, and so does the number given
+/// to [`open_session`](Self::open_session); any other frame must be newer than the last
+/// accepted one by at most [`SEQ_WINDOW`] ([`seq_is_newer`]), else it is rejected as
+/// `OutOfOrder` and the reference stays. Skipped numbers are counted in `dropped`.
 ///
 /// A message that bypasses the sequence (`EmergencyStop`) is accepted whenever its frame
 /// is intact (CRC, version, body): in session and order like any frame, and otherwise
@@ -81,6 +99,7 @@ pub struct FrameDecoder<M, const N: usize = MAX_FRAME_LEN> {
     state: RxState,
     last_seq: Option<Seq>,
     session: Option<u32>,
+    key: Option<LinkKey>,
     counters: LinkCounters,
     _msg: PhantomData<fn() -> M>,
 }
@@ -105,6 +124,7 @@ impl<M: WireMessage, const N: usize> FrameDecoder<M, N> {
             state: RxState::Collecting,
             last_seq: None,
             session: None,
+            key: None,
             counters: LinkCounters {
                 frames_ok: 0,
                 bad_checksum: 0,
@@ -114,9 +134,29 @@ impl<M: WireMessage, const N: usize> FrameDecoder<M, N> {
                 out_of_order: 0,
                 dropped: 0,
                 wrong_session: 0,
+                bad_tag: 0,
             },
             _msg: PhantomData,
         }
+    }
+
+    /// Empty decoder of a link with the key `key` (`None`: no key, no tags).
+    pub fn with_key(key: Option<LinkKey>) -> Self {
+        let mut d = Self::new();
+        d.key = key;
+        d
+    }
+
+    /// The link has a key: frames must carry a valid tag.
+    pub const fn has_key(&self) -> bool {
+        self.key.is_some()
+    }
+
+    /// Opens `session`: from now on only its frames pass, and `seq` (the number of the
+    /// frame that opened it: the `Hello`, or the `HelloReply`) is the sequence reference.
+    pub fn open_session(&mut self, session: u32, seq: Seq) {
+        self.session = Some(session);
+        self.last_seq = Some(seq);
     }
 
     /// Link statistics so far.
@@ -134,7 +174,7 @@ impl<M: WireMessage, const N: usize> FrameDecoder<M, N> {
         self.last_seq
     }
 
-    /// The current session (opened by the last `Hello` / `HelloReply`), if any.
+    /// The current session ([`open_session`](Self::open_session)), if any.
     pub const fn session(&self) -> Option<u32> {
         self.session
     }
@@ -201,10 +241,8 @@ impl<M: WireMessage, const N: usize> FrameDecoder<M, N> {
 
     fn process(&mut self) -> Result<(Seq, M), FrameError> {
         let frame = self.buf.get_mut(..self.len).ok_or(FrameError::Oversized)?;
-        let (Header { session, seq }, msg) = decode_frame::<M>(frame)?;
-        if let Some(opened) = msg.opens_session() {
-            self.session = Some(opened);
-            self.last_seq = Some(seq);
+        let (Header { session, seq }, msg) = decode_frame_with::<M>(frame, self.key.as_ref())?;
+        if msg.is_handshake() {
             return Ok((seq, msg));
         }
         match self.check(session, seq) {
@@ -223,7 +261,7 @@ impl<M: WireMessage, const N: usize> FrameDecoder<M, N> {
         }
     }
 
-    /// The session and sequence checks of a frame that opens no session.
+    /// The session and sequence checks of a frame that is no handshake.
     fn check(&self, session: u32, seq: Seq) -> Result<(), FrameError> {
         if let Some(expected) = self.session {
             if session != expected {
@@ -249,6 +287,7 @@ impl<M: WireMessage, const N: usize> FrameDecoder<M, N> {
             Err(FrameError::WrongVersion { .. }) => &mut c.wrong_version,
             Err(FrameError::OutOfOrder { .. }) => &mut c.out_of_order,
             Err(FrameError::WrongSession { .. }) => &mut c.wrong_session,
+            Err(FrameError::BadTag) => &mut c.bad_tag,
         };
         *counter = counter.wrapping_add(1);
     }

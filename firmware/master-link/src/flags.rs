@@ -149,11 +149,13 @@ bit_flags! {
         const NEAR_PARALLEL_SINGULARITY = 1;
         /// A joint is close to its limit.
         const NEAR_JOINT_LIMIT = 2;
-        /// The pose target was clamped to the workspace.
-        const TARGET_CLAMPED = 3;
+        // Bit 3 is reserved, never to be reused: the board does not clamp a target to
+        // the workspace (the supervisor refuses a target outside its limits).
         /// Commanded velocity was limited.
         const VELOCITY_LIMITED = 4;
-        /// No fresh pose target received recently (holding position).
+        /// Following, and no target (pose or jog) accepted for longer than the
+        /// supervisor's staleness age (`SupervisorConfig::stale_after_us`, 100 ms): the
+        /// robot holds the last one.
         const TARGET_STALE = 5;
         /// Heartbeat late (but not yet timed out).
         const HEARTBEAT_LATE = 6;

@@ -2,6 +2,7 @@
 
 use crc::{Crc, CRC_32_ISO_HDLC};
 
+use crate::auth::{LinkKey, TAG_LEN};
 use crate::cobs;
 use crate::messages::{Seq, WireMessage};
 
@@ -9,8 +10,11 @@ use crate::messages::{Seq, WireMessage};
 /// Version 2 added the control tick's worst jitter and execution time to `StatusReport`;
 /// 3 the refused targets; 4 the session nonce, the stop in force, fault causes with joint
 /// and value, the reset cause, guard margins, currents, the fault log, rehoming
-/// confirmation and frames of up to 255 bytes.
-pub const PROTOCOL_VERSION: u8 = 4;
+/// confirmation and frames of up to 255 bytes; 5 the session the board issues, one owner
+/// (`HelloRefused`, `NotOwner`), the master's clock in `Hello`, the sequence window, targets
+/// from the future refused and the authentication tag; 6 the non-volatile event log
+/// (`EventLogRequest`, `EventLog`).
+pub const PROTOCOL_VERSION: u8 = 6;
 
 /// Header length: version (1 byte) + session (4 bytes, little endian) + sequence number
 /// (2 bytes, little endian).
@@ -25,7 +29,8 @@ pub const MAX_FRAME_LEN: usize = 255;
 /// Maximum un-stuffed frame length (header + body + CRC): `MAX_FRAME_LEN`
 /// minus one delimiter byte and the COBS overhead (1 byte up to 254 bytes).
 pub const MAX_RAW_LEN: usize = MAX_FRAME_LEN - 2;
-/// Maximum postcard body length.
+/// Maximum postcard body length (of a frame without a tag; an authenticated frame's body
+/// is [`TAG_LEN`] bytes shorter at most).
 pub const MAX_BODY_LEN: usize = MAX_RAW_LEN - HEADER_LEN - CRC_LEN;
 /// Minimum un-stuffed frame length (the body has at least the enum tag).
 pub const MIN_RAW_LEN: usize = HEADER_LEN + 1 + CRC_LEN;
@@ -72,20 +77,24 @@ pub enum FrameError {
     Oversized,
     /// CRC mismatch (`bad_checksum`).
     BadChecksum,
+    /// The link has a key and the frame's tag does not verify, or it has none
+    /// (`bad_tag`).
+    BadTag,
     /// Valid frame of another protocol version (`wrong_version`).
     WrongVersion {
         /// Version found in the header.
         received: u8,
     },
-    /// Sequence number not newer than the last accepted one (`out_of_order`).
+    /// Sequence number not newer than the last accepted one, or newer by more than the
+    /// window ([`SEQ_WINDOW`](crate::SEQ_WINDOW)) (`out_of_order`).
     OutOfOrder {
         /// Sequence number of the rejected frame.
         seq: Seq,
         /// Last accepted sequence number.
         last: Seq,
     },
-    /// A frame of another session than the one the last `Hello` opened
-    /// (`wrong_session`): e.g. replayed from an earlier connection.
+    /// A frame of another session than the one open (`wrong_session`): e.g. replayed
+    /// from an earlier connection, or sent by a master that does not own the board.
     WrongSession {
         /// Session in the frame's header.
         received: u32,
@@ -98,7 +107,7 @@ pub enum FrameError {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Header {
-    /// The session (the nonce of the `Hello` that opened it; 0 before one).
+    /// The session (the board issues it in `HelloReply`; 0: outside any session).
     pub session: u32,
     /// The sequence number.
     pub seq: Seq,
@@ -110,6 +119,17 @@ pub struct Header {
 pub fn encode<M: WireMessage>(
     msg: &M,
     header: Header,
+    buf: &mut [u8],
+) -> Result<usize, EncodeError> {
+    encode_with(msg, header, None, buf)
+}
+
+/// [`encode`] with the link's key: with one, the frame carries the tag of its header and
+/// body ([`crate::auth`]).
+pub fn encode_with<M: WireMessage>(
+    msg: &M,
+    header: Header,
+    key: Option<&LinkKey>,
     buf: &mut [u8],
 ) -> Result<usize, EncodeError> {
     let mut raw = [0u8; MAX_RAW_LEN];
@@ -128,7 +148,15 @@ pub fn encode<M: WireMessage>(
         })?
         .len();
 
-    let content_len = HEADER_LEN + body_len;
+    let mut content_len = HEADER_LEN + body_len;
+    if let Some(key) = key {
+        let tag = key.tag(raw.get(..content_len).ok_or(EncodeError::MessageTooLarge)?);
+        let slot = raw
+            .get_mut(content_len..content_len + TAG_LEN)
+            .ok_or(EncodeError::MessageTooLarge)?;
+        slot.copy_from_slice(&tag);
+        content_len += TAG_LEN;
+    }
     let crc = CRC32.checksum(raw.get(..content_len).ok_or(EncodeError::MessageTooLarge)?);
     let crc_slot = raw
         .get_mut(content_len..content_len + CRC_LEN)
@@ -150,6 +178,15 @@ pub fn encode<M: WireMessage>(
 /// length, CRC, protocol version, body. Does *not* check the sequence number
 /// nor the session (that is the job of [`FrameDecoder`](crate::FrameDecoder)).
 pub fn decode_frame<M: WireMessage>(encoded: &mut [u8]) -> Result<(Header, M), FrameError> {
+    decode_frame_with(encoded, None)
+}
+
+/// [`decode_frame`] with the link's key: with one, the tag is checked after the CRC and
+/// before anything else is read.
+pub fn decode_frame_with<M: WireMessage>(
+    encoded: &mut [u8],
+    key: Option<&LinkKey>,
+) -> Result<(Header, M), FrameError> {
     let n = cobs::decode_in_place(encoded).ok_or(FrameError::Malformed(Malformed::Cobs))?;
     if n > MAX_RAW_LEN {
         return Err(FrameError::Oversized);
@@ -169,6 +206,18 @@ pub fn decode_frame<M: WireMessage>(encoded: &mut [u8]) -> Result<(Header, M), F
     if CRC32.checksum(content) != u32::from_le_bytes(crc_bytes) {
         return Err(FrameError::BadChecksum);
     }
+    let content = match key {
+        None => content,
+        Some(key) => {
+            let (signed, tag) = content
+                .split_at_checked(content.len().saturating_sub(TAG_LEN))
+                .ok_or(FrameError::BadTag)?;
+            if signed.len() <= HEADER_LEN || !key.verify(signed, tag) {
+                return Err(FrameError::BadTag);
+            }
+            signed
+        }
+    };
     let [version, s0, s1, s2, s3, seq_lo, seq_hi, body @ ..] = content else {
         return Err(FrameError::Malformed(Malformed::Truncated));
     };

@@ -29,10 +29,11 @@ pub const JOINT_THETA3: usize = 5;
 
 /// A message type that can travel in a frame.
 pub trait WireMessage: Serialize + DeserializeOwned {
-    /// The session a handshake message opens (`Hello`: its nonce; `HelloReply`: the
-    /// session it confirms): it is accepted whatever its session and sequence number,
-    /// and restarts the receiver's sequence tracking from it.
-    fn opens_session(&self) -> Option<u32>;
+    /// A handshake message (`Hello`; `HelloReply`, `HelloRefused`): the receiver takes it
+    /// whatever its frame's session and sequence number, and it changes neither: the
+    /// receiver's owner decides whether a session opens
+    /// ([`FrameDecoder::open_session`](crate::FrameDecoder::open_session)).
+    fn is_handshake(&self) -> bool;
     /// `true` for a message no session or sequence check may drop (`EmergencyStop`): it
     /// is taken whenever its frame is intact.
     fn bypasses_sequence(&self) -> bool;
@@ -42,14 +43,20 @@ pub trait WireMessage: Serialize + DeserializeOwned {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum MasterToBoard {
-    /// Handshake: opens a session and (re)starts the board's sequence tracking of this
-    /// direction. Frames sent before it (an older session) are refused.
+    /// Handshake: asks the board for a session. The board answers `HelloReply` with a
+    /// session it chose (fresh for every accepted `Hello`), or `HelloRefused` (another
+    /// master owns the board, an old `Hello` replayed, another protocol version).
     Hello {
         /// Protocol version spoken by the master.
         protocol_version: u8,
-        /// The master's session nonce, echoed in `HelloReply` (a fresh random value per
-        /// connection).
+        /// The master's identity for this connection (a fresh random value per
+        /// connection, echoed in the answer): the board's owner is the master whose nonce
+        /// it accepted last.
         nonce: u32,
+        /// The master's clock when it sent the `Hello`, µs (the clock of its target
+        /// stamps): the board keeps it to refuse targets from the future, and refuses a
+        /// `Hello` of the owner's nonce that is not newer than the last (a replay).
+        clock_us: u64,
     },
     /// Enable the drives (Ready -> Enabled).
     Enable,
@@ -110,6 +117,12 @@ pub enum MasterToBoard {
     /// drives are off (`Disabled`, `Ready`); answered `GeometryStored` or
     /// `GeometryRefused` with the reason.
     StoreGeometry(GeometryRecord),
+    /// Ask for the event log's entries from index `first` (oldest kept = 0), answered
+    /// `EventLog`.
+    EventLogRequest {
+        /// First entry wanted.
+        first: u16,
+    },
 }
 
 /// The record layout [`GeometryRecord::layout`] this crate writes.
@@ -216,11 +229,8 @@ pub enum GeometryRefusal {
 }
 
 impl WireMessage for MasterToBoard {
-    fn opens_session(&self) -> Option<u32> {
-        match self {
-            Self::Hello { nonce, .. } => Some(*nonce),
-            _ => None,
-        }
+    fn is_handshake(&self) -> bool {
+        matches!(self, Self::Hello { .. })
     }
     fn bypasses_sequence(&self) -> bool {
         matches!(self, Self::EmergencyStop)
@@ -283,6 +293,14 @@ pub enum NackReason {
     BrakeCheckFailed,
     /// The operator is not present (dead-man released).
     OperatorAbsent,
+    /// Another master owns the board (a `Hello` while the robot is not disabled).
+    NotOwner,
+    /// A target stamped further ahead of the master's clock (from its `Hello`) than the
+    /// board allows: never taken, never adopted as the clock.
+    TargetFromFuture,
+    /// A `Hello` with the owner's nonce whose clock is not newer than the owner's last:
+    /// a recording replayed.
+    ReplayedHello,
 }
 
 /// Controller state machine state.
@@ -311,7 +329,7 @@ pub enum RobotState {
 ///
 /// Every non-empty delimiter-terminated frame increments exactly one of
 /// `frames_ok`, `bad_checksum`, `malformed`, `oversized`, `wrong_version`,
-/// `out_of_order`, `wrong_session`; `dropped` counts sequence numbers skipped between
+/// `out_of_order`, `wrong_session`, `bad_tag`; `dropped` counts sequence numbers skipped between
 /// accepted frames (frames lost on the way). All counters wrap.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -332,6 +350,9 @@ pub struct LinkCounters {
     pub dropped: u32,
     /// Frames of another session than the current one (protocol version 4).
     pub wrong_session: u32,
+    /// Frames without a valid authentication tag on a link with a key (protocol
+    /// version 5).
+    pub bad_tag: u32,
 }
 
 impl LinkCounters {
@@ -343,6 +364,7 @@ impl LinkCounters {
             .wrapping_add(self.wrong_version)
             .wrapping_add(self.out_of_order)
             .wrapping_add(self.wrong_session)
+            .wrapping_add(self.bad_tag)
     }
 
     /// Every frame seen, accepted or rejected.
@@ -403,6 +425,8 @@ pub struct StatusReport {
     pub fault_log_len: u16,
     /// Missed control periods since boot (late ticks not run back to back).
     pub missed_ticks: u32,
+    /// Times another master took the board over since boot (wrapping; protocol version 5).
+    pub owner_changes: u16,
 }
 
 /// The stop in force and how far it has got (IEC 60204-1 stop categories; IEC 61800-5-2
@@ -718,6 +742,141 @@ pub struct FaultLogPage {
     pub entries: [FaultLogEntry; FAULT_LOG_PAGE],
 }
 
+/// Why a stop that is not a fault began (the event log's [`EventKind::Stop`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum StopReason {
+    /// The master's `Disable` while the drives were on (SS1).
+    Disable,
+    /// The master's heartbeat late: hold (SS2).
+    HeartbeatLate,
+    /// The master's clutch engaged: hold (SS2).
+    ClutchEngaged,
+    /// The operator let go of the dead-man: hold (SS2).
+    OperatorAbsent,
+}
+
+impl StopReason {
+    /// Every reason, in declaration order.
+    pub const ALL: [StopReason; 4] = [
+        StopReason::Disable,
+        StopReason::HeartbeatLate,
+        StopReason::ClutchEngaged,
+        StopReason::OperatorAbsent,
+    ];
+}
+
+/// What one entry of the board's event log records.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum EventKind {
+    /// A fault: its cause, joint ([`NO_JOINT`] for none) and value (units: see
+    /// [`FaultCause`]), and the stop it caused.
+    Fault {
+        /// The cause.
+        cause: FaultCause,
+        /// The joint, or [`NO_JOINT`].
+        joint: u8,
+        /// The value that tripped it.
+        value: f32,
+        /// The stop in force after it.
+        stop: StopStatus,
+    },
+    /// A stop that is not a fault (a disable, a hold).
+    Stop {
+        /// Why.
+        reason: StopReason,
+        /// The stop in force after it.
+        stop: StopStatus,
+    },
+    /// The board started (the entry's `time_ms` is 0 of its boot).
+    Reset {
+        /// Why it last reset.
+        cause: ResetCause,
+    },
+    /// A master took charge of the board (today: a `Hello` opened a session; `id` is its
+    /// nonce).
+    Master {
+        /// The master's identifier.
+        id: u32,
+    },
+    /// A calibrated geometry was written to the board's flash.
+    GeometryStored {
+        /// Its version.
+        version: u32,
+    },
+    /// The safety chain's relay test: latched pending by a safety-chain fault (only a
+    /// power cycle and a passed test end it), or passed.
+    RelayTest {
+        /// Pending (else passed).
+        pending: bool,
+    },
+    /// Events the board could not keep in flash (they left its RAM view before they were
+    /// written).
+    Lost {
+        /// How many.
+        count: u32,
+    },
+}
+
+/// One entry of the board's event log.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct EventEntry {
+    /// The entry's number (increasing over the log's life; a repeat keeps it).
+    pub seq: u32,
+    /// The boot it happened in (the board counts its boots).
+    pub boot: u16,
+    /// When it first happened: ms since that boot.
+    pub time_ms: u32,
+    /// What happened.
+    pub event: EventKind,
+    /// How many times it happened (a repeat of the newest entry of its kind in the same
+    /// boot counts here; 0: an empty slot).
+    pub count: u16,
+    /// The safety chain's relay test was pending when it was recorded.
+    pub relay_test_pending: bool,
+}
+
+impl EventEntry {
+    /// An empty slot of a page (`count` 0).
+    pub const EMPTY: EventEntry = EventEntry {
+        seq: 0,
+        boot: 0,
+        time_ms: 0,
+        event: EventKind::Lost { count: 0 },
+        count: 0,
+        relay_test_pending: false,
+    };
+}
+
+impl Default for EventEntry {
+    fn default() -> Self {
+        EventEntry::EMPTY
+    }
+}
+
+/// Entries of the event log per `EventLog` message.
+pub const EVENT_LOG_PAGE: usize = 8;
+
+/// A page of the board's event log (answer to `EventLogRequest`).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct EventLogPage {
+    /// Entries the board holds for the link (its RAM view of the log), oldest first.
+    pub len: u16,
+    /// Entries ever logged (over every boot the flash remembers).
+    pub total: u32,
+    /// Index of `entries[0]`.
+    pub first: u16,
+    /// How many of `entries` are valid.
+    pub count: u8,
+    /// Events of this boot that could not be written to flash.
+    pub lost: u32,
+    /// The entries.
+    pub entries: [EventEntry; EVENT_LOG_PAGE],
+}
+
 /// Messages from the board to the host master.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -728,8 +887,11 @@ pub enum BoardToMaster {
         firmware_version: FirmwareVersion,
         /// Protocol version spoken by the board.
         protocol_version: u8,
-        /// The session: the `Hello`'s nonce.
+        /// The session the board issued for this `Hello` (never 0): every later frame of
+        /// both sides carries it.
         session: u32,
+        /// The `Hello`'s nonce, echoed.
+        nonce: u32,
         /// Why the board last reset, and whether that was acknowledged.
         reset: ResetStatus,
         /// The version of the calibrated geometry stored in the board's flash (0: none).
@@ -765,14 +927,23 @@ pub enum BoardToMaster {
         /// Why.
         reason: GeometryRefusal,
     },
+    /// A page of the event log (answer to `EventLogRequest`).
+    EventLog(EventLogPage),
+    /// A `Hello` was refused (sent outside any session: frame session 0); the session in
+    /// force, if any, is unchanged.
+    HelloRefused {
+        /// Sequence number of the `Hello`.
+        seq: Seq,
+        /// The `Hello`'s nonce, echoed.
+        nonce: u32,
+        /// Why (`NotOwner`, `ReplayedHello`, `UnsupportedVersion`, `Busy`).
+        reason: NackReason,
+    },
 }
 
 impl WireMessage for BoardToMaster {
-    fn opens_session(&self) -> Option<u32> {
-        match self {
-            Self::HelloReply { session, .. } => Some(*session),
-            _ => None,
-        }
+    fn is_handshake(&self) -> bool {
+        matches!(self, Self::HelloReply { .. } | Self::HelloRefused { .. })
     }
     fn bypasses_sequence(&self) -> bool {
         false

@@ -221,31 +221,70 @@ fn gaps_are_accepted_and_counted_as_dropped() {
     assert_eq!(dec.counters().dropped, 9);
 }
 
-/// Hello resets the expected sequence: it is accepted whatever its number,
-/// and later frames are checked against it. reset_sequence() does the same.
+/// A Hello is taken whatever its number and moves nothing: the reference stays where the
+/// session's frames left it. Opening a session sets the reference; reset_sequence()
+/// forgets it.
 #[test]
-fn hello_resets_the_sequence() {
+fn hello_is_taken_whatever_its_number_and_moves_nothing() {
     let hello = MasterToBoard::Hello {
         protocol_version: PROTOCOL_VERSION,
         nonce: 0,
+        clock_us: 0,
     };
     let mut dec = BoardDecoder::new();
     one(&mut dec, &enc(&HB, 40_000)).unwrap();
     assert_eq!(one(&mut dec, &enc(&hello, 3)), Ok((3, hello)));
+    assert_eq!(
+        one(&mut dec, &enc(&hello, 3)),
+        Ok((3, hello)),
+        "twice: still taken"
+    );
+    assert!(one(&mut dec, &enc(&HB, 4)).is_err(), "the reference stayed");
+    assert_eq!(one(&mut dec, &enc(&HB, 40_001)), Ok((40_001, HB)));
+    // The board accepted the Hello of seq 3: it opens the session there.
+    dec.open_session(0, 3);
     assert!(one(&mut dec, &enc(&HB, 2)).is_err());
     assert_eq!(one(&mut dec, &enc(&HB, 4)), Ok((4, HB)));
-    // A Hello with the same number as the last frame is still accepted.
-    assert_eq!(one(&mut dec, &enc(&hello, 4)), Ok((4, hello)));
-    assert_eq!(dec.counters().dropped, 0, "the reset is not a gap");
+    assert_eq!(dec.counters().dropped, 0, "opening is not a gap");
 
     dec.reset_sequence();
     assert_eq!(one(&mut dec, &enc(&HB, 1)), Ok((1, HB)));
 
-    // Board side: HelloReply resets the master's decoder.
+    // Master side: a HelloReply is taken whatever its number, and so is a HelloRefused.
     let mut host = MasterDecoder::new();
     let reply = board_samples()[0];
     decode_all(&mut host, &enc(&BoardToMaster::Ack { seq: 0 }, 900));
     assert_eq!(decode_all(&mut host, &enc(&reply, 1)), vec![Ok((1, reply))]);
+    let refused = board_samples()[1];
+    assert!(matches!(refused, BoardToMaster::HelloRefused { .. }));
+    assert_eq!(
+        decode_all(&mut host, &enc(&refused, 2)),
+        vec![Ok((2, refused))]
+    );
+}
+
+/// A frame far ahead of the window (a stray or forged number) is refused and does not
+/// move the reference: the sender's next frame is taken.
+#[test]
+fn a_frame_beyond_the_window_is_refused_without_moving_the_reference() {
+    let mut dec = BoardDecoder::new();
+    assert_eq!(one(&mut dec, &enc(&HB, 100)), Ok((100, HB)));
+    for ahead in [SEQ_WINDOW + 1, 30_000, 32_767] {
+        assert_eq!(
+            one(&mut dec, &enc(&HB, 100u16.wrapping_add(ahead))),
+            Err(FrameError::OutOfOrder {
+                seq: 100u16.wrapping_add(ahead),
+                last: 100
+            })
+        );
+    }
+    assert_eq!(one(&mut dec, &enc(&HB, 101)), Ok((101, HB)));
+    assert_eq!(
+        one(&mut dec, &enc(&HB, 101 + SEQ_WINDOW)),
+        Ok((101 + SEQ_WINDOW, HB)),
+        "the window's edge is in"
+    );
+    assert_eq!(dec.counters().out_of_order, 3);
 }
 
 /// A frame longer than the buffer is discarded up to the next delimiter,
@@ -348,23 +387,26 @@ fn resync_discards_partial_frame_silently() {
     assert_eq!(dec.counters().frames_total(), 1);
 }
 
-/// A Hello opens a session: frames of the session before it (replayed from an earlier
-/// connection, whatever their sequence numbers) are refused and counted as
-/// `wrong_session`; frames of the new session are taken.
+/// An open session refuses frames of any other: the session before it (replayed from an
+/// earlier connection, whatever their sequence numbers) is refused and counted as
+/// `wrong_session`; frames of the new session are taken. A Hello alone opens nothing.
 #[test]
 fn frames_of_an_older_session_are_refused() {
     let mut dec = BoardDecoder::new();
-    let old = MasterToBoard::Hello {
-        protocol_version: PROTOCOL_VERSION,
-        nonce: 0x1111,
-    };
     let new = MasterToBoard::Hello {
         protocol_version: PROTOCOL_VERSION,
         nonce: 0x2222,
+        clock_us: 5,
     };
-    assert!(one(&mut dec, &enc_in(&old, 0, 1)).is_ok());
+    dec.open_session(0x1111, 1);
     assert_eq!(one(&mut dec, &enc_in(&HB, 0x1111, 2)), Ok((2, HB)));
     assert!(one(&mut dec, &enc_in(&new, 0x1111, 3)).is_ok());
+    assert_eq!(
+        dec.session(),
+        Some(0x1111),
+        "a Hello opens nothing by itself"
+    );
+    dec.open_session(0x2222, 3);
     assert_eq!(dec.session(), Some(0x2222));
     // The old session's next frames, newer sequence numbers and all.
     for seq in [4, 5, 1000] {
@@ -392,8 +434,10 @@ fn an_emergency_stop_is_never_dropped_by_the_session_or_sequence_checks() {
     let hello = MasterToBoard::Hello {
         protocol_version: PROTOCOL_VERSION,
         nonce: 5,
+        clock_us: 0,
     };
     assert!(one(&mut dec, &enc_in(&hello, 0, 100)).is_ok());
+    dec.open_session(5, 100);
     assert_eq!(one(&mut dec, &enc_in(&HB, 5, 101)), Ok((101, HB)));
     // Out of order, same session.
     assert_eq!(one(&mut dec, &enc_in(&stop, 5, 50)), Ok((50, stop)));

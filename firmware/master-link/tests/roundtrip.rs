@@ -12,12 +12,12 @@ fn every_master_to_board_variant_round_trips() {
     let samples = master_samples();
     let mut seen = [false; MASTER_VARIANTS];
     let mut dec = BoardDecoder::new();
-    let mut session = 0;
+    let mut session = 0u32;
     for (i, msg) in samples.iter().enumerate() {
         seen[master_variant(msg)] = true;
         let seq = 100 + i as Seq;
         // Every frame in the session the last Hello opened.
-        session = msg.opens_session().unwrap_or(session);
+        session = session.wrapping_add(u32::from(msg.is_handshake()));
         let frame = enc_in(msg, session, seq);
         assert_eq!(frame.last(), Some(&0));
         assert!(!frame[..frame.len() - 1].contains(&0), "COBS removes zeros");
@@ -36,11 +36,11 @@ fn every_board_to_master_variant_round_trips() {
     let samples = board_samples();
     let mut seen = [false; BOARD_VARIANTS];
     let mut dec = MasterDecoder::new();
-    let mut session = 0;
+    let mut session = 0u32;
     for (i, msg) in samples.iter().enumerate() {
         seen[board_variant(msg)] = true;
         let seq = (u16::MAX - 3).wrapping_add(i as Seq); // also crosses the wrap
-        session = msg.opens_session().unwrap_or(session);
+        session = session.wrapping_add(u32::from(msg.is_handshake()));
         let frame = enc_in(msg, session, seq);
         assert_eq!(decode_all(&mut dec, &frame), vec![Ok((seq, *msg))]);
     }
@@ -87,7 +87,7 @@ fn largest_message_fits_in_max_frame() {
 }
 
 /// The largest Status frame on the wire, bytes (documented in firmware/README.md).
-const STATUS_FRAME_LEN: usize = 238;
+const STATUS_FRAME_LEN: usize = 246;
 /// The largest fault-log frame on the wire, bytes.
 const LOG_FRAME_LEN: usize = 206;
 
@@ -211,4 +211,31 @@ fn geometry_messages_are_appended() {
     let mut bad = g;
     bad.version ^= 1 << 20;
     assert!(!bad.crc_ok());
+}
+
+/// The event log's request and page are appended after the geometry's: every earlier
+/// variant keeps its index, and a page of eight of the largest entries (faults with
+/// maximal varints) fits one frame.
+#[test]
+fn event_log_messages_are_appended_and_fit_a_frame() {
+    let tag = |m: &MasterToBoard| body(m)[0];
+    assert_eq!(tag(&MasterToBoard::StoreGeometry(max_geometry())), 14);
+    assert_eq!(tag(&MasterToBoard::EventLogRequest { first: 0 }), 15);
+    let btag = |m: &BoardToMaster| body(m)[0];
+    assert_eq!(
+        btag(&BoardToMaster::GeometryRefused {
+            seq: 0,
+            reason: GeometryRefusal::Crc
+        }),
+        6
+    );
+    assert_eq!(btag(&BoardToMaster::EventLog(EventLogPage::default())), 7);
+    let largest = body(&BoardToMaster::EventLog(max_event_log())).len();
+    assert!(largest <= MAX_BODY_LEN, "{largest} > {MAX_BODY_LEN}");
+    // One more entry would not fit: the page is as large as a frame allows.
+    let mut buf = [0u8; 64];
+    let entry = postcard::to_slice(&max_event_log().entries[0], &mut buf)
+        .expect("postcard")
+        .len();
+    assert!(largest + entry > MAX_BODY_LEN, "{largest} + {entry}");
 }

@@ -20,7 +20,7 @@
 
 use num_traits::Float;
 
-use crate::checks::{is_leg, Check, ConfigError};
+use crate::checks::{Check, ConfigError};
 use crate::num::{from_i64, lit};
 use crate::NUM_JOINTS;
 use hal::QuadratureCounter;
@@ -153,22 +153,13 @@ pub struct EncoderConfig<S> {
     pub counts_per_unit: [S; NUM_JOINTS],
 }
 
-/// Default counts per metre of the legs: 2000 counts per 3 mm.
-pub const LEG_COUNTS_PER_M: f64 = 2000.0 / 0.003;
-/// Default counts per radian of the links: 2000 counts per 10 degrees.
-pub const LINK_COUNTS_PER_RAD: f64 = 2000.0 / (10.0 * core::f64::consts::PI / 180.0);
-
 impl<S: Float> Default for EncoderConfig<S> {
+    /// The reference board's encoders ([`board_profile::BoardProfile::REFERENCE`]).
     fn default() -> Self {
-        let mut counts_per_unit = [S::zero(); NUM_JOINTS];
-        for (j, c) in counts_per_unit.iter_mut().enumerate() {
-            *c = if is_leg(j) {
-                lit(LEG_COUNTS_PER_M)
-            } else {
-                lit(LINK_COUNTS_PER_RAD)
-            };
+        let cpu = board_profile::BoardProfile::REFERENCE.counts_per_unit();
+        EncoderConfig {
+            counts_per_unit: cpu.map(lit),
         }
-        EncoderConfig { counts_per_unit }
     }
 }
 

@@ -1,8 +1,18 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 //! Encoder extension, joint units and homing.
+use board_profile::BoardProfile;
 use hal::QuadratureCounter;
 use proptest::prelude::*;
-use servo::encoder::{LEG_COUNTS_PER_M, LINK_COUNTS_PER_RAD};
+
+/// The reference board's leg encoder, counts per metre.
+fn leg_counts_per_m() -> f64 {
+    BoardProfile::REFERENCE.joints[0].counts_per_unit()
+}
+
+/// The reference board's link encoder, counts per radian.
+fn link_counts_per_rad() -> f64 {
+    BoardProfile::REFERENCE.joints[3].counts_per_unit()
+}
 use servo::{CountExtender, EncoderConfig, Encoders, JointEncoder};
 
 /// The hardware counter for a true (unbounded) count: the low 16 bits.
@@ -86,8 +96,8 @@ proptest! {
 #[test]
 fn the_top_speeds_stay_far_below_the_extension_limit() {
     let per_ms = |speed: f64, counts_per_unit: f64| speed * counts_per_unit * 1e-3;
-    let leg = per_ms(0.378, LEG_COUNTS_PER_M);
-    let link = per_ms(28.0, LINK_COUNTS_PER_RAD);
+    let leg = per_ms(0.378, leg_counts_per_m());
+    let link = per_ms(28.0, link_counts_per_rad());
     assert!(leg < 300.0 && link < 1700.0, "{leg} {link}");
     assert!(
         leg.max(link) * 10.0 < 32_768.0,
@@ -115,7 +125,7 @@ fn a_step_of_32768_counts_is_the_documented_limit() {
 
 #[test]
 fn leg_conversion_is_2000_counts_per_3_mm() {
-    let mut e = JointEncoder::<f64>::new(LEG_COUNTS_PER_M);
+    let mut e = JointEncoder::<f64>::new(leg_counts_per_m());
     assert!((e.update(2000) - 0.003).abs() < 1e-12);
     assert!((e.resolution() - 1.5e-6).abs() < 1e-15);
     // Max speed at a 1 kHz read rate: 32767 counts/ms = 49.15 m/s.
@@ -124,18 +134,18 @@ fn leg_conversion_is_2000_counts_per_3_mm() {
 
 #[test]
 fn link_conversion_is_2000_counts_per_10_degrees() {
-    let mut e = JointEncoder::<f64>::new(LINK_COUNTS_PER_RAD);
-    assert!((LINK_COUNTS_PER_RAD - 11_459.156).abs() < 1e-3);
+    let mut e = JointEncoder::<f64>::new(link_counts_per_rad());
+    assert!((link_counts_per_rad() - 11_459.156).abs() < 1e-3);
     let q = e.update(2000);
     assert!((q.to_degrees() - 10.0).abs() < 1e-9);
     // -1 count = -0.005 deg.
-    let mut e = JointEncoder::<f64>::new(LINK_COUNTS_PER_RAD);
+    let mut e = JointEncoder::<f64>::new(link_counts_per_rad());
     assert!((e.update(u16::MAX).to_degrees() + 0.005).abs() < 1e-12);
 }
 
 #[test]
 fn homing_makes_the_current_count_read_the_given_position_and_keeps_the_scale() {
-    let mut e = JointEncoder::<f64>::new(LEG_COUNTS_PER_M);
+    let mut e = JointEncoder::<f64>::new(leg_counts_per_m());
     e.update(12_345);
     e.set_position(0.050); // homed at 50 mm
     assert!((e.position() - 0.050).abs() < 1e-12);
@@ -153,7 +163,7 @@ fn homing_makes_the_current_count_read_the_given_position_and_keeps_the_scale() 
 #[test]
 fn f32_keeps_one_count_resolution_near_the_homing_point_far_from_count_zero() {
     // 100 000 000 counts from power-up, homed there: f32 still resolves one count.
-    let mut e = JointEncoder::<f32>::new(LEG_COUNTS_PER_M as f32);
+    let mut e = JointEncoder::<f32>::new(leg_counts_per_m() as f32);
     let mut truth = 0i64;
     for _ in 0..4000 {
         truth += 25_000;

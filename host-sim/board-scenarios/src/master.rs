@@ -12,9 +12,9 @@ use std::collections::VecDeque;
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Duration;
 
-use master_link::{BoardToMaster, LinkCounters, MasterDecoder};
+use master_link::{BoardToMaster, LinkCounters};
 use rigless::time::VirtualNanos;
-use teleop::link::{Link, Medium, Received};
+use teleop::link::{Link, MasterRx, Medium, Received};
 use teleop::session::Session;
 use teleop::TeleopError;
 
@@ -23,14 +23,14 @@ use board_emulator::bench::{Bench, BenchError, NANOS_PER_SECOND};
 /// The longest stretch the medium runs the board without looking for a message, ns.
 pub const STEP_NS: u64 = 1_000_000;
 
-/// The session nonce of the emulated runs: fixed, so that two runs are the same run.
+/// The master's nonce in the emulated runs: fixed, so that two runs are the same run.
 pub const SESSION_NONCE: u32 = 0x5253_5052;
 
 /// The bench and the master's end of the wire.
 pub struct Rig {
     /// The bench.
     pub bench: Bench,
-    decoder: MasterDecoder,
+    decoder: MasterRx,
     inbox: VecDeque<Received>,
     /// Every message the master decoded, with its arrival (virtual s).
     pub messages: Vec<Received>,
@@ -52,7 +52,7 @@ impl Rig {
     pub fn new(bench: Bench) -> Self {
         Rig {
             bench,
-            decoder: MasterDecoder::new(),
+            decoder: MasterRx::new(SESSION_NONCE, None),
             inbox: VecDeque::new(),
             messages: Vec::new(),
             truth: None,
@@ -93,7 +93,7 @@ impl Rig {
 
     /// The board -> master counters of the master's decoder.
     pub fn counters(&self) -> LinkCounters {
-        *self.decoder.counters()
+        self.decoder.counters()
     }
 
     /// The last `HelloReply` received, with its arrival.

@@ -1,5 +1,5 @@
 //! `calibration`: kinematic calibration of the RSPR robot from external measurements
-//! (issue 19; thesis sections 11.5 and 12.2).
+//! (thesis sections 11.5 and 12.2).
 //!
 //! The robot built to drawings is off by its machining and assembly tolerances. This crate
 //! estimates its per-chain geometry ([`kinematics_core::PerChainGeometry`]: base pivots and
@@ -53,6 +53,12 @@ pub enum CalibrationError {
     NothingDetermined,
     #[error("calibration: the solver stopped: {0}")]
     Solver(String),
+    /// The tracker's noise (`what`: position or rotation) is no standard deviation.
+    #[error("calibration: the tracker's {what} noise: {error}")]
+    Noise {
+        what: &'static str,
+        error: rand_distr::NormalError,
+    },
     #[error("calibration: no candidate pose of the task box passes the guards")]
     NoCandidates,
     #[error("calibration: {wanted} poses asked, {available} candidates pass the guards")]

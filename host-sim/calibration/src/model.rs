@@ -31,7 +31,7 @@ pub struct Noise {
 }
 
 impl Default for Noise {
-    /// 0.1 mm and 0.05 deg: a good optical tracker (issue 19).
+    /// 0.1 mm and 0.05 deg: a good optical tracker.
     fn default() -> Self {
         Noise {
             position_m: 0.1e-3,
@@ -57,6 +57,9 @@ pub struct Model<'a> {
     /// FK warm starts, one per row (the reference robot's FK).
     guesses: Vec<Pose<f64>>,
 }
+
+/// The robot moved by + and − a step in one of its parameters, and the step.
+type MovedRobot = ([PerChainGeometry<f64>; 2], f64);
 
 /// One row's residual, unwhitened.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -212,24 +215,9 @@ impl<'a> Model<'a> {
         infos: &[Info],
     ) -> Result<DMatrix<f64>, CalibrationError> {
         let (g, a, b) = self.at(delta)?;
-        // The robot moved by ± a thousandth of each parameter's tolerance.
-        let mut moved = Vec::with_capacity(ROBOT);
-        for (j, info) in infos.iter().enumerate().take(ROBOT) {
-            let h = info.scale * 1e-3;
-            let mut d = delta.to_vec();
-            let mut pair = [g, g];
-            for (slot, sign) in pair.iter_mut().zip([1.0, -1.0]) {
-                if let Some(x) = d.get_mut(j) {
-                    *x = delta.get(j).copied().unwrap_or(0.0) + sign * h;
-                }
-                *slot = parameters::geometry(&self.reference, &d)
-                    .map_err(CalibrationError::Geometry)?;
-            }
-            moved.push((pair, h));
-        }
+        let moved = self.moved_robots(&g, delta, infos)?;
         let mut jac = DMatrix::zeros(self.residual_count(), COUNT);
         let mut at = 0;
-        let kinds = [false, false, false, true, true, true];
         for (k, (m, x)) in self.rows.iter().zip(poses).enumerate() {
             let n = m.rows();
             let sol = inverse(&g, x, self.branch)
@@ -238,69 +226,10 @@ impl<'a> Model<'a> {
                 .map_err(|_| CalibrationError::Singular { row: k + 1 })?
                 .j;
             let lu = jx.lu();
-            // ∂r/∂x (twist), ∂r/∂(tracker), ∂r/∂(marker) by central differences.
-            let xr = Rigid::from_pose(x);
-            let eval = |a: &Rigid, x: &Rigid, b: &Rigid| {
-                let mut buf = [0.0; 6];
-                self.whitened(m, a, x, b, &mut buf);
-                buf
-            };
-            let hx = 1e-6;
-            let mut dr_dx = [[0.0; 6]; 6];
-            let mut dr_dt = [[0.0; 6]; 12];
-            for c in 0..6 {
-                let mut d = Vector6::zeros();
-                d[c] = hx;
-                let (dv, dw) = (
-                    Vector3::new(d[0], d[1], d[2]),
-                    Vector3::new(d[3], d[4], d[5]),
-                );
-                let plus = x.displaced(&dv, &dw);
-                let minus = x.displaced(&(-dv), &(-dw));
-                let (rp, rm) = (
-                    eval(&a, &Rigid::from_pose(&plus), &b),
-                    eval(&a, &Rigid::from_pose(&minus), &b),
-                );
-                for i in 0..6 {
-                    dr_dx[c][i] = (rp[i] - rm[i]) / (2.0 * hx);
-                }
-                let mut dd = [0.0; 6];
-                dd[c] = hx;
-                let neg: [f64; 6] = dd.map(|v| -v);
-                for (t, base, first) in [
-                    (0usize, &self.base_in_tracker, 0usize),
-                    (1, &self.marker_in_platform, 0),
-                ] {
-                    let off = if t == 0 { TRACKER } else { MARKER };
-                    let cur = parameters::transform(base, delta, off);
-                    let plus = parameters::transform(&cur, &dd, first);
-                    let minus = parameters::transform(&cur, &neg, first);
-                    let (rp, rm) = if t == 0 {
-                        (eval(&plus, &xr, &b), eval(&minus, &xr, &b))
-                    } else {
-                        (eval(&a, &xr, &plus), eval(&a, &xr, &minus))
-                    };
-                    for i in 0..6 {
-                        dr_dt[t * 6 + c][i] = (rp[i] - rm[i]) / (2.0 * hx);
-                    }
-                }
-            }
+            let (dr_dx, dr_dt) = self.residual_derivatives(m, x, &a, &b, delta);
             // dx/dp = −J⁻¹ ∂IK/∂p for each robot parameter.
             for (j, (pair, h)) in moved.iter().enumerate() {
-                let qp = inverse(&pair[0], x, self.branch).map(|s| s.q());
-                let qm = inverse(&pair[1], x, self.branch).map(|s| s.q());
-                let (Ok(qp), Ok(qm)) = (qp, qm) else {
-                    return Err(CalibrationError::Singular { row: k + 1 });
-                };
-                let mut dq: Joints<f64> = Joints::zeros();
-                for i in 0..6 {
-                    let d = qp[i] - qm[i];
-                    dq[i] = if kinds[i] {
-                        kinematics_core::scalar::wrap_angle(d)
-                    } else {
-                        d
-                    } / (2.0 * h);
-                }
+                let dq = self.ik_derivative(pair, *h, x, k + 1)?;
                 let dx = lu
                     .solve(&(-dq))
                     .ok_or(CalibrationError::Singular { row: k + 1 })?;
@@ -320,6 +249,119 @@ impl<'a> Model<'a> {
             at += n;
         }
         Ok(jac)
+    }
+
+    /// The robot `g` (at `delta`) moved by ± a thousandth of each robot parameter's
+    /// tolerance, with that step.
+    fn moved_robots(
+        &self,
+        g: &PerChainGeometry<f64>,
+        delta: &[f64],
+        infos: &[Info],
+    ) -> Result<Vec<MovedRobot>, CalibrationError> {
+        let mut moved = Vec::with_capacity(ROBOT);
+        for (j, info) in infos.iter().enumerate().take(ROBOT) {
+            let h = info.scale * 1e-3;
+            let mut d = delta.to_vec();
+            let mut pair = [*g, *g];
+            for (slot, sign) in pair.iter_mut().zip([1.0, -1.0]) {
+                if let Some(x) = d.get_mut(j) {
+                    *x = delta.get(j).copied().unwrap_or(0.0) + sign * h;
+                }
+                *slot = parameters::geometry(&self.reference, &d)
+                    .map_err(CalibrationError::Geometry)?;
+            }
+            moved.push((pair, h));
+        }
+        Ok(moved)
+    }
+
+    /// The derivatives of row `m`'s whitened residuals at platform pose `x`, by central
+    /// differences: with respect to the platform's twist (one row of six per twist
+    /// coordinate), and to the tracker's and the marker's transforms (six each, in
+    /// parameter order).
+    fn residual_derivatives(
+        &self,
+        m: &Measurement,
+        x: &Pose<f64>,
+        a: &Rigid,
+        b: &Rigid,
+        delta: &[f64],
+    ) -> ([[f64; 6]; 6], [[f64; 6]; 12]) {
+        let xr = Rigid::from_pose(x);
+        let eval = |a: &Rigid, x: &Rigid, b: &Rigid| {
+            let mut buf = [0.0; 6];
+            self.whitened(m, a, x, b, &mut buf);
+            buf
+        };
+        let hx = 1e-6;
+        let mut dr_dx = [[0.0; 6]; 6];
+        let mut dr_dt = [[0.0; 6]; 12];
+        for c in 0..6 {
+            let mut d = Vector6::zeros();
+            d[c] = hx;
+            let (dv, dw) = (
+                Vector3::new(d[0], d[1], d[2]),
+                Vector3::new(d[3], d[4], d[5]),
+            );
+            let plus = x.displaced(&dv, &dw);
+            let minus = x.displaced(&(-dv), &(-dw));
+            let (rp, rm) = (
+                eval(a, &Rigid::from_pose(&plus), b),
+                eval(a, &Rigid::from_pose(&minus), b),
+            );
+            for i in 0..6 {
+                dr_dx[c][i] = (rp[i] - rm[i]) / (2.0 * hx);
+            }
+            let mut dd = [0.0; 6];
+            dd[c] = hx;
+            let neg: [f64; 6] = dd.map(|v| -v);
+            for (t, base, first) in [
+                (0usize, &self.base_in_tracker, 0usize),
+                (1, &self.marker_in_platform, 0),
+            ] {
+                let off = if t == 0 { TRACKER } else { MARKER };
+                let cur = parameters::transform(base, delta, off);
+                let plus = parameters::transform(&cur, &dd, first);
+                let minus = parameters::transform(&cur, &neg, first);
+                let (rp, rm) = if t == 0 {
+                    (eval(&plus, &xr, b), eval(&minus, &xr, b))
+                } else {
+                    (eval(a, &xr, &plus), eval(a, &xr, &minus))
+                };
+                for i in 0..6 {
+                    dr_dt[t * 6 + c][i] = (rp[i] - rm[i]) / (2.0 * hx);
+                }
+            }
+        }
+        (dr_dx, dr_dt)
+    }
+
+    /// ∂IK/∂p at platform pose `x` for one robot parameter, by central differences
+    /// between the robots of `pair` (± `h`); the link angles' differences wrapped.
+    fn ik_derivative(
+        &self,
+        pair: &[PerChainGeometry<f64>; 2],
+        h: f64,
+        x: &Pose<f64>,
+        row: usize,
+    ) -> Result<Joints<f64>, CalibrationError> {
+        let angular = [false, false, false, true, true, true];
+        let qp = inverse(&pair[0], x, self.branch).map(|s| s.q());
+        let qm = inverse(&pair[1], x, self.branch).map(|s| s.q());
+        let (Ok(qp), Ok(qm)) = (qp, qm) else {
+            return Err(CalibrationError::Singular { row });
+        };
+        let mut dq: Joints<f64> = Joints::zeros();
+        for i in 0..6 {
+            let d = qp[i] - qm[i];
+            dq[i] = if angular[i] {
+                kinematics_core::scalar::wrap_angle(d)
+            } else {
+                d
+            } / (2.0 * h);
+        }
+        Ok(dq)
     }
 }
 

@@ -28,10 +28,14 @@ pub const MARKER: usize = ROBOT + 6;
 /// All parameters.
 pub const COUNT: usize = ROBOT + 12;
 
-/// One encoder count of the legs (m) and of the links (rad): CONVENTIONS.md.
-pub const LEG_COUNT_M: f64 = 0.0015e-3;
-/// One encoder count of the rotating links, rad.
-pub const LINK_COUNT_RAD: f64 = 0.005 * std::f64::consts::PI / 180.0;
+/// One encoder count of the legs, m (the reference board profile's).
+pub fn leg_count_m() -> f64 {
+    board_profile::BoardProfile::REFERENCE.joints[0].unit_per_count()
+}
+/// One encoder count of the rotating links, rad (the reference board profile's).
+pub fn link_count_rad() -> f64 {
+    board_profile::BoardProfile::REFERENCE.joints[3].unit_per_count()
+}
 
 /// A parameter's unit at the edge.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -98,8 +102,8 @@ pub fn infos(tol: &Tolerances) -> Vec<Info> {
     for chain in 1..=3 {
         for (k, (field, unit)) in CHAIN_FIELDS.iter().enumerate() {
             let scale = match (k, unit) {
-                (12, _) => tol.zero_counts * LEG_COUNT_M,
-                (13, _) => tol.zero_counts * LINK_COUNT_RAD,
+                (12, _) => tol.zero_counts * leg_count_m(),
+                (13, _) => tol.zero_counts * link_count_rad(),
                 (_, Unit::Length) => tol.length_m,
                 (_, Unit::Angle) => tol.axis_rad,
             };

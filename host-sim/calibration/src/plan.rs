@@ -220,55 +220,7 @@ pub fn plan(robot: &PerChainGeometry<f64>, opts: &PlanOptions) -> Result<Plan, C
     }
     let (blocks, basis) = blocks(robot, &cands, opts)?;
     let r = basis.ncols();
-    let ridge = 1e-6;
-    // Greedy.
-    let mut chosen: Vec<usize> = Vec::with_capacity(opts.poses);
-    let mut used = vec![false; cands.len()];
-    for _ in 0..opts.poses {
-        let f = information(&blocks, &chosen, r, ridge);
-        let l = f.cholesky().ok_or(CalibrationError::NothingDetermined)?;
-        let best = (0..cands.len())
-            .filter(|&k| !used.get(k).copied().unwrap_or(true))
-            .map(|k| (k, blocks.get(k).map_or(f64::NEG_INFINITY, |g| gain(&l, g))))
-            .max_by(|a, b| a.1.total_cmp(&b.1));
-        let Some((k, _)) = best else { break };
-        chosen.push(k);
-        if let Some(u) = used.get_mut(k) {
-            *u = true;
-        }
-    }
-    // Exchanges.
-    for _ in 0..10 {
-        let mut improved = false;
-        for s in 0..chosen.len() {
-            let Some(&out) = chosen.get(s) else { continue };
-            let rest: Vec<usize> = chosen.iter().copied().filter(|&k| k != out).collect();
-            let f = information(&blocks, &rest, r, ridge);
-            let Some(l) = f.cholesky() else { continue };
-            let keep = blocks.get(out).map_or(f64::NEG_INFINITY, |g| gain(&l, g));
-            let best = (0..cands.len())
-                .filter(|&k| !used.get(k).copied().unwrap_or(true))
-                .map(|k| (k, blocks.get(k).map_or(f64::NEG_INFINITY, |g| gain(&l, g))))
-                .max_by(|a, b| a.1.total_cmp(&b.1));
-            if let Some((k, g)) = best {
-                if g > keep + 1e-9 {
-                    if let Some(slot) = chosen.get_mut(s) {
-                        *slot = k;
-                    }
-                    if let Some(u) = used.get_mut(out) {
-                        *u = false;
-                    }
-                    if let Some(u) = used.get_mut(k) {
-                        *u = true;
-                    }
-                    improved = true;
-                }
-            }
-        }
-        if !improved {
-            break;
-        }
-    }
+    let mut chosen = choose(&blocks, opts.poses, r)?;
     // Visiting order: by orientation, then along the box.
     chosen.sort_unstable();
     let poses: Vec<Pose<f64>> = chosen
@@ -284,24 +236,7 @@ pub fn plan(robot: &PerChainGeometry<f64>, opts: &PlanOptions) -> Result<Plan, C
                 .map_err(|error| CalibrationError::Ik { row: k + 1, error })
         })
         .collect::<Result<Vec<_>, _>>()?;
-    let index_of = |set: &[usize]| -> Result<Identifiability, CalibrationError> {
-        let d = blocks.first().map_or(6, |g| g.nrows());
-        let mut g = DMatrix::zeros(set.len() * d, r);
-        for (i, &k) in set.iter().enumerate() {
-            if let Some(b) = blocks.get(k) {
-                g.rows_mut(i * d, d).copy_from(b);
-            }
-        }
-        let names: Vec<parameters::Info> = (0..r)
-            .map(|c| parameters::Info {
-                name: format!("direction {}", c + 1),
-                unit: parameters::Unit::Length,
-                scale: 1.0,
-            })
-            .collect();
-        Ok(crate::identify::analyse(&g, &names, 0.0)?.1)
-    };
-    let identifiability = index_of(&chosen)?;
+    let identifiability = identifiability_of(&blocks, &chosen, r)?;
     let mut rng = rand_xorshift::XorShiftRng::seed_from_u64(1);
     let mut pool: Vec<usize> = (0..cands.len()).collect();
     let mut random = Vec::with_capacity(opts.poses);
@@ -309,7 +244,7 @@ pub fn plan(robot: &PerChainGeometry<f64>, opts: &PlanOptions) -> Result<Plan, C
         let i = rng.random_range(0..pool.len());
         random.push(pool.swap_remove(i));
     }
-    let random_observability_index = index_of(&random)?.observability_index;
+    let random_observability_index = identifiability_of(&blocks, &random, r)?.observability_index;
     Ok(Plan {
         poses,
         joints,
@@ -317,4 +252,96 @@ pub fn plan(robot: &PerChainGeometry<f64>, opts: &PlanOptions) -> Result<Plan, C
         identifiability,
         random_observability_index,
     })
+}
+
+/// The regularisation of the information matrices while choosing.
+const RIDGE: f64 = 1e-6;
+
+/// Chooses `count` of the candidates (their blocks of the reduced Jacobian, `r` columns)
+/// for the largest information: greedily, one at a time, then exchanging a chosen one for
+/// a better one while that helps (at most ten rounds).
+fn choose(blocks: &[DMatrix<f64>], count: usize, r: usize) -> Result<Vec<usize>, CalibrationError> {
+    let mut chosen: Vec<usize> = Vec::with_capacity(count);
+    let mut used = vec![false; blocks.len()];
+    for _ in 0..count {
+        let f = information(blocks, &chosen, r, RIDGE);
+        let l = f.cholesky().ok_or(CalibrationError::NothingDetermined)?;
+        let Some((k, _)) = best_unused(blocks, &used, &l) else {
+            break;
+        };
+        chosen.push(k);
+        if let Some(u) = used.get_mut(k) {
+            *u = true;
+        }
+    }
+    for _ in 0..10 {
+        if !exchange(blocks, &mut chosen, &mut used, r) {
+            break;
+        }
+    }
+    Ok(chosen)
+}
+
+/// The candidate not used yet that adds the most information to the factor `l`, and its
+/// gain.
+fn best_unused(
+    blocks: &[DMatrix<f64>],
+    used: &[bool],
+    l: &nalgebra::Cholesky<f64, nalgebra::Dyn>,
+) -> Option<(usize, f64)> {
+    (0..blocks.len())
+        .filter(|&k| !used.get(k).copied().unwrap_or(true))
+        .map(|k| (k, blocks.get(k).map_or(f64::NEG_INFINITY, |g| gain(l, g))))
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+}
+
+/// One round of exchanges: each chosen candidate in turn replaced by the best unused one
+/// when that gains more than keeping it; whether any was.
+fn exchange(blocks: &[DMatrix<f64>], chosen: &mut [usize], used: &mut [bool], r: usize) -> bool {
+    let mut improved = false;
+    for s in 0..chosen.len() {
+        let Some(&out) = chosen.get(s) else { continue };
+        let rest: Vec<usize> = chosen.iter().copied().filter(|&k| k != out).collect();
+        let f = information(blocks, &rest, r, RIDGE);
+        let Some(l) = f.cholesky() else { continue };
+        let keep = blocks.get(out).map_or(f64::NEG_INFINITY, |g| gain(&l, g));
+        if let Some((k, g)) = best_unused(blocks, used, &l) {
+            if g > keep + 1e-9 {
+                if let Some(slot) = chosen.get_mut(s) {
+                    *slot = k;
+                }
+                if let Some(u) = used.get_mut(out) {
+                    *u = false;
+                }
+                if let Some(u) = used.get_mut(k) {
+                    *u = true;
+                }
+                improved = true;
+            }
+        }
+    }
+    improved
+}
+
+/// The identifiability of the `r` reduced directions from the candidates of `set`.
+fn identifiability_of(
+    blocks: &[DMatrix<f64>],
+    set: &[usize],
+    r: usize,
+) -> Result<Identifiability, CalibrationError> {
+    let d = blocks.first().map_or(6, |g| g.nrows());
+    let mut g = DMatrix::zeros(set.len() * d, r);
+    for (i, &k) in set.iter().enumerate() {
+        if let Some(b) = blocks.get(k) {
+            g.rows_mut(i * d, d).copy_from(b);
+        }
+    }
+    let names: Vec<parameters::Info> = (0..r)
+        .map(|c| parameters::Info {
+            name: format!("direction {}", c + 1),
+            unit: parameters::Unit::Length,
+            scale: 1.0,
+        })
+        .collect();
+    Ok(crate::identify::analyse(&g, &names, 0.0)?.1)
 }

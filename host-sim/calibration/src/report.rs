@@ -2,7 +2,7 @@
 //! calibrated geometry file, the plan's CSV, the simulation's summary, and the residual
 //! plots (PNG, via the `plots` crate).
 
-use crate::identify::{Identification, ParameterResult};
+use crate::identify::{Identifiability, Identification, ParameterResult};
 use crate::model::RowResidual;
 use crate::parameters::Unit;
 use crate::plan::Plan;
@@ -58,6 +58,28 @@ fn transform_line(name: &str, t: &Rigid) -> String {
 /// The identification report.
 pub fn identification_text(id: &Identification) -> String {
     let mut o = String::new();
+    residuals(&mut o, id);
+    identifiability(&mut o, &id.identifiability);
+    let _ = writeln!(o, "\nParameters (deviation from nominal, one standard deviation, share in the determined subspace):");
+    for p in &id.parameters {
+        let _ = writeln!(o, "{}", parameter_line(p));
+    }
+    let _ = writeln!(o, "\nTransforms:");
+    let _ = writeln!(
+        o,
+        "{}",
+        transform_line("base in tracker", &id.base_in_tracker)
+    );
+    let _ = writeln!(
+        o,
+        "{}",
+        transform_line("marker on platform", &id.marker_in_platform)
+    );
+    o
+}
+
+/// The residuals before and after, and the rows the robust loss down-weighted.
+fn residuals(o: &mut String, id: &Identification) {
     let n = id.before.len();
     let _ = writeln!(o, "Calibration from {n} measured poses");
     let _ = writeln!(o, "Residuals (predicted - measured marker):");
@@ -81,7 +103,11 @@ pub fn identification_text(id: &Identification) -> String {
             down.join(", ")
         );
     }
-    let ia = &id.identifiability;
+}
+
+/// What the measurements determine: the count, the singular values, the structural
+/// degeneracies and the undetermined combinations.
+fn identifiability(o: &mut String, ia: &Identifiability) {
     let _ = writeln!(o, "\nIdentifiability (SVD of the Jacobian of the whitened residuals over the parameters divided by their tolerances):");
     let sv = &ia.singular_values;
     let _ = writeln!(
@@ -122,36 +148,25 @@ pub fn identification_text(id: &Identification) -> String {
             .collect();
         let _ = writeln!(o, "    sigma {:.2e}: {}", c.singular_value, terms.join(" "));
     }
-    let _ = writeln!(o, "\nParameters (deviation from nominal, one standard deviation, share in the determined subspace):");
-    for p in &id.parameters {
-        let status = if p.determined_share > 0.99 {
-            "determined"
-        } else if p.determined_share < 0.01 {
-            "not determined: nominal"
-        } else {
-            "in combinations only"
-        };
-        let _ = writeln!(
-            o,
-            "  {:<30} {:>14}  +- {:<14} share {:.3}  {status}",
-            p.info.name,
-            value(p, p.delta),
-            value(p, p.std).trim_start_matches('+'),
-            p.determined_share
-        );
-    }
-    let _ = writeln!(o, "\nTransforms:");
-    let _ = writeln!(
-        o,
-        "{}",
-        transform_line("base in tracker", &id.base_in_tracker)
-    );
-    let _ = writeln!(
-        o,
-        "{}",
-        transform_line("marker on platform", &id.marker_in_platform)
-    );
-    o
+}
+
+/// A parameter's deviation, its standard deviation, its share in the determined subspace
+/// and what that makes it.
+fn parameter_line(p: &ParameterResult) -> String {
+    let status = if p.determined_share > 0.99 {
+        "determined"
+    } else if p.determined_share < 0.01 {
+        "not determined: nominal"
+    } else {
+        "in combinations only"
+    };
+    format!(
+        "  {:<30} {:>14}  +- {:<14} share {:.3}  {status}",
+        p.info.name,
+        value(p, p.delta),
+        value(p, p.std).trim_start_matches('+'),
+        p.determined_share
+    )
 }
 
 /// The calibrated geometry file's text.

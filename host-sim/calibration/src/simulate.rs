@@ -29,7 +29,7 @@
 use crate::identify::{identify, Identification, Loss, Options};
 use crate::measurements::Measurement;
 use crate::model::Noise;
-use crate::parameters::{self, Tolerances, LEG_COUNT_M, LINK_COUNT_RAD};
+use crate::parameters::{self, leg_count_m, link_count_rad, Tolerances};
 use crate::plan::{plan, PlanOptions};
 use crate::rigid::Rigid;
 use crate::CalibrationError;
@@ -188,8 +188,8 @@ pub fn true_robot(
             platform_joint,
             platform_axis: tilt(rng, &d.platform_axis, tol.axis_rad),
             leg_offset: uniform(rng, l),
-            leg_zero: uniform(rng, tol.zero_counts * LEG_COUNT_M),
-            link_zero: uniform(rng, tol.zero_counts * LINK_COUNT_RAD),
+            leg_zero: uniform(rng, tol.zero_counts * leg_count_m()),
+            link_zero: uniform(rng, tol.zero_counts * link_count_rad()),
         };
     }
     PerChainGeometry::new(*nominal, chains).map_err(CalibrationError::Geometry)
@@ -241,10 +241,14 @@ pub fn measure(
     position_only: bool,
     rng: &mut XorShiftRng,
 ) -> Result<Vec<Measurement>, CalibrationError> {
-    let np = Normal::new(0.0, noise.position_m)
-        .map_err(|e| CalibrationError::Solver(format!("position noise: {e}")))?;
-    let nr = Normal::new(0.0, noise.rotation_rad)
-        .map_err(|e| CalibrationError::Solver(format!("rotation noise: {e}")))?;
+    let np = Normal::new(0.0, noise.position_m).map_err(|error| CalibrationError::Noise {
+        what: "position",
+        error,
+    })?;
+    let nr = Normal::new(0.0, noise.rotation_rad).map_err(|error| CalibrationError::Noise {
+        what: "rotation",
+        error,
+    })?;
     let cfg = FkConfig::default();
     let mut rows = Vec::with_capacity(poses.len());
     for (k, x) in poses.iter().enumerate() {
@@ -253,7 +257,11 @@ pub fn measure(
             .q();
         let mut settled: Joints<f64> = q;
         for i in 0..6 {
-            let count = if i < 3 { LEG_COUNT_M } else { LINK_COUNT_RAD };
+            let count = if i < 3 {
+                leg_count_m()
+            } else {
+                link_count_rad()
+            };
             settled[i] += uniform(rng, 0.5 * count);
         }
         let at = forward(truth, &settled, Branch::OUTER, x, &cfg)
@@ -339,21 +347,38 @@ fn pose_error_vectors(
         .collect()
 }
 
+/// The marker's drawing: off the true marker by the scenario's stated error, in a random
+/// direction and about a random axis.
+fn marker_drawing(s: &Scenario, rng: &mut XorShiftRng) -> Rigid {
+    let dir = tilt(rng, &Vector3::z(), std::f64::consts::PI);
+    let axis = tilt(rng, &Vector3::x(), std::f64::consts::PI);
+    Rigid {
+        t: s.marker_in_platform.t + dir * s.marker_guess_error.0,
+        r: Rotation3::from_scaled_axis(axis * s.marker_guess_error.1) * s.marker_in_platform.r,
+    }
+}
+
+/// Spoils `count` of the rows (spread over them): the marker moved by (5, -3, 4) mm and
+/// turned by 2 deg about y.
+fn add_outliers(rows: &mut [Measurement], count: usize) {
+    for k in 0..count.min(rows.len()) {
+        let i = (k * 7919 + 3) % rows.len();
+        if let Some(row) = rows.get_mut(i) {
+            row.position += Vector3::new(5e-3, -3e-3, 4e-3);
+            row.rotation = row
+                .rotation
+                .map(|r| r + Vector3::new(0.0, 2f64.to_radians(), 0.0));
+        }
+    }
+}
+
 /// Runs a simulated calibration.
 pub fn run(s: &Scenario) -> Result<Outcome, CalibrationError> {
     let mut rng = XorShiftRng::seed_from_u64(s.seed);
     let nominal_rspr = RsprGeometry::reference();
     let nominal = PerChainGeometry::from(nominal_rspr);
     let truth = true_robot(&nominal_rspr, &s.tolerances, &mut rng)?;
-    // The marker's drawing: off the truth by the stated error in a random direction.
-    let guess = {
-        let dir = tilt(&mut rng, &Vector3::z(), std::f64::consts::PI);
-        let axis = tilt(&mut rng, &Vector3::x(), std::f64::consts::PI);
-        Rigid {
-            t: s.marker_in_platform.t + dir * s.marker_guess_error.0,
-            r: Rotation3::from_scaled_axis(axis * s.marker_guess_error.1) * s.marker_in_platform.r,
-        }
-    };
+    let guess = marker_drawing(s, &mut rng);
     let plan_opts = PlanOptions {
         poses: s.poses,
         position_only: s.position_only,
@@ -376,15 +401,7 @@ pub fn run(s: &Scenario) -> Result<Outcome, CalibrationError> {
         s.position_only,
         &mut rng,
     )?;
-    for k in 0..s.outliers.min(rows.len()) {
-        let i = (k * 7919 + 3) % rows.len();
-        if let Some(row) = rows.get_mut(i) {
-            row.position += Vector3::new(5e-3, -3e-3, 4e-3);
-            row.rotation = row
-                .rotation
-                .map(|r| r + Vector3::new(0.0, 2f64.to_radians(), 0.0));
-        }
-    }
+    add_outliers(&mut rows, s.outliers);
     let opts = Options {
         tolerances: s.tolerances,
         noise: s.noise,

@@ -6,12 +6,11 @@
 //! Both robots get the selected RSPR's rb, rp and hc with e = 0 (by default the prototype's
 //! 90, 50 and 160 mm). The RRPS geometry is documented in [`crate::rrps`].
 
-use crate::files::{out_dir, write_csv};
+use crate::files::{out_dir, write_csv, OutputError};
 use crate::forces_path::{forces_along, peaks, PathSample, PathSpec, THESIS_WRENCH};
 use crate::rrps::{
     rrps_actuator_forces, rrps_inverse, rrps_jacobian, RrpsGeometry, RrpsGeometryError, RrpsIkError,
 };
-use crate::DesignError;
 use kinematics_core::{
     Branch, ForceError, GeometryError, JacobianError, Robot, RsprGeometry, Wrench,
 };
@@ -272,7 +271,7 @@ pub fn summary(pair: &Pair, c: &Comparison) -> String {
 /// Runs `compare`: both robots of `pair` along the path of `spec`, `compare.csv` and
 /// `compare.png` written to `out` (default `target/design/compare`). Returns the summary
 /// to print.
-pub fn run(pair: &Pair, spec: &PathSpec, out: Option<&Path>) -> Result<String, DesignError> {
+pub fn run(pair: &Pair, spec: &PathSpec, out: Option<&Path>) -> Result<String, OutputError> {
     let c = compare_along(pair, spec);
     let dir = out_dir(out, "compare")?;
     let csv_path = dir.join("compare.csv");

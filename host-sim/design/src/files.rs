@@ -1,5 +1,7 @@
-//! The files of the design tools: the output directory and CSV and text files.
+//! The files of the design tools: the output directory and CSV and text files, and what
+//! stops a tool writing its output.
 
+use plots::PlotError;
 use std::path::{Path, PathBuf};
 use thiserror::Error;
 
@@ -18,6 +20,15 @@ pub enum FileError {
     },
     #[error("cannot write {}: {source}", path.display())]
     WriteCsv { path: PathBuf, source: csv::Error },
+}
+
+/// A tool's output that cannot be written: a file or a plot.
+#[derive(Debug, Error)]
+pub enum OutputError {
+    #[error(transparent)]
+    File(#[from] FileError),
+    #[error(transparent)]
+    Plot(#[from] PlotError),
 }
 
 /// The output directory: `out` if given, else `target/design/<command>`; created.

@@ -3,8 +3,7 @@
 //! section 4, Fig. 8.5/8.6): by default from [-20,-20,-10] to [20,20,10] mm about
 //! [0, 0, hc], the platform rotated 20 deg about [1,1,1], wrench [7,7,7 N, 0.7,0.7,0.7 N m].
 
-use crate::files::{out_dir, write_csv};
-use crate::DesignError;
+use crate::files::{out_dir, write_csv, OutputError};
 use kinematics_core::{
     actuator_forces, inverse, jacobian, Branch, ForceError, IkError, JacobianError, JointKind,
     Mechanism, Robot, RobotKind, Wrench,
@@ -222,7 +221,7 @@ pub fn plot(
 /// Runs `forces --path`: the forces along the path of `spec`, written as
 /// `forces_path.csv` and `forces_path.png` to `out` (default `target/design/forces`).
 /// Returns the summary to print: failed samples, peaks, the files.
-pub fn run(robot: &Robot<f64>, spec: &PathSpec, out: Option<&Path>) -> Result<String, DesignError> {
+pub fn run(robot: &Robot<f64>, spec: &PathSpec, out: Option<&Path>) -> Result<String, OutputError> {
     let samples = forces_along(robot, spec);
     let dir = out_dir(out, "forces")?;
     let csv_path = dir.join("forces_path.csv");

@@ -24,7 +24,7 @@ pub mod rrps;
 pub mod synth;
 pub mod workspace;
 
-pub use files::FileError;
+pub use files::{FileError, OutputError};
 pub use plots::PlotError;
 
 use thiserror::Error;
@@ -32,12 +32,9 @@ use thiserror::Error;
 /// Why a design tool stopped.
 #[derive(Debug, Error)]
 pub enum DesignError {
-    /// An output file or directory.
+    /// An output file, directory or plot.
     #[error(transparent)]
-    File(#[from] FileError),
-    /// A plot.
-    #[error(transparent)]
-    Plot(#[from] PlotError),
+    Output(#[from] OutputError),
     /// The ranges over the task.
     #[error(transparent)]
     Ranges(#[from] ranges::RangesError),
@@ -50,4 +47,16 @@ pub enum DesignError {
     /// The robots of the comparison.
     #[error(transparent)]
     Pair(#[from] compare::PairError),
+}
+
+impl From<FileError> for DesignError {
+    fn from(e: FileError) -> Self {
+        DesignError::Output(e.into())
+    }
+}
+
+impl From<PlotError> for DesignError {
+    fn from(e: PlotError) -> Self {
+        DesignError::Output(e.into())
+    }
 }

@@ -6,8 +6,8 @@
 
 use crate::ranges::PoseFailure;
 use kinematics_core::{
-    actuator_forces, inverse, jacobian, measures, tilt_angles, Branch, Chain, JointKind, Mechanism,
-    Pose, Robot, RobotKind, SocketAxes, Wrench,
+    actuator_forces, inverse, jacobian, measures, tilt_angles, Branch, Chain, JointKind, Measures,
+    Mechanism, PerChain, Pose, Robot, RobotKind, SocketAxes, Wrench,
 };
 use robot_config::edge::{joint_columns, joints_to_edge, pose_from_edge, POSE};
 use robot_config::selection::{kind_name, SelectedRobot};
@@ -165,36 +165,11 @@ fn sweep(robot: &Robot<f64>, task: &Task, axes: Option<&SocketAxes<f64>>) -> Swe
             r.add(q);
         }
         match measures(robot, &sol) {
-            Ok(m) => {
-                let e = |value, other, chain| Extreme {
-                    value,
-                    other,
-                    chain,
-                    pose: p,
-                };
-                Extreme::keep_min(&mut s.inv_cond_min, e(m.parallel_inv_cond, 0.0, None));
-                Extreme::keep_max(&mut s.inv_cond_max, e(m.parallel_inv_cond, 0.0, None));
-                if !s.det_signs.contains(&m.parallel_det_sign) {
-                    s.det_signs.push(m.parallel_det_sign);
-                }
-                for (c, &v) in m.serial.iter() {
-                    Extreme::keep_min(&mut s.serial_min, e(v, m.serial_relative[c], Some(c)));
-                }
-            }
+            Ok(m) => s.add_measures(&m, p),
             Err(e) => s.failures.push(fail("singularity", &e)),
         }
         if let Some(axes) = axes {
-            for (c, &t) in tilt_angles(&sol, axes).iter() {
-                Extreme::keep_max(
-                    &mut s.tilt_max,
-                    Extreme {
-                        value: rad_to_deg(t),
-                        other: 0.0,
-                        chain: Some(c),
-                        pose: p,
-                    },
-                );
-            }
+            s.add_tilt(&tilt_angles(&sol, axes), p);
         }
         let tau = jacobian(robot, &sol)
             .map_err(|e| fail("jacobian", &e))
@@ -214,6 +189,42 @@ fn sweep(robot: &Robot<f64>, task: &Task, axes: Option<&SocketAxes<f64>>) -> Swe
         s.failed_poses += usize::from(s.failures.len() > failures_before);
     }
     s
+}
+
+impl Sweep {
+    /// The singularity measures at task pose `p`: the conditioning's extremes, the
+    /// determinant's sign, the smallest serial margin.
+    fn add_measures(&mut self, m: &Measures<f64>, p: [f64; 6]) {
+        let e = |value, other, chain| Extreme {
+            value,
+            other,
+            chain,
+            pose: p,
+        };
+        Extreme::keep_min(&mut self.inv_cond_min, e(m.parallel_inv_cond, 0.0, None));
+        Extreme::keep_max(&mut self.inv_cond_max, e(m.parallel_inv_cond, 0.0, None));
+        if !self.det_signs.contains(&m.parallel_det_sign) {
+            self.det_signs.push(m.parallel_det_sign);
+        }
+        for (c, &v) in m.serial.iter() {
+            Extreme::keep_min(&mut self.serial_min, e(v, m.serial_relative[c], Some(c)));
+        }
+    }
+
+    /// The spherical joints' tilts at task pose `p`, rad: the largest.
+    fn add_tilt(&mut self, tilts: &PerChain<f64>, p: [f64; 6]) {
+        for (c, &t) in tilts.iter() {
+            Extreme::keep_max(
+                &mut self.tilt_max,
+                Extreme {
+                    value: rad_to_deg(t),
+                    other: 0.0,
+                    chain: Some(c),
+                    pose: p,
+                },
+            );
+        }
+    }
 }
 
 /// The dimensions section.
@@ -339,7 +350,6 @@ fn central_pose(out: &mut String, robot: &Robot<f64>, task: &Task) {
 /// The sections over the task box.
 fn task_sections(out: &mut String, robot: &Robot<f64>, task: &Task) {
     let hc_mm = m_to_mm(robot.hc());
-    let [f1, f2, f3, t1, t2, t3] = task.wrench;
     let _ = writeln!(
         out,
         "\nTask box: {}, branch 0",
@@ -362,7 +372,33 @@ fn task_sections(out: &mut String, robot: &Robot<f64>, task: &Task) {
         s.solved,
         s.poses.saturating_sub(s.failed_poses)
     );
+    joint_ranges(out, robot, &s);
+    conditioning(out, &s);
+    serial_margins(out, robot, &s);
+    let _ = writeln!(out, "\nSpherical-joint tilt (ball-in-socket angle)");
+    match (&axes, &s.tilt_max) {
+        (Err(e), _) => {
+            let _ = writeln!(out, "  socket axes unavailable: {e}");
+        }
+        (Ok(_), Some(e)) => {
+            let _ = writeln!(out, "  max {:.3} deg {}", e.value, e.at());
+        }
+        (Ok(_), None) => {
+            let _ = writeln!(out, "  (no pose solved)");
+        }
+    }
+    task_forces(out, robot, task, &s);
+    let _ = writeln!(out, "\nFailures");
+    if s.failures.is_empty() {
+        let _ = writeln!(out, "  none");
+    }
+    for f in &s.failures {
+        let _ = writeln!(out, "  {f}");
+    }
+}
 
+/// Each joint's range over the solved task poses.
+fn joint_ranges(out: &mut String, robot: &Robot<f64>, s: &Sweep) {
     let _ = writeln!(out, "\nJoint ranges over the task");
     for ((name, r), k) in joint_columns(robot.kind())
         .iter()
@@ -382,29 +418,36 @@ fn task_sections(out: &mut String, robot: &Robot<f64>, task: &Task) {
             );
         }
     }
+}
 
+/// The Jacobian's conditioning over the task: its extremes and the signs of its
+/// determinant.
+fn conditioning(out: &mut String, s: &Sweep) {
     let _ = writeln!(
         out,
         "\nJacobian conditioning (parallel inv_cond of Jtilde, moment columns / rp)"
     );
-    if let (Some(lo), Some(hi)) = (&s.inv_cond_min, &s.inv_cond_max) {
-        let _ = writeln!(out, "  min {:.4} {}", lo.value, lo.at());
-        let _ = writeln!(out, "  max {:.4} {}", hi.value, hi.at());
-        let signs: Vec<String> = s.det_signs.iter().map(|d| format!("{d:+}")).collect();
-        let _ = writeln!(
-            out,
-            "  det(Jtilde) sign over the task: {}{}",
-            signs.join(", "),
-            if s.det_signs.len() > 1 {
-                " (changes sign: the task crosses a parallel singularity)"
-            } else {
-                ""
-            }
-        );
-    } else {
+    let (Some(lo), Some(hi)) = (&s.inv_cond_min, &s.inv_cond_max) else {
         let _ = writeln!(out, "  (no pose measured)");
-    }
+        return;
+    };
+    let _ = writeln!(out, "  min {:.4} {}", lo.value, lo.at());
+    let _ = writeln!(out, "  max {:.4} {}", hi.value, hi.at());
+    let signs: Vec<String> = s.det_signs.iter().map(|d| format!("{d:+}")).collect();
+    let _ = writeln!(
+        out,
+        "  det(Jtilde) sign over the task: {}{}",
+        signs.join(", "),
+        if s.det_signs.len() > 1 {
+            " (changes sign: the task crosses a parallel singularity)"
+        } else {
+            ""
+        }
+    );
+}
 
+/// The smallest serial margin over the task.
+fn serial_margins(out: &mut String, robot: &Robot<f64>, s: &Sweep) {
     let (serial_name, scale, unit, of) = serial_units(robot.kind());
     let _ = writeln!(out, "\nSerial margins ({serial_name}, Eq. 10.6/10.11)");
     match &s.serial_min {
@@ -421,20 +464,11 @@ fn task_sections(out: &mut String, robot: &Robot<f64>, task: &Task) {
             let _ = writeln!(out, "  (no pose measured)");
         }
     }
+}
 
-    let _ = writeln!(out, "\nSpherical-joint tilt (ball-in-socket angle)");
-    match (&axes, &s.tilt_max) {
-        (Err(e), _) => {
-            let _ = writeln!(out, "  socket axes unavailable: {e}");
-        }
-        (Ok(_), Some(e)) => {
-            let _ = writeln!(out, "  max {:.3} deg {}", e.value, e.at());
-        }
-        (Ok(_), None) => {
-            let _ = writeln!(out, "  (no pose solved)");
-        }
-    }
-
+/// Each actuator's force range over the task for the task's wrench.
+fn task_forces(out: &mut String, robot: &Robot<f64>, task: &Task, s: &Sweep) {
+    let [f1, f2, f3, t1, t2, t3] = task.wrench;
     let _ = writeln!(
         out,
         "\nActuator forces for the wrench ({f1}, {f2}, {f3}) N, ({t1}, {t2}, {t3}) N m over {} poses",
@@ -453,14 +487,6 @@ fn task_sections(out: &mut String, robot: &Robot<f64>, task: &Task) {
                 force_unit(k)
             );
         }
-    }
-
-    let _ = writeln!(out, "\nFailures");
-    if s.failures.is_empty() {
-        let _ = writeln!(out, "  none");
-    }
-    for f in &s.failures {
-        let _ = writeln!(out, "  {f}");
     }
 }
 

@@ -11,10 +11,11 @@
 //! verdict on the whole task box: every point of a grid through the box (at most 2 mm
 //! apart, faces and corners included) checked at both orientations.
 
-use crate::files::{out_dir, write_csv};
-use crate::DesignError;
+use crate::files::{out_dir, write_csv, FileError};
 use kinematics_core::guards::{Guard, GuardSetupError, Guards, Limits, Reading, Severity};
 use kinematics_core::{Branch, Mechanism, Robot};
+use plots::plotters::coord::cartesian::Cartesian3d;
+use plots::plotters::coord::types::RangedCoordf64;
 use plots::plotters::prelude::*;
 use plots::{line_charts, register_font, span, Layout, Panel, PlotError, Series};
 use robot_config::edge::{pose_from_edge, POSE};
@@ -25,12 +26,18 @@ use std::fmt::Write as _;
 use std::path::Path;
 use thiserror::Error;
 
-/// Why the workspace cannot be scanned.
-#[derive(Clone, Copy, Debug, PartialEq, Error)]
+/// Why the workspace cannot be scanned or its output written.
+#[derive(Debug, Error)]
 pub enum WorkspaceError {
     /// The guards cannot be set up for the robot, branch and limits.
     #[error("guards: {0}")]
     Guards(GuardSetupError),
+    /// The output directory or the CSV file.
+    #[error(transparent)]
+    File(#[from] FileError),
+    /// A plot.
+    #[error(transparent)]
+    Plot(#[from] PlotError),
 }
 
 /// The scan settings (edge units).
@@ -354,6 +361,13 @@ pub fn task_box_verdict(
     }
 }
 
+/// The chart of [`plot_3d`]: x, z and -y of {0}, mm.
+type Chart3d<'a> = ChartContext<
+    'a,
+    BitMapBackend<'a>,
+    Cartesian3d<RangedCoordf64, RangedCoordf64, RangedCoordf64>,
+>;
+
 /// A 3-D view of the boundary of one orientation: each section's boundary at its height,
 /// the boundary points of each scan direction joined across the heights, and the task box
 /// (red when `box_inside` is false, i.e. some box point fails at this orientation).
@@ -408,10 +422,27 @@ pub fn plot_3d(
         .z_formatter(&|y| format!("y {:.0}", 0.0 - y))
         .draw()
         .map_err(PlotError::new)?;
-    let point = |phi: f64, rho: f64, z: f64| {
-        let (sn, c) = phi.to_radians().sin_cos();
-        (rho * c, z, -rho * sn)
-    };
+    draw_boundary(&mut chart, &sections)?;
+    draw_task_box(&mut chart, [bx, by, bz], hc_mm, box_inside)?;
+    chart
+        .configure_series_labels()
+        .border_style(BLACK)
+        .background_style(WHITE.mix(0.8))
+        .draw()
+        .map_err(PlotError::new)?;
+    root.present().map_err(PlotError::new)
+}
+
+/// The point of a section at direction `phi` (deg) and radius `rho` at height `z`, in the
+/// chart's (x, z, -y).
+fn point_3d(phi: f64, rho: f64, z: f64) -> (f64, f64, f64) {
+    let (sn, c) = phi.to_radians().sin_cos();
+    (rho * c, z, -rho * sn)
+}
+
+/// Each section's boundary at its height (one colour each, in the legend), and the
+/// meridians: the boundary along each scan direction across the heights.
+fn draw_boundary(chart: &mut Chart3d<'_>, sections: &[&Section]) -> Result<(), PlotError> {
     let n = sections.len().max(2) as f64;
     for (k, s) in sections.iter().enumerate() {
         let color = HSLColor(0.75 * k as f64 / (n - 1.0), 0.8, 0.45);
@@ -419,7 +450,7 @@ pub fn plot_3d(
             .phi_deg
             .iter()
             .zip(&s.rho_max_mm)
-            .map(|(&p, &rho)| point(p, rho, s.z_mm))
+            .map(|(&p, &rho)| point_3d(p, rho, s.z_mm))
             .collect();
         if let Some(first) = ring.first().copied() {
             ring.push(first);
@@ -430,25 +461,35 @@ pub fn plot_3d(
             .label(format!("z = {:.1} mm", s.z_mm))
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color));
     }
-    // Meridians: the boundary along each scan direction across the heights.
     if let Some(first) = sections.first() {
         for (j, &phi) in first.phi_deg.iter().enumerate() {
             let line: Vec<(f64, f64, f64)> = sections
                 .iter()
-                .filter_map(|s| s.rho_max_mm.get(j).map(|&rho| point(phi, rho, s.z_mm)))
+                .filter_map(|s| s.rho_max_mm.get(j).map(|&rho| point_3d(phi, rho, s.z_mm)))
                 .collect();
             chart
                 .draw_series(LineSeries::new(line, BLACK.mix(0.25)))
                 .map_err(PlotError::new)?;
         }
     }
+    Ok(())
+}
+
+/// The edges of the task box of half-extents `half` (mm) about [0, 0, hc], black when
+/// `inside`, red when not.
+fn draw_task_box(
+    chart: &mut Chart3d<'_>,
+    [bx, by, bz]: [f64; 3],
+    hc_mm: f64,
+    inside: bool,
+) -> Result<(), PlotError> {
     let corner = |i: usize| {
         let sx = if i & 1 == 0 { -bx } else { bx };
         let sy = if i & 2 == 0 { -by } else { by };
         let sz = if i & 4 == 0 { -bz } else { bz };
         (sx, hc_mm + sz, -sy)
     };
-    let box_color = if box_inside { BLACK } else { RED };
+    let box_color = if inside { BLACK } else { RED };
     let mut edges = Vec::new();
     for i in 0..8usize {
         for bit in [1usize, 2, 4] {
@@ -463,7 +504,7 @@ pub fn plot_3d(
             .map_err(PlotError::new)?;
         if k == 0 {
             series
-                .label(if box_inside {
+                .label(if inside {
                     "task box (inside)"
                 } else {
                     "task box (NOT inside)"
@@ -471,13 +512,7 @@ pub fn plot_3d(
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], box_color));
         }
     }
-    chart
-        .configure_series_labels()
-        .border_style(BLACK)
-        .background_style(WHITE.mix(0.8))
-        .draw()
-        .map_err(PlotError::new)?;
-    root.present().map_err(PlotError::new)
+    Ok(())
 }
 
 impl Scan {
@@ -515,12 +550,63 @@ pub fn run(
     scan: &Scan,
     task: &TaskBox,
     out: Option<&Path>,
-) -> Result<String, DesignError> {
+) -> Result<String, WorkspaceError> {
     let hc_mm = m_to_mm(robot.hc());
     let adm = Admissible::new(robot, branch, &limits.limits)?;
     let sections = scan_all(&adm, scan, task);
     let dir = out_dir(out, "workspace")?;
-    let header: Vec<String> = [
+    let csv_path = dir.join("workspace.csv");
+    write_csv(&csv_path, &csv_header(), &csv_rows(&sections))?;
+    let mut text = String::new();
+    let _ = writeln!(
+        text,
+        "workspace sections ({:?}, limits: {}), admissible = no stop-level guard violation, workspace guard excluded",
+        robot.kind(),
+        limits.source
+    );
+    let mut files = vec![csv_path];
+    let of =
+        |key: &str| -> Vec<&Section> { sections.iter().filter(|s| s.orientation == key).collect() };
+    for o in task.orientations() {
+        let mine = of(o.key);
+        let _ = writeln!(text, "orientation {}:", o.label);
+        for s in &mine {
+            let _ = writeln!(text, "{}", section_line(s));
+        }
+        let png = dir.join(format!("sections_{}.png", o.key));
+        let title = format!(
+            "{:?} workspace sections, platform {}",
+            robot.kind(),
+            o.label
+        );
+        plot(&mine, scan.footprint_half_mm, &title, &png)?;
+        files.push(png);
+    }
+    let verdict = task_box_verdict(&adm, task, hc_mm, 2.0);
+    text.push_str(&verdict_text(&verdict, task, hc_mm));
+    for (o, violation) in task
+        .orientations()
+        .iter()
+        .zip(&verdict.orientation_violations)
+    {
+        let png = dir.join(format!("boundary_{}.png", o.key));
+        let title = format!(
+            "{:?} workspace boundary, platform {}",
+            robot.kind(),
+            o.label
+        );
+        plot_3d(&of(o.key), task, hc_mm, violation.is_none(), &title, &png)?;
+        files.push(png);
+    }
+    for f in files {
+        let _ = writeln!(text, "  wrote {}", f.display());
+    }
+    Ok(text)
+}
+
+/// The columns of `workspace.csv`.
+fn csv_header() -> Vec<String> {
+    [
         "orientation",
         "rx_deg",
         "ry_deg",
@@ -530,9 +616,13 @@ pub fn run(
         "rho_max_mm",
     ]
     .map(String::from)
-    .to_vec();
+    .to_vec()
+}
+
+/// The rows of `workspace.csv`: one per section and scan direction.
+fn csv_rows(sections: &[Section]) -> Vec<Vec<String>> {
     let mut rows = Vec::new();
-    for s in &sections {
+    for s in sections {
         for (p, r) in s.phi_deg.iter().zip(&s.rho_max_mm) {
             let mut row = vec![s.orientation.to_string()];
             row.extend(s.rotation_deg.iter().map(|&x| fixed(x, 6)));
@@ -540,58 +630,39 @@ pub fn run(
             rows.push(row);
         }
     }
-    let csv_path = dir.join("workspace.csv");
-    write_csv(&csv_path, &header, &rows)?;
-    let mut text = String::new();
-    let _ = writeln!(
-        text,
-        "workspace sections ({:?}, limits: {}), admissible = no stop-level guard violation, workspace guard excluded",
-        robot.kind(),
-        limits.source
-    );
-    let mut files = vec![csv_path];
-    for o in task.orientations() {
-        let mine: Vec<&Section> = sections.iter().filter(|s| s.orientation == o.key).collect();
-        let _ = writeln!(text, "orientation {}:", o.label);
-        for s in &mine {
-            let lo = s.rho_max_mm.iter().copied().fold(f64::INFINITY, f64::min);
-            let hi = s.rho_max_mm.iter().copied().fold(0.0, f64::max);
-            let verdict = if s.footprint_inside() {
-                "footprint inside".to_string()
+    rows
+}
+
+/// A section's line of the summary: its height, its radii and whether the footprint lies
+/// inside it.
+fn section_line(s: &Section) -> String {
+    let lo = s.rho_max_mm.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = s.rho_max_mm.iter().copied().fold(0.0, f64::max);
+    let verdict = if s.footprint_inside() {
+        "footprint inside".to_string()
+    } else {
+        format!(
+            "footprint NOT inside{}{}",
+            if s.footprint_rays_inside {
+                ""
             } else {
-                format!(
-                    "footprint NOT inside{}{}",
-                    if s.footprint_rays_inside {
-                        ""
-                    } else {
-                        " (some ray short of it)"
-                    },
-                    s.footprint_violation
-                        .as_ref()
-                        .map(|v| format!("; first failing perimeter point {v}"))
-                        .unwrap_or_default()
-                )
-            };
-            let _ = writeln!(
-                text,
-                "  z {:7.1} mm: rho_max {:7.2} .. {:7.2} mm; {verdict}",
-                s.z_mm, lo, hi
-            );
-        }
-        let png = dir.join(format!("sections_{}.png", o.key));
-        plot(
-            &mine,
-            scan.footprint_half_mm,
-            &format!(
-                "{:?} workspace sections, platform {}",
-                robot.kind(),
-                o.label
-            ),
-            &png,
-        )?;
-        files.push(png);
-    }
-    let verdict = task_box_verdict(&adm, task, hc_mm, 2.0);
+                " (some ray short of it)"
+            },
+            s.footprint_violation
+                .as_ref()
+                .map(|v| format!("; first failing perimeter point {v}"))
+                .unwrap_or_default()
+        )
+    };
+    format!(
+        "  z {:7.1} mm: rho_max {:7.2} .. {:7.2} mm; {verdict}",
+        s.z_mm, lo, hi
+    )
+}
+
+/// The summary's lines of the verdict on the task box, overall and per orientation.
+fn verdict_text(verdict: &BoxVerdict, task: &TaskBox, hc_mm: f64) -> String {
+    let mut text = String::new();
     let [bx, by, bz] = task.box_mm;
     let [sx, sy, sz] = verdict.spacing_mm;
     let _ = writeln!(
@@ -615,29 +686,5 @@ pub fn run(
             Some(v) => writeln!(text, "  platform {}: first failing point {v}", o.label),
         };
     }
-    for (o, violation) in task
-        .orientations()
-        .iter()
-        .zip(&verdict.orientation_violations)
-    {
-        let mine: Vec<&Section> = sections.iter().filter(|s| s.orientation == o.key).collect();
-        let png = dir.join(format!("boundary_{}.png", o.key));
-        plot_3d(
-            &mine,
-            task,
-            hc_mm,
-            violation.is_none(),
-            &format!(
-                "{:?} workspace boundary, platform {}",
-                robot.kind(),
-                o.label
-            ),
-            &png,
-        )?;
-        files.push(png);
-    }
-    for f in files {
-        let _ = writeln!(text, "  wrote {}", f.display());
-    }
-    Ok(text)
+    text
 }

@@ -12,7 +12,7 @@ use simulation::bench::{Bench, BenchError};
 use simulation::board::{BoardSim, BoardSimConfig, BoardSimError};
 use thiserror::Error;
 
-use crate::kinds::{Detection, FaultKind, Only, Reaction};
+use crate::kinds::{Detection, Expectation, FaultKind, Only, Reaction};
 use control::safety::Requirement;
 
 /// Why a cell could not be run (not a fault of the board: a failure of the set-up).
@@ -421,9 +421,20 @@ impl Detector {
     }
 }
 
-/// A cell in one of the running conditions.
-fn running_cell(kind: FaultKind, condition: Condition, b: &mut Bench) -> Result<Cell, BenchError> {
-    let exp = kind.expectation();
+/// The master's target at the bench's time, from `stream`.
+fn send_target(b: &mut Bench, stream: &Stream) {
+    let t = b.now_us();
+    let p = stream.position(t);
+    b.send(&MasterToBoard::PoseTarget {
+        timestamp_us: t,
+        position_m: [p.x as f32, p.y as f32, p.z as f32],
+        rotation_vector_rad: [0.0; 3],
+    });
+}
+
+/// Brings the board up in `condition` (the tool attached for [`Condition::Tool`]) and
+/// streams until the injection is due; the stream, to go on with.
+fn lead_in(condition: Condition, exp: &Expectation, b: &mut Bench) -> Result<Stream, BenchError> {
     b.bring_up()?;
     if condition == Condition::Tool {
         b.board.set_tool(Some(ToolLoad::thesis()));
@@ -435,7 +446,7 @@ fn running_cell(kind: FaultKind, condition: Condition, b: &mut Bench) -> Result<
     } else {
         0.003
     };
-    let mut stream = Stream {
+    let stream = Stream {
         centre,
         speed: condition.speed(),
         amplitude,
@@ -443,21 +454,156 @@ fn running_cell(kind: FaultKind, condition: Condition, b: &mut Bench) -> Result<
         probe_from_us: None,
         probe_step_m: exp.probe_step_mm.map(|mm| mm * 1e-3),
     };
-    let send_target = |b: &mut Bench, stream: &Stream| {
-        let t = b.now_us();
-        let p = stream.position(t);
-        b.send(&MasterToBoard::PoseTarget {
-            timestamp_us: t,
-            position_m: [p.x as f32, p.y as f32, p.z as f32],
-            rotation_vector_rad: [0.0; 3],
-        });
-    };
     for k in 0..before_ms(condition) {
         if k % 10 == 0 {
             send_target(b, &stream);
         }
         b.tick()?;
     }
+    Ok(stream)
+}
+
+/// What a running cell sees tick by tick after the injection.
+struct Watch {
+    /// When the detector noticed the fault, and what.
+    detected: Option<(u64, String)>,
+    /// The wall: when each joint's current last came up to 90 % of its peak and stayed.
+    at_limit_from: [Option<u64>; 6],
+    /// That time for the joint of the fault detected.
+    overload_from: Option<u64>,
+    /// When the fault showed in its joint's current ([`Expectation::shows_at_current`]).
+    shows_at: Option<u64>,
+    /// The largest distance of the platform from the setpoint since the injection, m.
+    after_injection: f64,
+    /// The platform's position and the setpoint at the detection.
+    at_detect: Option<(Vector3<f64>, Vector3<f64>)>,
+    /// The stop in force 30 ms after the detection.
+    reaction: Reaction,
+    /// Since the detection, m: the platform's largest displacement (into the wall, against
+    /// the wall), the setpoint's travel, the largest distance between the two.
+    moved: f64,
+    sp_travel: f64,
+    deviation: f64,
+    /// The setpoint while the controller runs, the last one after.
+    last_sp: Option<Vector3<f64>>,
+}
+
+impl Watch {
+    fn new(b: &Bench) -> Self {
+        Watch {
+            detected: None,
+            at_limit_from: [None; 6],
+            overload_from: None,
+            shows_at: None,
+            after_injection: 0.0,
+            at_detect: None,
+            reaction: Reaction::Continue,
+            moved: 0.0,
+            sp_travel: 0.0,
+            deviation: 0.0,
+            last_sp: setpoint(b),
+        }
+    }
+
+    /// Takes in the tick that just ran.
+    fn tick(&mut self, b: &Bench, det: &Detector, det2: Option<&Detector>, exp: &Expectation) {
+        let now = b.now_us();
+        if let Some(sp) = setpoint(b) {
+            self.last_sp = Some(sp);
+        }
+        self.currents(b, exp, now);
+        if let Some(sp) = self.last_sp {
+            self.after_injection = self
+                .after_injection
+                .max((b.board.truth().pose.t - sp).norm());
+        }
+        if self.detected.is_none() {
+            if let Some(what) = det.check(b).or_else(|| det2.and_then(|d| d.check(b))) {
+                self.detected = Some((now, what));
+                let p = b.board.truth().pose.t;
+                self.at_detect = Some((p, self.last_sp.unwrap_or(p)));
+                if let Some(j) = det.joint_of_last(b) {
+                    self.overload_from = self.at_limit_from.get(j).copied().flatten();
+                }
+            }
+        }
+        self.after_detection(b, now);
+    }
+
+    /// The joints' currents: which sit at their limit since when, and when the fault
+    /// showed in its joint's.
+    fn currents(&mut self, b: &Bench, exp: &Expectation, now: u64) {
+        let rt = b.board.runtime();
+        let currents = rt.inputs().currents;
+        for (j, from) in self.at_limit_from.iter_mut().enumerate() {
+            let at = currents[j].abs() >= 0.9 * rt.monitors().current.peak_current(j);
+            *from = match (*from, at) {
+                (None, true) => Some(now),
+                (f, true) => f,
+                (_, false) => None,
+            };
+        }
+        if let (None, Some((j, frac))) = (self.shows_at, exp.shows_at_current) {
+            if currents[j].abs() > frac * rt.monitors().current.peak_current(j) {
+                self.shows_at = Some(now);
+            }
+        }
+    }
+
+    /// Once detected: how far the platform and the setpoint went, and the stop in force
+    /// 30 ms after.
+    fn after_detection(&mut self, b: &Bench, now: u64) {
+        let (Some((t_det, _)), Some((p0, sp0))) = (&self.detected, &self.at_detect) else {
+            return;
+        };
+        let p = b.board.truth().pose.t;
+        // Against the wall, what counts is the motion further into it (the wall's own
+        // spring pushes the platform back out once the torque is off).
+        let d = match b.board.config().wall {
+            Some(w) => (p - p0).dot(&-w.normal).max(0.0),
+            None => (p - p0).norm(),
+        };
+        self.moved = self.moved.max(d);
+        let sp = self.last_sp.unwrap_or(*sp0);
+        self.sp_travel = self.sp_travel.max((sp - sp0).norm());
+        self.deviation = self.deviation.max((p - sp).norm());
+        if now == *t_det + 30_000 {
+            self.reaction = category_of(b.board.runtime().status().stop);
+        }
+    }
+
+    /// The time to detect, ms: from when the fault showed (the wall: the sustained
+    /// overload of the tripping joint; a latent fault: its current), else from `t_ref`
+    /// (the probe's start or the injection), or from the injection `t_inj` when noticed
+    /// before that.
+    fn detect_ms(&self, kind: FaultKind, t_inj: u64, t_ref: u64) -> Option<f64> {
+        let t_ref = self.shown_from(kind, t_inj, t_ref);
+        self.detected
+            .as_ref()
+            .map(|(t, _)| t.saturating_sub(t_ref) as f64 * 1e-3)
+    }
+
+    /// When the fault showed, as [`Watch::detect_ms`] times it, µs.
+    fn shown_from(&self, kind: FaultKind, t_inj: u64, t_ref: u64) -> u64 {
+        let t_ref = if kind == FaultKind::WallContact {
+            self.overload_from.unwrap_or(t_ref)
+        } else if let Some(t) = self.shows_at {
+            t
+        } else {
+            t_ref
+        };
+        // Noticed before the probe started: timed from the injection.
+        match &self.detected {
+            Some((t, _)) if *t < t_ref => t_inj,
+            _ => t_ref,
+        }
+    }
+}
+
+/// A cell in one of the running conditions.
+fn running_cell(kind: FaultKind, condition: Condition, b: &mut Bench) -> Result<Cell, BenchError> {
+    let exp = kind.expectation();
+    let mut stream = lead_in(condition, &exp, b)?;
     // The detector's baseline before the injection: a frame may be counted as it arrives.
     let mut det = Detector::new(b, exp.detection, None);
     let pair = (condition == Condition::Double).then(|| partner(kind));
@@ -471,7 +617,6 @@ fn running_cell(kind: FaultKind, condition: Condition, b: &mut Bench) -> Result<
         Some(k) => reaction_of_rank(rank_of(exp.reaction).max(rank_of(k.expectation().reaction))),
         None => exp.reaction,
     };
-    let p_inj = b.board.truth().pose.t;
     let speed_at_injection = b.board.truth().velocity.norm();
     // A fault that only shows while its joint works is probed by a small move in the
     // conditions where the joint may not work at all (holding, or moving slowly).
@@ -489,16 +634,7 @@ fn running_cell(kind: FaultKind, condition: Condition, b: &mut Bench) -> Result<
     } else {
         t_inj
     };
-    let mut detected: Option<(u64, String)> = None;
-    // The wall: when each joint's current last came up to 90 % of its peak and stayed.
-    let mut at_limit_from: [Option<u64>; 6] = [None; 6];
-    let mut overload_from: Option<u64> = None;
-    let mut shows_at: Option<u64> = None;
-    let mut after_injection = 0.0f64;
-    let mut at_detect: Option<(Vector3<f64>, Vector3<f64>)> = None;
-    let mut reaction = Reaction::Continue;
-    let (mut moved, mut sp_travel, mut deviation) = (0.0f64, 0.0f64, 0.0f64);
-    let mut last_sp = setpoint(b);
+    let mut watch = Watch::new(b);
     let end = t_ref + AFTER_MS * 1000;
     let mut k = 0u64;
     let mut track = vec![(b.now_us(), b.board.truth().pose.t)];
@@ -509,83 +645,18 @@ fn running_cell(kind: FaultKind, condition: Condition, b: &mut Bench) -> Result<
         }
         k += 1;
         b.tick()?;
-        let now = b.now_us();
-        track.push((now, b.board.truth().pose.t));
+        track.push((b.now_us(), b.board.truth().pose.t));
         contacts.check(b);
-        if let Some(sp) = setpoint(b) {
-            last_sp = Some(sp);
-        }
-        let rt = b.board.runtime();
-        let currents = rt.inputs().currents;
-        for (j, from) in at_limit_from.iter_mut().enumerate() {
-            let at = currents[j].abs() >= 0.9 * rt.monitors().current.peak_current(j);
-            *from = match (*from, at) {
-                (None, true) => Some(now),
-                (f, true) => f,
-                (_, false) => None,
-            };
-        }
-        if let Some(sp) = last_sp {
-            after_injection = after_injection.max((b.board.truth().pose.t - sp).norm());
-        }
-        if let (None, Some((j, frac))) = (shows_at, exp.shows_at_current) {
-            if currents[j].abs() > frac * rt.monitors().current.peak_current(j) {
-                shows_at = Some(now);
-            }
-        }
-        if detected.is_none() {
-            let seen = det
-                .check(b)
-                .or_else(|| det2.as_ref().and_then(|d| d.check(b)));
-            if let Some(what) = seen {
-                detected = Some((now, what));
-                let p = b.board.truth().pose.t;
-                at_detect = Some((p, last_sp.unwrap_or(p)));
-                if let Some(j) = det.joint_of_last(b) {
-                    overload_from = at_limit_from.get(j).copied().flatten();
-                }
-            }
-        }
-        if let (Some((t_det, _)), Some((p0, sp0))) = (&detected, &at_detect) {
-            let p = b.board.truth().pose.t;
-            // Against the wall, what counts is the motion further into it (the wall's own
-            // spring pushes the platform back out once the torque is off).
-            let d = match b.board.config().wall {
-                Some(w) => (p - p0).dot(&-w.normal).max(0.0),
-                None => (p - p0).norm(),
-            };
-            moved = moved.max(d);
-            let sp = last_sp.unwrap_or(*sp0);
-            sp_travel = sp_travel.max((sp - sp0).norm());
-            deviation = deviation.max((p - sp).norm());
-            if now == *t_det + 30_000 {
-                reaction = category_of(b.board.runtime().status().stop);
-            }
-        }
+        watch.tick(b, &det, det2.as_ref(), &exp);
     }
-    let final_stop = b.board.runtime().status().stop;
-    let t_ref = if kind == FaultKind::WallContact {
-        overload_from.unwrap_or(t_ref)
-    } else if let Some(t) = shows_at {
-        t
-    } else {
-        t_ref
-    };
-    // Noticed before the probe started: timed from the injection.
-    let t_ref = match &detected {
-        Some((t, _)) if *t < t_ref => t_inj,
-        _ => t_ref,
-    };
-    let detect_ms = detected
+    let t_from = watch.shown_from(kind, t_inj, t_ref);
+    let before = watch
+        .detected
         .as_ref()
-        .map(|(t, _)| t.saturating_sub(t_ref) as f64 * 1e-3);
-    let _ = p_inj;
-    let before = detected
-        .as_ref()
-        .map_or(0.0, |(t, _)| travel_between(&track, t_ref, *t));
+        .map_or(0.0, |(t, _)| travel_between(&track, t_from, *t));
     let allowed = match expected {
         Reaction::Stop(StopCategory::Sto) => 0.5,
-        Reaction::Stop(_) => sp_travel * 1e3 + 0.1,
+        Reaction::Stop(_) => watch.sp_travel * 1e3 + 0.1,
         Reaction::Continue => 1.0,
     };
     let mut extra = contacts.found;
@@ -595,21 +666,21 @@ fn running_cell(kind: FaultKind, condition: Condition, b: &mut Bench) -> Result<
     }
     extra.extend(misnamed(b, det.log_len, &accepted));
     let shown = if expected == Reaction::Continue {
-        deviation * 1e3
+        watch.deviation * 1e3
     } else {
-        moved * 1e3
+        watch.moved * 1e3
     };
     Ok(verdict(Verdict {
         kind,
         condition,
-        detected,
-        detect_ms,
-        reaction,
-        final_stop,
+        detect_ms: watch.detect_ms(kind, t_inj, t_ref),
+        detected: watch.detected,
+        reaction: watch.reaction,
+        final_stop: b.board.runtime().status().stop,
         shown_mm: shown,
         allowed_mm: allowed,
         still_enabled: b.board.runtime().state() == RobotState::Enabled,
-        deviation_mm: after_injection * 1e3,
+        deviation_mm: watch.after_injection * 1e3,
         logged: det.logged(b),
         speed_mm_s: speed_at_injection * 1e3,
         before_mm: before * 1e3,
@@ -697,13 +768,8 @@ fn phase_cell(kind: FaultKind, b: &mut Bench, only: Only) -> Result<Cell, BenchE
         Only::Enabling => Condition::BrakeCheck,
     };
     let exp = kind.expectation();
-    b.request(
-        &MasterToBoard::Hello {
-            protocol_version: master_link::PROTOCOL_VERSION,
-            nonce: b.master.session,
-        },
-        100,
-    )?;
+    let hello = b.hello_msg();
+    b.request(&hello, 100)?;
     let t_inj;
     let det;
     match only {
@@ -728,6 +794,7 @@ fn phase_cell(kind: FaultKind, b: &mut Bench, only: Only) -> Result<Cell, BenchE
             }
             t_inj = b.now_us();
             det = Detector::new(b, exp.detection, None);
+            b.command(&MasterToBoard::OperatorPresent { present: true })?;
             b.command(&MasterToBoard::Enable)?;
         }
     }
@@ -800,10 +867,7 @@ fn phase_cell(kind: FaultKind, b: &mut Bench, only: Only) -> Result<Cell, BenchE
 /// not show where the robot stands still: not detected then passes, the motion judged.
 fn staged_cell(kind: FaultKind, condition: Condition, b: &mut Bench) -> Result<Cell, BenchError> {
     let exp = kind.expectation();
-    let hello = MasterToBoard::Hello {
-        protocol_version: master_link::PROTOCOL_VERSION,
-        nonce: b.master.session,
-    };
+    let hello = b.hello_msg();
     let bounds = safety_bounds();
     // The stop the condition puts in force: where and when it began, the lag then.
     let mut own_stop: Option<(Vector3<f64>, f64)> = None;
@@ -820,6 +884,7 @@ fn staged_cell(kind: FaultKind, condition: Condition, b: &mut Bench) -> Result<C
                 s.runtime().state() != RobotState::Homing
             })?;
             b.run_ms(100)?;
+            b.command(&MasterToBoard::OperatorPresent { present: true })?;
             b.send(&MasterToBoard::Enable);
             b.run_ms(20)?;
         }

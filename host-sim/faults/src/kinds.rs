@@ -125,8 +125,28 @@ pub struct Expectation {
     pub only: Option<Only>,
 }
 
-const fn cause(c: &'static [FaultCause], joint: Option<u8>) -> Detection {
-    Detection::Cause(c, joint)
+/// What an encoder that no longer follows its joint is logged as: the back-EMF check, the
+/// following error, or no motion under drive.
+const ENCODER_LOST: &[FaultCause] = &[
+    FaultCause::EncoderDead,
+    FaultCause::FollowingError,
+    FaultCause::NoMotion,
+];
+
+/// A fault the board logs with one of `causes` (on `joint`, if given) within `bound_ms`,
+/// stopped as the stop table says for the first of them.
+const fn logged(
+    causes: &'static [FaultCause],
+    joint: Option<u8>,
+    bound_ms: u64,
+    needs_motion: bool,
+) -> Expectation {
+    e(
+        Detection::Cause(causes, joint),
+        bound_ms,
+        stop_of(causes[0]),
+        needs_motion,
+    )
 }
 
 const fn e(
@@ -144,6 +164,21 @@ const fn e(
         shows_at_current: None,
         only: None,
     }
+}
+
+/// A request refused with one of `reasons` within `bound_ms`; the board goes on.
+const fn refused(reasons: &'static [NackReason], bound_ms: u64) -> Expectation {
+    e(
+        Detection::Nack(reasons),
+        bound_ms,
+        Reaction::Continue,
+        false,
+    )
+}
+
+/// Bad frames counted by the link within `bound_ms`; the board goes on.
+const fn counted(bound_ms: u64) -> Expectation {
+    e(Detection::Counted, bound_ms, Reaction::Continue, false)
 }
 
 const fn stop_of(c: FaultCause) -> Reaction {
@@ -246,51 +281,16 @@ impl FaultKind {
         use FaultCause as C;
         match self {
             // The back-EMF check (5 ticks) or the following-error window.
-            FaultKind::EncoderStuck => e(
-                cause(&[C::EncoderDead, C::FollowingError, C::NoMotion], Some(0)),
-                100,
-                stop_of(C::EncoderDead),
-                true,
-            ),
-            FaultKind::EncoderJump => e(
-                cause(&[C::EncoderJump], Some(1)),
-                2,
-                stop_of(C::EncoderJump),
-                false,
-            ),
-            FaultKind::EncoderDead => e(
-                cause(&[C::EncoderDead, C::FollowingError, C::NoMotion], Some(4)),
-                150,
-                stop_of(C::EncoderDead),
-                true,
-            ),
+            FaultKind::EncoderStuck => logged(ENCODER_LOST, Some(0), 100, true),
+            FaultKind::EncoderJump => logged(&[C::EncoderJump], Some(1), 2, false),
+            FaultKind::EncoderDead => logged(ENCODER_LOST, Some(4), 150, true),
             // The open-circuit check: 5 ticks once the model asks for a current above its
             // floor (in a holding condition, while the probe move starts).
-            FaultKind::MotorOpen => e(
-                cause(&[C::MotorOpen], Some(2)),
-                30,
-                stop_of(C::MotorOpen),
-                true,
-            ),
-            FaultKind::MotorShorted => e(
-                cause(&[C::DriverFault], None),
-                2,
-                stop_of(C::DriverFault),
-                true,
-            ),
-            FaultKind::DriverFault => e(
-                cause(&[C::DriverFault], None),
-                2,
-                stop_of(C::DriverFault),
-                false,
-            ),
+            FaultKind::MotorOpen => logged(&[C::MotorOpen], Some(2), 30, true),
+            FaultKind::MotorShorted => logged(&[C::DriverFault], None, 2, true),
+            FaultKind::DriverFault => logged(&[C::DriverFault], None, 2, false),
             // 3 ticks out of range.
-            FaultKind::SupplySag => e(
-                cause(&[C::SupplyVoltage], None),
-                5,
-                stop_of(C::SupplyVoltage),
-                false,
-            ),
+            FaultKind::SupplySag => logged(&[C::SupplyVoltage], None, 5, false),
             // Five samples of a current three times the model's (or one above 1.5 x the
             // peak), once the servo asks the joint for a current: in a holding condition
             // while the probe move starts.
@@ -306,21 +306,11 @@ impl FaultKind {
             FaultKind::Overcurrent => Expectation {
                 probe_step_mm: Some(3.0),
                 shows_at_current: Some((1, 0.05)),
-                ..e(
-                    cause(&[C::Overcurrent, C::CurrentImplausible], Some(1)),
-                    50,
-                    stop_of(C::Overcurrent),
-                    true,
-                )
+                ..logged(&[C::Overcurrent, C::CurrentImplausible], Some(1), 50, true)
             },
             // The driver's VDS protection latches within microseconds; the next tick
             // reads its fault line.
-            FaultKind::BridgeStuckOn => e(
-                cause(&[C::DriverFault], None),
-                2,
-                stop_of(C::DriverFault),
-                false,
-            ),
+            FaultKind::BridgeStuckOn => logged(&[C::DriverFault], None, 2, false),
             // The heartbeat's hold time, 100 ms, after the last heartbeat (at most 50 ms
             // before the cut).
             FaultKind::LinkLoss => e(
@@ -329,76 +319,36 @@ impl FaultKind {
                 Reaction::Stop(StopCategory::Ss2),
                 false,
             ),
-            FaultKind::GarbageBurst => e(Detection::Counted, 2, Reaction::Continue, false),
-            FaultKind::ReplayedFrames => e(Detection::Counted, 2, Reaction::Continue, false),
-            FaultKind::EStop => e(
-                cause(&[C::EmergencyStopButton], None),
-                1,
-                stop_of(C::EmergencyStopButton),
-                false,
-            ),
+            FaultKind::GarbageBurst => counted(2),
+            FaultKind::ReplayedFrames => counted(2),
+            FaultKind::EStop => logged(&[C::EmergencyStopButton], None, 1, false),
             // The relay's debounce, 20 ticks.
-            FaultKind::RelayWelded => e(
-                cause(&[C::SafetyRelayMismatch], None),
-                23,
-                stop_of(C::SafetyRelayMismatch),
-                false,
-            ),
+            FaultKind::RelayWelded => logged(&[C::SafetyRelayMismatch], None, 23, false),
             // The third overrun within the window.
-            FaultKind::TickOverrun => e(
-                cause(&[C::DeadlineMissed], None),
-                3,
-                stop_of(C::DeadlineMissed),
-                false,
-            ),
-            FaultKind::NanTarget => e(
-                Detection::Nack(&[NackReason::InvalidValue]),
-                2,
-                Reaction::Continue,
-                false,
-            ),
-            FaultKind::UnreachableTarget => e(
-                Detection::Nack(&[NackReason::VelocityLimit, NackReason::OutOfWorkspace]),
-                2,
-                Reaction::Continue,
-                false,
-            ),
-            FaultKind::LimitSwitchClosed => e(
-                cause(&[C::LimitSwitch], Some(2)),
-                2,
-                stop_of(C::LimitSwitch),
-                false,
-            ),
+            FaultKind::TickOverrun => logged(&[C::DeadlineMissed], None, 3, false),
+            FaultKind::NanTarget => refused(&[NackReason::InvalidValue], 2),
+            FaultKind::UnreachableTarget => {
+                refused(&[NackReason::VelocityLimit, NackReason::OutOfWorkspace], 2)
+            }
+            FaultKind::LimitSwitchClosed => logged(&[C::LimitSwitch], Some(2), 2, false),
             // The following-error window or no motion under full drive.
-            FaultKind::LoadSeized => e(
-                cause(&[C::FollowingError, C::NoMotion, C::Overload], Some(4)),
+            FaultKind::LoadSeized => logged(
+                &[C::FollowingError, C::NoMotion, C::Overload],
+                Some(4),
                 150,
-                stop_of(C::FollowingError),
                 true,
             ),
             // The overload time, 8 ms, once the current sits at the limit: timed from the
             // start of the sustained overload (the tripping joint's current at 90 % of its
-            // peak or more), the "a sustained overload trips within 10 ms".
-            FaultKind::WallContact => {
-                e(cause(&[C::Overload], None), 10, stop_of(C::Overload), true)
-            }
+            // peak or more): a sustained overload trips within 10 ms.
+            FaultKind::WallContact => logged(&[C::Overload], None, 10, true),
             FaultKind::HomingSwitchDead => Expectation {
                 only: Some(Only::Homing),
-                ..e(
-                    cause(&[C::HomingFailed], Some(0)),
-                    3_000,
-                    stop_of(C::HomingFailed),
-                    false,
-                )
+                ..logged(&[C::HomingFailed], Some(0), 3_000, false)
             },
             FaultKind::BrakeWeak => Expectation {
                 only: Some(Only::Enabling),
-                ..e(
-                    cause(&[C::BrakeCheck], None),
-                    100,
-                    stop_of(C::BrakeCheck),
-                    false,
-                )
+                ..logged(&[C::BrakeCheck], None, 100, false)
             },
         }
     }
@@ -443,71 +393,23 @@ impl FaultKind {
                 let _ = plant.inject(1, Fault::BridgeStuckOn);
             }
             FaultKind::LinkLoss => b.link_up = false,
-            FaultKind::GarbageBurst => {
-                let mut x: u32 = 0x9e37_79b9;
-                let noise: Vec<u8> = (0..300)
-                    .map(|k| {
-                        x = x.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-                        // A delimiter now and then: several malformed frames.
-                        if k % 97 == 96 {
-                            0
-                        } else {
-                            ((x >> 24) as u8).max(1)
-                        }
-                    })
-                    .collect();
-                b.send_raw(&noise);
-            }
-            FaultKind::ReplayedFrames => {
-                // An old Enable and an old target, with stale sequence numbers.
-                let old = b.master.next_seq().wrapping_sub(30);
-                let session = b.master.session;
-                b.send_raw(&frame_in(&MasterToBoard::Enable, session, old));
-                let target = MasterToBoard::PoseTarget {
-                    timestamp_us: 1,
-                    position_m: [0.010, 0.0, 0.165],
-                    rotation_vector_rad: [0.0; 3],
-                };
-                b.send_raw(&frame_in(&target, session, old.wrapping_add(1)));
-            }
+            FaultKind::GarbageBurst => b.send_raw(&noise()),
+            FaultKind::ReplayedFrames => replay_old_frames(b),
             FaultKind::EStop => b.board.press_estop(true),
             FaultKind::RelayWelded => {
                 b.board.hw.relay_welded = true;
                 b.board.press_estop(true);
             }
             FaultKind::TickOverrun => b.board.overrun_next_ticks(3, 950),
-            FaultKind::NanTarget => {
-                let t = b.now_us();
-                return Some(b.send(&MasterToBoard::PoseTarget {
-                    timestamp_us: t,
-                    position_m: [0.0, f32::NAN, 0.160],
-                    rotation_vector_rad: [0.0; 3],
-                }));
-            }
-            FaultKind::UnreachableTarget => {
-                let t = b.now_us();
-                return Some(b.send(&MasterToBoard::PoseTarget {
-                    timestamp_us: t,
-                    position_m: [0.070, 0.0, 0.160],
-                    rotation_vector_rad: [0.0; 3],
-                }));
-            }
+            FaultKind::NanTarget => return Some(send_target_now(b, [0.0, f32::NAN, 0.160])),
+            FaultKind::UnreachableTarget => return Some(send_target_now(b, [0.070, 0.0, 0.160])),
             FaultKind::LimitSwitchClosed => b.board.hw.switch_forced[2] = Some(true),
             FaultKind::LoadSeized => {
                 let _ = plant.inject(4, Fault::LoadSeized);
             }
             FaultKind::WallContact => {
-                // Across the path, 1 mm ahead of the platform in the direction it moves
-                // (or will move: the probe goes +x).
-                let p = b.board.truth().pose.t;
-                let v = b.board.truth().velocity;
-                let dir = if v.x < 0.0 { -1.0 } else { 1.0 };
-                b.board.set_wall(Some(Wall {
-                    point: nalgebra::Vector3::new(p.x + dir * 0.001, 0.0, 0.0),
-                    normal: nalgebra::Vector3::new(-dir, 0.0, 0.0),
-                    stiffness_n_per_m: 1e5,
-                    damping_n_s_per_m: 200.0,
-                }));
+                let wall = wall_ahead(b);
+                b.board.set_wall(Some(wall));
             }
             FaultKind::HomingSwitchDead => b.board.hw.switch_forced[0] = Some(false),
             FaultKind::BrakeWeak => {
@@ -515,5 +417,57 @@ impl FaultKind {
             }
         }
         None
+    }
+}
+
+/// 300 bytes of noise, a delimiter now and then: several malformed frames.
+fn noise() -> Vec<u8> {
+    let mut x: u32 = 0x9e37_79b9;
+    (0..300)
+        .map(|k| {
+            x = x.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            if k % 97 == 96 {
+                0
+            } else {
+                ((x >> 24) as u8).max(1)
+            }
+        })
+        .collect()
+}
+
+/// Sends an old Enable and an old target, with stale sequence numbers.
+fn replay_old_frames(b: &mut Bench) {
+    let old = b.master.next_seq().wrapping_sub(30);
+    let session = b.master.session;
+    b.send_raw(&frame_in(&MasterToBoard::Enable, session, old));
+    let target = MasterToBoard::PoseTarget {
+        timestamp_us: 1,
+        position_m: [0.010, 0.0, 0.165],
+        rotation_vector_rad: [0.0; 3],
+    };
+    b.send_raw(&frame_in(&target, session, old.wrapping_add(1)));
+}
+
+/// Sends a target at `position_m` (no rotation) stamped now; its sequence number.
+fn send_target_now(b: &mut Bench, position_m: [f32; 3]) -> u16 {
+    let t = b.now_us();
+    b.send(&MasterToBoard::PoseTarget {
+        timestamp_us: t,
+        position_m,
+        rotation_vector_rad: [0.0; 3],
+    })
+}
+
+/// A stiff wall across the path, 1 mm ahead of the platform in the direction it moves
+/// (or will move: the probe goes +x).
+fn wall_ahead(b: &Bench) -> Wall {
+    let p = b.board.truth().pose.t;
+    let v = b.board.truth().velocity;
+    let dir = if v.x < 0.0 { -1.0 } else { 1.0 };
+    Wall {
+        point: nalgebra::Vector3::new(p.x + dir * 0.001, 0.0, 0.0),
+        normal: nalgebra::Vector3::new(-dir, 0.0, 0.0),
+        stiffness_n_per_m: 1e5,
+        damping_n_s_per_m: 200.0,
     }
 }

@@ -183,6 +183,21 @@ pub fn split_v3_body(body: &[u8]) -> Result<V3Body<'_>, MetadataError> {
             metadata: Vec::new(),
         });
     }
+    let sizes = entry_sizes(header, meta_header, meta)?;
+    Ok(V3Body {
+        message_id,
+        content,
+        metadata: entries(values, sizes)?,
+    })
+}
+
+/// The (key size, encoding, value size) of every entry of the metadata header `header`
+/// (`meta_header` bytes), checked against the metadata's size `meta`.
+fn entry_sizes(
+    header: &[u8],
+    meta_header: u16,
+    meta: u32,
+) -> Result<Vec<(u16, u16, u32)>, MetadataError> {
     if header.len() < 2 {
         return Err(MetadataError::HeaderSizeMismatch {
             size: meta_header,
@@ -212,6 +227,15 @@ pub fn split_v3_body(body: &[u8]) -> Result<V3Body<'_>, MetadataError> {
             size: meta,
         });
     }
+    Ok(sizes)
+}
+
+/// The entries of the metadata `values`, of the checked `sizes` (they add up to its
+/// length).
+fn entries(
+    values: &[u8],
+    sizes: Vec<(u16, u16, u32)>,
+) -> Result<Vec<MetadataEntry>, MetadataError> {
     let mut metadata = Vec::with_capacity(sizes.len());
     let mut at = 0usize;
     for (index, (key_size, encoding, value_size)) in sizes.into_iter().enumerate() {
@@ -227,11 +251,7 @@ pub fn split_v3_body(body: &[u8]) -> Result<V3Body<'_>, MetadataError> {
         });
         at = value_end;
     }
-    Ok(V3Body {
-        message_id,
-        content,
-        metadata,
-    })
+    Ok(metadata)
 }
 
 /// Writes a version-3 body: extended header, content, metadata header (always present,

@@ -592,70 +592,12 @@ impl Server {
         let device = m.device_name.as_str();
         match kind {
             QueryKind::Get => {
-                let (name, body) = match data {
-                    Some(d @ (DataType::Transform | DataType::Position | DataType::QTrans)) => {
-                        if device.is_empty() || device == self.config.pose_device {
-                            let body = match robot.measured_pose() {
-                                Some(p) => self.pose_body(d, &p),
-                                None => Body::Null(d),
-                            };
-                            (self.config.pose_device.clone(), body)
-                        } else {
-                            (device.to_owned(), Body::Null(d))
-                        }
-                    }
-                    Some(DataType::Status) => {
-                        if device.is_empty() || device == self.config.status_device {
-                            (
-                                self.config.status_device.clone(),
-                                state_status(&robot.state()),
-                            )
-                        } else {
-                            (device.to_owned(), Body::Null(DataType::Status))
-                        }
-                    }
-                    Some(DataType::String) => {
-                        if device.is_empty() || device == self.config.state_text_device {
-                            (
-                                self.config.state_text_device.clone(),
-                                state_string(&robot.state()),
-                            )
-                        } else if device == self.config.counters_device {
-                            let json = self.counters.to_json();
-                            (device.to_owned(), Body::String(StringContent::text(&json)))
-                        } else {
-                            (device.to_owned(), Body::Null(DataType::String))
-                        }
-                    }
-                    // A data type not handled here: "no data available" is a message of
-                    // that type with an empty body (protocol page "Query").
-                    None => (
-                        device.to_owned(),
-                        Body::Other {
-                            type_name: suffix.to_owned(),
-                            content: Vec::new(),
-                        },
-                    ),
-                };
+                let (name, body) = self.get_reply(device, data, suffix, robot);
                 self.send(client, m.version, m.message_id, &name, body);
             }
             QueryKind::Start | QueryKind::Stop => {
                 let start = kind == QueryKind::Start;
-                let ours = device.is_empty() || device == self.config.pose_device;
-                let ok = match data {
-                    Some(DataType::Transform) if ours => {
-                        client.stream_transform = start;
-                        true
-                    }
-                    Some(d @ (DataType::Position | DataType::QTrans)) if ours => {
-                        client.stream_position = start.then_some(d);
-                        true
-                    }
-                    _ => false,
-                };
-                if ok && start {
-                    client.next_pose_at = Instant::now();
-                }
+                let ok = self.stream_request(client, device, data, start);
                 let body = Body::Rts {
                     suffix: suffix.to_owned(),
                     status: if ok { 0 } else { 1 },
@@ -663,6 +605,89 @@ impl Server {
                 self.send(client, m.version, m.message_id, device, body);
             }
         }
+    }
+
+    /// The answer to GET_`suffix` of `device` (empty: this server's device of that
+    /// type): the device answering and the data, or no data (an empty body).
+    fn get_reply<R: Robot + ?Sized>(
+        &self,
+        device: &str,
+        data: Option<DataType>,
+        suffix: &str,
+        robot: &mut R,
+    ) -> (String, Body) {
+        match data {
+            Some(d @ (DataType::Transform | DataType::Position | DataType::QTrans)) => {
+                if device.is_empty() || device == self.config.pose_device {
+                    let body = match robot.measured_pose() {
+                        Some(p) => self.pose_body(d, &p),
+                        None => Body::Null(d),
+                    };
+                    (self.config.pose_device.clone(), body)
+                } else {
+                    (device.to_owned(), Body::Null(d))
+                }
+            }
+            Some(DataType::Status) => {
+                if device.is_empty() || device == self.config.status_device {
+                    (
+                        self.config.status_device.clone(),
+                        state_status(&robot.state()),
+                    )
+                } else {
+                    (device.to_owned(), Body::Null(DataType::Status))
+                }
+            }
+            Some(DataType::String) => {
+                if device.is_empty() || device == self.config.state_text_device {
+                    (
+                        self.config.state_text_device.clone(),
+                        state_string(&robot.state()),
+                    )
+                } else if device == self.config.counters_device {
+                    let json = self.counters.to_json();
+                    (device.to_owned(), Body::String(StringContent::text(&json)))
+                } else {
+                    (device.to_owned(), Body::Null(DataType::String))
+                }
+            }
+            // A data type not handled here: "no data available" is a message of
+            // that type with an empty body (protocol page "Query").
+            None => (
+                device.to_owned(),
+                Body::Other {
+                    type_name: suffix.to_owned(),
+                    content: Vec::new(),
+                },
+            ),
+        }
+    }
+
+    /// Starts (`start`) or stops the client's stream of `data` from `device`; whether
+    /// this server streams that (the pose device's transform or position).
+    fn stream_request(
+        &self,
+        client: &mut Client,
+        device: &str,
+        data: Option<DataType>,
+        start: bool,
+    ) -> bool {
+        let ours = device.is_empty() || device == self.config.pose_device;
+        let ok = match data {
+            Some(DataType::Transform) if ours => {
+                client.stream_transform = start;
+                true
+            }
+            Some(d @ (DataType::Position | DataType::QTrans)) if ours => {
+                client.stream_position = start.then_some(d);
+                true
+            }
+            _ => false,
+        };
+        if ok && start {
+            client.next_pose_at = Instant::now();
+        }
+        ok
     }
 
     fn pose_body(&self, data: DataType, pose_base: &crate::pose::PoseSi) -> Body {

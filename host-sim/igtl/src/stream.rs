@@ -24,6 +24,7 @@
 
 use crate::header::{may_start_header, Header, HeaderError, HEADER_SIZE};
 use crate::message::{DecodeError, Message};
+use std::ops::ControlFlow;
 use thiserror::Error;
 
 /// Limits of a [`StreamDecoder`].
@@ -238,99 +239,118 @@ impl StreamDecoder {
     /// The next message or bad input, `None` when more bytes are needed.
     pub fn next_event(&mut self) -> Option<Event> {
         loop {
-            match self.state.clone() {
-                State::Skip { total, remaining } => {
-                    let n = remaining.min(self.available().len() as u64);
-                    // n <= available length, so it fits in usize.
-                    self.consume(n as usize);
-                    self.discarded += n;
-                    if n < remaining {
-                        self.state = State::Skip {
-                            total,
-                            remaining: remaining - n,
-                        };
-                        return None;
-                    }
-                    self.state = State::Header;
-                }
-                State::Body(header) => {
-                    let available = self.available();
-                    if (available.len() as u64) < header.body_size {
-                        return None;
-                    }
-                    // body_size <= available length (<= max_body_size), fits in usize.
-                    let size = header.body_size as usize;
-                    let result =
-                        Message::decode_body(&header, &available[..size], self.limits.check_crc);
-                    self.consume(size);
-                    self.state = State::Header;
-                    return Some(match result {
-                        Ok(message) => Event::Message(message),
-                        Err(e) => Event::Malformed(Malformed {
-                            header: Some(header),
-                            error: StreamError::Decode(e),
-                        }),
-                    });
-                }
-                State::Header => {
-                    let available = self.available();
-                    if available.is_empty() {
-                        return None;
-                    }
-                    if !may_start_header(&available[..available.len().min(3)]) {
-                        // Cheap rejection of the first byte.
-                        let report = (!self.in_garbage).then(|| garbage(available));
-                        self.drop_garbage_byte();
-                        self.in_garbage = true;
-                        if report.is_some() {
-                            return report;
-                        }
-                        continue;
-                    }
-                    let head = available.first_chunk::<HEADER_SIZE>()?;
-                    match Header::decode(head) {
-                        Err(_) => {
-                            let report = (!self.in_garbage).then(|| garbage(available));
-                            self.drop_garbage_byte();
-                            self.in_garbage = true;
-                            if report.is_some() {
-                                return report;
-                            }
-                        }
-                        Ok(header) => {
-                            if header.body_size <= self.limits.max_body_size {
-                                self.in_garbage = false;
-                                self.consume(HEADER_SIZE);
-                                self.state = State::Body(header);
-                                continue;
-                            }
-                            let skipped = header.body_size <= self.limits.max_skip_size;
-                            let error = StreamError::Oversized {
-                                body_size: header.body_size,
-                                max_body_size: self.limits.max_body_size,
-                                skipped,
-                            };
-                            if skipped {
-                                self.in_garbage = false;
-                                self.consume(HEADER_SIZE);
-                                self.discarded += HEADER_SIZE as u64;
-                                self.state = State::Skip {
-                                    total: header.body_size,
-                                    remaining: header.body_size,
-                                };
-                            } else {
-                                self.drop_garbage_byte();
-                                self.in_garbage = true;
-                            }
-                            return Some(Event::Malformed(Malformed {
-                                header: Some(header),
-                                error,
-                            }));
-                        }
-                    }
-                }
+            let step = match self.state.clone() {
+                State::Skip { total, remaining } => self.skip(total, remaining),
+                State::Body(header) => self.body(header),
+                State::Header => self.header(),
+            };
+            if let ControlFlow::Break(event) = step {
+                return event;
             }
         }
+    }
+
+    /// Skips what is there of an oversized message's body; the header is next once all
+    /// of it went.
+    fn skip(&mut self, total: u64, remaining: u64) -> ControlFlow<Option<Event>> {
+        let n = remaining.min(self.available().len() as u64);
+        // n <= available length, so it fits in usize.
+        self.consume(n as usize);
+        self.discarded += n;
+        if n < remaining {
+            self.state = State::Skip {
+                total,
+                remaining: remaining - n,
+            };
+            return ControlFlow::Break(None);
+        }
+        self.state = State::Header;
+        ControlFlow::Continue(())
+    }
+
+    /// Decodes the body of `header` once all of it is there: the message, or why it is
+    /// malformed.
+    fn body(&mut self, header: Header) -> ControlFlow<Option<Event>> {
+        let available = self.available();
+        if (available.len() as u64) < header.body_size {
+            return ControlFlow::Break(None);
+        }
+        // body_size <= available length (<= max_body_size), fits in usize.
+        let size = header.body_size as usize;
+        let result = Message::decode_body(&header, &available[..size], self.limits.check_crc);
+        self.consume(size);
+        self.state = State::Header;
+        ControlFlow::Break(Some(match result {
+            Ok(message) => Event::Message(message),
+            Err(e) => Event::Malformed(Malformed {
+                header: Some(header),
+                error: StreamError::Decode(e),
+            }),
+        }))
+    }
+
+    /// Looks for a header: a byte that cannot start one is garbage; a header whose body
+    /// is too large is reported (and its body skipped when not too large to skip).
+    fn header(&mut self) -> ControlFlow<Option<Event>> {
+        let available = self.available();
+        if available.is_empty() {
+            return ControlFlow::Break(None);
+        }
+        if !may_start_header(&available[..available.len().min(3)]) {
+            // Cheap rejection of the first byte.
+            return self.garbage_byte();
+        }
+        let Some(head) = available.first_chunk::<HEADER_SIZE>() else {
+            return ControlFlow::Break(None);
+        };
+        match Header::decode(head) {
+            Err(_) => self.garbage_byte(),
+            Ok(header) if header.body_size <= self.limits.max_body_size => {
+                self.in_garbage = false;
+                self.consume(HEADER_SIZE);
+                self.state = State::Body(header);
+                ControlFlow::Continue(())
+            }
+            Ok(header) => ControlFlow::Break(Some(self.oversized(header))),
+        }
+    }
+
+    /// Drops the first byte as garbage; the first of a run of garbage is reported.
+    fn garbage_byte(&mut self) -> ControlFlow<Option<Event>> {
+        let report = (!self.in_garbage).then(|| garbage(self.available()));
+        self.drop_garbage_byte();
+        self.in_garbage = true;
+        match report {
+            Some(event) => ControlFlow::Break(Some(event)),
+            None => ControlFlow::Continue(()),
+        }
+    }
+
+    /// A header whose body exceeds the limit: its body skipped when within the skip
+    /// limit, else the header's first byte dropped as garbage.
+    fn oversized(&mut self, header: Header) -> Event {
+        let skipped = header.body_size <= self.limits.max_skip_size;
+        let error = StreamError::Oversized {
+            body_size: header.body_size,
+            max_body_size: self.limits.max_body_size,
+            skipped,
+        };
+        if skipped {
+            self.in_garbage = false;
+            self.consume(HEADER_SIZE);
+            self.discarded += HEADER_SIZE as u64;
+            self.state = State::Skip {
+                total: header.body_size,
+                remaining: header.body_size,
+            };
+        } else {
+            self.drop_garbage_byte();
+            self.in_garbage = true;
+        }
+        Event::Malformed(Malformed {
+            header: Some(header),
+            error,
+        })
     }
 
     /// Call when the stream has ended: reports a message cut short, if any.

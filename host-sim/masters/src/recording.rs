@@ -604,6 +604,75 @@ pub struct Recording {
     unknown_topics: u64,
 }
 
+/// A message's JSON.
+fn decode<T: serde::de::DeserializeOwned>(data: &[u8]) -> Result<T, String> {
+    serde_json::from_slice(data).map_err(|e| e.to_string())
+}
+
+impl InputJson {
+    /// The sample: a twist (SI from mm/s and deg/s) or a pose, exactly one of them.
+    fn record(self) -> Result<InputRecord, String> {
+        let input = match (self.twist, self.pose) {
+            (Some(t), None) => MasterInput::Twist(
+                Twist::from_array([
+                    t.vx_mm_s * 1e-3,
+                    t.vy_mm_s * 1e-3,
+                    t.vz_mm_s * 1e-3,
+                    t.wx_deg_s.to_radians(),
+                    t.wy_deg_s.to_radians(),
+                    t.wz_deg_s.to_radians(),
+                ])
+                .map_err(|e| e.to_string())?,
+            ),
+            (None, Some(p)) => MasterInput::Pose(p.pose().map_err(|e| e.to_string())?),
+            _ => return Err("needs exactly one of twist and pose".into()),
+        };
+        Ok(InputRecord {
+            t_s: self.t_s,
+            input,
+            clutch: self.clutch,
+            operator_present: self.operator_present,
+            device_time_us: self.device_time_us,
+            deflection: self.deflection,
+        })
+    }
+}
+
+impl ServoCpJson {
+    /// The target sent.
+    fn record(self) -> Result<TargetRecord, String> {
+        Ok(TargetRecord {
+            t_s: self.t_s,
+            timestamp_us: self.timestamp_us,
+            pose: self.pose.pose().map_err(|e| e.to_string())?,
+            limited: self.limited,
+            input_t_s: self.input_t_s,
+            commanded: self
+                .commanded
+                .map(|p| p.pose())
+                .transpose()
+                .map_err(|e| e.to_string())?,
+        })
+    }
+}
+
+impl StatusJson {
+    /// The board's status.
+    fn record(self) -> Result<StatusRecord, String> {
+        let pose = |p: Option<PoseJson>| p.map(|p| p.pose()).transpose().map_err(|e| e.to_string());
+        Ok(StatusRecord {
+            t_s: self.t_s,
+            state: self.state,
+            measured: pose(self.measured_cp)?,
+            setpoint: pose(self.setpoint_cp)?,
+            nearest_margin: self.nearest_margin,
+            faults: self.faults,
+            margins: self.margins,
+            stop: self.stop,
+        })
+    }
+}
+
 fn decode_err(path: &Path, topic: &str, index: usize, detail: impl fmt::Display) -> RecordingError {
     RecordingError::Decode {
         path: path.to_path_buf(),
@@ -653,76 +722,29 @@ impl Recording {
                 }
             };
             let topic = m.channel.topic.as_str();
-            let d = |e: &dyn fmt::Display| decode_err(path, topic, index, e);
-            match topic {
-                TOPIC_SESSION => {
-                    session =
-                        Some(serde_json::from_slice::<SessionInfo>(&m.data).map_err(|e| d(&e))?);
-                }
-                TOPIC_INPUT => {
-                    let j: InputJson = serde_json::from_slice(&m.data).map_err(|e| d(&e))?;
-                    let input = match (j.twist, j.pose) {
-                        (Some(t), None) => MasterInput::Twist(
-                            Twist::from_array([
-                                t.vx_mm_s * 1e-3,
-                                t.vy_mm_s * 1e-3,
-                                t.vz_mm_s * 1e-3,
-                                t.wx_deg_s.to_radians(),
-                                t.wy_deg_s.to_radians(),
-                                t.wz_deg_s.to_radians(),
-                            ])
-                            .map_err(|e| d(&e))?,
-                        ),
-                        (None, Some(p)) => MasterInput::Pose(p.pose().map_err(|e| d(&e))?),
-                        _ => return Err(d(&"needs exactly one of twist and pose")),
-                    };
-                    rec.inputs.push(InputRecord {
-                        t_s: j.t_s,
-                        input,
-                        clutch: j.clutch,
-                        operator_present: j.operator_present,
-                        device_time_us: j.device_time_us,
-                        deflection: j.deflection,
-                    });
-                }
-                TOPIC_SERVO_CP => {
-                    let j: ServoCpJson = serde_json::from_slice(&m.data).map_err(|e| d(&e))?;
-                    rec.targets.push(TargetRecord {
-                        t_s: j.t_s,
-                        timestamp_us: j.timestamp_us,
-                        pose: j.pose.pose().map_err(|e| d(&e))?,
-                        limited: j.limited,
-                        input_t_s: j.input_t_s,
-                        commanded: j
-                            .commanded
-                            .map(|p| p.pose())
-                            .transpose()
-                            .map_err(|e| d(&e))?,
-                    });
-                }
-                TOPIC_STATUS => {
-                    let j: StatusJson = serde_json::from_slice(&m.data).map_err(|e| d(&e))?;
-                    let pose = |p: Option<PoseJson>| p.map(|p| p.pose()).transpose();
-                    rec.statuses.push(StatusRecord {
-                        t_s: j.t_s,
-                        state: j.state,
-                        measured: pose(j.measured_cp).map_err(|e| d(&e))?,
-                        setpoint: pose(j.setpoint_cp).map_err(|e| d(&e))?,
-                        nearest_margin: j.nearest_margin,
-                        faults: j.faults,
-                        margins: j.margins,
-                        stop: j.stop,
-                    });
-                }
-                TOPIC_EVENT => {
-                    rec.events
-                        .push(serde_json::from_slice(&m.data).map_err(|e| d(&e))?);
-                }
-                _ => rec.unknown_topics += 1,
+            if let Some(s) = rec
+                .take(topic, &m.data)
+                .map_err(|e| decode_err(path, topic, index, e))?
+            {
+                session = Some(s);
             }
         }
         rec.session = session.ok_or_else(|| RecordingError::NoSession(path.to_path_buf()))?;
         Ok(rec)
+    }
+
+    /// Takes one message of `topic`; the session record, when it is one. The error says
+    /// why the message does not decode.
+    fn take(&mut self, topic: &str, data: &[u8]) -> Result<Option<SessionInfo>, String> {
+        match topic {
+            TOPIC_SESSION => return Ok(Some(decode(data)?)),
+            TOPIC_INPUT => self.inputs.push(decode::<InputJson>(data)?.record()?),
+            TOPIC_SERVO_CP => self.targets.push(decode::<ServoCpJson>(data)?.record()?),
+            TOPIC_STATUS => self.statuses.push(decode::<StatusJson>(data)?.record()?),
+            TOPIC_EVENT => self.events.push(decode(data)?),
+            _ => self.unknown_topics += 1,
+        }
+        Ok(None)
     }
 
     /// Master samples, in file order.

@@ -424,7 +424,21 @@ impl Teleop {
             v.position_m += tw.linear_m_s * dt;
             v.orientation = rotate(&v.orientation, &(tw.angular_rad_s * dt));
         }
-        let reason = if !fresh {
+        if let Some(r) = self.hold_reason(&latest, fresh, dt) {
+            return Ok(self.hold(r));
+        }
+        let (master, rate) = match latest.input {
+            MasterInput::Twist(_) => (self.virtual_master, true),
+            MasterInput::Pose(p) => (p, false),
+        };
+        let anchor = self.engaged(master, rate);
+        Ok(self.follow(&anchor, &master, rate, dt))
+    }
+
+    /// Why the robot holds this tick, if it does: the master silent too long (not
+    /// `fresh`), the operator absent, the clutch engaged, or a tick of `dt` too long.
+    fn hold_reason(&self, latest: &MasterSample, fresh: bool, dt: f64) -> Option<HoldReason> {
+        if !fresh {
             Some(HoldReason::MasterLost)
         } else if !latest.buttons.operator_present {
             Some(HoldReason::OperatorAbsent)
@@ -434,15 +448,14 @@ impl Teleop {
             Some(HoldReason::StreamGap)
         } else {
             None
-        };
-        if let Some(r) = reason {
-            return Ok(self.hold(r));
         }
-        let (master, rate) = match latest.input {
-            MasterInput::Twist(_) => (self.virtual_master, true),
-            MasterInput::Pose(p) => (p, false),
-        };
-        let anchor = match self.anchor {
+    }
+
+    /// The anchor of the engagement: the current one, or a new one at `master` and the
+    /// held robot pose (the tremor filter and the limiter restarting from there) when not
+    /// engaged yet or the master's kind changed (`rate`).
+    fn engaged(&mut self, master: CartesianPose, rate: bool) -> Anchor {
+        match self.anchor {
             Some(a) if a.rate == rate => a,
             _ => {
                 let a = Anchor {
@@ -458,7 +471,19 @@ impl Teleop {
                 self.anchor = Some(a);
                 a
             }
-        };
+        }
+    }
+
+    /// Follows the master over a tick of `dt`: its motion since `anchor` (registered into
+    /// the robot's frame for a position master) scaled, filtered and limited, from the
+    /// robot's pose at the anchor.
+    fn follow(
+        &mut self,
+        anchor: &Anchor,
+        master: &CartesianPose,
+        rate: bool,
+        dt: f64,
+    ) -> TeleopOutput {
         let mut dp = master.position_m - anchor.master.position_m;
         let mut dr = rotation_increment(&anchor.master.orientation, &master.orientation);
         if !rate {
@@ -488,6 +513,6 @@ impl Teleop {
         if limited {
             self.stats.limited += 1;
         }
-        Ok(TeleopOutput::ServoCp { pose, limited })
+        TeleopOutput::ServoCp { pose, limited }
     }
 }

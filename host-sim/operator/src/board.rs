@@ -14,7 +14,6 @@
 //! times recorded then follow the board's own time.
 
 use crate::conversions::wire_pose;
-use crate::error::OperatorError;
 use master_link::{
     BoardToMaster, FaultLogPage, FirmwareVersion, MasterToBoard, NackReason, ResetStatus,
     RobotState, Seq, StatusReport, Warnings, PROTOCOL_VERSION,
@@ -25,6 +24,7 @@ use std::path::Path;
 use std::time::Duration;
 use teleop::link::{self, Link, Received};
 use teleop::pacing::{BoardClock, SILENCE_LIMIT_S};
+use thiserror::Error;
 
 /// How long a request waits for its answer before it counts as unanswered, s.
 pub const REPLY_TIMEOUT_S: f64 = 1.0;
@@ -33,6 +33,30 @@ pub const HEARTBEAT_PERIOD_S: f64 = 0.02;
 /// How long the board refuses `Enable` with `Busy` after homing or a disable while its
 /// brakes engage, with margin, s: [`Board::enable`] sends `Enable` again within it.
 pub const ENABLE_BUSY_WINDOW_S: f64 = 1.0;
+
+/// Why the board could not be brought up or could not serve a request.
+#[derive(Debug, Error)]
+pub enum BoardError {
+    /// The link to the board (open, write, closed, silent).
+    #[error(transparent)]
+    Link(#[from] teleop::TeleopError),
+    #[error("the board did not answer Hello within {timeout_s} s")]
+    NoHello { timeout_s: f64 },
+    #[error("the board speaks protocol version {board}, this master {master}")]
+    Protocol { board: u8, master: u8 },
+    #[error("no status from the board")]
+    NoStatus,
+    #[error("the board refused {request}: {reason:?} ({})", refusal_text(*reason))]
+    Refused { request: String, reason: NackReason },
+    #[error("no answer to {request} within {} s", REPLY_TIMEOUT_S)]
+    NoReply { request: String },
+    #[error("{what} did not finish within {timeout_s} s")]
+    Timeout { what: &'static str, timeout_s: f64 },
+    #[error("the board is {state}, not Enabled: enable it first")]
+    NotEnabled { state: String },
+    #[error("the board is in Fault: {cause}")]
+    Faulted { cause: String },
+}
 
 /// What a request came to.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -45,6 +69,8 @@ pub enum Outcome {
     HelloReply(HelloInfo),
     /// The answer to `FaultLogRequest`.
     FaultLog(FaultLogPage),
+    /// The answer to `EventLogRequest`.
+    EventLog(master_link::EventLogPage),
     /// A calibrated geometry stored, with its version.
     GeometryStored(u32),
     /// A calibrated geometry refused, with the board's reason.
@@ -118,8 +144,18 @@ pub struct Board {
 impl Board {
     /// Opens the board at `path`: a Unix socket (waited for until `timeout`: a board may
     /// still be starting) or a serial device at `baud`.
-    pub fn open(path: &Path, baud: u32, timeout: Duration) -> Result<Self, OperatorError> {
-        let link = link::open(path, baud, timeout)?;
+    pub fn open(path: &Path, baud: u32, timeout: Duration) -> Result<Self, BoardError> {
+        Self::open_with_key(path, baud, timeout, None)
+    }
+
+    /// [`Board::open`] on a link with the pre-shared key `key` (None: no tags).
+    pub fn open_with_key(
+        path: &Path,
+        baud: u32,
+        timeout: Duration,
+        key: Option<master_link::LinkKey>,
+    ) -> Result<Self, BoardError> {
+        let link = link::open_with_key(path, baud, timeout, key)?;
         Ok(Board {
             link,
             name: path.display().to_string(),
@@ -199,25 +235,31 @@ impl Board {
         self.pending.len()
     }
 
-    /// Sends `msg` and tracks it until its answer; its sequence number.
-    pub fn send(&mut self, msg: MasterToBoard) -> Result<Seq, OperatorError> {
+    /// Sends `msg` and tracks it until its answer; its sequence number. A `Hello` always
+    /// goes out with this connection's nonce and clock (never less than one after the last
+    /// target stamp, so that it is newer than anything this master sent).
+    pub fn send(&mut self, msg: MasterToBoard) -> Result<Seq, BoardError> {
+        let msg = match msg {
+            MasterToBoard::Hello { .. } => {
+                let stamp = ((self.now_s() * 1e6) as u64).max(self.last_stamp_us + 1);
+                self.last_stamp_us = stamp;
+                self.link.hello_message(stamp)
+            }
+            other => other,
+        };
         let seq = self.link.send(&msg)?;
         self.pending.push((seq, msg, self.now_s()));
         Ok(seq)
     }
 
-    /// Sends `Hello` with this connection's session nonce.
-    pub fn send_hello(&mut self) -> Result<Seq, OperatorError> {
-        let nonce = self.link.session();
-        self.send(MasterToBoard::Hello {
-            protocol_version: PROTOCOL_VERSION,
-            nonce,
-        })
+    /// Sends `Hello` with this connection's nonce and clock.
+    pub fn send_hello(&mut self) -> Result<Seq, BoardError> {
+        self.send(self.link.hello_message(0))
     }
 
     /// Sends a pose target (CRTK `servo_cp`) stamped with this connection's clock; its
     /// sequence number and stamp, µs.
-    pub fn send_target(&mut self, pose: &CartesianPose) -> Result<(Seq, u64), OperatorError> {
+    pub fn send_target(&mut self, pose: &CartesianPose) -> Result<(Seq, u64), BoardError> {
         let (position_m, rotation_vector_rad) = wire_pose(pose);
         let stamp = ((self.now_s() * 1e6) as u64).max(self.last_stamp_us + 1);
         self.last_stamp_us = stamp;
@@ -229,7 +271,7 @@ impl Board {
         Ok((seq, stamp))
     }
 
-    fn beat(&mut self) -> Result<(), OperatorError> {
+    fn beat(&mut self) -> Result<(), BoardError> {
         let now = self.now_s();
         if self.heartbeat && now - self.last_beat_s >= HEARTBEAT_PERIOD_S {
             if self.last_beat_s.is_finite() {
@@ -269,12 +311,24 @@ impl Board {
                 self.backlog.push_back(BoardEvent::Status(r.t_s, s));
                 None
             }
+            // Another master's answer (on a shared line) is not this one's.
+            BoardToMaster::HelloReply { nonce, .. } | BoardToMaster::HelloRefused { nonce, .. }
+                if nonce != self.link.nonce() =>
+            {
+                None
+            }
+            BoardToMaster::HelloRefused { reason, .. } => answer(
+                &mut self.pending,
+                &|p| matches!(p.1, MasterToBoard::Hello { .. }),
+                Outcome::Refused(reason),
+            ),
             BoardToMaster::HelloReply {
                 firmware_version,
                 protocol_version,
                 session,
                 reset,
                 geometry_version,
+                ..
             } => {
                 let info = HelloInfo {
                     firmware: firmware_version,
@@ -298,6 +352,11 @@ impl Board {
                 &mut self.pending,
                 &|p| matches!(p.1, MasterToBoard::FaultLogRequest { first } if first == page.first),
                 Outcome::FaultLog(page),
+            ),
+            BoardToMaster::EventLog(page) => answer(
+                &mut self.pending,
+                &|p| matches!(p.1, MasterToBoard::EventLogRequest { first } if first == page.first),
+                Outcome::EventLog(page),
             ),
             BoardToMaster::GeometryStored { seq, version } => answer(
                 &mut self.pending,
@@ -341,7 +400,7 @@ impl Board {
 
     /// Receives for at most `wait` (returning as soon as something came), sends the
     /// heartbeat that falls due, and hands over what arrived, oldest first.
-    pub fn poll(&mut self, wait: Duration) -> Result<Vec<BoardEvent>, OperatorError> {
+    pub fn poll(&mut self, wait: Duration) -> Result<Vec<BoardEvent>, BoardError> {
         self.receive(wait)?;
         let mut out: Vec<BoardEvent> = self.deferred.drain(..).collect();
         out.extend(self.backlog.drain(..));
@@ -350,7 +409,7 @@ impl Board {
 
     /// Receives into the backlog: waits at most `wait` for the first message when nothing
     /// is there yet.
-    fn receive(&mut self, wait: Duration) -> Result<(), OperatorError> {
+    fn receive(&mut self, wait: Duration) -> Result<(), BoardError> {
         if self.paced && self.clock.silent_too_long(self.link.now_s()) {
             return Err(teleop::TeleopError::Silent(SILENCE_LIMIT_S).into());
         }
@@ -375,7 +434,7 @@ impl Board {
         &mut self,
         wait: Duration,
         pick: &mut dyn FnMut(&BoardEvent) -> Option<T>,
-    ) -> Result<Option<T>, OperatorError> {
+    ) -> Result<Option<T>, BoardError> {
         self.receive(wait)?;
         let mut found = None;
         while let Some(e) = self.backlog.pop_front() {
@@ -393,7 +452,7 @@ impl Board {
     }
 
     /// Polls until the link's clock reaches `t_s`; everything that arrived.
-    pub fn poll_until(&mut self, t_s: f64) -> Result<Vec<BoardEvent>, OperatorError> {
+    pub fn poll_until(&mut self, t_s: f64) -> Result<Vec<BoardEvent>, BoardError> {
         let mut events = self.poll(Duration::ZERO)?;
         loop {
             let left = t_s - self.now_s();
@@ -406,7 +465,7 @@ impl Board {
 
     /// Keeps receiving (events kept for the next [`Board::poll`]) until the clock reaches
     /// `t_s`.
-    fn idle_until(&mut self, t_s: f64) -> Result<(), OperatorError> {
+    fn idle_until(&mut self, t_s: f64) -> Result<(), BoardError> {
         while self.now_s() < t_s {
             let left = Duration::from_secs_f64((t_s - self.now_s()).max(0.0));
             self.receive_picking::<()>(left, &mut |_| None)?;
@@ -416,20 +475,20 @@ impl Board {
 
     /// Sends `msg` and waits for its answer (other events stay queued for the next
     /// [`Board::poll`]).
-    pub fn request(&mut self, msg: MasterToBoard) -> Result<Outcome, OperatorError> {
+    pub fn request(&mut self, msg: MasterToBoard) -> Result<Outcome, BoardError> {
         let seq = self.send(msg)?;
         self.answer_to(seq)
     }
 
     /// Sends a pose target and waits for the board's answer.
-    pub fn request_target(&mut self, pose: &CartesianPose) -> Result<Outcome, OperatorError> {
+    pub fn request_target(&mut self, pose: &CartesianPose) -> Result<Outcome, BoardError> {
         let (seq, _) = self.send_target(pose)?;
         self.answer_to(seq)
     }
 
     /// Waits for the answer to request `seq` (at most [`REPLY_TIMEOUT_S`]: then
     /// `Outcome::NoReply`).
-    fn answer_to(&mut self, seq: Seq) -> Result<Outcome, OperatorError> {
+    fn answer_to(&mut self, seq: Seq) -> Result<Outcome, BoardError> {
         loop {
             let got = self.receive_picking(Duration::from_millis(5), &mut |e| match e {
                 BoardEvent::Reply(r) if r.seq == seq => Some(r.outcome),
@@ -447,7 +506,7 @@ impl Board {
         &mut self,
         timeout_s: f64,
         pred: impl Fn(&StatusReport) -> bool,
-    ) -> Result<Option<StatusReport>, OperatorError> {
+    ) -> Result<Option<StatusReport>, BoardError> {
         let end = self.now_s() + timeout_s;
         while self.now_s() < end {
             let got = self.receive_picking(Duration::from_millis(5), &mut |e| match e {
@@ -462,7 +521,7 @@ impl Board {
     }
 
     /// Hello until the board answers (it may still be booting), at most `timeout_s`.
-    pub fn hello(&mut self, timeout_s: f64) -> Result<HelloInfo, OperatorError> {
+    pub fn hello(&mut self, timeout_s: f64) -> Result<HelloInfo, BoardError> {
         let end = self.now_s() + timeout_s;
         while self.now_s() < end {
             self.send_hello()?;
@@ -470,17 +529,20 @@ impl Board {
             while self.now_s() < until {
                 self.receive_picking::<()>(Duration::from_millis(10), &mut |_| None)?;
                 if let Some(h) = self.hello {
+                    // A new owner starts with the operator absent; the operator at this
+                    // front end is present until its dead-man says otherwise.
+                    self.request(MasterToBoard::OperatorPresent { present: true })?;
                     return Ok(h);
                 }
             }
         }
-        Err(OperatorError::NoHello { timeout_s })
+        Err(BoardError::NoHello { timeout_s })
     }
 
     /// Sends `Enable`, again while the board answers `Busy` (its brakes still engage after
     /// homing or a disable: about 100 ms), for at most [`ENABLE_BUSY_WINDOW_S`]; the last
     /// outcome.
-    pub fn enable(&mut self) -> Result<Outcome, OperatorError> {
+    pub fn enable(&mut self) -> Result<Outcome, BoardError> {
         let end = self.now_s() + ENABLE_BUSY_WINDOW_S;
         loop {
             let outcome = self.request(MasterToBoard::Enable)?;
@@ -499,8 +561,31 @@ impl Board {
         &mut self,
         timeouts: &BringUpTimeouts,
         log: &mut dyn FnMut(&str),
-    ) -> Result<StatusReport, OperatorError> {
-        let h = self.hello(timeouts.hello_s)?;
+    ) -> Result<StatusReport, BoardError> {
+        self.greet(timeouts.hello_s, log)?;
+        let status = self
+            .wait_status(2.0, |_| true)?
+            .ok_or(BoardError::NoStatus)?;
+        if status.state == RobotState::Fault {
+            return Err(BoardError::Faulted {
+                cause: format!("{:?}", status.fault.cause),
+            });
+        }
+        if status.state == RobotState::Enabled {
+            log("already enabled");
+            self.discard_events();
+            return Ok(status);
+        }
+        if status.warnings.contains(Warnings::NOT_HOMED) {
+            self.home(timeouts.home_s, log)?;
+        }
+        self.enable_and_wait(timeouts.enable_s, log)
+    }
+
+    /// Hello (at most `timeout_s`), logged; the protocol version checked; the board's
+    /// last reset acknowledged when it is not yet.
+    fn greet(&mut self, timeout_s: f64, log: &mut dyn FnMut(&str)) -> Result<(), BoardError> {
+        let h = self.hello(timeout_s)?;
         log(&format!(
             "hello: firmware {}.{}.{}, protocol {}, last reset {:?}{}",
             h.firmware.major,
@@ -515,7 +600,7 @@ impl Board {
             }
         ));
         if h.protocol_version != PROTOCOL_VERSION {
-            return Err(OperatorError::Protocol {
+            return Err(BoardError::Protocol {
                 board: h.protocol_version,
                 master: PROTOCOL_VERSION,
             });
@@ -524,56 +609,54 @@ impl Board {
             self.expect_ack(MasterToBoard::AcknowledgeReset)?;
             log("reset acknowledged");
         }
-        let status = self
-            .wait_status(2.0, |_| true)?
-            .ok_or(OperatorError::NoStatus)?;
-        if status.state == RobotState::Fault {
-            return Err(OperatorError::Faulted {
-                cause: format!("{:?}", status.fault.cause),
-            });
-        }
-        if status.state == RobotState::Enabled {
-            log("already enabled");
-            self.discard_events();
-            return Ok(status);
-        }
-        if status.warnings.contains(Warnings::NOT_HOMED) {
-            self.expect_ack(MasterToBoard::Home { rehome: false })?;
-            log("homing");
-            let homed = self.wait_status(timeouts.home_s, |s| {
-                (s.state == RobotState::Ready && !s.warnings.contains(Warnings::NOT_HOMED))
-                    || s.state == RobotState::Fault
-            })?;
-            match homed {
-                Some(s) if s.state == RobotState::Ready => log("homed"),
-                Some(s) => {
-                    return Err(OperatorError::Faulted {
-                        cause: format!("{:?} while homing", s.fault.cause),
-                    })
-                }
-                None => {
-                    return Err(OperatorError::Timeout {
-                        what: "homing",
-                        timeout_s: timeouts.home_s,
-                    })
-                }
+        Ok(())
+    }
+
+    /// Homes (never re-homing) and waits at most `timeout_s` for `Ready` and homed.
+    fn home(&mut self, timeout_s: f64, log: &mut dyn FnMut(&str)) -> Result<(), BoardError> {
+        self.expect_ack(MasterToBoard::Home { rehome: false })?;
+        log("homing");
+        let homed = self.wait_status(timeout_s, |s| {
+            (s.state == RobotState::Ready && !s.warnings.contains(Warnings::NOT_HOMED))
+                || s.state == RobotState::Fault
+        })?;
+        match homed {
+            Some(s) if s.state == RobotState::Ready => {
+                log("homed");
+                Ok(())
             }
+            Some(s) => Err(BoardError::Faulted {
+                cause: format!("{:?} while homing", s.fault.cause),
+            }),
+            None => Err(BoardError::Timeout {
+                what: "homing",
+                timeout_s,
+            }),
         }
+    }
+
+    /// Enables ([`Board::enable`]) and waits at most `timeout_s` for `Enabled`; the front
+    /// end starts from there (what came before is dropped).
+    fn enable_and_wait(
+        &mut self,
+        timeout_s: f64,
+        log: &mut dyn FnMut(&str),
+    ) -> Result<StatusReport, BoardError> {
         match self.enable()? {
             Outcome::Ack => {}
             Outcome::Refused(reason) => {
-                return Err(OperatorError::Refused {
+                return Err(BoardError::Refused {
                     request: "Enable".into(),
                     reason,
                 })
             }
             _ => {
-                return Err(OperatorError::NoReply {
+                return Err(BoardError::NoReply {
                     request: "Enable".into(),
                 })
             }
         }
-        let enabled = self.wait_status(timeouts.enable_s, |s| {
+        let enabled = self.wait_status(timeout_s, |s| {
             matches!(s.state, RobotState::Enabled | RobotState::Fault)
         })?;
         match enabled {
@@ -583,12 +666,12 @@ impl Board {
                 self.discard_events();
                 Ok(s)
             }
-            Some(s) => Err(OperatorError::Faulted {
+            Some(s) => Err(BoardError::Faulted {
                 cause: format!("{:?} while enabling", s.fault.cause),
             }),
-            None => Err(OperatorError::Timeout {
+            None => Err(BoardError::Timeout {
                 what: "enabling",
-                timeout_s: timeouts.enable_s,
+                timeout_s,
             }),
         }
     }
@@ -600,14 +683,14 @@ impl Board {
     }
 
     /// Sends `msg` and requires its Ack.
-    pub fn expect_ack(&mut self, msg: MasterToBoard) -> Result<(), OperatorError> {
+    pub fn expect_ack(&mut self, msg: MasterToBoard) -> Result<(), BoardError> {
         match self.request(msg)? {
             Outcome::Ack => Ok(()),
-            Outcome::Refused(reason) => Err(OperatorError::Refused {
+            Outcome::Refused(reason) => Err(BoardError::Refused {
                 request: request_name(&msg).into(),
                 reason,
             }),
-            _ => Err(OperatorError::NoReply {
+            _ => Err(BoardError::NoReply {
                 request: request_name(&msg).into(),
             }),
         }
@@ -657,6 +740,7 @@ pub fn request_name(msg: &MasterToBoard) -> &'static str {
         MasterToBoard::AcknowledgeReset => "Acknowledge reset",
         MasterToBoard::FaultLogRequest { .. } => "Fault log",
         MasterToBoard::StoreGeometry(_) => "Store geometry",
+        MasterToBoard::EventLogRequest { .. } => "Event log",
     }
 }
 
@@ -684,5 +768,8 @@ pub fn refusal_text(reason: NackReason) -> &'static str {
         NackReason::SafetyRelayMismatch => "e-stop button and safety relay disagree",
         NackReason::BrakeCheckFailed => "the holding brakes failed their check",
         NackReason::OperatorAbsent => "operator absent (dead-man released)",
+        NackReason::NotOwner => "another master owns the board",
+        NackReason::TargetFromFuture => "the target's stamp is in the future",
+        NackReason::ReplayedHello => "an old Hello of this master: a replay",
     }
 }

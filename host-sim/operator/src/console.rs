@@ -152,9 +152,11 @@ impl Console {
         }
         let send = |m| vec![Action::Send(m)];
         match code {
+            // (The board's link puts this connection's nonce and clock in.)
             KeyCode::Char('h') => send(MasterToBoard::Hello {
                 protocol_version: master_link::PROTOCOL_VERSION,
                 nonce: 0,
+                clock_us: 0,
             }),
             KeyCode::Char('o') => {
                 if self.homed() == Some(true) {
@@ -341,6 +343,7 @@ impl Console {
                 )
             }
             Outcome::FaultLog(p) => (format!("{what} -> {} entries", p.len), false),
+            Outcome::EventLog(p) => (format!("{what} -> {} entries", p.len), false),
             Outcome::GeometryStored(v) => (format!("{what} -> stored, version {v}"), false),
             Outcome::GeometryRefused(reason) => (format!("{what} REFUSED ({reason:?})"), true),
             Outcome::NoReply => (format!("{what} -> no answer"), true),
@@ -379,187 +382,240 @@ impl Console {
 
     /// The console's lines for a pane `height` rows high.
     pub fn lines(&self, height: usize) -> Vec<Line<'static>> {
-        let bold = Style::default().add_modifier(Modifier::BOLD);
-        let red = Style::default().fg(Color::Red).add_modifier(Modifier::BOLD);
-        let mut out: Vec<Line<'static>> = Vec::new();
-        match &self.status {
+        let mut out: Vec<Line<'static>> = match &self.status {
             None => {
-                out.push(Line::from("no status from the board yet (h: hello)"));
-                for _ in 0..9 {
-                    out.push(Line::from(""));
-                }
+                let mut waiting = vec![Line::from("no status from the board yet (h: hello)")];
+                waiting.extend((0..9).map(|_| Line::from("")));
+                waiting
             }
-            Some((_, s)) => {
-                let homed = if s.warnings.contains(Warnings::NOT_HOMED) {
-                    "no"
+            Some((_, s)) => self.status_lines(s),
+        };
+        out.push(self.jog_line());
+        out.push(Line::styled("-- replies (newest last)", bold()));
+        let keys_rows = 3;
+        let room = height
+            .saturating_sub(out.len() + keys_rows)
+            .min(REPLIES_SHOWN.max(1));
+        out.extend(self.reply_lines(room));
+        out.extend(self.key_lines());
+        out
+    }
+
+    /// The status's ten lines: state, fault, reset, poses, joints, margins, link, tick.
+    fn status_lines(&self, s: &StatusReport) -> Vec<Line<'static>> {
+        vec![
+            self.state_line(s),
+            fault_line(s),
+            Line::from(format!(
+                "Reset    {:?}{}  supply {:.1} V  fault log {} entries",
+                s.reset.cause,
+                if s.reset.acknowledged {
+                    " (acknowledged)"
                 } else {
-                    "yes"
-                };
-                let state_style = match s.state {
-                    RobotState::Fault => red,
-                    RobotState::Enabled => bold.fg(Color::Green),
-                    _ => bold,
-                };
-                out.push(Line::from(vec![
-                    Span::raw("State "),
-                    Span::styled(format!("{:<9}", format!("{:?}", s.state)), state_style),
-                    Span::raw(format!(
-                        " Stop {:<22} Homed {homed:<3} Clutch {} Op {}",
-                        format!("{:?}", s.stop),
-                        if self.clutch { "on " } else { "off" },
-                        if self.present { "present" } else { "ABSENT" }
-                    )),
-                ]));
-                let f = s.fault;
-                let fault = if f.cause == master_link::FaultCause::None {
-                    "none".to_string()
-                } else {
-                    let joint = if f.joint == NO_JOINT {
-                        String::new()
-                    } else {
-                        format!(
-                            " joint {}",
-                            JOINT_NAMES
-                                .get(usize::from(f.joint))
-                                .copied()
-                                .unwrap_or("?")
-                        )
-                    };
-                    format!(
-                        "{:?}{joint} value {:.4} at {} ms",
-                        f.cause, f.value, f.time_ms
-                    )
-                };
-                out.push(Line::from(vec![
-                    Span::raw("Fault    "),
-                    Span::styled(
-                        fault,
-                        if f.cause == master_link::FaultCause::None {
-                            Style::default()
-                        } else {
-                            red
-                        },
-                    ),
-                ]));
-                out.push(Line::from(format!(
-                    "Reset    {:?}{}  supply {:.1} V  fault log {} entries",
-                    s.reset.cause,
-                    if s.reset.acknowledged {
-                        " (acknowledged)"
-                    } else {
-                        " NOT ACKNOWLEDGED (a)"
-                    },
-                    s.supply_v,
-                    s.fault_log_len
-                )));
-                let pose = |p: Option<masters::CartesianPose>| match p {
-                    Some(p) => {
-                        let a = p.to_mm_deg();
-                        format!(
-                            "x {:7.3} y {:7.3} z {:7.3} mm  rx {:6.2} ry {:6.2} rz {:6.2} deg",
-                            a[0], a[1], a[2], a[3], a[4], a[5]
-                        )
-                    }
-                    None => "--".to_string(),
-                };
-                out.push(Line::from(format!("Measured {}", pose(measured_cp(s)))));
-                out.push(Line::from(format!("Setpoint {}", pose(setpoint_cp(s)))));
-                let q = s.joints;
-                out.push(Line::from(format!(
-                    "Joints   l1-l3 {:7.3} {:7.3} {:7.3} mm  th1-th3 {:7.2} {:7.2} {:7.2} deg",
-                    f64::from(q[0]) * 1e3,
-                    f64::from(q[1]) * 1e3,
-                    f64::from(q[2]) * 1e3,
-                    f64::from(q[3]).to_degrees(),
-                    f64::from(q[4]).to_degrees(),
-                    f64::from(q[5]).to_degrees()
-                )));
-                let m = s.margins;
-                let g = |x: f32| {
-                    if x.is_finite() {
-                        format!("{x:.2}")
-                    } else {
-                        "--".into()
-                    }
-                };
-                out.push(Line::from(format!(
-                    "Margins  nearest {} serial {} par {} stroke {} tilt {} coll {}",
-                    g(m.nearest),
-                    g(m.serial),
-                    g(m.parallel),
-                    g(m.stroke),
-                    g(m.tilt),
-                    g(m.collision)
-                )));
-                let c = s.link;
-                out.push(Line::from(format!(
-                    "Link     board rx ok {} crc {} bad {} ver {} order {} sess {} lost {}",
-                    c.frames_ok,
-                    c.bad_checksum,
-                    c.malformed,
-                    c.wrong_version,
-                    c.out_of_order,
-                    c.wrong_session,
-                    c.dropped
-                )));
-                let h = self.host_counters;
-                out.push(Line::from(format!(
-                    "         host rx ok {} rejected {} lost {}  beat gap {:.0} ms  workspace {}",
-                    h.frames_ok,
-                    h.rejected(),
-                    h.dropped,
-                    self.heartbeat_gap_max_s * 1e3,
-                    g(m.workspace)
-                )));
-                out.push(Line::from(format!(
-                    "Tick     jitter max {} us  exec max {} us  missed {}  refused targets {}",
-                    s.tick_jitter_max_us, s.tick_exec_max_us, s.missed_ticks, s.targets_refused
-                )));
-            }
-        }
+                    " NOT ACKNOWLEDGED (a)"
+                },
+                s.supply_v,
+                s.fault_log_len
+            )),
+            Line::from(format!("Measured {}", pose_text(measured_cp(s)))),
+            Line::from(format!("Setpoint {}", pose_text(setpoint_cp(s)))),
+            joints_line(s),
+            margins_line(s),
+            board_link_line(s),
+            self.host_link_line(s),
+            Line::from(format!(
+                "Tick     jitter max {} us  exec max {} us  missed {}  refused targets {}",
+                s.tick_jitter_max_us, s.tick_exec_max_us, s.missed_ticks, s.targets_refused
+            )),
+        ]
+    }
+
+    /// The state, the stop, homed, and the clutch and presence as last acknowledged.
+    fn state_line(&self, s: &StatusReport) -> Line<'static> {
+        let homed = if s.warnings.contains(Warnings::NOT_HOMED) {
+            "no"
+        } else {
+            "yes"
+        };
+        let state_style = match s.state {
+            RobotState::Fault => red(),
+            RobotState::Enabled => bold().fg(Color::Green),
+            _ => bold(),
+        };
+        Line::from(vec![
+            Span::raw("State "),
+            Span::styled(format!("{:<9}", format!("{:?}", s.state)), state_style),
+            Span::raw(format!(
+                " Stop {:<22} Homed {homed:<3} Clutch {} Op {}",
+                format!("{:?}", s.stop),
+                if self.clutch { "on " } else { "off" },
+                if self.present { "present" } else { "ABSENT" }
+            )),
+        ])
+    }
+
+    /// The master side's receive counters, its longest heartbeat gap and the workspace
+    /// margin.
+    fn host_link_line(&self, s: &StatusReport) -> Line<'static> {
+        let h = self.host_counters;
+        Line::from(format!(
+            "         host rx ok {} rejected {} lost {}  beat gap {:.0} ms  workspace {}",
+            h.frames_ok,
+            h.rejected(),
+            h.dropped,
+            self.heartbeat_gap_max_s * 1e3,
+            margin_text(s.margins.workspace)
+        ))
+    }
+
+    /// The joint jogged, the speed, and whether a jog stream runs.
+    fn jog_line(&self) -> Line<'static> {
         let speed = JOG_SPEEDS.get(self.speed).copied().unwrap_or(1.0);
         let jogging = match &self.jog {
             Some(_) => "  JOGGING",
             None => "",
         };
-        out.push(Line::from(format!(
+        Line::from(format!(
             "Jog      joint {} (1-6)  speed {speed} mm/s | deg/s ([ ]){jogging}",
             JOINT_NAMES.get(self.joint).copied().unwrap_or("?")
-        )));
-        out.push(Line::styled("-- replies (newest last)", bold));
-        let keys_rows = 3;
-        let room = height
-            .saturating_sub(out.len() + keys_rows)
-            .min(REPLIES_SHOWN.max(1));
-        let shown: Vec<&(f64, String, bool)> =
-            self.replies.iter().rev().take(room).collect::<Vec<_>>();
-        for _ in shown.len()..room {
-            out.push(Line::from(""));
-        }
+        ))
+    }
+
+    /// The newest replies in `room` rows, oldest first, blank rows above when fewer;
+    /// refusals in red, each cut to 78 characters.
+    fn reply_lines(&self, room: usize) -> Vec<Line<'static>> {
+        let shown: Vec<&(f64, String, bool)> = self.replies.iter().rev().take(room).collect();
+        let mut out: Vec<Line<'static>> = (shown.len()..room).map(|_| Line::from("")).collect();
         for (t, text, refused) in shown.into_iter().rev() {
-            let style = if *refused { red } else { Style::default() };
+            let style = if *refused { red() } else { Style::default() };
             let mut l = format!("{t:7.2} {text}");
             if l.chars().count() > 78 {
                 l = l.chars().take(77).collect::<String>() + "~";
             }
             out.push(Line::styled(l, style));
         }
-        if self.confirm_rehome {
-            out.push(Line::styled(
-                "Robot is homed. Re-home (every joint to its switch)? y = yes, other = no",
-                red,
-            ));
-        } else {
-            out.push(Line::styled("-- keys", bold));
-        }
-        out.push(Line::from(
-            "h hello o home e enable d disable c clear fault s/SPACE stop q quit",
-        ));
-        out.push(Line::from(
-            "1-6 joint +/- jog [ ] speed k clutch p dead-man a ack reset",
-        ));
         out
     }
+
+    /// The keys, or the re-homing question being asked.
+    fn key_lines(&self) -> [Line<'static>; 3] {
+        let heading = if self.confirm_rehome {
+            Line::styled(
+                "Robot is homed. Re-home (every joint to its switch)? y = yes, other = no",
+                red(),
+            )
+        } else {
+            Line::styled("-- keys", bold())
+        };
+        [
+            heading,
+            Line::from("h hello o home e enable d disable c clear fault s/SPACE stop q quit"),
+            Line::from("1-6 joint +/- jog [ ] speed k clutch p dead-man a ack reset"),
+        ]
+    }
+}
+
+fn bold() -> Style {
+    Style::default().add_modifier(Modifier::BOLD)
+}
+
+fn red() -> Style {
+    Style::default().fg(Color::Red).add_modifier(Modifier::BOLD)
+}
+
+/// The latched fault: cause, joint, value and time (red), or none.
+fn fault_line(s: &StatusReport) -> Line<'static> {
+    let f = s.fault;
+    let none = f.cause == master_link::FaultCause::None;
+    let fault = if none {
+        "none".to_string()
+    } else {
+        let joint = if f.joint == NO_JOINT {
+            String::new()
+        } else {
+            format!(
+                " joint {}",
+                JOINT_NAMES
+                    .get(usize::from(f.joint))
+                    .copied()
+                    .unwrap_or("?")
+            )
+        };
+        format!(
+            "{:?}{joint} value {:.4} at {} ms",
+            f.cause, f.value, f.time_ms
+        )
+    };
+    Line::from(vec![
+        Span::raw("Fault    "),
+        Span::styled(fault, if none { Style::default() } else { red() }),
+    ])
+}
+
+/// A pose in mm and deg, or `--`.
+fn pose_text(p: Option<masters::CartesianPose>) -> String {
+    match p {
+        Some(p) => {
+            let a = p.to_mm_deg();
+            format!(
+                "x {:7.3} y {:7.3} z {:7.3} mm  rx {:6.2} ry {:6.2} rz {:6.2} deg",
+                a[0], a[1], a[2], a[3], a[4], a[5]
+            )
+        }
+        None => "--".to_string(),
+    }
+}
+
+/// The measured joints, mm and deg.
+fn joints_line(s: &StatusReport) -> Line<'static> {
+    let q = s.joints;
+    Line::from(format!(
+        "Joints   l1-l3 {:7.3} {:7.3} {:7.3} mm  th1-th3 {:7.2} {:7.2} {:7.2} deg",
+        f64::from(q[0]) * 1e3,
+        f64::from(q[1]) * 1e3,
+        f64::from(q[2]) * 1e3,
+        f64::from(q[3]).to_degrees(),
+        f64::from(q[4]).to_degrees(),
+        f64::from(q[5]).to_degrees()
+    ))
+}
+
+/// A guard margin with two decimals, or `--` when not finite.
+fn margin_text(x: f32) -> String {
+    if x.is_finite() {
+        format!("{x:.2}")
+    } else {
+        "--".into()
+    }
+}
+
+/// The guard margins.
+fn margins_line(s: &StatusReport) -> Line<'static> {
+    let m = s.margins;
+    Line::from(format!(
+        "Margins  nearest {} serial {} par {} stroke {} tilt {} coll {}",
+        margin_text(m.nearest),
+        margin_text(m.serial),
+        margin_text(m.parallel),
+        margin_text(m.stroke),
+        margin_text(m.tilt),
+        margin_text(m.collision)
+    ))
+}
+
+/// The board's receive counters.
+fn board_link_line(s: &StatusReport) -> Line<'static> {
+    let c = s.link;
+    Line::from(format!(
+        "Link     board rx ok {} crc {} bad {} ver {} order {} sess {} lost {}",
+        c.frames_ok,
+        c.bad_checksum,
+        c.malformed,
+        c.wrong_version,
+        c.out_of_order,
+        c.wrong_session,
+        c.dropped
+    ))
 }
 
 /// Runs the console on the terminal until `q`: the board polled every 5 ms, the screen
@@ -583,11 +639,7 @@ pub fn run(mut board: Board) -> Result<(), OperatorError> {
         });
         let looped = event_loop(&mut board, &screen);
         drop(screen);
-        let drawn = drawer.join().unwrap_or_else(|_| {
-            Err(OperatorError::Terminal(std::io::Error::other(
-                "the console's drawing thread panicked",
-            )))
-        });
+        let drawn = drawer.join().unwrap_or(Err(OperatorError::DrawerPanicked));
         looped.and(drawn)
     });
     ratatui::restore();

@@ -1,31 +1,15 @@
 //! What stops an operator's front end.
 
-use master_link::NackReason;
+use crate::board::BoardError;
 use std::path::PathBuf;
 use thiserror::Error;
 
 /// Why a front end stopped.
 #[derive(Debug, Error)]
 pub enum OperatorError {
-    /// The link to the board (open, write, closed, silent).
+    /// The board: its link, its answers, its state.
     #[error(transparent)]
-    Link(#[from] teleop::TeleopError),
-    #[error("the board did not answer Hello within {timeout_s} s")]
-    NoHello { timeout_s: f64 },
-    #[error("the board speaks protocol version {board}, this master {master}")]
-    Protocol { board: u8, master: u8 },
-    #[error("no status from the board")]
-    NoStatus,
-    #[error("the board refused {request}: {reason:?} ({})", crate::board::refusal_text(*reason))]
-    Refused { request: String, reason: NackReason },
-    #[error("no answer to {request} within {} s", crate::board::REPLY_TIMEOUT_S)]
-    NoReply { request: String },
-    #[error("{what} did not finish within {timeout_s} s")]
-    Timeout { what: &'static str, timeout_s: f64 },
-    #[error("the board is {state}, not Enabled: enable it first")]
-    NotEnabled { state: String },
-    #[error("the board is in Fault: {cause}")]
-    Faulted { cause: String },
+    Board(#[from] BoardError),
     /// An input device.
     #[error(transparent)]
     Device(#[from] masters::DeviceError),
@@ -43,6 +27,9 @@ pub enum OperatorError {
     Recording(#[from] masters::recording::RecordingError),
     #[error("terminal: {0}")]
     Terminal(std::io::Error),
+    /// The console's thread that draws the screen panicked.
+    #[error("terminal: the console's drawing thread panicked")]
+    DrawerPanicked,
     /// The OpenIGTLink server.
     #[error(transparent)]
     Igtl(#[from] igtl::ServerError),

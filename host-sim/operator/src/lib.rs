@@ -24,5 +24,5 @@ pub mod navigation;
 pub mod replay;
 pub mod teleoperation;
 
-pub use board::{Board, BoardEvent, BringUpTimeouts, Outcome, Reply};
+pub use board::{Board, BoardError, BoardEvent, BringUpTimeouts, Outcome, Reply};
 pub use error::OperatorError;

@@ -103,13 +103,16 @@ pub fn refusal_reason(reason: NackReason, state: Option<RobotState>) -> RefusalR
             RefusalReason::SafetyStop
         }
         NackReason::BrakeCheckFailed => RefusalReason::HardwareFailure,
-        NackReason::Busy | NackReason::OperatorAbsent | NackReason::ClutchDisengaged => {
-            RefusalReason::Busy
-        }
+        NackReason::Busy
+        | NackReason::OperatorAbsent
+        | NackReason::ClutchDisengaged
+        | NackReason::NotOwner => RefusalReason::Busy,
         NackReason::UnsupportedVersion
         | NackReason::InvalidJoint
         | NackReason::InvalidValue
         | NackReason::StaleTarget
+        | NackReason::TargetFromFuture
+        | NackReason::ReplayedHello
         | NackReason::AlreadyHomed => RefusalReason::Other,
     }
 }

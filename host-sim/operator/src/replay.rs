@@ -40,13 +40,41 @@ pub fn replay(file: &Path, out: &Path) -> Result<Replay, OperatorError> {
         path: out.to_path_buf(),
         source,
     })?;
-    let summary = rec.summary();
-    let mut written = Vec::new();
     let t0 = first_time(&rec);
     let title = |what: &str| format!("{what}: {}", rec.session.master);
+    let [x, y, z, rx, ry, rz] = pose_panels(&rec, t0);
+    let plots = vec![
+        draw(
+            out,
+            "input.png",
+            &title("master input"),
+            &input_panels(&rec, t0),
+        )?,
+        draw(out, "position.png", &title("position"), &[x, y, z])?,
+        draw(out, "orientation.png", &title("orientation"), &[rx, ry, rz])?,
+        draw(
+            out,
+            "lag.png",
+            &title("lag behind the commanded path"),
+            &[lag_panel(&rec, t0)],
+        )?,
+        draw(
+            out,
+            "margins.png",
+            &title("guard margins (1 far, 0 at the stop level)"),
+            &[margins_panel(&rec, t0)],
+        )?,
+    ];
+    Ok(Replay {
+        summary: rec.summary(),
+        plots,
+    })
+}
 
-    // The master's input and buttons.
-    let mut input_panels = Vec::new();
+/// The master's input (a rate master's twist, a position master's pose) and its buttons,
+/// over the time since `t0`.
+fn input_panels(rec: &Recording, t0: f64) -> Vec<Panel> {
+    let mut panels = Vec::new();
     let twist: Vec<(f64, [f64; 6])> = rec
         .inputs()
         .filter_map(|r| match r.input {
@@ -75,12 +103,12 @@ pub fn replay(file: &Path, out: &Path) -> Result<Replay, OperatorError> {
         })
         .collect();
     if !twist.is_empty() {
-        input_panels.push(axes_panel("velocity, mm/s", &twist, 0));
-        input_panels.push(axes_panel("angular velocity, deg/s", &twist, 3));
+        panels.push(axes_panel("velocity, mm/s", &twist, 0));
+        panels.push(axes_panel("angular velocity, deg/s", &twist, 3));
     }
     if !pose_in.is_empty() {
-        input_panels.push(axes_panel("master position, mm", &pose_in, 0));
-        input_panels.push(axes_panel("master rotation vector, deg", &pose_in, 3));
+        panels.push(axes_panel("master position, mm", &pose_in, 0));
+        panels.push(axes_panel("master rotation vector, deg", &pose_in, 3));
     }
     let buttons = |f: &dyn Fn(&masters::recording::InputRecord) -> bool, k: f64| {
         rec.inputs()
@@ -89,7 +117,7 @@ pub fn replay(file: &Path, out: &Path) -> Result<Replay, OperatorError> {
     };
     let clutch = buttons(&|r| r.clutch, 1.0);
     let present = buttons(&|r| r.operator_present, 0.9);
-    input_panels.push(Panel {
+    panels.push(Panel {
         caption: Some("buttons (1 = pressed)".into()),
         x_desc: "t, s".into(),
         y_desc: "pressed".into(),
@@ -100,14 +128,12 @@ pub fn replay(file: &Path, out: &Path) -> Result<Replay, OperatorError> {
             Series::new("operator present", present, BLUE, 2),
         ],
     });
-    written.push(draw(
-        out,
-        "input.png",
-        &title("master input"),
-        &input_panels,
-    )?);
+    panels
+}
 
-    // Commanded, target, setpoint, measured.
+/// Per pose axis (x, y, z, rx, ry, rz): the commanded pose, the targets sent, the board's
+/// setpoint and the measured pose, over the time since `t0`.
+fn pose_panels(rec: &Recording, t0: f64) -> [Panel; 6] {
     let commanded: Vec<(f64, [f64; 6])> = rec
         .targets()
         .filter_map(|r| Some((r.input_t_s? - t0, r.commanded?.to_mm_deg())))
@@ -125,7 +151,7 @@ pub fn replay(file: &Path, out: &Path) -> Result<Replay, OperatorError> {
         .filter_map(|r| Some((r.t_s - t0, r.measured?.to_mm_deg())))
         .collect();
     let names = ["x, mm", "y, mm", "z, mm", "rx, deg", "ry, deg", "rz, deg"];
-    let pose_panel = |k: usize| {
+    std::array::from_fn(|k| {
         let col = |v: &[(f64, [f64; 6])]| -> Vec<(f64, f64)> {
             v.iter().map(|(t, a)| (*t, a[k])).collect()
         };
@@ -136,21 +162,12 @@ pub fn replay(file: &Path, out: &Path) -> Result<Replay, OperatorError> {
             Series::new("measured (measured_cp)", col(&measured), RED, 1),
         ];
         panel(names[k], series)
-    };
-    written.push(draw(
-        out,
-        "position.png",
-        &title("position"),
-        &[pose_panel(0), pose_panel(1), pose_panel(2)],
-    )?);
-    written.push(draw(
-        out,
-        "orientation.png",
-        &title("orientation"),
-        &[pose_panel(3), pose_panel(4), pose_panel(5)],
-    )?);
+    })
+}
 
-    // Lag of each status behind the commanded path.
+/// Each status's lag behind the commanded path (setpoint and measured pose), ms, over the
+/// time since `t0`.
+fn lag_panel(rec: &Recording, t0: f64) -> Panel {
     let reference: Vec<Stamped> = rec
         .targets()
         .filter_map(|r| Some((r.input_t_s?, r.commanded?.position_m)))
@@ -167,20 +184,18 @@ pub fn replay(file: &Path, out: &Path) -> Result<Replay, OperatorError> {
         };
     let lag_sp = lag_series(&|r| r.setpoint.map(|p| p.position_m));
     let lag_m = lag_series(&|r| r.measured.map(|p| p.position_m));
-    written.push(draw(
-        out,
-        "lag.png",
-        &title("lag behind the commanded path"),
-        &[panel(
-            "lag, ms",
-            vec![
-                Series::new("setpoint", lag_sp, ORANGE, 2),
-                Series::new("measured", lag_m, RED, 2),
-            ],
-        )],
-    )?);
+    panel(
+        "lag, ms",
+        vec![
+            Series::new("setpoint", lag_sp, ORANGE, 2),
+            Series::new("measured", lag_m, RED, 2),
+        ],
+    )
+}
 
-    // Margins.
+/// The guard margins the board reported, the nearest drawn thicker, over the time since
+/// `t0`.
+fn margins_panel(rec: &Recording, t0: f64) -> Panel {
     let mut by_name: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
     for r in rec.statuses() {
         for (k, v) in &r.margins {
@@ -196,16 +211,7 @@ pub fn replay(file: &Path, out: &Path) -> Result<Replay, OperatorError> {
             Series::new(k.clone(), v, c, if k == "nearest" { 3 } else { 1 })
         })
         .collect();
-    written.push(draw(
-        out,
-        "margins.png",
-        &title("guard margins (1 far, 0 at the stop level)"),
-        &[panel("margin", series)],
-    )?);
-    Ok(Replay {
-        summary,
-        plots: written,
-    })
+    panel("margin", series)
 }
 
 fn first_time(rec: &Recording) -> f64 {

@@ -19,7 +19,7 @@
 //! setpoint (`Teleop::resync`): on re-engaging, the robot's reference is where the board
 //! stands, the master's offset is captured there, and the first target equals it.
 
-use crate::board::{request_name, Board, BoardEvent, Outcome};
+use crate::board::{request_name, Board, BoardError, BoardEvent, Outcome, Reply};
 use crate::conversions::{margins, measured_cp, setpoint_cp};
 use crate::error::OperatorError;
 use master_link::{MasterToBoard, NackReason, RobotState, StatusReport};
@@ -29,8 +29,8 @@ use masters::recording::{
     TargetRecord,
 };
 use masters::{
-    CartesianPose, CueLevel, EdgeCue, EdgeCueConfig, Master, OperatorButtons, Teleop, TeleopConfig,
-    TeleopOutput, TeleopState,
+    CartesianPose, CueLevel, EdgeCue, EdgeCueConfig, Master, MasterSample, OperatorButtons, Teleop,
+    TeleopConfig, TeleopOutput, TeleopState,
 };
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -250,84 +250,25 @@ pub fn run(
 ) -> Result<RunReport, OperatorError> {
     // Events older than the run are not part of it.
     board.discard_events();
-    let status = match board.status() {
-        Some((_, s)) => *s,
-        None => board
-            .wait_status(1.0, |_| true)?
-            .ok_or(OperatorError::NoStatus)?,
-    };
-    if status.state != RobotState::Enabled {
-        return Err(OperatorError::NotEnabled {
-            state: format!("{:?}", status.state),
-        });
-    }
+    let status = enabled_status(board)?;
     let start_pose = setpoint_cp(&status)
         .or_else(|| measured_cp(&status))
-        .ok_or(OperatorError::NoStatus)?;
+        .ok_or(BoardError::NoStatus)?;
     let mut teleop = Teleop::new(settings.teleop.clone())?;
-    let mut cue = EdgeCue::new(settings.cue)?;
+    let cue = EdgeCue::new(settings.cue)?;
     let period_s = 1.0 / settings.teleop.stream_rate_hz;
     let t_start = board.now_s();
     teleop.start(t_start, start_pose)?;
     let writer = match &settings.record {
-        Some(path) => {
-            if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-                std::fs::create_dir_all(dir).map_err(|source| OperatorError::Io {
-                    path: dir.to_path_buf(),
-                    source,
-                })?;
-            }
-            let unix_ns = std::time::SystemTime::now()
-                .duration_since(std::time::UNIX_EPOCH)
-                .map_or(0, |d| d.as_nanos() as u64);
-            let start_unix_ns = unix_ns.saturating_sub((t_start * 1e9) as u64);
-            let mut text = settings.settings_text.clone();
-            text.insert("board".into(), board.name().into());
-            let s = &settings.teleop.scale;
-            text.insert("scale_translation".into(), s.translation.to_string());
-            text.insert("scale_rotation".into(), s.rotation.to_string());
-            text.insert(
-                "tremor_filter".into(),
-                format!("{:?}", settings.teleop.tremor),
-            );
-            text.insert("limits".into(), format!("{:?}", settings.teleop.limits));
-            Some(RecordingWriter::create(
-                path,
-                &SessionInfo {
-                    start_unix_ns,
-                    master: master.name().into(),
-                    stream_rate_hz: settings.teleop.stream_rate_hz,
-                    settings: text,
-                },
-            )?)
-        }
+        Some(path) => Some(create_recording(path, board, master, settings, t_start)?),
         None => None,
     };
-    let mut rec = Recorder {
-        writer,
-        trace: Trace::default(),
-    };
-    rec.event(EventRecord::scale(t_start, settings.teleop.scale))?;
-    let mut report = RunReport {
-        master: master.name().into(),
-        trace: Trace::default(),
-        stats: teleop.stats(),
-        targets_sent: 0,
-        targets_refused: BTreeMap::new(),
-        refused: Vec::new(),
-        device_errors: 0,
-        filter_delay_s: teleop.filter().map(|f| f.dc_group_delay_s()),
-        latency: LatencyFigures::default(),
-        recording: None,
-    };
+    let mut state = RunState::new(teleop, cue, writer, master.name(), status);
+    state
+        .rec
+        .event(EventRecord::scale(t_start, settings.teleop.scale))?;
     let mut next = t_start;
     let mut last_t = t_start;
-    let mut last_state = teleop.state();
-    let mut buttons_sent: Option<OperatorButtons> = None;
-    let mut buttons = OperatorButtons::default();
-    let mut last_sample_t: Option<f64> = None;
-    let mut last_target: Option<CartesianPose> = None;
-    let mut latest_status = status;
     loop {
         if stop.load(Ordering::Relaxed)
             || settings
@@ -338,45 +279,8 @@ pub fn run(
         }
         for e in board.poll_until(next)? {
             match e {
-                BoardEvent::Status(t, s) => {
-                    rec.status(t, &s)?;
-                    latest_status = s;
-                    let m = f64::from(s.margins.nearest);
-                    if m.is_finite() {
-                        // A margin beyond the stop level is at the edge; above 1, far.
-                        let before = cue.level();
-                        let level = cue.update(m.clamp(0.0, 1.0))?;
-                        if level != before {
-                            rec.event(EventRecord::cue(t, level))?;
-                        }
-                    }
-                    // Holding: the robot's reference is where the board stands.
-                    if matches!(teleop.state(), TeleopState::Holding(_))
-                        && s.state == RobotState::Enabled
-                    {
-                        if let Some(p) = setpoint_cp(&s) {
-                            teleop.resync(p)?;
-                        }
-                    }
-                }
-                BoardEvent::Reply(r) => match (r.request, r.outcome) {
-                    (MasterToBoard::PoseTarget { .. }, Outcome::Refused(reason)) => {
-                        *report
-                            .targets_refused
-                            .entry(format!("{reason:?}"))
-                            .or_default() += 1;
-                    }
-                    (MasterToBoard::PoseTarget { .. }, _) => {}
-                    (req, Outcome::Refused(reason)) => {
-                        let what = request_name(&req);
-                        report.refused.push((r.t_s, what, reason));
-                        rec.note(r.t_s, format!("refused {what}: {reason:?}"))?;
-                    }
-                    (req, Outcome::NoReply) => {
-                        rec.note(r.t_s, format!("no answer to {}", request_name(&req)))?;
-                    }
-                    _ => {}
-                },
+                BoardEvent::Status(t, s) => state.status(t, &s)?,
+                BoardEvent::Reply(r) => state.reply(&r)?,
             }
         }
         let t = board.now_s();
@@ -389,70 +293,270 @@ pub fn run(
             continue;
         }
         last_t = t;
-        let sample = match master.poll(t) {
-            Ok(s) => s,
-            Err(e) => {
-                report.device_errors += 1;
-                if report.device_errors == 1 {
-                    rec.note(t, format!("device: {e}"))?;
-                }
-                None
-            }
-        };
-        if let Some(s) = &sample {
-            rec.input(InputRecord::from(s))?;
-            last_sample_t = Some(s.t_s);
-            buttons = s.buttons;
-            let before = buttons_sent;
-            if before.is_none_or(|b| b.operator_present != buttons.operator_present) {
-                board.send(MasterToBoard::OperatorPresent {
-                    present: buttons.operator_present,
-                })?;
-            }
-            if before.is_none_or(|b| b.clutch != buttons.clutch) {
-                board.send(MasterToBoard::Clutch {
-                    engaged: buttons.clutch,
-                })?;
-            }
-            buttons_sent = Some(buttons);
+        state.tick(board, master, t)?;
+        observe(&state.view(t));
+    }
+    state.finish()
+}
+
+/// The board's status, which must say `Enabled`: the latest, or the next within 1 s.
+fn enabled_status(board: &mut Board) -> Result<StatusReport, OperatorError> {
+    let status = match board.status() {
+        Some((_, s)) => *s,
+        None => board
+            .wait_status(1.0, |_| true)?
+            .ok_or(BoardError::NoStatus)?,
+    };
+    if status.state != RobotState::Enabled {
+        return Err(BoardError::NotEnabled {
+            state: format!("{:?}", status.state),
         }
-        let out = teleop.step(t, sample.as_ref())?;
+        .into());
+    }
+    Ok(status)
+}
+
+/// Creates the recording at `path` (and its directory), its session record carrying the
+/// settings of the run that starts at `t_start` on the link's clock.
+fn create_recording(
+    path: &std::path::Path,
+    board: &Board,
+    master: &dyn Master,
+    settings: &TeleoperationSettings,
+    t_start: f64,
+) -> Result<RecordingWriter, OperatorError> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|source| OperatorError::Io {
+            path: dir.to_path_buf(),
+            source,
+        })?;
+    }
+    let unix_ns = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_nanos() as u64);
+    let start_unix_ns = unix_ns.saturating_sub((t_start * 1e9) as u64);
+    let mut text = settings.settings_text.clone();
+    text.insert("board".into(), board.name().into());
+    let s = &settings.teleop.scale;
+    text.insert("scale_translation".into(), s.translation.to_string());
+    text.insert("scale_rotation".into(), s.rotation.to_string());
+    text.insert(
+        "tremor_filter".into(),
+        format!("{:?}", settings.teleop.tremor),
+    );
+    text.insert("limits".into(), format!("{:?}", settings.teleop.limits));
+    Ok(RecordingWriter::create(
+        path,
+        &SessionInfo {
+            start_unix_ns,
+            master: master.name().into(),
+            stream_rate_hz: settings.teleop.stream_rate_hz,
+            settings: text,
+        },
+    )?)
+}
+
+/// A run in progress: the mapping, the cue, what was recorded and counted, and what the
+/// operator was last shown.
+struct RunState {
+    teleop: Teleop,
+    cue: EdgeCue,
+    rec: Recorder,
+    report: RunReport,
+    last_state: TeleopState,
+    /// The buttons as last told to the board (None: not yet).
+    buttons_sent: Option<OperatorButtons>,
+    buttons: OperatorButtons,
+    last_sample_t: Option<f64>,
+    last_target: Option<CartesianPose>,
+    latest_status: StatusReport,
+}
+
+impl RunState {
+    fn new(
+        teleop: Teleop,
+        cue: EdgeCue,
+        writer: Option<RecordingWriter>,
+        master: &str,
+        status: StatusReport,
+    ) -> Self {
+        let report = RunReport {
+            master: master.into(),
+            trace: Trace::default(),
+            stats: teleop.stats(),
+            targets_sent: 0,
+            targets_refused: BTreeMap::new(),
+            refused: Vec::new(),
+            device_errors: 0,
+            filter_delay_s: teleop.filter().map(|f| f.dc_group_delay_s()),
+            latency: LatencyFigures::default(),
+            recording: None,
+        };
+        RunState {
+            last_state: teleop.state(),
+            teleop,
+            cue,
+            rec: Recorder {
+                writer,
+                trace: Trace::default(),
+            },
+            report,
+            buttons_sent: None,
+            buttons: OperatorButtons::default(),
+            last_sample_t: None,
+            last_target: None,
+            latest_status: status,
+        }
+    }
+
+    /// A status: recorded, the workspace-edge cue updated, and while the mapping holds,
+    /// its reference re-anchored at the board's setpoint.
+    fn status(&mut self, t: f64, s: &StatusReport) -> Result<(), OperatorError> {
+        self.rec.status(t, s)?;
+        self.latest_status = *s;
+        let m = f64::from(s.margins.nearest);
+        if m.is_finite() {
+            // A margin beyond the stop level is at the edge; above 1, far.
+            let before = self.cue.level();
+            let level = self.cue.update(m.clamp(0.0, 1.0))?;
+            if level != before {
+                self.rec.event(EventRecord::cue(t, level))?;
+            }
+        }
+        // Holding: the robot's reference is where the board stands.
+        if matches!(self.teleop.state(), TeleopState::Holding(_)) && s.state == RobotState::Enabled
+        {
+            if let Some(p) = setpoint_cp(s) {
+                self.teleop.resync(p)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// The answer to a request: targets refused counted by reason, other refusals and
+    /// unanswered requests noted.
+    fn reply(&mut self, r: &Reply) -> Result<(), OperatorError> {
+        match (r.request, r.outcome) {
+            (MasterToBoard::PoseTarget { .. }, Outcome::Refused(reason)) => {
+                *self
+                    .report
+                    .targets_refused
+                    .entry(format!("{reason:?}"))
+                    .or_default() += 1;
+            }
+            (MasterToBoard::PoseTarget { .. }, _) => {}
+            (req, Outcome::Refused(reason)) => {
+                let what = request_name(&req);
+                self.report.refused.push((r.t_s, what, reason));
+                self.rec
+                    .note(r.t_s, format!("refused {what}: {reason:?}"))?;
+            }
+            (req, Outcome::NoReply) => {
+                self.rec
+                    .note(r.t_s, format!("no answer to {}", request_name(&req)))?;
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+
+    /// One tick at `t`: the master's sample, its buttons told to the board when they
+    /// change, the mapping's step and the target it streams.
+    fn tick(
+        &mut self,
+        board: &mut Board,
+        master: &mut dyn Master,
+        t: f64,
+    ) -> Result<(), OperatorError> {
+        let sample = self.sample(master, t)?;
+        if let Some(s) = &sample {
+            self.rec.input(InputRecord::from(s))?;
+            self.last_sample_t = Some(s.t_s);
+            self.buttons = s.buttons;
+            self.send_buttons(board)?;
+        }
+        let out = self.teleop.step(t, sample.as_ref())?;
         if let TeleopOutput::ServoCp { pose, limited } = out {
             let (_, stamp) = board.send_target(&pose)?;
-            report.targets_sent += 1;
-            last_target = Some(pose);
-            rec.target(TargetRecord {
+            self.report.targets_sent += 1;
+            self.last_target = Some(pose);
+            self.rec.target(TargetRecord {
                 t_s: board.now_s(),
                 timestamp_us: stamp,
                 pose,
                 limited,
-                input_t_s: last_sample_t,
-                commanded: teleop.commanded(),
+                input_t_s: self.last_sample_t,
+                commanded: self.teleop.commanded(),
             })?;
         }
-        if teleop.state() != last_state {
-            last_state = teleop.state();
-            rec.event(EventRecord::state(t, last_state))?;
+        if self.teleop.state() != self.last_state {
+            self.last_state = self.teleop.state();
+            self.rec.event(EventRecord::state(t, self.last_state))?;
         }
-        observe(&TickView {
-            t_s: t,
-            state: teleop.state(),
-            cue: cue.level(),
-            status: Some(&latest_status),
-            target: last_target,
-            buttons,
-        });
+        Ok(())
     }
-    report.stats = teleop.stats();
-    report.latency = latency_of(
-        &rec.trace.targets,
-        &rec.trace.statuses,
-        &LagConfig::default(),
-    );
-    report.recording = match rec.writer.take() {
-        Some(w) => Some(w.finish()?),
-        None => None,
-    };
-    report.trace = rec.trace;
-    Ok(report)
+
+    /// The master's sample at `t`; a read error counts (the first is noted) and gives none.
+    fn sample(
+        &mut self,
+        master: &mut dyn Master,
+        t: f64,
+    ) -> Result<Option<MasterSample>, OperatorError> {
+        match master.poll(t) {
+            Ok(s) => Ok(s),
+            Err(e) => {
+                self.report.device_errors += 1;
+                if self.report.device_errors == 1 {
+                    self.rec.note(t, format!("device: {e}"))?;
+                }
+                Ok(None)
+            }
+        }
+    }
+
+    /// Tells the board the dead-man and the clutch, each when it changed.
+    fn send_buttons(&mut self, board: &mut Board) -> Result<(), OperatorError> {
+        let (before, buttons) = (self.buttons_sent, self.buttons);
+        if before.is_none_or(|b| b.operator_present != buttons.operator_present) {
+            board.send(MasterToBoard::OperatorPresent {
+                present: buttons.operator_present,
+            })?;
+        }
+        if before.is_none_or(|b| b.clutch != buttons.clutch) {
+            board.send(MasterToBoard::Clutch {
+                engaged: buttons.clutch,
+            })?;
+        }
+        self.buttons_sent = Some(buttons);
+        Ok(())
+    }
+
+    /// What the operator sees at `t`.
+    fn view(&self, t: f64) -> TickView<'_> {
+        TickView {
+            t_s: t,
+            state: self.teleop.state(),
+            cue: self.cue.level(),
+            status: Some(&self.latest_status),
+            target: self.last_target,
+            buttons: self.buttons,
+        }
+    }
+
+    /// The run's figures: the mapping's counters, the latency, the recording closed.
+    fn finish(mut self) -> Result<RunReport, OperatorError> {
+        let mut report = self.report;
+        report.stats = self.teleop.stats();
+        report.latency = latency_of(
+            &self.rec.trace.targets,
+            &self.rec.trace.statuses,
+            &LagConfig::default(),
+        );
+        report.recording = match self.rec.writer.take() {
+            Some(w) => Some(w.finish()?),
+            None => None,
+        };
+        report.trace = self.rec.trace;
+        Ok(report)
+    }
 }

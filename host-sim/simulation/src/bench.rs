@@ -7,8 +7,9 @@
 use std::collections::HashMap;
 
 use master_link::{
-    encode, BoardToMaster, FaultLogPage, Header, MasterDecoder, MasterToBoard, NackReason,
-    RobotState, Seq, SeqCounter, StatusReport, MAX_FRAME_LEN, PROTOCOL_VERSION,
+    encode_with, BoardToMaster, EventEntry, EventLogPage, FaultLogPage, Header, LinkKey,
+    MasterDecoder, MasterToBoard, NackReason, RobotState, Seq, SeqCounter, StatusReport,
+    EVENT_LOG_PAGE, MAX_FRAME_LEN, PROTOCOL_VERSION,
 };
 use thiserror::Error;
 
@@ -43,8 +44,12 @@ pub struct StatusRow {
 
 /// The master's side of the link.
 pub struct SimMaster {
-    /// The session nonce.
+    /// The master's nonce (its identity for the connection).
+    pub nonce: u32,
+    /// The session the board issued (its `HelloReply`; 0 before one).
     pub session: u32,
+    /// The link key, if the link has one.
+    pub key: Option<LinkKey>,
     seq: SeqCounter,
     rx: MasterDecoder,
     /// Every status report received.
@@ -53,28 +58,41 @@ pub struct SimMaster {
     pub replies: HashMap<Seq, (u64, BoardToMaster)>,
     /// The last `HelloReply`.
     pub hello: Option<BoardToMaster>,
+    /// `HelloReply`s received.
+    pub hellos: usize,
     /// Fault-log pages received.
     pub fault_logs: Vec<FaultLogPage>,
+    /// Event-log pages received.
+    pub event_logs: Vec<EventLogPage>,
 }
 
 impl SimMaster {
-    /// A master with session nonce `session`.
-    pub fn new(session: u32) -> Self {
+    /// A master with the nonce `nonce`, without a key.
+    pub fn new(nonce: u32) -> Self {
+        Self::with_key(nonce, None)
+    }
+
+    /// A master with the nonce `nonce` and the link key `key`.
+    pub fn with_key(nonce: u32, key: Option<LinkKey>) -> Self {
         SimMaster {
-            session,
+            nonce,
+            session: 0,
+            rx: MasterDecoder::with_key(key.clone()),
+            key,
             seq: SeqCounter::new(1),
-            rx: MasterDecoder::new(),
             statuses: Vec::new(),
             replies: HashMap::new(),
             hello: None,
+            hellos: 0,
             fault_logs: Vec::new(),
+            event_logs: Vec::new(),
         }
     }
 
     /// `msg` as the next frame: its sequence number and bytes.
     pub fn frame(&mut self, msg: &MasterToBoard) -> (Seq, Vec<u8>) {
         let seq = self.seq.next();
-        (seq, frame_in(msg, self.session, seq))
+        (seq, frame_keyed(msg, self.session, seq, self.key.as_ref()))
     }
 
     /// The sequence number the next frame gets.
@@ -84,11 +102,25 @@ impl SimMaster {
 
     /// Bytes from the board at `t_us`.
     pub fn receive(&mut self, t_us: u64, bytes: &[u8]) {
-        for result in self.rx.feed(bytes) {
-            let Ok((_, msg)) = result else { continue };
+        // Byte by byte: a HelloReply opens its session before the frames after it.
+        for &byte in bytes {
+            let Some(Ok((reply_seq, msg))) = self.rx.push(byte) else {
+                continue;
+            };
             match msg {
                 BoardToMaster::Status(status) => self.statuses.push(StatusRow { t_us, status }),
-                BoardToMaster::HelloReply { .. } => self.hello = Some(msg),
+                // Its own HelloReply (the nonce echoed) opens the session the board issued.
+                BoardToMaster::HelloReply { session, nonce, .. } if nonce == self.nonce => {
+                    self.session = session;
+                    self.rx.open_session(session, reply_seq);
+                    self.hello = Some(msg);
+                    self.hellos += 1;
+                }
+                BoardToMaster::HelloReply { .. } => {}
+                BoardToMaster::HelloRefused { seq, nonce, .. } if nonce == self.nonce => {
+                    self.replies.insert(seq, (t_us, msg));
+                }
+                BoardToMaster::HelloRefused { .. } => {}
                 BoardToMaster::Ack { seq }
                 | BoardToMaster::Nack { seq, .. }
                 | BoardToMaster::GeometryStored { seq, .. }
@@ -96,6 +128,7 @@ impl SimMaster {
                     self.replies.insert(seq, (t_us, msg));
                 }
                 BoardToMaster::FaultLog(page) => self.fault_logs.push(page),
+                BoardToMaster::EventLog(page) => self.event_logs.push(page),
             }
         }
     }
@@ -108,8 +141,13 @@ impl SimMaster {
 
 /// `msg` framed in `session` with sequence number `seq` (replays, old sessions).
 pub fn frame_in(msg: &MasterToBoard, session: u32, seq: Seq) -> Vec<u8> {
+    frame_keyed(msg, session, seq, None)
+}
+
+/// `msg` framed in `session` with sequence number `seq`, tagged with `key` if any.
+pub fn frame_keyed(msg: &MasterToBoard, session: u32, seq: Seq, key: Option<&LinkKey>) -> Vec<u8> {
     let mut buf = [0u8; MAX_FRAME_LEN];
-    match encode(msg, Header { session, seq }, &mut buf) {
+    match encode_with(msg, Header { session, seq }, key, &mut buf) {
         Ok(n) => buf.get(..n).unwrap_or_default().to_vec(),
         Err(_) => Vec::new(),
     }
@@ -122,6 +160,10 @@ pub struct Bench {
     pub board: BoardSim,
     /// The master.
     pub master: SimMaster,
+    /// Other masters on the same line: they hear everything the board sends, and what
+    /// they send goes through [`Bench::send_raw`] (a shared serial line, a second
+    /// connection).
+    pub others: Vec<SimMaster>,
     /// The master sends heartbeats (every 50 ms).
     pub heartbeat: bool,
     /// Bytes are delivered (false: the cable is cut both ways).
@@ -133,11 +175,13 @@ pub struct Bench {
 pub const HEARTBEAT_US: u64 = 50_000;
 
 impl Bench {
-    /// The master around `board`, session `session`.
-    pub fn new(board: BoardSim, session: u32) -> Self {
+    /// The master around `board`, with the nonce `nonce` and the board's link key.
+    pub fn new(board: BoardSim, nonce: u32) -> Self {
+        let key = board.config().key.clone();
         Bench {
             board,
-            master: SimMaster::new(session),
+            master: SimMaster::with_key(nonce, key),
+            others: Vec::new(),
             heartbeat: true,
             link_up: true,
             last_beat_us: 0,
@@ -174,7 +218,11 @@ impl Bench {
         self.board.tick()?;
         let out = self.board.take_output();
         if self.link_up {
-            self.master.receive(self.board.now_us(), &out);
+            let now = self.board.now_us();
+            self.master.receive(now, &out);
+            for m in &mut self.others {
+                m.receive(now, &out);
+            }
         }
         Ok(())
     }
@@ -188,7 +236,8 @@ impl Bench {
     }
 
     /// Sends `msg` and runs until its reply (at most `timeout_ms`): `None` for an Ack (or
-    /// the answer of a `Hello` / `StatusRequest` / `FaultLogRequest`), the reason of a Nack.
+    /// the answer of a `Hello` / `StatusRequest` / `FaultLogRequest` / `EventLogRequest`),
+    /// the reason of a Nack.
     pub fn request(
         &mut self,
         msg: &MasterToBoard,
@@ -199,10 +248,12 @@ impl Bench {
             MasterToBoard::Hello { .. }
                 | MasterToBoard::StatusRequest
                 | MasterToBoard::FaultLogRequest { .. }
+                | MasterToBoard::EventLogRequest { .. }
         );
-        let (hellos, logs, statuses) = (
-            self.master.hello.is_some(),
+        let (hellos, logs, events, statuses) = (
+            self.master.hellos,
             self.master.fault_logs.len(),
+            self.master.event_logs.len(),
             self.master.statuses.len(),
         );
         let seq = self.send(msg);
@@ -210,14 +261,16 @@ impl Bench {
             self.tick()?;
             if let Some((_, reply)) = self.master.replies.get(&seq) {
                 return Ok(match reply {
-                    BoardToMaster::Nack { reason, .. } => Some(*reason),
+                    BoardToMaster::Nack { reason, .. }
+                    | BoardToMaster::HelloRefused { reason, .. } => Some(*reason),
                     _ => None,
                 });
             }
             if answered_by_kind {
                 let answered = match msg {
-                    MasterToBoard::Hello { .. } => self.master.hello.is_some() && !hellos,
+                    MasterToBoard::Hello { .. } => self.master.hellos > hellos,
                     MasterToBoard::FaultLogRequest { .. } => self.master.fault_logs.len() > logs,
+                    MasterToBoard::EventLogRequest { .. } => self.master.event_logs.len() > events,
                     _ => self.master.statuses.len() > statuses,
                 };
                 if answered {
@@ -264,16 +317,25 @@ impl Bench {
         })
     }
 
-    /// Hello, Home (with the park move), Enable (brake check and release): the robot
-    /// following, at the park pose.
+    /// The master's `Hello` now (its clock: the board's virtual time).
+    pub fn hello_msg(&self) -> MasterToBoard {
+        MasterToBoard::Hello {
+            protocol_version: PROTOCOL_VERSION,
+            nonce: self.master.nonce,
+            clock_us: self.now_us(),
+        }
+    }
+
+    /// Hello, Home (with the park move), the operator present, Enable (brake check and
+    /// release): the robot following, at the park pose.
     pub fn bring_up(&mut self) -> Result<(), BenchError> {
-        self.request(
-            &MasterToBoard::Hello {
-                protocol_version: PROTOCOL_VERSION,
-                nonce: self.master.session,
-            },
-            100,
-        )?;
+        let hello = self.hello_msg();
+        if let Some(reason) = self.request(&hello, 100)? {
+            return Err(BenchError::Refused {
+                request: format!("{hello:?}"),
+                reason,
+            });
+        }
         self.command(&MasterToBoard::Home { rehome: false })?;
         self.run_until("homed", 120_000, |b| {
             b.runtime().state() != RobotState::Homing
@@ -289,10 +351,41 @@ impl Bench {
         }
         // The stop that ends homing applies the brakes first.
         self.run_ms(100)?;
+        self.command(&MasterToBoard::OperatorPresent { present: true })?;
         self.command(&MasterToBoard::Enable)?;
         self.run_until("Enabled", 2_000, |b| {
             b.runtime().state() == RobotState::Enabled
         })?;
         Ok(())
+    }
+
+    /// Opens a session (`Hello`) and reads the board's event log page by page: every
+    /// entry the board holds, oldest first, and the last page's header.
+    pub fn read_event_log(&mut self) -> Result<(Vec<EventEntry>, EventLogPage), BenchError> {
+        let hello = self.hello_msg();
+        self.request(&hello, 100)?;
+        let mut entries = Vec::new();
+        let mut first = 0u16;
+        loop {
+            self.request(&MasterToBoard::EventLogRequest { first }, 100)?;
+            let Some(page) = self.master.event_logs.last().copied() else {
+                return Err(BenchError::NoReply {
+                    request: "EventLogRequest".into(),
+                    timeout_ms: 100,
+                });
+            };
+            let n = usize::from(page.count).min(EVENT_LOG_PAGE);
+            entries.extend(page.entries.iter().take(n).copied());
+            first = first.saturating_add(u16::from(page.count));
+            if page.count == 0 || first >= page.len {
+                return Ok((entries, page));
+            }
+        }
+    }
+
+    /// A power cycle of the board (`BoardSim::power_cycle`: a new board on the same flash)
+    /// with a new master of session `session` (nothing said yet).
+    pub fn power_cycle(self, session: u32) -> Result<Bench, BenchError> {
+        Ok(Bench::new(self.board.power_cycle()?, session))
     }
 }

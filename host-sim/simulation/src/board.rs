@@ -13,16 +13,21 @@
 //! * the link: bytes in (`LinkRx`), requests queued for the next tick (8 deep, as on the
 //!   board: a full queue answers `Busy`), replies and the status every 20 ms out
 //!   (`LinkTx`); an `EmergencyStop` frame forces the outputs safe at once;
-//! * the flash sector of the calibrated geometry.
+//! * the flash sector of the calibrated geometry, and the event log's flash sectors with
+//!   their writer after every tick (`control::event_log`: at most two words per period,
+//!   an erase only with the drives off and the brakes applied), as the board's;
+//! * a power cycle ([`BoardSim::power_cycle`]): a new board on the same flash.
 //!
 //! The tick's execution time is not simulated: each tick reports a nominal 300 µs, plus
-//! what a campaign injects ([`BoardSim::overrun_next_ticks`]).
+//! what a campaign injects ([`BoardSim::overrun_next_ticks`]); nor is the flash's stall
+//! (the emulated board, `firmware/board-emulator`, runs the release image on a model that
+//! has it).
 
 use std::collections::VecDeque;
 
 use board_on_plant::{BoardOnPlant, Layout, Platform, PlatformError, ReferenceMechanics, Tool};
 use control::estop::EStopLatch;
-use control::link::{Inbound, LinkRx, LinkTx, Request};
+use control::link::{opened_session, BoardIdentity, Inbound, LinkRx, LinkTx, Request};
 use control::runtime::{reference_config_for, reference_mechanics, Runtime, RuntimeConfig};
 use control::service::{ServiceConfig, TickOutcome, TickService};
 use control::telemetry::with_link;
@@ -36,6 +41,9 @@ use master_link::{
 use nalgebra::Vector3;
 use plant::{Plant, PlantConfig, PlantError, NUM_JOINTS};
 use thiserror::Error;
+
+/// The board simulated: the reference board profile.
+const PROFILE: board_profile::BoardProfile = board_profile::BoardProfile::REFERENCE;
 
 pub use board_on_plant::Wall;
 
@@ -73,6 +81,11 @@ pub struct BoardSimConfig {
     pub wall: Option<Wall>,
     /// Telemetry period, µs (the board's 20 ms).
     pub telemetry_us: u64,
+    /// The event log's flash: sectors (the board's 2) and bytes per sector (the board's
+    /// 128 KiB).
+    pub event_flash: (usize, usize),
+    /// The link key (a key file's; None: a board on a desk, frames without tags).
+    pub key: Option<master_link::LinkKey>,
 }
 
 /// The simulated board's reserved flash sector for the calibrated geometry (16 slots of
@@ -130,6 +143,98 @@ impl control::geometry_store::GeometryFlash for SimGeometryFlash {
     }
 }
 
+/// The simulated board's event-log sectors: NOR flash erased to 0xFF whose programming
+/// clears bits only; counts its operations.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SimEventFlash {
+    sectors: Vec<Vec<u8>>,
+    /// Words programmed so far.
+    pub words_programmed: u64,
+    /// Sectors erased so far.
+    pub erases: u64,
+}
+
+impl SimEventFlash {
+    /// `sectors` erased sectors of `len` bytes.
+    pub fn new(sectors: usize, len: usize) -> Self {
+        SimEventFlash {
+            sectors: vec![vec![0xFF; len]; sectors],
+            words_programmed: 0,
+            erases: 0,
+        }
+    }
+    /// The bytes of `sector`.
+    pub fn sector(&self, sector: usize) -> Option<&[u8]> {
+        self.sectors.get(sector).map(Vec::as_slice)
+    }
+}
+
+impl control::event_log::EventFlash for SimEventFlash {
+    fn sectors(&self) -> usize {
+        self.sectors.len()
+    }
+    fn sector_len(&self) -> usize {
+        self.sectors.first().map_or(0, Vec::len)
+    }
+    fn read(
+        &mut self,
+        sector: usize,
+        offset: usize,
+        out: &mut [u32; control::event_log::record::RECORD_WORDS],
+    ) -> Result<(), control::geometry_store::FlashError> {
+        let s = self
+            .sectors
+            .get(sector)
+            .ok_or(control::geometry_store::FlashError::Driver)?;
+        for (k, w) in out.iter_mut().enumerate() {
+            let at = offset + 4 * k;
+            let b = s
+                .get(at..at + 4)
+                .ok_or(control::geometry_store::FlashError::Driver)?;
+            *w = u32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+        }
+        Ok(())
+    }
+    fn program(
+        &mut self,
+        sector: usize,
+        offset: usize,
+        words: &[u32],
+    ) -> Result<(), control::geometry_store::FlashError> {
+        let s = self
+            .sectors
+            .get_mut(sector)
+            .ok_or(control::geometry_store::FlashError::Driver)?;
+        let bytes = s
+            .get_mut(offset..offset + 4 * words.len())
+            .ok_or(control::geometry_store::FlashError::Driver)?;
+        for (d, b) in bytes
+            .iter_mut()
+            .zip(words.iter().flat_map(|w| w.to_le_bytes()))
+        {
+            *d &= b;
+        }
+        self.words_programmed += words.len() as u64;
+        Ok(())
+    }
+    fn erase(&mut self, sector: usize) -> Result<(), control::geometry_store::FlashError> {
+        self.sectors
+            .get_mut(sector)
+            .ok_or(control::geometry_store::FlashError::Driver)?
+            .fill(0xFF);
+        self.erases += 1;
+        Ok(())
+    }
+}
+
+/// The board's flash as a power cycle keeps it: the geometry's sector and the event log's.
+#[derive(Clone, Debug)]
+pub struct BoardFlash {
+    geometry: SimGeometryFlash,
+    /// The event log's sectors.
+    pub events: SimEventFlash,
+}
+
 /// The firmware version the simulated board reports.
 pub const SIM_FIRMWARE: FirmwareVersion = FirmwareVersion {
     major: 0,
@@ -140,13 +245,14 @@ pub const SIM_FIRMWARE: FirmwareVersion = FirmwareVersion {
 impl BoardSimConfig {
     /// The reference robot with the shipped plant, at rest at `rest` (None: legs 12 mm
     /// above their home switches and links 0.2 rad above their hard stops, as after a
-    /// power-up), 1 kHz, 10 plant steps per tick, no tool, no wall.
+    /// power-up), on the reference board (its profile's period and clock), 10 plant steps
+    /// per tick, no tool, no wall.
     pub fn reference(rest: Option<[f64; NUM_JOINTS]>) -> Result<Self, BoardSimError> {
         let robot = RsprGeometry::<f64>::reference();
         let central = inverse(&robot, &Pose::central(robot.hc), Branch::OUTER)
             .map_err(BoardSimError::Central)?;
         let c = central.q();
-        let mech = reference_mechanics(&[c[0], c[1], c[2], c[3], c[4], c[5]], &Limits::reference());
+        let mech = reference_mechanics(&Limits::reference());
         let rest = rest.unwrap_or_else(|| {
             let sw = mech.leg_switch_m + 0.012;
             let stop = |j: usize| c[j] - mech.link_stop_below_central_rad + 0.2;
@@ -157,12 +263,18 @@ impl BoardSimConfig {
         Ok(BoardSimConfig {
             plant: PlantConfig::shipped().map_err(BoardSimError::Plant)?,
             runtime,
-            service: ServiceConfig::for_period(1000, 168_000_000, SIM_FIRMWARE),
+            service: ServiceConfig::for_period(
+                PROFILE.control_period_us,
+                PROFILE.cpu_hz,
+                SIM_FIRMWARE,
+            ),
             steps_per_tick: 10,
             rest,
             tool: None,
             wall: None,
             telemetry_us: 20_000,
+            event_flash: (2, 128 * 1024),
+            key: None,
         })
     }
 }
@@ -200,8 +312,10 @@ pub struct BoardSim {
     queue: VecDeque<Request>,
     /// A received calibrated geometry for the next tick (one at a time, as on the board).
     geometry_in: Option<(master_link::Seq, master_link::GeometryRecord)>,
-    /// The board's reserved flash sector for the calibrated geometry.
-    geometry_flash: SimGeometryFlash,
+    /// The board's flash: the calibrated geometry's sector, the event log's sectors.
+    flash: BoardFlash,
+    /// The event log's writer (None: its flash could not be read).
+    event_store: Option<control::event_log::EventStore>,
     outbox: Vec<u8>,
     t_us: u64,
     next_status_us: u64,
@@ -221,6 +335,43 @@ impl BoardSim {
         reset: ResetCause,
         log: Option<control::faults::FaultLog>,
     ) -> Result<Self, BoardSimError> {
+        let (sectors, len) = cfg.event_flash;
+        let flash = BoardFlash {
+            geometry: SimGeometryFlash::new(),
+            events: SimEventFlash::new(sectors, len),
+        };
+        let rest = cfg.rest;
+        Self::on_flash(cfg, reset, log, flash, rest)
+    }
+
+    /// A power cycle: a new board (RAM lost, the surroundings as at power-up) on the same
+    /// flash, the robot at rest at `cfg.rest` as at power-up (where the homing's settings
+    /// expect it), booting with a power-on reset: the event log and the stored geometry
+    /// are what the flash kept.
+    pub fn power_cycle(self) -> Result<Self, BoardSimError> {
+        let rest = self.cfg.rest;
+        Self::on_flash(self.cfg, ResetCause::PowerOn, None, self.flash, rest)
+    }
+
+    /// The board's flash.
+    pub fn flash(&self) -> &BoardFlash {
+        &self.flash
+    }
+    /// The event log's writer.
+    pub fn event_store(&self) -> Option<&control::event_log::EventStore> {
+        self.event_store.as_ref()
+    }
+
+    /// Powers the board up on `flash` with the robot at `rest`: the event log mounted (a
+    /// new boot; the relay test required when it was pending), the stored geometry's
+    /// version read, the runtime booted with `reset` and the fault log `log` kept across it.
+    fn on_flash(
+        cfg: BoardSimConfig,
+        reset: ResetCause,
+        log: Option<control::faults::FaultLog>,
+        mut flash: BoardFlash,
+        rest: [f64; NUM_JOINTS],
+    ) -> Result<Self, BoardSimError> {
         let robot = RsprGeometry::<f64>::reference();
         let plant = Plant::new(&cfg.plant).map_err(BoardSimError::Plant)?;
         let mech = cfg.runtime.mechanics;
@@ -231,8 +382,13 @@ impl BoardSim {
             link_stop_below_central_rad: mech.link_stop_below_central_rad,
             range: mech.range,
         });
-        let mut hw = BoardOnPlant::at_rest(plant, cfg.rest)?.with_layout(&layout);
+        let mut hw = BoardOnPlant::at_rest(plant, rest)?.with_layout(&layout);
         let mut rt = Runtime::new(robot, cfg.runtime, 0).map_err(BoardSimError::Runtime)?;
+        let (event_store, events) = control::event_log::boot(&mut flash.events, None);
+        rt.restore_events(events);
+        if let Ok(Some((_, stored))) = control::geometry_store::load_latest(&mut flash.geometry) {
+            rt.set_geometry_version(stored.version);
+        }
         // (Boot from Boot cannot be refused.)
         let _ = rt.boot_done(hw.counts(), 0, reset, log);
         let service = TickService::new(rt, cfg.service);
@@ -244,11 +400,15 @@ impl BoardSim {
             service,
             hw,
             latch: EStopLatch::new(),
-            rx: LinkRx::new(),
-            tx: LinkTx::new(),
+            rx: LinkRx::with(
+                BoardIdentity::new(b"simulated board", cfg.key.as_ref()),
+                cfg.key.clone(),
+            ),
+            tx: LinkTx::with_key(cfg.key.clone()),
             queue: VecDeque::new(),
             geometry_in: None,
-            geometry_flash: SimGeometryFlash::new(),
+            flash,
+            event_store,
             outbox: Vec::new(),
             t_us: 0,
             next_status_us: 0,
@@ -329,6 +489,7 @@ impl BoardSim {
     /// Bytes from the master: frames to requests (queued for the next tick), the link's
     /// own replies to the outbox; an `EmergencyStop` forces the outputs safe at once.
     pub fn receive(&mut self, bytes: &[u8]) {
+        self.rx.set_uptime(self.t_us);
         for b in bytes {
             match self.rx.push(*b) {
                 Some(Inbound::Reply(r)) => self.send(&r),
@@ -382,6 +543,11 @@ impl BoardSim {
         self.service.begin(now, 0, self.latch.take());
         while let Some(req) = self.queue.pop_front() {
             let reply = self.service.request(&req, now);
+            // An accepted Hello: its session opens on the receiving side before the
+            // reply goes out.
+            if let Some(session) = opened_session(&reply) {
+                self.rx.open_session(session, req.seq);
+            }
             self.send(&reply);
         }
         // As the board: a geometry the runtime accepts is stored after the tick.
@@ -400,7 +566,9 @@ impl BoardSim {
             }
             _ => 300,
         };
-        let outcome = self.service.finish(now, exec_us * 168);
+        let outcome = self
+            .service
+            .finish(now, exec_us * (PROFILE.cpu_hz / 1_000_000));
         if self.rx.connected() && now >= self.next_status_us {
             self.next_status_us = now + self.cfg.telemetry_us;
             let mut st = outcome.status;
@@ -409,12 +577,13 @@ impl BoardSim {
         } else if !self.rx.connected() {
             self.next_status_us = now;
         }
+        self.store_events(now, outcome.drives_off);
         if let Some((seq, record)) = accepted_geometry {
-            let reply = match control::geometry_store::store(&mut self.geometry_flash, &record) {
+            let reply = match control::geometry_store::store(&mut self.flash.geometry, &record) {
                 Ok(_) => {
                     self.service
                         .runtime_mut()
-                        .set_geometry_version(record.version);
+                        .geometry_stored(record.version, now);
                     BoardToMaster::GeometryStored {
                         seq,
                         version: record.version,
@@ -431,6 +600,25 @@ impl BoardSim {
         self.step_plant()?;
         self.last_outcome = Some(outcome);
         Ok(outcome)
+    }
+
+    /// As the board after its tick: at most `WORDS_PER_PERIOD` words of the event log
+    /// programmed, an erase only with the drives off (`drives_off`: and the brakes
+    /// applied), after which the schedule restarts.
+    fn store_events(&mut self, now_us: u64, drives_off: bool) {
+        let Some(store) = self.event_store.as_mut() else {
+            return;
+        };
+        let step = store.step(
+            &mut self.flash.events,
+            self.service.runtime_mut().events_mut(),
+            (now_us / 1000) as u32,
+            control::event_log::WORDS_PER_PERIOD,
+            drives_off,
+        );
+        if let control::event_log::Step::Erased { .. } = step {
+            self.service.resume_after_pause();
+        }
     }
 
     /// Jumps the board's clock forward to `t_us` (a period boundary at or before it)

@@ -252,6 +252,13 @@ impl SimConfig {
     /// The defaults overlaid with the keys of `text` (a `--config` file), validated.
     pub fn from_toml_str(text: &str) -> Result<Self, ConfigError> {
         let mut base = parse_table(DEFAULT_TOML, "the embedded default.toml")?;
+        // The control rate defaults to the board's (the board profile owns it).
+        if let Some(toml::Value::Table(control)) = base.get_mut("control") {
+            control.insert(
+                "rate_hz".to_string(),
+                toml::Value::Float(board_profile::BoardProfile::REFERENCE.rate_hz()),
+            );
+        }
         let user = parse_table(text, "the configuration")?;
         overlay(&mut base, user, &VARIABLE_LENGTH)?;
         let cfg: SimConfig =
@@ -281,137 +288,20 @@ impl SimConfig {
         }
     }
 
-    /// Checks every value's range; the message names the key.
+    /// Checks every value's range, section by section; the message names the key.
     pub fn validate(&self) -> Result<(), ConfigError> {
-        let c = &self.control;
-        range("control.rate_hz", c.rate_hz, 100.0, 10_000.0)?;
-        if c.plant_steps_per_tick < 10 || c.plant_steps_per_tick > 1000 {
-            return Err(ConfigError::PlantSteps(c.plant_steps_per_tick));
-        }
-        range(
-            "control.compensated_leg_backlash_mm",
-            c.compensated_leg_backlash_mm,
-            0.0,
-            1.0,
-        )?;
-        range(
-            "plant.leg_backlash_mm",
-            self.plant.leg_backlash_mm,
-            0.0,
-            1.0,
-        )?;
-        if !matches!(
-            self.plant.payload_update.as_str(),
-            "moved" | "tick" | "step"
-        ) {
-            return Err(ConfigError::PayloadUpdate(
-                self.plant.payload_update.clone(),
-            ));
-        }
-        range(
-            "plant.payload_refresh_mm",
-            self.plant.payload_refresh_mm,
-            0.0,
-            10.0,
-        )?;
-        range(
-            "plant.payload_refresh_deg",
-            self.plant.payload_refresh_deg,
-            0.0,
-            10.0,
-        )?;
-        let p = &self.payload;
-        range("payload.mass_kg", p.mass_kg, 0.0, 20.0)?;
-        range("payload.gravity_m_s2", p.gravity_m_s2, 0.0, 20.0)?;
-        for (i, x) in p.lever_mm.iter().enumerate() {
-            range(&format!("payload.lever_mm[{i}]"), *x, -1000.0, 1000.0)?;
-        }
-        let m = &self.master;
-        range("master.stream_rate_hz", m.stream_rate_hz, 1.0, 10_000.0)?;
-        range("master.latency_ms", m.latency_ms, 0.0, 1000.0)?;
-        positive("master.accel_mm_s2", m.accel_mm_s2)?;
-        positive("master.angular_speed_deg_s", m.angular_speed_deg_s)?;
-        positive("master.angular_accel_deg_s2", m.angular_accel_deg_s2)?;
+        self.control.validate()?;
+        self.plant.validate()?;
+        self.payload.validate()?;
+        self.master.validate()?;
         if self.output.trace_every_ticks == 0 {
             return Err(ConfigError::TraceEvery);
         }
-        let a = &self.accuracy;
-        positive("accuracy.tip_rms_mm", a.tip_rms_mm)?;
-        positive("accuracy.tip_max_mm", a.tip_max_mm)?;
-        positive("accuracy.judged_speed_mm_s", a.judged_speed_mm_s)?;
-        let l = &self.scenario.laparoscope;
-        for (i, h) in l.loop_size_mm.iter().enumerate() {
-            range(
-                &format!("scenario.laparoscope.loop_size_mm[{i}]"),
-                *h,
-                0.0,
-                50.0,
-            )?;
-        }
-        range("scenario.laparoscope.tilt_deg", l.tilt_deg, 0.0, 45.0)?;
-        if l.pass_speeds_mm_s.is_empty() {
-            return Err(ConfigError::NoPass);
-        }
-        if l.pass_speeds_mm_s.len() != l.pass_scales.len() {
-            return Err(ConfigError::PassScales {
-                speeds: l.pass_speeds_mm_s.len(),
-                scales: l.pass_scales.len(),
-            });
-        }
-        for (i, v) in l.pass_speeds_mm_s.iter().enumerate() {
-            range(
-                &format!("scenario.laparoscope.pass_speeds_mm_s[{i}]"),
-                *v,
-                0.1,
-                100.0,
-            )?;
-        }
-        for (i, s) in l.pass_scales.iter().enumerate() {
-            range(
-                &format!("scenario.laparoscope.pass_scales[{i}]"),
-                *s,
-                0.01,
-                2.0,
-            )?;
-        }
-        range("scenario.laparoscope.hold_s", l.hold_s, 0.0, 60.0)?;
-        range("scenario.laparoscope.settle_s", l.settle_s, 0.0, 60.0)?;
-        let s = &self.scenario.step;
-        if s.steps_mm_deg.is_empty() {
-            return Err(ConfigError::NoStep);
-        }
-        for (i, st) in s.steps_mm_deg.iter().enumerate() {
-            for (k, x) in st.iter().enumerate() {
-                range(
-                    &format!("scenario.step.steps_mm_deg[{i}][{k}]"),
-                    *x,
-                    -60.0,
-                    60.0,
-                )?;
-            }
-        }
-        range("scenario.step.hold_s", s.hold_s, 0.05, 60.0)?;
-        positive("scenario.step.settle_band_mm", s.settle_band_mm)?;
-        positive("scenario.step.settle_band_deg", s.settle_band_deg)?;
-        let b = &self.scenario.box_sweep;
-        range("scenario.box_sweep.speed_mm_s", b.speed_mm_s, 0.1, 100.0)?;
-        range("scenario.box_sweep.tilt_deg", b.tilt_deg, 0.0, 45.0)?;
-        range("scenario.box_sweep.hold_s", b.hold_s, 0.0, 60.0)?;
-        range("scenario.box_sweep.reach", b.reach, 0.0, 1.5)?;
-        range("scenario.box_sweep.tail_s", b.tail_s, 0.0, 60.0)?;
-        let p = &self.scenario.payload;
-        range("scenario.payload.attach_s", p.attach_s, 0.0, 60.0)?;
-        range("scenario.payload.hold_s", p.hold_s, 0.0, 60.0)?;
-        range("scenario.payload.speed_mm_s", p.speed_mm_s, 0.1, 100.0)?;
-        for (k, x) in p.move_to_mm_deg.iter().enumerate() {
-            range(
-                &format!("scenario.payload.move_to_mm_deg[{k}]"),
-                *x,
-                -1000.0,
-                1000.0,
-            )?;
-        }
-        Ok(())
+        self.accuracy.validate()?;
+        validate_laparoscope(&self.scenario.laparoscope)?;
+        self.scenario.step.validate()?;
+        self.scenario.box_sweep.validate()?;
+        self.scenario.payload.validate()
     }
 
     /// The control period, s.
@@ -450,6 +340,159 @@ pub fn default_target_dir() -> PathBuf {
                 .map(Path::to_path_buf)
         })
         .unwrap_or_else(|| PathBuf::from("target"))
+}
+
+impl ControlSection {
+    fn validate(&self) -> Result<(), ConfigError> {
+        range("control.rate_hz", self.rate_hz, 100.0, 10_000.0)?;
+        if self.plant_steps_per_tick < 10 || self.plant_steps_per_tick > 1000 {
+            return Err(ConfigError::PlantSteps(self.plant_steps_per_tick));
+        }
+        range(
+            "control.compensated_leg_backlash_mm",
+            self.compensated_leg_backlash_mm,
+            0.0,
+            1.0,
+        )
+    }
+}
+
+impl PlantSection {
+    fn validate(&self) -> Result<(), ConfigError> {
+        range("plant.leg_backlash_mm", self.leg_backlash_mm, 0.0, 1.0)?;
+        if !matches!(self.payload_update.as_str(), "moved" | "tick" | "step") {
+            return Err(ConfigError::PayloadUpdate(self.payload_update.clone()));
+        }
+        range(
+            "plant.payload_refresh_mm",
+            self.payload_refresh_mm,
+            0.0,
+            10.0,
+        )?;
+        range(
+            "plant.payload_refresh_deg",
+            self.payload_refresh_deg,
+            0.0,
+            10.0,
+        )
+    }
+}
+
+impl PayloadSection {
+    fn validate(&self) -> Result<(), ConfigError> {
+        range("payload.mass_kg", self.mass_kg, 0.0, 20.0)?;
+        range("payload.gravity_m_s2", self.gravity_m_s2, 0.0, 20.0)?;
+        for (i, x) in self.lever_mm.iter().enumerate() {
+            range(&format!("payload.lever_mm[{i}]"), *x, -1000.0, 1000.0)?;
+        }
+        Ok(())
+    }
+}
+
+impl MasterSection {
+    fn validate(&self) -> Result<(), ConfigError> {
+        range("master.stream_rate_hz", self.stream_rate_hz, 1.0, 10_000.0)?;
+        range("master.latency_ms", self.latency_ms, 0.0, 1000.0)?;
+        positive("master.accel_mm_s2", self.accel_mm_s2)?;
+        positive("master.angular_speed_deg_s", self.angular_speed_deg_s)?;
+        positive("master.angular_accel_deg_s2", self.angular_accel_deg_s2)
+    }
+}
+
+impl AccuracySection {
+    fn validate(&self) -> Result<(), ConfigError> {
+        positive("accuracy.tip_rms_mm", self.tip_rms_mm)?;
+        positive("accuracy.tip_max_mm", self.tip_max_mm)?;
+        positive("accuracy.judged_speed_mm_s", self.judged_speed_mm_s)
+    }
+}
+
+/// `[scenario.laparoscope]`: the loop, the tilt, one scale per pass speed, the holds.
+fn validate_laparoscope(l: &Laparoscope) -> Result<(), ConfigError> {
+    for (i, h) in l.loop_size_mm.iter().enumerate() {
+        range(
+            &format!("scenario.laparoscope.loop_size_mm[{i}]"),
+            *h,
+            0.0,
+            50.0,
+        )?;
+    }
+    range("scenario.laparoscope.tilt_deg", l.tilt_deg, 0.0, 45.0)?;
+    if l.pass_speeds_mm_s.is_empty() {
+        return Err(ConfigError::NoPass);
+    }
+    if l.pass_speeds_mm_s.len() != l.pass_scales.len() {
+        return Err(ConfigError::PassScales {
+            speeds: l.pass_speeds_mm_s.len(),
+            scales: l.pass_scales.len(),
+        });
+    }
+    for (i, v) in l.pass_speeds_mm_s.iter().enumerate() {
+        range(
+            &format!("scenario.laparoscope.pass_speeds_mm_s[{i}]"),
+            *v,
+            0.1,
+            100.0,
+        )?;
+    }
+    for (i, s) in l.pass_scales.iter().enumerate() {
+        range(
+            &format!("scenario.laparoscope.pass_scales[{i}]"),
+            *s,
+            0.01,
+            2.0,
+        )?;
+    }
+    range("scenario.laparoscope.hold_s", l.hold_s, 0.0, 60.0)?;
+    range("scenario.laparoscope.settle_s", l.settle_s, 0.0, 60.0)
+}
+
+impl StepSection {
+    fn validate(&self) -> Result<(), ConfigError> {
+        if self.steps_mm_deg.is_empty() {
+            return Err(ConfigError::NoStep);
+        }
+        for (i, st) in self.steps_mm_deg.iter().enumerate() {
+            for (k, x) in st.iter().enumerate() {
+                range(
+                    &format!("scenario.step.steps_mm_deg[{i}][{k}]"),
+                    *x,
+                    -60.0,
+                    60.0,
+                )?;
+            }
+        }
+        range("scenario.step.hold_s", self.hold_s, 0.05, 60.0)?;
+        positive("scenario.step.settle_band_mm", self.settle_band_mm)?;
+        positive("scenario.step.settle_band_deg", self.settle_band_deg)
+    }
+}
+
+impl BoxSweepSection {
+    fn validate(&self) -> Result<(), ConfigError> {
+        range("scenario.box_sweep.speed_mm_s", self.speed_mm_s, 0.1, 100.0)?;
+        range("scenario.box_sweep.tilt_deg", self.tilt_deg, 0.0, 45.0)?;
+        range("scenario.box_sweep.hold_s", self.hold_s, 0.0, 60.0)?;
+        range("scenario.box_sweep.reach", self.reach, 0.0, 1.5)?;
+        range("scenario.box_sweep.tail_s", self.tail_s, 0.0, 60.0)
+    }
+}
+
+impl PayloadScenarioSection {
+    fn validate(&self) -> Result<(), ConfigError> {
+        range("scenario.payload.attach_s", self.attach_s, 0.0, 60.0)?;
+        range("scenario.payload.hold_s", self.hold_s, 0.0, 60.0)?;
+        range("scenario.payload.speed_mm_s", self.speed_mm_s, 0.1, 100.0)?;
+        for (k, x) in self.move_to_mm_deg.iter().enumerate() {
+            range(
+                &format!("scenario.payload.move_to_mm_deg[{k}]"),
+                *x,
+                -1000.0,
+                1000.0,
+            )?;
+        }
+        Ok(())
+    }
 }
 
 fn range(key: &str, v: f64, lo: f64, hi: f64) -> Result<(), ConfigError> {

@@ -17,7 +17,7 @@ use kinematics_core::pose::{rotation_angle, rotation_vector};
 use kinematics_core::supervisor::Mode;
 use kinematics_core::Pose;
 use serde::Serialize;
-use servo::tracking::FaultKind;
+use servo::tracking::{FaultKind, TrackingFault};
 use servo::JOINT_NAMES;
 
 /// Joints 0..3 are legs (m, shown in mm), 3..6 links (rad, shown in deg).
@@ -514,6 +514,55 @@ struct Trip {
     creep: [f64; 6],
 }
 
+impl Trip {
+    /// The servo fault `f` tripped at tick `s`; `first_injection_s` the first injected
+    /// fault's time, if any.
+    fn new(f: &TrackingFault<f64>, s: &TickSample, first_injection_s: Option<f64>) -> Self {
+        let t = s.t_s;
+        let joint = f.joint.and_then(|j| JOINT_NAMES.get(j).copied());
+        let leg = f.joint.is_some_and(|j| j < 3);
+        let error = f.joint.map(|j| to_edge(j, f.error));
+        Trip {
+            summary: ServoFaultSummary {
+                at_s: t,
+                kind: fault_kind(f.kind),
+                joint,
+                error_mm: error.filter(|_| leg),
+                error_deg: error.filter(|_| !leg),
+                after_injection_s: first_injection_s.map(|i| t - i),
+                motion_after_trip: JointMotion::default(),
+                motion_from_0_1_s_after_trip: JointMotion::default(),
+                max_duty_after_trip: 0.0,
+            },
+            q_trip: s.true_q,
+            q_later: None,
+            motion: [0.0; 6],
+            creep: [0.0; 6],
+        }
+    }
+
+    /// A tick after the trip: how far the joints moved since it and since 0.1 s after it,
+    /// and the largest duty.
+    fn follow(&mut self, s: &TickSample) {
+        let t = s.t_s;
+        let sum = &mut self.summary;
+        if self.q_later.is_none() && t >= sum.at_s + 0.1 - 1e-9 {
+            self.q_later = Some(s.true_q);
+        }
+        for j in 0..6 {
+            let d = to_edge(j, (s.true_q[j] - self.q_trip[j]).abs());
+            self.motion[j] = self.motion[j].max(d);
+            if let Some(q) = self.q_later {
+                let d = to_edge(j, (s.true_q[j] - q[j]).abs());
+                self.creep[j] = self.creep[j].max(d);
+            }
+            sum.max_duty_after_trip = sum.max_duty_after_trip.max(s.duty[j].abs());
+        }
+        sum.motion_after_trip = JointMotion::from_array(self.motion);
+        sum.motion_from_0_1_s_after_trip = JointMotion::from_array(self.creep);
+    }
+}
+
 /// Everything accumulated over a run.
 pub struct Metrics {
     dt: f64,
@@ -638,7 +687,6 @@ impl Metrics {
     /// Adds one tick; `target` is the master's own pose at the tick (`Stream::master_pose`:
     /// not the last target received, which left the master a latency earlier).
     pub fn add(&mut self, s: &TickSample, target: &Pose<f64>) -> TickErrors {
-        let t = s.t_s;
         let sp = &s.setpoint;
         let tracking = pose_error(&s.true_pose, &sp.pose);
         let target_err = pose_error(&s.true_pose, target);
@@ -650,10 +698,35 @@ impl Metrics {
             }
             *e = d;
         }
+        self.add_errors(s, tracking, target_err, &joints);
+        self.add_actuators(s);
+        self.add_supervisor(s, target, target_err);
+        match (&mut self.trip, s.report.servo.fault) {
+            (None, Some(f)) => self.trip = Some(Trip::new(&f, s, self.first_injection_s)),
+            (Some(trip), _) => trip.follow(s),
+            _ => {}
+        }
+        TickErrors {
+            tracking,
+            target: target_err,
+            joints: std::array::from_fn(|j| to_edge(j, joints[j])),
+        }
+    }
+
+    /// The tick's pose and joint errors, into the whole run's window and its phase's; the
+    /// true pose into the step responses.
+    fn add_errors(
+        &mut self,
+        s: &TickSample,
+        tracking: (f64, f64),
+        target_err: (f64, f64),
+        joints: &[f64; 6],
+    ) {
+        let t = s.t_s;
         let mut w = Window::default();
         w.tracking.add(tracking, t);
         w.target.add(target_err, t);
-        for (st, e) in w.joints.iter_mut().zip(&joints) {
+        for (st, e) in w.joints.iter_mut().zip(joints) {
             st.add(*e, t);
         }
         self.all.merge(&w);
@@ -665,6 +738,10 @@ impl Metrics {
         for st in self.steps.iter_mut() {
             st.add(t, &s.true_pose);
         }
+    }
+
+    /// The actuators' peaks: duty, current (and ticks above nominal), effort.
+    fn add_actuators(&mut self, s: &TickSample) {
         for j in 0..6 {
             self.peak_duty[j] = self.peak_duty[j].max(s.duty[j].abs());
             self.peak_current[j] = self.peak_current[j].max(s.peak_current_a[j]);
@@ -674,6 +751,12 @@ impl Metrics {
             }
             self.peak_tau[j] = self.peak_tau[j].max(s.tau[j].abs());
         }
+    }
+
+    /// The supervisor's tick: its warning (by guard), its mode, its setpoint against the
+    /// master's `target` for the lag.
+    fn add_supervisor(&mut self, s: &TickSample, target: &Pose<f64>, target_err: (f64, f64)) {
+        let sp = &s.setpoint;
         self.ticks += 1;
         if sp.warning {
             self.warn_ticks += 1;
@@ -681,7 +764,7 @@ impl Metrics {
             *self.warn_by_guard.entry(name).or_insert(0) += 1;
         }
         let xyz = |p: &Pose<f64>| [p.t.x, p.t.y, p.t.z];
-        self.lag_series.push((t, xyz(target), xyz(&sp.pose)));
+        self.lag_series.push((s.t_s, xyz(target), xyz(&sp.pose)));
         self.target_tip_mm.push(target_err.0);
         let m = match sp.mode {
             Mode::Holding => 0,
@@ -691,53 +774,6 @@ impl Metrics {
             Mode::Stopped => 4,
         };
         self.modes[m] += 1;
-        match (&mut self.trip, s.report.servo.fault) {
-            (None, Some(f)) => {
-                let joint = f.joint.and_then(|j| JOINT_NAMES.get(j).copied());
-                let leg = f.joint.is_some_and(|j| j < 3);
-                let error = f.joint.map(|j| to_edge(j, f.error));
-                self.trip = Some(Trip {
-                    summary: ServoFaultSummary {
-                        at_s: t,
-                        kind: fault_kind(f.kind),
-                        joint,
-                        error_mm: error.filter(|_| leg),
-                        error_deg: error.filter(|_| !leg),
-                        after_injection_s: self.first_injection_s.map(|i| t - i),
-                        motion_after_trip: JointMotion::default(),
-                        motion_from_0_1_s_after_trip: JointMotion::default(),
-                        max_duty_after_trip: 0.0,
-                    },
-                    q_trip: s.true_q,
-                    q_later: None,
-                    motion: [0.0; 6],
-                    creep: [0.0; 6],
-                });
-            }
-            (Some(trip), _) => {
-                let sum = &mut trip.summary;
-                if trip.q_later.is_none() && t >= sum.at_s + 0.1 - 1e-9 {
-                    trip.q_later = Some(s.true_q);
-                }
-                for j in 0..6 {
-                    let d = to_edge(j, (s.true_q[j] - trip.q_trip[j]).abs());
-                    trip.motion[j] = trip.motion[j].max(d);
-                    if let Some(q) = trip.q_later {
-                        let d = to_edge(j, (s.true_q[j] - q[j]).abs());
-                        trip.creep[j] = trip.creep[j].max(d);
-                    }
-                    sum.max_duty_after_trip = sum.max_duty_after_trip.max(s.duty[j].abs());
-                }
-                sum.motion_after_trip = JointMotion::from_array(trip.motion);
-                sum.motion_from_0_1_s_after_trip = JointMotion::from_array(trip.creep);
-            }
-            _ => {}
-        }
-        TickErrors {
-            tracking,
-            target: target_err,
-            joints: std::array::from_fn(|j| to_edge(j, joints[j])),
-        }
     }
 
     /// Joint errors over the whole run.

@@ -2,12 +2,12 @@
 //! the closed loop and the measurements.
 
 use crate::config::{PayloadUpdate, SimConfig};
-use crate::engine::{payload_from_config, EngineError, Sim};
+use crate::engine::{payload_from_config, EngineError, Sim, TickSample, Timing};
 use crate::metrics::{
     edge_pose, AccuracyVerdict, ActuatorSummary, FaultSummary, JointErrorSummary, Metrics,
-    PhaseSummary, PoseErrorSummary, Refusals, StepSummary, SupervisorSummary,
+    PhaseSummary, PoseErrorSummary, Refusals, StepSummary, SupervisorSummary, TickErrors,
 };
-use crate::scenario::Scenario;
+use crate::scenario::{FaultEvent, Scenario};
 use control::{Plan, Planner, ToolLoad};
 use kinematics_core::guards::Limits;
 use kinematics_core::supervisor::Mode;
@@ -160,6 +160,9 @@ fn us(t: f64) -> u64 {
     (t * 1e6).round().max(0.0) as u64
 }
 
+/// The margin of the time comparisons (payload, faults), s.
+const EPS: f64 = 1e-9;
+
 /// Ticks per chunk the master side hands over when it runs on its own thread.
 const PIPELINE_CHUNK: u64 = 256;
 /// Chunks it may run ahead.
@@ -226,12 +229,11 @@ impl<'a> MasterSide<'a> {
 
     /// Tick `tick`: the targets due by then (stamp + latency), the tool, the plan.
     fn step(&mut self, tick: u64) -> Planned {
-        let eps = 1e-9;
         // As `Sim::time_s` and `Sim::now_us`.
         let t = tick as f64 * self.dt;
         let now_us = (t * 1e6).round() as u64;
         if let Some(a) = self.scenario.payload_attach_s {
-            if !self.attached && t + eps >= a {
+            if !self.attached && t + EPS >= a {
                 self.planner.set_tool(self.tool);
                 self.attached = true;
             }
@@ -262,6 +264,188 @@ impl<'a> MasterSide<'a> {
     }
 }
 
+/// The drive side of a run: the payload, the injected faults, the closed loop with the
+/// master side's plans, the measurements and the trace.
+struct DriveSide<'a> {
+    scenario: &'a Scenario,
+    sim: Sim,
+    metrics: Metrics,
+    /// The scenario's faults in time order, and the next one due.
+    faults: Vec<FaultEvent>,
+    next_fault: usize,
+    /// The trace keeps every this many ticks.
+    every: u64,
+    trace: Vec<TraceRow>,
+    total: u64,
+    progress: &'a mut dyn FnMut(u64, u64),
+}
+
+impl<'a> DriveSide<'a> {
+    fn new(
+        scenario: &'a Scenario,
+        sim: Sim,
+        limits: &Limits<f64>,
+        cfg: &SimConfig,
+        total: u64,
+        progress: &'a mut dyn FnMut(u64, u64),
+    ) -> Self {
+        let mut metrics = Metrics::new(
+            sim.control_dt(),
+            &scenario.phases,
+            &scenario.steps,
+            nominal_currents(&sim),
+        );
+        metrics.set_tip_accel_limit(limits.tip_accel);
+        let mut faults = scenario.faults.clone();
+        faults.sort_by(|a, b| a.at_s.total_cmp(&b.at_s));
+        let every = u64::from(cfg.output.trace_every_ticks);
+        DriveSide {
+            scenario,
+            sim,
+            metrics,
+            faults,
+            next_fault: 0,
+            every,
+            trace: Vec::with_capacity((total / every + 1) as usize),
+            total,
+            progress,
+        }
+    }
+
+    /// Tick `tick` with the master side's plan for it.
+    fn tick(&mut self, tick: u64, planned: &Planned) -> Result<(), RunError> {
+        let t = self.sim.time_s();
+        self.attach_payload(t);
+        self.inject_faults(t)?;
+        let s = self.sim.tick_with(&planned.plan)?;
+        let e = self.metrics.add(&s, &planned.master);
+        if tick.is_multiple_of(self.every) {
+            self.trace.push(trace_row(&s, &e, &planned.master));
+        }
+        if tick.is_multiple_of(500) {
+            (self.progress)(tick, self.total);
+        }
+        Ok(())
+    }
+
+    /// The payload goes on at the scenario's time.
+    fn attach_payload(&mut self, t: f64) {
+        if let Some(a) = self.scenario.payload_attach_s {
+            if !self.sim.payload_on() && t + EPS >= a {
+                self.sim.set_payload(true);
+            }
+        }
+    }
+
+    /// Injects into the plant every fault due by `t`.
+    fn inject_faults(&mut self, t: f64) -> Result<(), RunError> {
+        while let Some(f) = self.faults.get(self.next_fault) {
+            if f.at_s > t + EPS {
+                break;
+            }
+            self.sim
+                .plant_mut()
+                .inject(f.joint, f.fault)
+                .map_err(RunError::Fault)?;
+            self.metrics.injected(t, f.joint, format!("{:?}", f.fault));
+            self.next_fault += 1;
+        }
+        Ok(())
+    }
+}
+
+/// The nominal currents of the plant's motors in joint order, A.
+fn nominal_currents(sim: &Sim) -> [f64; 6] {
+    let p = sim.plant().config();
+    [
+        p.prismatic[0].drive.nominal_current_a,
+        p.prismatic[1].drive.nominal_current_a,
+        p.prismatic[2].drive.nominal_current_a,
+        p.rotary[0].drive.nominal_current_a,
+        p.rotary[1].drive.nominal_current_a,
+        p.rotary[2].drive.nominal_current_a,
+    ]
+}
+
+/// The trace's row of a tick.
+fn trace_row(s: &TickSample, e: &TickErrors, master: &Pose<f64>) -> TraceRow {
+    TraceRow {
+        t_s: s.t_s,
+        mode: mode_name(s.setpoint.mode),
+        warning: s.setpoint.warning,
+        target: edge_pose(master),
+        setpoint: edge_pose(&s.setpoint.pose),
+        truth: edge_pose(&s.true_pose),
+        tip_error_mm: e.tracking.0,
+        orientation_error_deg: e.tracking.1,
+        target_tip_error_mm: e.target.0,
+        target_orientation_error_deg: e.target.1,
+        joint_error: e.joints,
+        duty: s.duty,
+        current_a: s.current_a,
+        load: s.load,
+    }
+}
+
+/// Runs `total` ticks on this thread, the master side's step before each drive tick; the
+/// master side at the end.
+fn run_serial<'a>(
+    mut master: MasterSide<'a>,
+    drive: &mut DriveSide<'_>,
+    total: u64,
+) -> Result<MasterSide<'a>, RunError> {
+    for tick in 0..total {
+        let planned = master.step(tick);
+        drive.tick(tick, &planned)?;
+    }
+    Ok(master)
+}
+
+/// Runs `total` ticks with the master side on a thread of its own, ahead of the drive
+/// side on this one by at most [`PIPELINE_CHUNKS`] chunks of [`PIPELINE_CHUNK`] ticks;
+/// the master side at the end.
+fn run_pipelined<'a>(
+    mut master: MasterSide<'a>,
+    drive: &mut DriveSide<'_>,
+    total: u64,
+) -> Result<MasterSide<'a>, RunError> {
+    std::thread::scope(|scope| {
+        let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<Planned>>(PIPELINE_CHUNKS);
+        let handle = std::thread::Builder::new()
+            .name("sim-master".into())
+            .spawn_scoped(scope, move || {
+                let mut tick = 0;
+                while tick < total {
+                    let n = PIPELINE_CHUNK.min(total - tick);
+                    let chunk: Vec<Planned> = (tick..tick + n).map(|k| master.step(k)).collect();
+                    tick += n;
+                    if tx.send(chunk).is_err() {
+                        break; // the drive side stopped (an error)
+                    }
+                }
+                master
+            })
+            .map_err(RunError::Thread)?;
+        let mut tick = 0;
+        let mut failed = None;
+        'drive: for chunk in rx.iter() {
+            for planned in &chunk {
+                if let Err(e) = drive.tick(tick, planned) {
+                    failed = Some(e);
+                    break 'drive;
+                }
+                tick += 1;
+            }
+        }
+        drop(rx);
+        let master = handle.join().map_err(|_| RunError::MasterPanicked)?;
+        match failed {
+            Some(e) => Err(e),
+            None => Ok(master),
+        }
+    })
+}
+
 /// Runs `scenario`; `progress(done, total)` is called every few hundred ticks. With
 /// `threads` >= 2 the master side (stream, supervisor) runs on a thread of its own, ahead
 /// of the drive side; the results are the same as with 1.
@@ -276,127 +460,128 @@ pub fn run(
     let compensation = scenario
         .compensation
         .unwrap_or(cfg.control.backlash_compensation);
-    let mut sim = Sim::new(robot, limits, cfg, &scenario.start, compensation)?;
+    let sim = Sim::new(robot, limits, cfg, &scenario.start, compensation)?;
     let dt = sim.control_dt();
     let total = (scenario.duration_s / dt).round().max(0.0) as u64;
-    let nominal = {
-        let p = sim.plant().config();
-        [
-            p.prismatic[0].drive.nominal_current_a,
-            p.prismatic[1].drive.nominal_current_a,
-            p.prismatic[2].drive.nominal_current_a,
-            p.rotary[0].drive.nominal_current_a,
-            p.rotary[1].drive.nominal_current_a,
-            p.rotary[2].drive.nominal_current_a,
-        ]
-    };
-    let mut m = Metrics::new(dt, &scenario.phases, &scenario.steps, nominal);
-    m.set_tip_accel_limit(limits.tip_accel);
-    let mut faults = scenario.faults.clone();
-    faults.sort_by(|a, b| a.at_s.total_cmp(&b.at_s));
-    let mut next_fault = 0;
-    let mut master = MasterSide::new(scenario, cfg, sim.planner().clone(), sim.tool(true), dt);
-    let every = u64::from(cfg.output.trace_every_ticks);
-    let mut trace = Vec::with_capacity((total / every + 1) as usize);
-    let eps = 1e-9;
+    let master = MasterSide::new(scenario, cfg, sim.planner().clone(), sim.tool(true), dt);
+    let mut drive = DriveSide::new(scenario, sim, limits, cfg, total, progress);
     let started = Instant::now();
-    // The drive side of one tick: the payload, the injected faults, the closed loop with
-    // the master side's plan, the measurements.
-    let mut drive_tick = |sim: &mut Sim, tick: u64, planned: &Planned| -> Result<(), RunError> {
-        let t = sim.time_s();
-        if let Some(a) = scenario.payload_attach_s {
-            if !sim.payload_on() && t + eps >= a {
-                sim.set_payload(true);
-            }
-        }
-        while let Some(f) = faults.get(next_fault) {
-            if f.at_s > t + eps {
-                break;
-            }
-            sim.plant_mut()
-                .inject(f.joint, f.fault)
-                .map_err(RunError::Fault)?;
-            m.injected(t, f.joint, format!("{:?}", f.fault));
-            next_fault += 1;
-        }
-        let s = sim.tick_with(&planned.plan)?;
-        let e = m.add(&s, &planned.master);
-        if tick.is_multiple_of(every) {
-            trace.push(TraceRow {
-                t_s: s.t_s,
-                mode: mode_name(s.setpoint.mode),
-                warning: s.setpoint.warning,
-                target: edge_pose(&planned.master),
-                setpoint: edge_pose(&s.setpoint.pose),
-                truth: edge_pose(&s.true_pose),
-                tip_error_mm: e.tracking.0,
-                orientation_error_deg: e.tracking.1,
-                target_tip_error_mm: e.target.0,
-                target_orientation_error_deg: e.target.1,
-                joint_error: e.joints,
-                duty: s.duty,
-                current_a: s.current_a,
-                load: s.load,
-            });
-        }
-        if tick.is_multiple_of(500) {
-            progress(tick, total);
-        }
-        Ok(())
-    };
-    if threads >= 2 {
-        // The master side runs ahead on its own thread (at most PIPELINE_CHUNKS chunks of
-        // PIPELINE_CHUNK ticks), the drive side follows on this one.
-        master = std::thread::scope(|scope| -> Result<MasterSide, RunError> {
-            let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<Planned>>(PIPELINE_CHUNKS);
-            let handle = std::thread::Builder::new()
-                .name("sim-master".into())
-                .spawn_scoped(scope, move || {
-                    let mut tick = 0;
-                    while tick < total {
-                        let n = PIPELINE_CHUNK.min(total - tick);
-                        let chunk: Vec<Planned> =
-                            (tick..tick + n).map(|k| master.step(k)).collect();
-                        tick += n;
-                        if tx.send(chunk).is_err() {
-                            break; // the drive side stopped (an error)
-                        }
-                    }
-                    master
-                })
-                .map_err(RunError::Thread)?;
-            let mut tick = 0;
-            let mut failed = None;
-            'drive: for chunk in rx.iter() {
-                for planned in &chunk {
-                    if let Err(e) = drive_tick(&mut sim, tick, planned) {
-                        failed = Some(e);
-                        break 'drive;
-                    }
-                    tick += 1;
-                }
-            }
-            drop(rx);
-            let master = handle.join().map_err(|_| RunError::MasterPanicked)?;
-            match failed {
-                Some(e) => Err(e),
-                None => Ok(master),
-            }
-        })?;
+    let master = if threads >= 2 {
+        run_pipelined(master, &mut drive, total)?
     } else {
-        for tick in 0..total {
-            let planned = master.step(tick);
-            drive_tick(&mut sim, tick, &planned)?;
-        }
-    }
-    progress(total, total);
+        run_serial(master, &mut drive, total)?
+    };
+    (drive.progress)(total, total);
     let wall_s = started.elapsed().as_secs_f64();
     let simulated_s = total as f64 * dt;
+    let (sim, m) = (&drive.sim, &drive.metrics);
+    let summary = Summary {
+        scenario: scenario.name.clone(),
+        description: scenario.description.clone(),
+        settings: run_settings(cfg, scenario, compensation),
+        definitions: Definitions {
+            tracking: TRACKING_DEFINITION,
+            target: TARGET_DEFINITION,
+            tip: "the platform centre o_p",
+        },
+        simulated_s,
+        control_ticks: total,
+        wall_s,
+        speed_up: if wall_s > 0.0 {
+            simulated_s / wall_s
+        } else {
+            f64::INFINITY
+        },
+        timing: timing_summary(threads, total, wall_s, sim.timing(), master.busy_s),
+        tracking: m.all.tracking.summary(),
+        target: m.all.target.summary(),
+        joints: m.all_joint_summaries(),
+        phases: m.phase_summaries(),
+        accuracy: m.accuracy(
+            cfg.accuracy.judged_speed_mm_s,
+            cfg.accuracy.tip_rms_mm,
+            cfg.accuracy.tip_max_mm,
+        ),
+        steps: m.step_summaries(),
+        actuators: m.actuators(scenario.payload_attach_s.is_some()),
+        supervisor: supervisor_summary(&master, m, sim),
+        faults: FaultSummary {
+            injected: m.injected.clone(),
+            servo: m.servo_fault(),
+            true_fk_failures: sim.true_fk_failures(),
+        },
+    };
+    Ok(Outcome {
+        summary,
+        trace: drive.trace,
+    })
+}
+
+/// The settings of a run with `compensation` on or off.
+fn run_settings(cfg: &SimConfig, scenario: &Scenario, compensation: bool) -> RunSettings {
+    let payload = payload_from_config(cfg);
+    let w = payload.wrench(&scenario.start);
+    RunSettings {
+        control_rate_hz: cfg.control.rate_hz,
+        plant_step_us: cfg.plant_dt() * 1e6,
+        leg_backlash_mm: cfg.plant.leg_backlash_mm,
+        backlash_compensation: compensation,
+        compensated_leg_backlash_mm: if compensation {
+            cfg.control.compensated_leg_backlash_mm
+        } else {
+            0.0
+        },
+        payload_attached_at_s: scenario.payload_attach_s,
+        payload_mass_kg: cfg.payload.mass_kg,
+        payload_lever_mm: cfg.payload.lever_mm,
+        payload_force_n: [w[0], w[1], w[2]],
+        payload_moment_nm: [w[3], w[4], w[5]],
+        payload_update: match cfg.plant.payload_update() {
+            PayloadUpdate::Tick => "tick".into(),
+            PayloadUpdate::Step => "step".into(),
+            PayloadUpdate::Moved => format!(
+                "moved (by {} mm or {} deg)",
+                cfg.plant.payload_refresh_mm, cfg.plant.payload_refresh_deg
+            ),
+        },
+        stream_rate_hz: cfg.master.stream_rate_hz,
+        latency_ms: cfg.master.latency_ms,
+    }
+}
+
+/// Where the `wall_s` of `total` ticks went, from the closed loop's `timing` and the
+/// planner's `planner_s`.
+fn timing_summary(
+    threads: usize,
+    total: u64,
+    wall_s: f64,
+    t: Timing,
+    planner_s: f64,
+) -> TimingSummary {
+    let n = (total.max(1)) as f64 / 1e6;
+    TimingSummary {
+        threads,
+        per_tick_us: wall_s / n,
+        controller_us: t.controller_s / n,
+        planner_us: planner_s / n,
+        plant_us: t.plant_s / n,
+        truth_and_payload_us: t.truth_s / n,
+        payload_us: t.payload_s / n,
+        other_us: if threads >= 2 {
+            (wall_s - t.controller_s - t.plant_s - t.truth_s) / n
+        } else {
+            (wall_s - t.controller_s - planner_s - t.plant_s - t.truth_s) / n
+        },
+    }
+}
+
+/// What the supervisor did with the master's targets, and the drive's forward kinematics.
+fn supervisor_summary(master: &MasterSide<'_>, m: &Metrics, sim: &Sim) -> SupervisorSummary {
     let sup = master.planner.supervisor();
     let c = sup.counters();
     let first = master.first_refusal.clone();
     let drive = sim.sensing().counters();
-    let supervisor = SupervisorSummary {
+    SupervisorSummary {
         targets_sent: master.targets_sent,
         accepted: c.accepted,
         certified: c.certified,
@@ -430,86 +615,5 @@ pub fn run(
             .map(|r| format!("{} ({}) value {:e}", r.guard, r.subject, r.value)),
         fk_failures: drive.fk_failures,
         fk_max_iterations: drive.fk_max_iterations,
-    };
-    let payload = payload_from_config(cfg);
-    let w = payload.wrench(&scenario.start);
-    let summary = Summary {
-        scenario: scenario.name.clone(),
-        description: scenario.description.clone(),
-        settings: RunSettings {
-            control_rate_hz: cfg.control.rate_hz,
-            plant_step_us: cfg.plant_dt() * 1e6,
-            leg_backlash_mm: cfg.plant.leg_backlash_mm,
-            backlash_compensation: compensation,
-            compensated_leg_backlash_mm: if compensation {
-                cfg.control.compensated_leg_backlash_mm
-            } else {
-                0.0
-            },
-            payload_attached_at_s: scenario.payload_attach_s,
-            payload_mass_kg: cfg.payload.mass_kg,
-            payload_lever_mm: cfg.payload.lever_mm,
-            payload_force_n: [w[0], w[1], w[2]],
-            payload_moment_nm: [w[3], w[4], w[5]],
-            payload_update: match cfg.plant.payload_update() {
-                PayloadUpdate::Tick => "tick".into(),
-                PayloadUpdate::Step => "step".into(),
-                PayloadUpdate::Moved => format!(
-                    "moved (by {} mm or {} deg)",
-                    cfg.plant.payload_refresh_mm, cfg.plant.payload_refresh_deg
-                ),
-            },
-            stream_rate_hz: cfg.master.stream_rate_hz,
-            latency_ms: cfg.master.latency_ms,
-        },
-        definitions: Definitions {
-            tracking: TRACKING_DEFINITION,
-            target: TARGET_DEFINITION,
-            tip: "the platform centre o_p",
-        },
-        simulated_s,
-        control_ticks: total,
-        wall_s,
-        speed_up: if wall_s > 0.0 {
-            simulated_s / wall_s
-        } else {
-            f64::INFINITY
-        },
-        timing: {
-            let t = sim.timing();
-            let n = (total.max(1)) as f64 / 1e6;
-            TimingSummary {
-                threads,
-                per_tick_us: wall_s / n,
-                controller_us: t.controller_s / n,
-                planner_us: master.busy_s / n,
-                plant_us: t.plant_s / n,
-                truth_and_payload_us: t.truth_s / n,
-                payload_us: t.payload_s / n,
-                other_us: if threads >= 2 {
-                    (wall_s - t.controller_s - t.plant_s - t.truth_s) / n
-                } else {
-                    (wall_s - t.controller_s - master.busy_s - t.plant_s - t.truth_s) / n
-                },
-            }
-        },
-        tracking: m.all.tracking.summary(),
-        target: m.all.target.summary(),
-        joints: m.all_joint_summaries(),
-        phases: m.phase_summaries(),
-        accuracy: m.accuracy(
-            cfg.accuracy.judged_speed_mm_s,
-            cfg.accuracy.tip_rms_mm,
-            cfg.accuracy.tip_max_mm,
-        ),
-        steps: m.step_summaries(),
-        actuators: m.actuators(scenario.payload_attach_s.is_some()),
-        supervisor,
-        faults: FaultSummary {
-            injected: m.injected.clone(),
-            servo: m.servo_fault(),
-            true_fk_failures: sim.true_fk_failures(),
-        },
-    };
-    Ok(Outcome { summary, trace })
+    }
 }

@@ -74,6 +74,20 @@ fn payload_from_start(cfg: &SimConfig) -> Option<f64> {
     cfg.payload.enabled.then_some(0.0)
 }
 
+/// The box sweep's tour of the eight corners (signs of the half-extents along x, y, z). It
+/// ends at the low corner [+x, +y, -z], the one the tilted platform cannot reach: its
+/// refused targets end the tour.
+const CORNER_TOUR: [[f64; 3]; 8] = [
+    [-1.0, 1.0, -1.0],
+    [-1.0, 1.0, 1.0],
+    [1.0, 1.0, 1.0],
+    [1.0, -1.0, 1.0],
+    [-1.0, -1.0, 1.0],
+    [-1.0, -1.0, -1.0],
+    [1.0, -1.0, -1.0],
+    [1.0, 1.0, -1.0],
+];
+
 impl Scenario {
     /// The named scenario with the settings of `cfg`; `hc` is the robot's central height, m.
     pub fn from_config(name: &str, cfg: &SimConfig, hc: f64) -> Result<Self, UnknownScenario> {
@@ -171,18 +185,6 @@ impl Scenario {
         let b = &cfg.scenario.box_sweep;
         let limits = cfg.master.limits();
         let h = Vector3::new(20.0, 20.0, 10.0) * (1e-3 * b.reach);
-        // A tour of the eight corners that ends at the low corner [+x, +y, -z], the one the
-        // tilted platform cannot reach: its refused targets end the tour.
-        let signs: [[f64; 3]; 8] = [
-            [-1.0, 1.0, -1.0],
-            [-1.0, 1.0, 1.0],
-            [1.0, 1.0, 1.0],
-            [1.0, -1.0, 1.0],
-            [-1.0, -1.0, 1.0],
-            [-1.0, -1.0, -1.0],
-            [1.0, -1.0, -1.0],
-            [1.0, 1.0, -1.0],
-        ];
         let axis = Vector3::new(1.0, 1.0, 0.0).normalize();
         let tilted = Rotation3::from_scaled_axis(axis * b.tilt_deg.to_radians());
         let mut traj = Trajectory::default();
@@ -196,7 +198,7 @@ impl Scenario {
             let oriented = Pose { t: centre.t, r };
             let start = traj.push(line(&limits, &at, &oriented, b.speed_mm_s));
             at = oriented;
-            for s in &signs {
+            for s in &CORNER_TOUR {
                 let corner = Pose {
                     t: centre.t + Vector3::new(s[0] * h.x, s[1] * h.y, s[2] * h.z),
                     r,

@@ -1,7 +1,11 @@
 //! The simulated board on a Unix socket, paced by the wall clock: a master (`host-sim
 //! teleop`, the console, the OpenIGTLink bridge, `host-sim faultlog`) connects to it as to a
-//! board on a desk. One master at a time; a new connection gets the same board (a master
-//! that reconnects says Hello again, as with a real board).
+//! board on a desk. Several connections at once are one shared line: each connection's
+//! bytes reach the board frame by frame (a frame is never cut by another connection's),
+//! and every connection hears everything the board sends. Who commands the robot is the
+//! board's rule, not the socket's: the master that owns it (the last `Hello` it accepted)
+//! keeps it while the robot is enabled, and a second connection cannot cut it off. A
+//! master that reconnects says Hello again, as with a real board.
 
 use std::io::{ErrorKind, Read, Write};
 use std::os::unix::net::{UnixListener, UnixStream};
@@ -28,6 +32,12 @@ pub enum ServeError {
     Board(#[from] BoardSimError),
 }
 
+/// A master's connection and the bytes of its frame not yet complete.
+struct Connection {
+    stream: UnixStream,
+    partial: Vec<u8>,
+}
+
 /// Serves a board built from `cfg` on `socket` until `stop` is set: every millisecond of
 /// wall time one control tick (a tick that falls behind by more than 50 ms drops the
 /// backlog: the board's own deadline policy is not what is simulated here). `ready` is
@@ -47,21 +57,34 @@ pub fn serve(
     ready();
     let mut board = BoardSim::new(cfg, ResetCause::PowerOn, None)?;
     let start = Instant::now();
-    let mut stream: Option<UnixStream> = None;
+    let mut conns: Vec<Connection> = Vec::new();
     let mut buf = [0u8; 4096];
     while !stop.load(Ordering::Relaxed) {
-        if let Ok((s, _)) = listener.accept() {
+        while let Ok((s, _)) = listener.accept() {
             s.set_nonblocking(true)?;
-            stream = Some(s);
+            conns.push(Connection {
+                stream: s,
+                partial: Vec::new(),
+            });
         }
-        if let Some(s) = stream.as_mut() {
-            match s.read(&mut buf) {
-                Ok(0) => stream = None,
-                Ok(n) => board.receive(buf.get(..n).unwrap_or_default()),
-                Err(e) if e.kind() == ErrorKind::WouldBlock => {}
-                Err(_) => stream = None,
+        conns.retain_mut(|c| match c.stream.read(&mut buf) {
+            Ok(0) => false,
+            Ok(n) => {
+                // Whole frames only: the bytes up to each delimiter.
+                for &b in buf.get(..n).unwrap_or_default() {
+                    c.partial.push(b);
+                    // (A run longer than any frame is passed on as it is: the board's
+                    // decoder counts it oversized.)
+                    if b == 0 || c.partial.len() >= 2 * master_link::MAX_FRAME_LEN {
+                        board.receive(&c.partial);
+                        c.partial.clear();
+                    }
+                }
+                true
             }
-        }
+            Err(e) if e.kind() == ErrorKind::WouldBlock => true,
+            Err(_) => false,
+        });
         // Tick up to the wall clock (at most 50 behind).
         let wall_us = start.elapsed().as_micros() as u64;
         let behind = wall_us.saturating_sub(board.now_us()) / 1000;
@@ -75,11 +98,7 @@ pub fn serve(
         }
         let out = board.take_output();
         if !out.is_empty() {
-            if let Some(s) = stream.as_mut() {
-                if s.write_all(&out).is_err() {
-                    stream = None;
-                }
-            }
+            conns.retain_mut(|c| c.stream.write_all(&out).is_ok());
         }
         std::thread::sleep(Duration::from_micros(500));
     }

@@ -105,6 +105,9 @@ pub struct BoardArgs {
     /// Attach the thesis's tool (1.2 kg on a 0.1 m lever).
     #[arg(long)]
     pub tool: bool,
+    /// The board's link key (masters need the same `--key-file`).
+    #[command(flatten)]
+    pub key: super::KeyArgs,
 }
 
 /// Serves the simulated board until the process is stopped.
@@ -113,13 +116,15 @@ pub fn board(args: &BoardArgs) -> Result<(), CliError> {
     if args.tool {
         cfg.tool = Some(control::ToolLoad::thesis());
     }
+    cfg.key = args.key.key()?;
     // The host is not real time: a late tick is the host's, not the board's.
     cfg.service.watchdog.max_lateness_us = 1_000_000;
     cfg.service.overruns_to_fault = u32::MAX;
+    let keyed = cfg.key.is_some();
     let stop = AtomicBool::new(false);
     let socket = args.socket.display().to_string();
     simulation::serve::serve(&args.socket, cfg, &stop, &|| {
-        println!("simulated board on {socket} (the board application on the plant, paced by the wall clock; stop with Ctrl-C)");
+        println!("simulated board on {socket} (the board application on the plant, paced by the wall clock; stop with Ctrl-C){}", if keyed { "; link key set: frames without a valid tag are dropped" } else { "" });
     })?;
     Ok(())
 }
@@ -133,13 +138,23 @@ pub struct FaultLogArgs {
     /// Serial devices: the baud rate.
     #[arg(long, default_value_t = 1_000_000)]
     pub baud: u32,
+    #[command(flatten)]
+    pub key: super::KeyArgs,
 }
 
-/// Reads the fault log and prints it.
+/// Reads the fault log and the event log and prints them.
 pub fn faultlog(args: &FaultLogArgs) -> Result<(), CliError> {
-    let link = teleop::link::open(&args.connect, args.baud, Duration::from_secs(5))?;
+    let link = teleop::link::open_with_key(
+        &args.connect,
+        args.baud,
+        Duration::from_secs(5),
+        args.key.key()?,
+    )?;
     let mut s = teleop::session::Session::new(link);
     let (reset, entries) = teleop::faultlog::read(&mut s)?;
     print!("{}", teleop::faultlog::table(&reset, &entries));
+    let (events, page) = teleop::faultlog::read_events(&mut s)?;
+    println!();
+    print!("{}", teleop::faultlog::events_table(&events, &page));
     Ok(())
 }

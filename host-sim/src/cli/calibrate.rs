@@ -58,6 +58,8 @@ pub struct UploadArgs {
     /// How long to wait for the board (connection, hello, the flash write), s.
     #[arg(long, default_value_t = 15.0)]
     pub timeout_s: f64,
+    #[command(flatten)]
+    pub key: super::KeyArgs,
 }
 
 /// The tracker's noise, shared by the identification, the plan and the simulation.
@@ -372,7 +374,7 @@ fn run_upload(args: &UploadArgs) -> Result<(), CliError> {
     let (geometry, info) = robot_config::geometry_file::load_per_chain(&args.file)?;
     let record = control::geometry_store::record_of(&geometry, info.version);
     let timeout = std::time::Duration::from_secs_f64(args.timeout_s.max(0.0));
-    let link = teleop::link::open(&args.connect, args.baud, timeout)?;
+    let link = teleop::link::open_with_key(&args.connect, args.baud, timeout, args.key.key()?)?;
     let mut s = Session::new(link);
     s.hello(args.timeout_s)?;
     println!(

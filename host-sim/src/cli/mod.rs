@@ -239,8 +239,10 @@ pub enum Command {
     /// The simulated board (the board application on the plant) on a Unix socket, paced
     /// by the wall clock, for `teleop`, the console, `igtl` and `faultlog`.
     Board(board::BoardArgs),
-    /// The fault log of a board (or the simulated board, or the emulator), read over its
-    /// link: time, cause, joint, value, the stop it caused, repeats; and the last reset.
+    /// The fault log and the non-volatile event log of a board (or the simulated board, or
+    /// the emulator), read over its link: time, cause, joint, value, the stop it caused,
+    /// repeats, the last reset; then every event the flash kept (faults, stops, resets,
+    /// masters, geometries, the relay test) with its boot and time, in plain words.
     Faultlog(board::FaultLogArgs),
     /// Kinematic calibration from external measurements (issue 19).
     ///
@@ -266,7 +268,7 @@ impl Command {
             Command::Forces(args) => design::forces(args, robot),
             Command::Singularity(args) => Ok(singularity::run(args, robot)?),
             Command::Report(args) => design::report(args, selected),
-            Command::Check(args) => check::run(args, selected, limits),
+            Command::Check(args) => Ok(check::run(args, selected, limits)?),
             Command::Sim(args) => sim::run(args, selected, limits),
             Command::Ranges(args) => design::ranges(args, selected),
             Command::Workspace(args) => design::workspace(args, robot, limits),
@@ -281,5 +283,27 @@ impl Command {
             Command::Faultlog(args) => board::faultlog(args),
             Command::Calibrate(args) => calibrate::run(args, selected, limits),
         }
+    }
+}
+
+/// `--key-file`: the master link's pre-shared key.
+#[derive(Debug, Clone, Default, clap::Args)]
+pub struct KeyArgs {
+    /// The master link's pre-shared key: a file of 64 hexadecimal digits (32 bytes), for a
+    /// board whose link leaves the desk; every frame then carries an HMAC-SHA256 tag, and
+    /// frames without a valid one are dropped. Without it the link carries no tags (a
+    /// board on a desk). The key is never printed.
+    #[arg(long, value_name = "PATH")]
+    pub key_file: Option<std::path::PathBuf>,
+}
+
+impl KeyArgs {
+    /// The key, read from its file, if one was given.
+    pub fn key(&self) -> Result<Option<master_link::LinkKey>, crate::error::CliError> {
+        self.key_file
+            .as_deref()
+            .map(::teleop::link::read_key_file)
+            .transpose()
+            .map_err(crate::error::CliError::from)
     }
 }

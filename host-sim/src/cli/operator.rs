@@ -7,7 +7,7 @@ use masters::{MotionScale, TeleopConfig, TeleopState};
 use operator::board::{Board, BringUpTimeouts};
 use operator::devices::{self, DeviceSpec};
 use operator::navigation::{self, BoardRobot};
-use operator::teleoperation::{self, TeleoperationSettings};
+use operator::teleoperation::{self, TeleoperationSettings, TickView};
 use simulation::config::default_target_dir;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -51,25 +51,36 @@ fn stop_on_ctrl_c() -> Arc<AtomicBool> {
     stop
 }
 
+/// Where the board is: its socket or serial device, the baud rate, the link key.
+pub struct BoardLink<'a> {
+    /// A Unix socket or a serial device.
+    pub connect: &'a Path,
+    /// Serial devices: the baud rate.
+    pub baud: u32,
+    /// The link's pre-shared key, if any.
+    pub key: Option<master_link::LinkKey>,
+}
+
 /// `host-sim teleop --device ...`: bring the board up, teleoperate, disable, summarise.
 pub fn hand_controller(
-    connect: &Path,
-    baud: u32,
+    board: BoardLink<'_>,
     connect_timeout_s: f64,
     home_timeout_s: f64,
     stream_rate_hz: f64,
     args: &HandControllerArgs,
     device: &str,
 ) -> Result<(), CliError> {
+    let BoardLink { connect, baud, key } = board;
     let spec: DeviceSpec = device.parse()?;
     let stop = stop_on_ctrl_c();
     let mut master = devices::open(&spec, &stop)?;
     let keyboard = spec == DeviceSpec::Keyboard;
     let eol = if keyboard { "\r\n" } else { "\n" };
-    let mut board = Board::open(
+    let mut board = Board::open_with_key(
         connect,
         baud,
         Duration::from_secs_f64(connect_timeout_s.max(0.0)),
+        key,
     )?;
     let timeouts = BringUpTimeouts {
         hello_s: connect_timeout_s,
@@ -77,6 +88,44 @@ pub fn hand_controller(
         ..BringUpTimeouts::default()
     };
     board.bring_up(&timeouts, &mut |m| print!("board: {m}{eol}"))?;
+    let settings = teleoperation_settings(args, device, stream_rate_hz)?;
+    print!(
+        "teleoperating with {} at {stream_rate_hz} Hz, scale {} / {}; {}{eol}",
+        master.name(),
+        args.scale_translation,
+        args.scale_rotation,
+        if keyboard {
+            "keys: d/a w/s r/f move, i/k l/j u/o turn, +/- speed, c clutch, Space operator present, Esc stop, q quit"
+        } else {
+            "Ctrl-C to stop"
+        }
+    );
+    let mut last_print = f64::NEG_INFINITY;
+    let report = teleoperation::run(&mut board, master.as_mut(), &settings, &stop, &mut |v| {
+        if v.t_s - last_print < 0.2 {
+            return;
+        }
+        last_print = v.t_s;
+        eprint!("\r{}", live_line(v));
+        let _ = std::io::stderr().flush();
+    });
+    eprint!("{eol}");
+    drop(master);
+    let report = report?;
+    // Leave the robot disabled (holding brakes on): nobody streams to it any more.
+    let _ = board.request(master_link::MasterToBoard::Disable);
+    print!("{}", report.summary());
+    Ok(())
+}
+
+/// The run's settings from the options: the mapping at `stream_rate_hz` with the scales
+/// and the tremor filter, the recording (by default under
+/// `target/teleop/sessions/`, named by the time), the device named in the recording.
+fn teleoperation_settings(
+    args: &HandControllerArgs,
+    device: &str,
+    stream_rate_hz: f64,
+) -> Result<TeleoperationSettings, CliError> {
     let record = args.record.clone().unwrap_or_else(|| {
         let unix = std::time::SystemTime::now()
             .duration_since(std::time::UNIX_EPOCH)
@@ -95,59 +144,38 @@ pub fn hand_controller(
     if args.no_tremor_filter {
         teleop.tremor = None;
     }
-    let settings = TeleoperationSettings {
+    Ok(TeleoperationSettings {
         teleop,
         duration_s: args.duration_s,
         record: Some(record),
         settings_text: [("device".to_string(), device.to_string())].into(),
         ..TeleoperationSettings::default()
+    })
+}
+
+/// The line shown in place while teleoperating: the board's state, the mapping's, the
+/// workspace-edge cue, the nearest margin and the measured position.
+fn live_line(v: &TickView) -> String {
+    let state = match v.state {
+        TeleopState::Following => "following".to_string(),
+        TeleopState::Holding(r) => format!("holding: {}", r.as_str()),
     };
-    print!(
-        "teleoperating with {} at {stream_rate_hz} Hz, scale {} / {}; {}{eol}",
-        master.name(),
-        args.scale_translation,
-        args.scale_rotation,
-        if keyboard {
-            "keys: d/a w/s r/f move, i/k l/j u/o turn, +/- speed, c clutch, Space operator present, Esc stop, q quit"
-        } else {
-            "Ctrl-C to stop"
+    let (pose, margin, board_state) = match v.status {
+        Some(s) => {
+            let p = operator::conversions::measured_cp(s)
+                .map(|p| p.to_mm_deg())
+                .unwrap_or([f64::NAN; 6]);
+            (p, s.margins.nearest, format!("{:?}", s.state))
         }
-    );
-    let mut last_print = f64::NEG_INFINITY;
-    let report = teleoperation::run(&mut board, master.as_mut(), &settings, &stop, &mut |v| {
-        if v.t_s - last_print < 0.2 {
-            return;
-        }
-        last_print = v.t_s;
-        let state = match v.state {
-            TeleopState::Following => "following".to_string(),
-            TeleopState::Holding(r) => format!("holding: {}", r.as_str()),
-        };
-        let (pose, margin, board_state) = match v.status {
-            Some(s) => {
-                let p = operator::conversions::measured_cp(s)
-                    .map(|p| p.to_mm_deg())
-                    .unwrap_or([f64::NAN; 6]);
-                (p, s.margins.nearest, format!("{:?}", s.state))
-            }
-            None => ([f64::NAN; 6], f32::NAN, "?".into()),
-        };
-        eprint!(
-            "\r{board_state:<8} {state:<24} edge {:<10} margin {margin:5.2}  x {:7.2} y {:7.2} z {:7.2} mm   ",
-            v.cue.as_str(),
-            pose[0],
-            pose[1],
-            pose[2]
-        );
-        let _ = std::io::stderr().flush();
-    });
-    eprint!("{eol}");
-    drop(master);
-    let report = report?;
-    // Leave the robot disabled (holding brakes on): nobody streams to it any more.
-    let _ = board.request(master_link::MasterToBoard::Disable);
-    print!("{}", report.summary());
-    Ok(())
+        None => ([f64::NAN; 6], f32::NAN, "?".into()),
+    };
+    format!(
+        "{board_state:<8} {state:<24} edge {:<10} margin {margin:5.2}  x {:7.2} y {:7.2} z {:7.2} mm   ",
+        v.cue.as_str(),
+        pose[0],
+        pose[1],
+        pose[2]
+    )
 }
 
 /// `host-sim replay` options.
@@ -187,11 +215,18 @@ pub struct ConsoleArgs {
     /// Serial devices: the baud rate.
     #[arg(long, default_value_t = 1_000_000)]
     pub baud: u32,
+    #[command(flatten)]
+    pub key: super::KeyArgs,
 }
 
 /// Runs the console.
 pub fn console(args: &ConsoleArgs) -> Result<(), CliError> {
-    let board = Board::open(&args.connect, args.baud, Duration::from_secs(10))?;
+    let board = Board::open_with_key(
+        &args.connect,
+        args.baud,
+        Duration::from_secs(10),
+        args.key.key()?,
+    )?;
     operator::console::run(board)?;
     Ok(())
 }
@@ -226,6 +261,8 @@ pub struct IgtlArgs {
     /// Stop after this many seconds [default: until Ctrl-C].
     #[arg(long)]
     pub duration_s: Option<f64>,
+    #[command(flatten)]
+    pub key: super::KeyArgs,
 }
 
 /// Serves OpenIGTLink for the board until Ctrl-C (or the duration).
@@ -248,7 +285,12 @@ pub fn igtl(args: &IgtlArgs) -> Result<(), CliError> {
         Err(_) => args.listen.clone(),
     };
     let stop = stop_on_ctrl_c();
-    let mut board = Board::open(&args.connect, args.baud, Duration::from_secs(10))?;
+    let mut board = Board::open_with_key(
+        &args.connect,
+        args.baud,
+        Duration::from_secs(10),
+        args.key.key()?,
+    )?;
     if args.enable {
         board.bring_up(&BringUpTimeouts::default(), &mut |m| println!("board: {m}"))?;
     } else {

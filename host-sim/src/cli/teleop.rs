@@ -46,14 +46,19 @@ pub struct TeleopArgs {
     pub out: Option<PathBuf>,
     #[command(flatten)]
     pub hand: super::operator::HandControllerArgs,
+    #[command(flatten)]
+    pub key: super::KeyArgs,
 }
 
 /// Runs the master.
 pub fn run(args: &TeleopArgs) -> Result<(), CliError> {
     if let Some(device) = &args.hand.device {
         return super::operator::hand_controller(
-            &args.connect,
-            args.baud,
+            super::operator::BoardLink {
+                connect: &args.connect,
+                baud: args.baud,
+                key: args.key.key()?,
+            },
             args.connect_timeout_s,
             args.home_timeout_s,
             args.stream_rate_hz,
@@ -80,6 +85,7 @@ pub fn run(args: &TeleopArgs) -> Result<(), CliError> {
         out,
         laparoscope: cfg.scenario.laparoscope.clone(),
         master: cfg.master.limits(),
+        key: args.key.key()?,
     };
     Ok(teleop::run(&settings)?)
 }

@@ -10,9 +10,8 @@
 //! A computed verdict or report exits 0 whatever it says; only bad input fails.
 
 use super::{execute, pose_columns, pose_flags, RowError};
-use crate::batch::{Calculation, Row};
-use crate::columns::{parse_branch, pose_from_edge, read_branch, read_pose, EdgeError, POSE};
-use crate::error::CliError;
+use crate::batch::{BatchError, Calculation};
+use crate::columns::{parse_branch, pose_from_edge, read_branch, read_pose, EdgeError, Row, POSE};
 use crate::flags::{self, FlagError};
 use clap::Args;
 use kinematics_core::guards::{Guard, GuardSetupError, Guards, Limits, Reading, Severity, Subject};
@@ -24,9 +23,15 @@ use std::fmt::Write as _;
 use std::io::Write as _;
 use thiserror::Error;
 
-/// Why `check --task-box` cannot run or print.
+/// Why `check` cannot run or print.
 #[derive(Debug, Error)]
 pub enum CheckError {
+    /// A flag's value, or flags that do not go together.
+    #[error(transparent)]
+    Flag(#[from] FlagError),
+    /// The row-wise form: the input as a whole, or the single form's row.
+    #[error(transparent)]
+    Batch(#[from] BatchError<RowError>),
     /// The guards cannot be set up for the robot, branch and limits.
     #[error("{0}")]
     Guards(GuardSetupError),
@@ -188,7 +193,7 @@ pub fn run(
     args: &CheckArgs,
     selected: &SelectedRobot,
     limits: &SelectedLimits,
-) -> Result<(), CliError> {
+) -> Result<(), CheckError> {
     if args.task_box {
         return run_task_box(args, selected, limits);
     }
@@ -571,7 +576,7 @@ fn run_task_box(
     args: &CheckArgs,
     selected: &SelectedRobot,
     limits: &SelectedLimits,
-) -> Result<(), CliError> {
+) -> Result<(), CheckError> {
     let grid = match &args.grid {
         Some(g) => flags::grid("--grid", g)?,
         None => DEFAULT_GRID,
@@ -598,6 +603,6 @@ fn run_task_box(
         let mut lock = stdout.lock();
         lock.write_all(task_text(&check, selected, limits).as_bytes())
             .and_then(|()| lock.flush())
-            .map_err(|e| CheckError::Flush(e).into())
+            .map_err(CheckError::Flush)
     }
 }

@@ -1,7 +1,8 @@
 //! `fk`: the pose of joints on a branch, by the core's Newton iteration.
 
 use super::{execute, RowError};
-use crate::batch::{BatchError, Calculation, FlagValue, Row};
+use crate::batch::{BatchError, Calculation, FlagValue};
+use crate::columns::Row;
 use crate::columns::{
     joint_columns, pose_to_edge, read_branch, read_initial_pose, read_joints, BRANCH, INITIAL_POSE,
     POSE,

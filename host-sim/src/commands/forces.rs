@@ -1,7 +1,8 @@
 //! `forces`: the actuator forces and torques that hold a wrench, tau = J^-T s_e.
 
 use super::{execute, pose_columns, solve_row, PoseInput, RowError};
-use crate::batch::{Calculation, FlagValue, Row};
+use crate::batch::{Calculation, FlagValue};
+use crate::columns::Row;
 use crate::columns::{read_wrench, WRENCH};
 use crate::error::CliError;
 use crate::flags::min_inv_cond;

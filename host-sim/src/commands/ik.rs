@@ -1,7 +1,8 @@
 //! `ik`: the joints of a pose on a branch.
 
 use super::{execute, pose_columns, solve_row, PoseInput, RowError};
-use crate::batch::{BatchError, Calculation, Row};
+use crate::batch::{BatchError, Calculation};
+use crate::columns::Row;
 use crate::columns::{joint_columns, joints_to_edge};
 use clap::Args;
 use kinematics_core::Robot;

@@ -1,7 +1,8 @@
 //! `jacobian`: J = dq/dx at a pose, and the conditioning of the tripod Jacobian.
 
 use super::{execute, pose_columns, solve_row, PoseInput, RowError};
-use crate::batch::{BatchError, Calculation, Row};
+use crate::batch::{BatchError, Calculation};
+use crate::columns::Row;
 use clap::Args;
 use kinematics_core::singularity::parallel_inv_cond;
 use kinematics_core::{jacobian, Mechanism, Robot};

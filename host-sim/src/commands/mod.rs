@@ -8,8 +8,8 @@ pub mod ik;
 pub mod jacobian;
 pub mod singularity;
 
-use crate::batch::{self, BatchError, Calculation, FlagValue, Row};
-use crate::columns::{self, FieldError, BRANCH, POSE};
+use crate::batch::{self, BatchError, Calculation, FlagValue};
+use crate::columns::{self, FieldError, Row, BRANCH, POSE};
 use clap::Args;
 use kinematics_core::guards::GuardSetupError;
 use kinematics_core::singularity::SvdDidNotConverge;

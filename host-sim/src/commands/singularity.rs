@@ -2,7 +2,8 @@
 //! singularity (CONVENTIONS.md, "Measures").
 
 use super::{execute, pose_columns, solve_row, PoseInput, RowError};
-use crate::batch::{BatchError, Calculation, Row};
+use crate::batch::{BatchError, Calculation};
+use crate::columns::Row;
 use clap::Args;
 use kinematics_core::{measures, Robot, RobotKind};
 use robot_config::units::significant;

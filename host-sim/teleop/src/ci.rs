@@ -3,7 +3,7 @@
 
 use crate::error::TeleopError;
 use crate::session::{Session, StatusRow};
-use crate::tracking::{deviation, rms_max};
+use crate::tracking::{deviation, rms_max, Pass};
 use kinematics_core::Pose;
 use master_link::{
     cobs, encode, FaultCause, Header, MasterToBoard, NackReason, RobotState, StatusReport,
@@ -203,7 +203,7 @@ pub fn stream(
     s: &mut Session,
     checks: &mut Checks,
     traj: &Trajectory,
-    passes: &[crate::Pass],
+    passes: &[Pass],
     rate_hz: f64,
     max_deviation_m: f64,
 ) -> Result<(), TeleopError> {
@@ -221,27 +221,8 @@ pub fn stream(
     s.wait(0.3)?;
     let sent = s.targets.get(first_target..).unwrap_or_default().to_vec();
     let rows = s.phase_rows(phase);
-    let mut pos = Vec::new();
-    let mut ang = Vec::new();
-    let mut lag = Vec::new();
-    let mut per_pass: Vec<Vec<f64>> = vec![Vec::new(); passes.len()];
-    for r in &rows {
-        let Some(m) = measured_pose(&r.status) else {
-            continue;
-        };
-        if let Some(d) = deviation(&sent, r.t_s, 0.25, &m) {
-            pos.push(d.position_m);
-            ang.push(d.angle_rad);
-            lag.push(d.lag_s);
-            let t_path = r.t_s - t0;
-            for (v, (_, a, b)) in per_pass.iter_mut().zip(passes) {
-                if (*a..=*b).contains(&t_path) {
-                    v.push(d.position_m);
-                }
-            }
-        }
-    }
-    for (v, (name, _, _)) in per_pass.iter().zip(passes) {
+    let tracking = Tracking::of(&rows, &sent, t0, passes);
+    for (v, (name, _, _)) in tracking.per_pass.iter().zip(passes) {
         let (rms, max) = rms_max(v);
         println!(
             "    {name}: deviation RMS {} max {} ({} statuses)",
@@ -250,13 +231,8 @@ pub fn stream(
             v.len()
         );
     }
-    let (p_rms, p_max) = rms_max(&pos);
-    let (a_rms, a_max) = rms_max(&ang);
-    let lag_mean = if lag.is_empty() {
-        0.0
-    } else {
-        lag.iter().sum::<f64>() / lag.len() as f64
-    };
+    let (p_rms, p_max) = rms_max(&tracking.position);
+    let (a_rms, a_max) = rms_max(&tracking.angle);
     let left = rows
         .iter()
         .find(|r| r.status.state != RobotState::Enabled || !r.status.faults.is_empty());
@@ -273,10 +249,8 @@ pub fn stream(
         .filter(|r| **r == NackReason::StaleTarget)
         .count();
     let nacks_ok = stale == nacks.len() && stale * 100 <= sent.len();
-    let ok = left.is_none() && nacks_ok && !pos.is_empty() && p_max <= max_deviation_m;
-    let exec = rows
-        .last()
-        .map(|r| (r.status.tick_exec_max_us, r.status.tick_jitter_max_us));
+    let ok =
+        left.is_none() && nacks_ok && !tracking.position.is_empty() && p_max <= max_deviation_m;
     checks.check(
         "follows the path within the tracking limits",
         ok,
@@ -290,24 +264,83 @@ pub fn stream(
             mm(max_deviation_m),
             a_rms.to_degrees(),
             a_max.to_degrees(),
-            lag_mean * 1e3,
+            tracking.lag_mean_s() * 1e3,
             nacks.len(),
             nacks.first().map_or(String::new(), |r| format!(" (first: {r:?})")),
-            match left {
-                Some(r) => format!(
-                    "LEFT Enabled at {:.2} s: state {:?}, faults {:?}",
-                    r.t_s - t0,
-                    r.status.state,
-                    r.status.faults
-                ),
-                None => match exec {
-                    Some((e, j)) => format!("stayed Enabled without fault; board tick worst exec {e} us, worst jitter {j} us"),
-                    None => "no status".into(),
-                },
-            }
+            enabled_text(left, rows.last(), t0)
         ),
     );
     Ok(())
+}
+
+/// The deviations of the measured poses from the streamed path.
+struct Tracking {
+    /// Position, m; angle, rad; lag, s: one per status with a measured pose and targets
+    /// in its window.
+    position: Vec<f64>,
+    angle: Vec<f64>,
+    lag: Vec<f64>,
+    /// The position deviations within each pass.
+    per_pass: Vec<Vec<f64>>,
+}
+
+impl Tracking {
+    /// The deviations of the statuses `rows` from the targets `sent` (the path started at
+    /// `t0`), also sorted into `passes`.
+    fn of(rows: &[StatusRow], sent: &[(f64, Pose<f64>)], t0: f64, passes: &[Pass]) -> Self {
+        let mut t = Tracking {
+            position: Vec::new(),
+            angle: Vec::new(),
+            lag: Vec::new(),
+            per_pass: vec![Vec::new(); passes.len()],
+        };
+        for r in rows {
+            let Some(m) = measured_pose(&r.status) else {
+                continue;
+            };
+            if let Some(d) = deviation(sent, r.t_s, 0.25, &m) {
+                t.position.push(d.position_m);
+                t.angle.push(d.angle_rad);
+                t.lag.push(d.lag_s);
+                let t_path = r.t_s - t0;
+                for (v, (_, a, b)) in t.per_pass.iter_mut().zip(passes) {
+                    if (*a..=*b).contains(&t_path) {
+                        v.push(d.position_m);
+                    }
+                }
+            }
+        }
+        t
+    }
+
+    /// The mean lag, s (0 without any).
+    fn lag_mean_s(&self) -> f64 {
+        if self.lag.is_empty() {
+            0.0
+        } else {
+            self.lag.iter().sum::<f64>() / self.lag.len() as f64
+        }
+    }
+}
+
+/// Whether the board stayed Enabled: when and how it `left` (time from `t0`), or its tick
+/// timing from the `last` status.
+fn enabled_text(left: Option<&StatusRow>, last: Option<&StatusRow>, t0: f64) -> String {
+    match left {
+        Some(r) => format!(
+            "LEFT Enabled at {:.2} s: state {:?}, faults {:?}",
+            r.t_s - t0,
+            r.status.state,
+            r.status.faults
+        ),
+        None => match last {
+            Some(r) => format!(
+                "stayed Enabled without fault; board tick worst exec {} us, worst jitter {} us",
+                r.status.tick_exec_max_us, r.status.tick_jitter_max_us
+            ),
+            None => "no status".into(),
+        },
+    }
 }
 
 /// A target outside the workspace: refused (at once, or by the path check after its
@@ -407,15 +440,10 @@ fn frame_with_version(seq: u16, version: u8) -> Result<Vec<u8>, TeleopError> {
     Ok(out)
 }
 
-/// Garbage on the link: counted by the board (its link counters in the status) and
-/// ignored (still Enabled, holding, answering).
-pub fn garbage(s: &mut Session, checks: &mut Checks) -> Result<(), TeleopError> {
-    let phase = s.phase("garbage");
-    s.wait(0.2)?;
-    let Some(before) = s.last_status().map(|r| r.status) else {
-        return Err(TeleopError::NoStatus("before the garbage"));
-    };
-    let p0 = position(&before);
+/// Writes five kinds of bad input to the link: noise, a frame with a byte flipped, a frame
+/// of another protocol version, an oversized run of bytes, a replayed sequence number;
+/// the bytes sent (the two whole frames counted as 40).
+fn send_garbage(s: &mut Session) -> Result<usize, TeleopError> {
     // 1: 100 random non-zero bytes, then a delimiter (malformed or bad checksum).
     let mut x: u32 = 0x1234_5678;
     let mut noise: Vec<u8> = (0..100)
@@ -451,6 +479,19 @@ pub fn garbage(s: &mut Session, checks: &mut Checks) -> Result<(), TeleopError> 
     // 5: a replayed sequence number (out of order).
     let old = s.link.next_seq().wrapping_sub(20);
     s.link.send_with_seq(&MasterToBoard::Heartbeat, old)?;
+    Ok(noise.len() + bad.len() + long.len() + 40)
+}
+
+/// Garbage on the link: counted by the board (its link counters in the status) and
+/// ignored (still Enabled, holding, answering).
+pub fn garbage(s: &mut Session, checks: &mut Checks) -> Result<(), TeleopError> {
+    let phase = s.phase("garbage");
+    s.wait(0.2)?;
+    let Some(before) = s.last_status().map(|r| r.status) else {
+        return Err(TeleopError::NoStatus("before the garbage"));
+    };
+    let p0 = position(&before);
+    let sent_bytes = send_garbage(s)?;
     s.wait(0.5)?;
     // The link still works: a request is answered.
     let seq = s.send(MasterToBoard::Heartbeat)?;
@@ -482,7 +523,7 @@ pub fn garbage(s: &mut Session, checks: &mut Checks) -> Result<(), TeleopError> 
             && after.warnings.contains(Warnings::LINK_ERRORS),
         format!(
             "5 bad frames sent ({} bytes); board counters: rejected +{rejected} (bad checksum +{}, malformed +{}, oversized +{}, wrong version +{}, out of order +{}), frames ok +{}; LINK_ERRORS warning {}; next request acknowledged {answered}; {}; largest displacement {}",
-            noise.len() + bad.len() + long.len() + 40,
+            sent_bytes,
             d(a.bad_checksum, b.bad_checksum),
             d(a.malformed, b.malformed),
             d(a.oversized, b.oversized),

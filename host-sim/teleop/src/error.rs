@@ -27,6 +27,12 @@ pub enum TeleopError {
     /// A hand-made frame of the garbage check that cannot be built.
     #[error("{0}")]
     Frame(String),
+    /// The board answered a request with something else than its answer.
+    #[error("{request} answered with {reply}")]
+    UnexpectedReply {
+        request: &'static str,
+        reply: String,
+    },
     #[error("link write: {0}")]
     Write(std::io::Error),
     /// The board closed the link (end of stream, a read error).
@@ -40,6 +46,10 @@ pub enum TeleopError {
     NoReply { seq: Seq, timeout_s: f64 },
     #[error("no HelloReply within {0} s")]
     NoHello(f64),
+    #[error("the link key file {} is not 64 hexadecimal digits", .0.display())]
+    KeyFile(std::path::PathBuf),
+    #[error("the board refused the Hello: {0:?}")]
+    HelloRefused(master_link::NackReason),
     /// A step needs a status that has not arrived (`when` says which step).
     #[error("no status {0}")]
     NoStatus(&'static str),

@@ -1,12 +1,20 @@
-//! The board's fault log over the link (`host-sim faultlog`): Hello, then the log page by
-//! page (`FaultLogRequest`), printed as a table: when (ms since the board's boot), the
-//! cause, the joint, the value with its unit, the stop it caused and how many times it
-//! repeated; with the reset the board reports (a watchdog reset keeps the log).
+//! The board's logs over the link (`host-sim faultlog`): Hello, then
+//!
+//! * the fault log page by page (`FaultLogRequest`), printed as a table: when (ms since
+//!   the board's boot), the cause, the joint, the value with its unit, the stop it caused
+//!   and how many times it repeated; with the reset the board reports (a watchdog reset
+//!   keeps the log);
+//! * the non-volatile event log page by page (`EventLogRequest`; a power cycle keeps it),
+//!   printed in plain words, one entry a line: the boot and the time in it, how many times
+//!   it happened, and what (a fault with its joint, value and stop; a stop that is not a
+//!   fault; a reset and its cause; a master taking charge; a geometry stored; the safety
+//!   relay's test latched or passed; entries lost).
 
 use std::fmt::Write as _;
 
 use master_link::{
-    BoardToMaster, FaultCause, FaultLogEntry, MasterToBoard, ResetStatus, FAULT_LOG_PAGE, NO_JOINT,
+    BoardToMaster, EventEntry, EventKind, EventLogPage, FaultCause, FaultLogEntry, MasterToBoard,
+    ResetCause, ResetStatus, StopReason, StopStatus, EVENT_LOG_PAGE, FAULT_LOG_PAGE, NO_JOINT,
 };
 
 use crate::session::Session;
@@ -53,9 +61,10 @@ pub fn read(s: &mut Session) -> Result<(ResetStatus, Vec<FaultLogEntry>), Teleop
         let page = match s.reply(seq, 2.0)? {
             BoardToMaster::FaultLog(page) => page,
             other => {
-                return Err(TeleopError::Frame(format!(
-                    "FaultLogRequest answered with {other:?}"
-                )))
+                return Err(TeleopError::UnexpectedReply {
+                    request: "FaultLogRequest",
+                    reply: format!("{other:?}"),
+                })
             }
         };
         let n = usize::from(page.count).min(FAULT_LOG_PAGE);
@@ -106,6 +115,145 @@ pub fn table(reset: &ResetStatus, entries: &[FaultLogEntry]) -> String {
             value_unit(r.cause, r.joint),
             format!("{:?}", e.stop),
             e.count
+        );
+    }
+    o
+}
+
+/// Reads the whole event log (after `read`'s Hello, or opening one): every entry the
+/// board holds, oldest first, and the last page's header (the entry counter, the lost).
+pub fn read_events(s: &mut Session) -> Result<(Vec<EventEntry>, EventLogPage), TeleopError> {
+    if s.hello.is_none() {
+        s.hello(5.0)?;
+    }
+    let mut entries = Vec::new();
+    let mut first = 0u16;
+    loop {
+        let seq = s.send(MasterToBoard::EventLogRequest { first })?;
+        let page = match s.reply(seq, 2.0)? {
+            BoardToMaster::EventLog(page) => page,
+            other => {
+                return Err(TeleopError::Frame(format!(
+                    "EventLogRequest answered with {other:?}"
+                )))
+            }
+        };
+        let n = usize::from(page.count).min(EVENT_LOG_PAGE);
+        entries.extend(page.entries.iter().take(n).copied());
+        first = first.saturating_add(u16::from(page.count));
+        if page.count == 0 || first >= page.len {
+            return Ok((entries, page));
+        }
+    }
+}
+
+/// A stop in words.
+pub fn stop_words(stop: StopStatus) -> &'static str {
+    match stop {
+        StopStatus::None => "no stop",
+        StopStatus::SafeTorqueOff => "STO: torque off, brakes applied",
+        StopStatus::SafeStop1Decelerating => "SS1: decelerating",
+        StopStatus::SafeStop1Braking => "SS1: at rest, brakes engaging",
+        StopStatus::SafeStop1Done => "SS1 done: brakes applied, torque off",
+        StopStatus::SafeStop2Decelerating => "SS2: decelerating, then holding",
+        StopStatus::SafeOperatingStop => "safe operating stop: holding under power",
+    }
+}
+
+/// A reset's cause in words.
+pub fn reset_words(cause: ResetCause) -> &'static str {
+    match cause {
+        ResetCause::PowerOn => "power-on",
+        ResetCause::Pin => "the reset pin",
+        ResetCause::Software => "a software reset",
+        ResetCause::Watchdog => "the watchdog",
+        ResetCause::WindowWatchdog => "the window watchdog",
+        ResetCause::BrownOut => "a brown-out (supply dip)",
+        ResetCause::LowPower => "a low-power reset",
+    }
+}
+
+fn joint_name(joint: u8) -> String {
+    JOINTS
+        .get(usize::from(joint))
+        .map_or(joint.to_string(), |n| n.to_string())
+}
+
+/// What an entry of the event log records, in words.
+pub fn event_words(e: &EventEntry) -> String {
+    match e.event {
+        EventKind::Fault {
+            cause,
+            joint,
+            value,
+            stop,
+        } => {
+            let mut w = format!("fault: {}", cause.name());
+            if joint != NO_JOINT {
+                let _ = write!(w, " on {}", joint_name(joint));
+            }
+            let unit = value_unit(cause, joint);
+            if value != 0.0 || !unit.is_empty() {
+                let _ = write!(w, ", value {value}");
+                if !unit.is_empty() {
+                    let _ = write!(w, " {unit}");
+                }
+            }
+            let _ = write!(w, "; then {}", stop_words(stop));
+            w
+        }
+        EventKind::Stop { reason, stop } => {
+            let why = match reason {
+                StopReason::Disable => "the master's Disable",
+                StopReason::HeartbeatLate => "the master's heartbeat late: hold",
+                StopReason::ClutchEngaged => "the master's clutch engaged: hold",
+                StopReason::OperatorAbsent => "the operator let go of the dead-man: hold",
+            };
+            format!("stop: {why}; {}", stop_words(stop))
+        }
+        EventKind::Reset { cause } => format!("board started after {}", reset_words(cause)),
+        EventKind::Master { id } => format!("a master took charge (session {id:#010x})"),
+        EventKind::GeometryStored { version } => {
+            format!("calibrated geometry version {version} stored in flash")
+        }
+        EventKind::RelayTest { pending: true } => "safety relay test pending: the board will \
+             not home or enable until the e-stop is pressed and released after a power cycle"
+            .to_string(),
+        EventKind::RelayTest { pending: false } => "safety relay test passed".to_string(),
+        EventKind::Lost { count } => {
+            format!("{count} entries lost (they left the board's RAM before reaching flash)")
+        }
+    }
+}
+
+/// The event log in plain words, one entry a line, oldest first.
+pub fn events_table(entries: &[EventEntry], page: &EventLogPage) -> String {
+    let mut o = String::new();
+    let _ = writeln!(
+        o,
+        "event log (kept in flash across power cycles): {} entries, oldest first ({} logged ever{})",
+        entries.len(),
+        page.total,
+        if page.lost > 0 {
+            format!("; {} lost in this boot", page.lost)
+        } else {
+            String::new()
+        }
+    );
+    let _ = writeln!(o, "{:>5} {:>12} {:>6}  what", "boot", "time s", "times");
+    for e in entries {
+        let _ = writeln!(
+            o,
+            "{:>5} {:>12.3} {:>6}  {}{}",
+            e.boot,
+            f64::from(e.time_ms) / 1000.0,
+            e.count,
+            event_words(e),
+            if e.relay_test_pending && !matches!(e.event, EventKind::RelayTest { .. }) {
+                " (relay test pending)"
+            } else {
+                ""
+            }
         );
     }
     o

@@ -3,7 +3,11 @@
 //! or a serial device (a real board).
 //!
 //! It speaks the firmware's protocol (`master-link`: COBS frames, CRC-32, postcard
-//! messages, protocol version, sequence numbers): Hello, Home, Enable, then streams a
+//! messages, protocol version, sequence numbers, the session the board issues, and with a
+//! pre-shared key (`--key-file PATH`, [`link::read_key_file`]) the HMAC-SHA256 tag of every
+//! frame): Hello (its nonce and clock; the board answers with the session, or refuses it
+//! when another master owns the enabled robot), `OperatorPresent` (a new owner starts with
+//! its operator absent; this master has no dead-man), Home, Enable, then streams a
 //! path (the laparoscope figure-eight of `host-sim sim`, from the `trajectory` crate) as
 //! timestamped pose targets while
 //! sending heartbeats, records the status telemetry (`status.csv` under
@@ -25,6 +29,7 @@ pub mod session;
 pub mod tracking;
 
 pub use error::TeleopError;
+pub use tracking::Pass;
 
 use kinematics_core::{inverse, Branch, Pose, RsprGeometry};
 use nalgebra::Vector3;
@@ -91,10 +96,9 @@ pub struct Settings {
     pub laparoscope: Laparoscope,
     /// ... and the master's limits on a move (its `[master]` settings).
     pub master: MasterLimits,
+    /// The link's pre-shared key (None: frames without tags, a board on a desk).
+    pub key: Option<master_link::LinkKey>,
 }
-
-/// A stretch of the path judged on its own: (name, start s, end s).
-pub type Pass = (String, f64, f64);
 
 /// The path as a trajectory from the central pose, with its passes: the laparoscope path
 /// of `laparoscope` (all passes, or its 25 mm/s pass only), or a 10 mm line and back,
@@ -159,7 +163,7 @@ pub fn run(args: &Settings) -> Result<(), TeleopError> {
         args.stream_rate_hz
     );
     let timeout = Duration::from_secs_f64(args.connect_timeout_s.max(0.0));
-    let link = link::open(&args.connect, args.baud, timeout)?;
+    let link = link::open_with_key(&args.connect, args.baud, timeout, args.key.clone())?;
     let mut s = Session::new(link);
     s.paced = args.clock == ClockChoice::Board;
     let mut checks = ci::Checks::default();

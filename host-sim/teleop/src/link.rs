@@ -2,14 +2,25 @@
 //! ([`Link`]) over a [`Medium`] that carries the bytes and keeps the clock. [`open`] gives the
 //! host's medium, a Unix socket (QEMU's `-serial unix:PATH,server=on`) or a serial device,
 //! timed by the host's clock, with a reader thread that decodes the board's frames
-//! (`MasterDecoder`: COBS, CRC, version, sequence) and hands them over with their arrival
-//! time. An emulated board stepped in lockstep brings its own medium, timed by its virtual
+//! (`MasterDecoder`: COBS, CRC, tag, version, session, sequence; [`MasterRx`]) and hands
+//! them over with their arrival time.
+//!
+//! **Sessions.** The board issues them: the master's `Hello` carries its nonce (fresh per
+//! connection) and its clock; the board's `HelloReply` echoing that nonce carries the
+//! session, which [`MasterRx`] opens on the receiving side and [`Link`] puts in every later
+//! frame. A `HelloRefused` (another master owns the board, a replayed `Hello`) comes
+//! outside any session.
+//!
+//! **Keys.** A link with a pre-shared key ([`open_with_key`], [`Link::with_key`]; the
+//! command line's `--key-file PATH`, [`read_key_file`]) tags every frame it sends and drops
+//! the board's frames without a valid tag. A board with a key drops every frame of a master
+//! without one: its `Hello` goes unanswered. An emulated board stepped in lockstep brings its own medium, timed by its virtual
 //! clock ([`Link::over`]).
 
 use crate::error::TeleopError;
 use master_link::{
-    encode, BoardToMaster, Header, LinkCounters, MasterDecoder, MasterToBoard, Seq, SeqCounter,
-    MAX_FRAME_LEN,
+    encode_with, BoardToMaster, FrameError, Header, LinkCounters, LinkKey, MasterDecoder,
+    MasterToBoard, Seq, SeqCounter, MAX_FRAME_LEN, PROTOCOL_VERSION,
 };
 use std::fs::{File, OpenOptions};
 use std::io::{Read, Write};
@@ -51,7 +62,7 @@ pub trait Medium: Send {
 
 /// What the reader thread reports.
 enum FromReader {
-    Message(Received),
+    Message(Box<Received>),
     Closed(String),
 }
 
@@ -77,12 +88,58 @@ impl Drop for HostMedium {
     }
 }
 
+/// The master's receiving side: the decoder (with the link key, if any), which opens the
+/// session of the board's `HelloReply` that echoes this master's nonce.
+pub struct MasterRx {
+    decoder: MasterDecoder,
+    nonce: u32,
+}
+
+impl MasterRx {
+    /// For the master with the nonce `nonce` and the link key `key`.
+    pub fn new(nonce: u32, key: Option<LinkKey>) -> Self {
+        MasterRx {
+            decoder: MasterDecoder::with_key(key),
+            nonce,
+        }
+    }
+    /// Feeds one byte; a frame when it completes one. The master's own `HelloReply`
+    /// opens its session (from its sequence number) before the next byte.
+    pub fn push(&mut self, byte: u8) -> Option<Result<(Seq, BoardToMaster), FrameError>> {
+        let r = self.decoder.push(byte)?;
+        if let Ok((seq, BoardToMaster::HelloReply { session, nonce, .. })) = &r {
+            if *nonce == self.nonce {
+                self.decoder.open_session(*session, *seq);
+            }
+        }
+        Some(r)
+    }
+    /// The decoder's counters.
+    pub fn counters(&self) -> LinkCounters {
+        *self.decoder.counters()
+    }
+}
+
+/// Reads a link key file: 64 hexadecimal digits (32 bytes). The error never shows the
+/// file's content.
+pub fn read_key_file(path: &Path) -> Result<LinkKey, TeleopError> {
+    let text = std::fs::read_to_string(path).map_err(|source| TeleopError::Open {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    LinkKey::from_hex(&text).map_err(|_| TeleopError::KeyFile(path.to_path_buf()))
+}
+
 /// An open link to the board.
 pub struct Link {
     medium: Box<dyn Medium>,
     seq: SeqCounter,
-    /// The session nonce of this connection (sent in `Hello`, carried by every frame).
+    /// This connection's nonce (sent in `Hello`).
+    nonce: u32,
+    /// The session the board issued (its `HelloReply`; 0 before one): every frame carries
+    /// it.
     session: u32,
+    key: Option<LinkKey>,
     /// Frames and bytes written.
     pub frames_sent: u64,
     pub bytes_sent: u64,
@@ -91,6 +148,16 @@ pub struct Link {
 /// Opens `path`: a Unix socket (retried until `timeout`: the emulator may still be
 /// starting) or a serial device (set to raw mode at `baud` with `stty`).
 pub fn open(path: &Path, baud: u32, timeout: Duration) -> Result<Link, TeleopError> {
+    open_with_key(path, baud, timeout, None)
+}
+
+/// [`open`] with the link key `key` (None: frames without tags, a board on a desk).
+pub fn open_with_key(
+    path: &Path,
+    baud: u32,
+    timeout: Duration,
+    key: Option<LinkKey>,
+) -> Result<Link, TeleopError> {
     let open_error = |source| TeleopError::Open {
         path: path.to_path_buf(),
         source,
@@ -142,10 +209,17 @@ pub fn open(path: &Path, baud: u32, timeout: Duration) -> Result<Link, TeleopErr
         let r = f.try_clone().map_err(open_error)?;
         (Box::new(r), Box::new(f))
     };
+    let nonce = session_nonce();
     Ok(Link::over(
-        Box::new(HostMedium::start(reader, writer, socket)),
-        session_nonce(),
-    ))
+        Box::new(HostMedium::start(
+            reader,
+            writer,
+            socket,
+            MasterRx::new(nonce, key.clone()),
+        )),
+        nonce,
+    )
+    .with_key(key))
 }
 
 impl HostMedium {
@@ -153,13 +227,13 @@ impl HostMedium {
         mut reader: Box<dyn Read + Send>,
         writer: Box<dyn Write + Send>,
         socket: Option<UnixStream>,
+        mut decoder: MasterRx,
     ) -> Self {
         let (tx, rx) = mpsc::channel();
         let t0 = Instant::now();
         let counters = Arc::new(Mutex::new(LinkCounters::default()));
         let shared = Arc::clone(&counters);
         thread::spawn(move || {
-            let mut decoder = MasterDecoder::new();
             let mut buf = [0u8; 4096];
             loop {
                 let n = match reader.read(&mut buf) {
@@ -178,7 +252,7 @@ impl HostMedium {
                 for b in buf.iter().take(n) {
                     if let Some(Ok((seq, msg))) = decoder.push(*b) {
                         if tx
-                            .send(FromReader::Message(Received { t_s, seq, msg }))
+                            .send(FromReader::Message(Box::new(Received { t_s, seq, msg })))
                             .is_err()
                         {
                             // The medium was dropped: nobody reads any more.
@@ -187,7 +261,7 @@ impl HostMedium {
                     }
                 }
                 if let Ok(mut c) = shared.lock() {
-                    *c = *decoder.counters();
+                    *c = decoder.counters();
                 }
             }
         });
@@ -214,7 +288,7 @@ impl Medium for HostMedium {
             return Err(TeleopError::Closed(why.clone()));
         }
         match self.rx.recv_timeout(timeout) {
-            Ok(FromReader::Message(m)) => Ok(Some(m)),
+            Ok(FromReader::Message(m)) => Ok(Some(*m)),
             Ok(FromReader::Closed(why)) => {
                 self.closed = Some(why.clone());
                 Err(TeleopError::Closed(why))
@@ -234,15 +308,38 @@ impl Medium for HostMedium {
 }
 
 impl Link {
-    /// A link over `medium` with the session nonce `session` (a fresh value per connection;
-    /// an emulated run that must repeat itself bit for bit passes a fixed one).
-    pub fn over(medium: Box<dyn Medium>, session: u32) -> Self {
+    /// A link over `medium` with the nonce `nonce` (a fresh value per connection; an
+    /// emulated run that must repeat itself bit for bit passes a fixed one), without a key.
+    pub fn over(medium: Box<dyn Medium>, nonce: u32) -> Self {
         Link {
             medium,
             seq: SeqCounter::new(0),
-            session,
+            nonce,
+            session: 0,
+            key: None,
             frames_sent: 0,
             bytes_sent: 0,
+        }
+    }
+
+    /// The link with the key `key` for the frames it sends (the medium's decoder must
+    /// have it too).
+    pub fn with_key(mut self, key: Option<LinkKey>) -> Self {
+        self.key = key;
+        self
+    }
+
+    /// This connection's nonce.
+    pub fn nonce(&self) -> u32 {
+        self.nonce
+    }
+
+    /// This master's `Hello`, sent at its clock `clock_us`.
+    pub fn hello_message(&self, clock_us: u64) -> MasterToBoard {
+        MasterToBoard::Hello {
+            protocol_version: PROTOCOL_VERSION,
+            nonce: self.nonce,
+            clock_us,
         }
     }
 
@@ -256,7 +353,7 @@ impl Link {
         (self.medium.now_s() * 1e6) as u64
     }
 
-    /// The session nonce of this connection.
+    /// The session the board issued (0 before its `HelloReply`).
     pub fn session(&self) -> u32 {
         self.session
     }
@@ -269,7 +366,8 @@ impl Link {
             session: self.session,
             seq,
         };
-        let n = encode(msg, header, &mut buf).map_err(|e| encode_error(msg, e))?;
+        let n = encode_with(msg, header, self.key.as_ref(), &mut buf)
+            .map_err(|e| encode_error(msg, e))?;
         self.write_raw(buf.get(..n).unwrap_or_default())?;
         self.frames_sent += 1;
         Ok(seq)
@@ -282,7 +380,8 @@ impl Link {
             session: self.session,
             seq,
         };
-        let n = encode(msg, header, &mut buf).map_err(|e| encode_error(msg, e))?;
+        let n = encode_with(msg, header, self.key.as_ref(), &mut buf)
+            .map_err(|e| encode_error(msg, e))?;
         self.write_raw(buf.get(..n).unwrap_or_default())
     }
 
@@ -301,7 +400,17 @@ impl Link {
     /// The next board message, waiting at most `timeout`; `Ok(None)` on timeout, `Err`
     /// once the link is closed.
     pub fn recv(&mut self, timeout: Duration) -> Result<Option<Received>, TeleopError> {
-        self.medium.recv(timeout)
+        let r = self.medium.recv(timeout)?;
+        if let Some(Received {
+            msg: BoardToMaster::HelloReply { session, nonce, .. },
+            ..
+        }) = &r
+        {
+            if *nonce == self.nonce {
+                self.session = *session;
+            }
+        }
+        Ok(r)
     }
 
     /// The counters of the board -> master direction (this side's decoder).

@@ -1,4 +1,6 @@
-//! A master session on an open [`Link`]: heartbeats at 50 Hz (unless paused), requests and
+//! A master session on an open [`Link`]: the `Hello` (the board issues the session and
+//! echoes this connection's nonce; another master's `HelloReply` or `HelloRefused` on a
+//! shared line is not this one's), heartbeats at 50 Hz (unless paused), requests and
 //! their replies (matched by sequence number), the status telemetry recorded with the
 //! phase it arrived in, the targets sent (for the tracking figures) and the refusals.
 //!
@@ -12,7 +14,7 @@ use crate::pacing::{BoardClock, SILENCE_LIMIT_S};
 use kinematics_core::Pose;
 use master_link::{
     BoardToMaster, FirmwareVersion, GeometryRecord, GeometryRefusal, MasterToBoard, NackReason,
-    Seq, StatusReport, PROTOCOL_VERSION,
+    Seq, StatusReport,
 };
 use std::collections::HashMap;
 use std::time::Duration;
@@ -76,6 +78,8 @@ pub struct Session {
     pub refused: Vec<Refused>,
     /// Fault-log pages received.
     pub fault_log: Vec<master_link::FaultLogPage>,
+    /// Event-log pages received.
+    pub event_log: Vec<master_link::EventLogPage>,
     /// The board's `HelloReply`.
     pub hello: Option<(FirmwareVersion, u8)>,
     /// The reset the board reported in its `HelloReply`.
@@ -92,6 +96,8 @@ pub struct Session {
     clock: BoardClock,
     /// The last target stamp sent, µs.
     last_stamp_us: u64,
+    /// Why the board refused this master's last `Hello`, if it did.
+    pub hello_refused: Option<NackReason>,
 }
 
 impl Session {
@@ -106,6 +112,7 @@ impl Session {
             targets: Vec::new(),
             refused: Vec::new(),
             fault_log: Vec::new(),
+            event_log: Vec::new(),
             hello: None,
             reset: None,
             geometry_version: None,
@@ -114,6 +121,7 @@ impl Session {
             paced: true,
             clock: BoardClock::default(),
             last_stamp_us: 0,
+            hello_refused: None,
         }
     }
 
@@ -153,11 +161,18 @@ impl Session {
         Ok(seq)
     }
 
+    /// The master's clock now as a stamp, µs: never less than one after the last stamp
+    /// (targets and `Hello`s alike, so that a later `Hello` is always newer).
+    fn clock_stamp_us(&mut self) -> u64 {
+        let stamp = ((self.now_s() * 1e6) as u64).max(self.last_stamp_us + 1);
+        self.last_stamp_us = stamp;
+        stamp
+    }
+
     /// Sends a target pose stamped with the master clock and records it.
     pub fn send_target(&mut self, pose: &Pose<f64>) -> Result<Seq, TeleopError> {
         let r = pose.rotation_vector();
-        let stamp = ((self.now_s() * 1e6) as u64).max(self.last_stamp_us + 1);
-        self.last_stamp_us = stamp;
+        let stamp = self.clock_stamp_us();
         let msg = MasterToBoard::PoseTarget {
             timestamp_us: stamp,
             position_m: [pose.t.x as f32, pose.t.y as f32, pose.t.z as f32],
@@ -190,6 +205,10 @@ impl Session {
                 phase,
                 status,
             }),
+            // Another master's HelloReply (on a shared line) is not this one's.
+            BoardToMaster::HelloReply { nonce, .. } if nonce != self.link.nonce() => {}
+            BoardToMaster::HelloRefused { nonce, .. } if nonce != self.link.nonce() => {}
+            BoardToMaster::HelloRefused { reason, .. } => self.hello_refused = Some(reason),
             BoardToMaster::HelloReply {
                 firmware_version,
                 protocol_version,
@@ -232,6 +251,16 @@ impl Session {
                         _ => u16::MAX,
                     })
                 {
+                    *reply = Some((r.t_s, r.msg));
+                }
+            }
+            BoardToMaster::EventLog(page) => {
+                self.event_log.push(page);
+                // An event-log page answers the open request for its first entry.
+                if let Some((_, reply)) = self.requests.values_mut().find(|(req, reply)| {
+                    reply.is_none()
+                        && matches!(req, MasterToBoard::EventLogRequest { first } if *first == page.first)
+                }) {
                     *reply = Some((r.t_s, r.msg));
                 }
             }
@@ -320,19 +349,27 @@ impl Session {
         })
     }
 
-    /// Hello until the board answers (it may still be booting); the firmware version.
+    /// Hello until the board answers (it may still be booting), then `OperatorPresent {
+    /// present: true }` (this master has no dead-man); the firmware version. A refused
+    /// `Hello` (another master owns the board) is an error.
     pub fn hello(&mut self, timeout_s: f64) -> Result<(FirmwareVersion, u8), TeleopError> {
         let end = self.now_s() + timeout_s;
+        self.hello = None;
+        self.hello_refused = None;
         while self.now_s() < end {
-            let nonce = self.link.session();
-            self.link.send(&MasterToBoard::Hello {
-                protocol_version: PROTOCOL_VERSION,
-                nonce,
-            })?;
+            let stamp = self.clock_stamp_us();
+            let hello = self.link.hello_message(stamp);
+            self.link.send(&hello)?;
             let t = (self.now_s() + 0.5).min(end);
             while self.now_s() < t {
                 if let Some(h) = self.hello {
+                    // A master without a dead-man: its operator is present from the start
+                    // (a new owner starts absent, and no Enable is taken before this).
+                    self.request(MasterToBoard::OperatorPresent { present: true }, 1.0)?;
                     return Ok(h);
+                }
+                if let Some(reason) = self.hello_refused {
+                    return Err(TeleopError::HelloRefused(reason));
                 }
                 let step = (self.now_s() + 0.01).min(t);
                 self.poll_until(step)?;

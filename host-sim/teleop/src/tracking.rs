@@ -11,6 +11,9 @@ use kinematics_core::pose::rotation_angle;
 use kinematics_core::Pose;
 use nalgebra::Vector3;
 
+/// A stretch of the path whose tracking is judged on its own: (name, start s, end s).
+pub type Pass = (String, f64, f64);
+
 /// One status's deviation.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Deviation {

@@ -88,28 +88,26 @@ impl From<HomingSetupError> for RuntimeError {
     }
 }
 
-/// The reference robot's mechanics, placed around the guards' ranges `limits` (the
-/// supervisor keeps every setpoint inside them; thesis chapter 11): the legs' home
-/// switches 1 mm below the shortest stroke (143 mm for 144 .. 210 mm), the links' hard
-/// stops 5 deg beyond their largest angle below the central angles (85 deg for ±80 deg); a
-/// measured joint more than 2 mm or 3 deg beyond a guard range is a fault (the servo's
-/// following error and the backlash stay well inside), which puts the switch and the stop
-/// just outside the working range and inside the monitored one only while homing.
-pub fn reference_mechanics<S: Scalar>(
-    central: &[S; NUM_JOINTS],
-    limits: &kinematics_core::guards::Limits<S>,
-) -> Mechanics<S> {
+/// The reference robot's mechanics: the board profile's mechanical ranges
+/// (`board_profile::BoardProfile::REFERENCE`: 2 mm beyond the guards' 144 .. 210 mm stroke,
+/// 3 deg beyond their ±80 deg link angle), and its switches and stops placed around the
+/// guards' ranges `limits` (the supervisor keeps every setpoint inside them; thesis
+/// chapter 11): the legs' home switches 1 mm below the shortest stroke (143 mm for
+/// 144 .. 210 mm), the links' hard stops 5 deg beyond their largest angle below the
+/// central angles (85 deg for ±80 deg). A measured joint beyond its range is a
+/// fault (the servo's following error and the backlash stay well inside); the switch lies
+/// just inside the range, the link's stop just outside it (homing reaches it, see
+/// `HomingConfig::for_mechanics`).
+pub fn reference_mechanics<S: Scalar>(limits: &kinematics_core::guards::Limits<S>) -> Mechanics<S> {
     let lit = kinematics_core::scalar::lit::<S>;
     let deg = |d: f64| lit(d.to_radians());
-    let at = |j: usize| central.get(j).copied().unwrap_or_else(S::zero);
-    let [short, long] = limits.stroke;
-    let leg = [short - lit(0.002), long + lit(0.002)];
-    let reach = limits.link_angle_max + deg(3.0);
-    let link = |j: usize| [at(j) - reach, at(j) + reach];
+    let [short, _] = limits.stroke;
     Mechanics {
         leg_switch_m: short - lit(0.001),
         link_stop_below_central_rad: limits.link_angle_max + deg(5.0),
-        range: [leg, leg, leg, link(3), link(4), link(5)],
+        range: board_profile::BoardProfile::REFERENCE
+            .ranges()
+            .map(|[lo, hi]| [lit(lo), lit(hi)]),
     }
 }
 
@@ -128,7 +126,7 @@ pub fn reference_config_for<S: Scalar, M: Mechanism<S>>(
         branch,
         ..ControllerConfig::default()
     };
-    let mech = mech.unwrap_or_else(|| reference_mechanics(&central_q, &controller.limits));
+    let mech = mech.unwrap_or_else(|| reference_mechanics(&controller.limits));
     let rest = rest.unwrap_or(central_q);
     Ok(RuntimeConfig {
         encoder_check: EncoderCheckConfig::reference(controller.encoders.counts_per_unit),

@@ -5,10 +5,13 @@
 //! button still pressed, the safety chain (latched until a power cycle and a passed relay
 //! test), the heartbeat still late, a joint still beyond its range or a switch still
 //! closed, a current still above its trip, a winding still above its derating
-//! temperature, the drivers' fault line, the supply out of range, and a missed deadline
-//! (the watchdog resets the board). The others (a following error, an encoder, a homing
-//! failure, a guard stop, ...) cannot be re-tested without motion: they are cleared, and
-//! those that make the reference doubtful have lost the homing.
+//! temperature, the supply out of range, and a missed deadline (the watchdog resets the
+//! board). The others cannot be re-tested at rest: a following error, an encoder, a homing
+//! failure, a guard stop, and the drivers' fault line (a driver keeps its fault latched
+//! while it is disabled and releases it when enabled again, so the line says nothing until
+//! the next enable, whose brake check runs with the drivers on and the power stage
+//! monitored). They are cleared, and those that make the reference doubtful have lost the
+//! homing.
 
 use kinematics_core::Mechanism;
 use master_link::FaultCause;
@@ -72,7 +75,6 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
                 .heat()
                 .iter()
                 .any(|h| !(*h <= current.derating_from())),
-            FaultCause::DriverFault => i.driver_fault,
             FaultCause::SupplyVoltage => !self.monitors.power.supply_in_range(i.supply_v),
             FaultCause::DeadlineMissed => true,
             _ => false,

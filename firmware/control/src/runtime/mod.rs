@@ -2,8 +2,8 @@
 //! [`Mode`], which owns the data valid in it (the homing procedure, the park move, the
 //! brake check, the controller, the stop in force, the latched fault); around it the parts
 //! every mode uses: the sensing, the monitors, the master session, the output stage and the
-//! fault log. It turns master requests ([`Runtime::command`]) and control ticks
-//! ([`Runtime::tick`]) into outputs and a status.
+//! fault log and the event log. It turns master requests ([`Runtime::command`]) and control
+//! ticks ([`Runtime::tick`]) into outputs and a status.
 //!
 //! One tick, in every mode:
 //! ```text
@@ -43,13 +43,14 @@ pub use outputs::OutputStage;
 use hal::Hardware;
 use kinematics_core::Mechanism;
 use master_link::{
-    FaultCause, FaultLogPage, FaultRecord, MasterToBoard, NackReason, ResetCause, ResetStatus,
-    Warnings,
+    EventKind, EventLogPage, FaultCause, FaultLogPage, FaultRecord, MasterToBoard, NackReason,
+    ResetCause, ResetStatus, Warnings,
 };
 use servo::NUM_JOINTS;
 
 use crate::controller::Controller;
 use crate::drive::{to_array, TickReport};
+use crate::event_log::EventLog;
 use crate::faults::FaultLog;
 use crate::homing::{Homing, HomingStatus};
 use crate::link::Answer;
@@ -57,7 +58,7 @@ use crate::modes::{Context, Event, ModeKind, Refusal, State};
 use crate::monitors::Finding;
 use crate::scalar::Scalar;
 use crate::sensing::{Measured, Sensing};
-use crate::session::MasterSession;
+use crate::session::{HelloFrom, MasterSession};
 use crate::stops::StopPhase;
 
 /// What one runtime tick did.
@@ -85,6 +86,8 @@ pub struct Runtime<S: Scalar, M: Mechanism<S> + Clone> {
     session: MasterSession,
     outputs: OutputStage<S>,
     log: FaultLog,
+    /// The non-volatile event log's RAM view (the target writes it to flash).
+    events: EventLog,
     reset: ResetStatus,
     inputs: Inputs<S>,
     warnings: Warnings,
@@ -95,6 +98,9 @@ pub struct Runtime<S: Scalar, M: Mechanism<S> + Clone> {
     geometry_version: u32,
     /// Refused events so far.
     refusals: u32,
+    /// When the last target (pose or jog) was accepted while following, or following
+    /// began: `TARGET_STALE` beyond the supervisor's staleness age.
+    last_target_us: u64,
 }
 
 impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
@@ -123,6 +129,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             session: MasterSession::new(cfg.heartbeat, cfg.targets, now_us),
             outputs: OutputStage::new(),
             log: FaultLog::new(),
+            events: EventLog::new(),
             reset: ResetStatus {
                 cause: ResetCause::PowerOn,
                 acknowledged: true,
@@ -133,6 +140,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             missed_ticks: 0,
             geometry_version: 0,
             refusals: 0,
+            last_target_us: 0,
             cfg,
         })
     }
@@ -190,6 +198,54 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
     pub fn fault_log(&self) -> &FaultLog {
         &self.log
     }
+    /// The event log's RAM view.
+    pub fn events(&self) -> &EventLog {
+        &self.events
+    }
+    /// The event log's RAM view, for the target's flash writer (which marks what it wrote).
+    pub fn events_mut(&mut self) -> &mut EventLog {
+        &mut self.events
+    }
+    /// At boot, before [`Runtime::boot_done`]: the event log as the target's non-volatile
+    /// store holds it (`event_log::boot`: a new boot started). When its newest entry says
+    /// the relay test was pending, the last power cycle ended with it pending: the relay
+    /// test is required again ([`Runtime::require_relay_test`]).
+    pub fn restore_events(&mut self, events: EventLog) {
+        self.events = events;
+        if self.events.relay_test_pending() {
+            self.require_relay_test();
+        }
+    }
+    /// A page of the event log.
+    pub fn event_log_page(&self, first: u16) -> EventLogPage {
+        self.events.page(first)
+    }
+    /// Records `event` in the event log at `now_us` (ms of this boot).
+    pub fn record_event(&mut self, event: EventKind, now_us: u64) {
+        self.events.record(event, ms_of(now_us));
+    }
+    /// A master took charge of the board (its identifier: today a session's nonce): the
+    /// event log records it (a repeat of the same master in this boot counts on its entry).
+    pub fn master_changed(&mut self, id: u32, now_us: u64) {
+        self.record_event(EventKind::Master { id }, now_us);
+    }
+    /// The target wrote a calibrated geometry to its flash: its version for `HelloReply`,
+    /// and an entry of the event log.
+    pub fn geometry_stored(&mut self, version: u32, now_us: u64) {
+        self.geometry_version = version;
+        self.record_event(EventKind::GeometryStored { version }, now_us);
+    }
+    /// The event log's relay test state follows the safety chain's: a change is an entry
+    /// (before any entry that follows it, so that the flash holds the latch at least as
+    /// early as the fault that set it).
+    pub(super) fn sync_relay_test(&mut self, now_us: u64) {
+        let pending = self.relay_test_pending();
+        if pending != self.events.relay_test_pending() {
+            self.events.set_relay_test_pending(pending);
+            self.record_event(EventKind::RelayTest { pending }, now_us);
+        }
+    }
+
     /// The last reset and its acknowledgement.
     pub fn reset(&self) -> ResetStatus {
         self.reset
@@ -281,7 +337,8 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
     }
 
     /// Power-up done: the encoders' current counters become the (unhomed) reference; the
-    /// reset cause the board read; the fault log kept across the reset, if any.
+    /// reset cause the board read (an entry of the event log); the fault log kept across
+    /// the reset, if any.
     pub fn boot_done(
         &mut self,
         raw: [u16; NUM_JOINTS],
@@ -297,6 +354,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         if let Some(log) = log {
             self.log = log;
         }
+        self.record_event(EventKind::Reset { cause: reset }, now_us);
         self.apply(Event::BootDone, now_us)
     }
 
@@ -309,11 +367,27 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
     /// A master request (after the link layer): the answer, or why it is refused.
     pub fn command(&mut self, msg: &MasterToBoard, now_us: u64) -> Result<Answer, NackReason> {
         match *msg {
-            MasterToBoard::Hello { nonce, .. } => {
-                // A new master: its predecessor's clutch and dead-man no longer hold.
-                self.apply(Event::Hello, now_us)?;
+            MasterToBoard::Hello {
+                nonce, clock_us, ..
+            } => {
+                // One owner (`modes::next`): the owner reconnects with its holds kept;
+                // another master takes over only while the robot is disabled, and starts
+                // with the clutch released and the operator absent.
+                let from = self.session.hello_from(nonce, clock_us);
+                if from == HelloFrom::Replay {
+                    self.refusals = self.refusals.wrapping_add(1);
+                    return Err(NackReason::ReplayedHello);
+                }
+                let owner = from == HelloFrom::Owner;
+                self.apply(Event::Hello { owner }, now_us)?;
+                if owner {
+                    self.session.reconnect(clock_us, now_us);
+                } else {
+                    self.session.take_over(nonce, clock_us, now_us);
+                    self.master_changed(nonce, now_us);
+                }
                 Ok(Answer::Hello {
-                    session: nonce,
+                    nonce,
                     reset: self.reset,
                     geometry_version: self.geometry_version,
                 })
@@ -340,6 +414,9 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             }
             MasterToBoard::FaultLogRequest { first } => {
                 Ok(Answer::FaultLog(self.fault_log_page(first)))
+            }
+            MasterToBoard::EventLogRequest { first } => {
+                Ok(Answer::EventLog(self.event_log_page(first)))
             }
             MasterToBoard::Heartbeat => {
                 if let Some(ev) = self.session.beat(now_us) {
@@ -376,6 +453,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
     /// One control tick (see the module documentation).
     pub fn tick<H: Hardware<S>>(&mut self, hw: &mut H, now_us: u64) -> RuntimeTick<S> {
         self.sense_and_monitor(hw, now_us);
+        self.sync_relay_test(now_us);
         let step = self.step_mode(hw, now_us);
         self.advance_stop(now_us, step.standstill);
         let mut duty = step.duty;
@@ -411,10 +489,14 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         let enabled = self.state() == State::Enabled;
         let late = enabled && self.session.heartbeat_is_late(now_us);
         let limited = self.monitors.current.limited().iter().any(|x| *x);
+        let stale = matches!(self.mode, Mode::Following { .. })
+            && now_us.saturating_sub(self.last_target_us)
+                > self.cfg.controller.supervisor.stale_after_us;
         let w = &mut self.warnings;
         w.set(Warnings::NOT_HOMED, !homed);
         w.set(Warnings::HEARTBEAT_LATE, late);
         w.set(Warnings::VELOCITY_LIMITED, limited);
+        w.set(Warnings::TARGET_STALE, stale);
     }
 
     /// Records the control tick's worst start jitter and execution time (µs) and the
@@ -432,3 +514,8 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
 
 /// How far ahead of the setpoint a Jog aims at most, s: the dead-man time of a jog stream.
 pub const JOG_HORIZON_S: f64 = 0.1;
+
+/// Board time in the event log: ms since boot (wrapping after 49 days).
+fn ms_of(now_us: u64) -> u32 {
+    (now_us / 1000) as u32
+}

@@ -75,6 +75,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             last_us: now_us,
             target,
         });
+        self.last_target_us = now_us;
         Ok(())
     }
 
@@ -96,6 +97,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             .map_err(|r| wire::refusal_reason(&r))?;
         // A Cartesian target ends any jog stream.
         *jog = None;
+        self.last_target_us = now_us;
         Ok(())
     }
 }

@@ -111,6 +111,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             supply_v: wire::to_f32(self.inputs.supply_v),
             fault_log_len: u16::try_from(self.log.len()).unwrap_or(u16::MAX),
             missed_ticks: self.missed_ticks,
+            owner_changes: self.session.owner_changes(),
         }
     }
 }

@@ -3,7 +3,7 @@
 
 use kinematics_core::guards::Subject;
 use kinematics_core::{Mechanism, Pose};
-use master_link::{FaultCause, Warnings};
+use master_link::{EventKind, FaultCause, StopReason, Warnings};
 use num_traits::Float;
 use servo::NUM_JOINTS;
 
@@ -129,8 +129,51 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             known.as_ref(),
             now_us,
         );
+        // Before any motion: a switch that cannot read what it reads, or a declared tool
+        // the homing cannot carry, fails it.
+        let checked = homing
+            .check_switches(&self.inputs.switches)
+            .and_then(|()| self.check_homing_load(known.as_ref()));
         self.mode = Mode::Homing(homing);
+        if let Err(e) = checked {
+            let finding = Finding {
+                cause: FaultCause::HomingFailed,
+                joint: e.joint(),
+                value: e.code(),
+            };
+            self.fault(finding, now_us);
+        }
         Ok(())
+    }
+
+    /// With a declared tool, its loads along the homing's path (`homing_load`): a homing
+    /// they do not allow is refused before it moves anything.
+    fn check_homing_load(&self, known: Option<&[S; NUM_JOINTS]>) -> Result<(), HomingError> {
+        let Some(tool) = self.cfg.controller.tool else {
+            return Ok(());
+        };
+        let rest = known
+            .copied()
+            .unwrap_or_else(|| self.cfg.homing.joints.map(|h| h.rest_position));
+        // The push's effort at the supply measured now, or at the lowest it may be.
+        let [lo, _] = self.cfg.power.supply_v;
+        let supply = if self.monitors.power.supply_in_range(self.inputs.supply_v) {
+            self.inputs.supply_v
+        } else {
+            lo
+        };
+        crate::homing_load::check(
+            &self.robot,
+            self.cfg.controller.branch,
+            &self.cfg.controller.fk,
+            &self.cfg.homing,
+            &rest,
+            &tool,
+            &self.cfg.current.motors,
+            &self.cfg.current.limits,
+            supply,
+        )
+        .map_err(|r| HomingError::LoadTooHeavy { joint: r.joint() })
     }
 
     /// `Enable` from `Ready`: the reset acknowledged, the safety chain sound, the
@@ -203,20 +246,36 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         let hold = self.session.hold();
         let torque_on = self.outputs.torque_on();
         let cfg = self.cfg.stops;
+        let mut began = None;
         self.mode = match core::mem::replace(&mut self.mode, Mode::Boot) {
             Mode::Enabling { ctl, .. } | Mode::Following { ctl, .. } if hold.any() => {
                 let mut ctl = ctl;
                 ctl.hold();
-                Mode::Holding {
-                    ctl,
-                    sequence: StopSequence::start(cfg, hold_event(hold), now_us, torque_on),
-                }
+                let sequence = StopSequence::start(cfg, hold_event(hold), now_us, torque_on);
+                began = Some((hold_event(hold), sequence.stopper.status()));
+                Mode::Holding { ctl, sequence }
             }
             Mode::Enabling { ctl, .. } | Mode::Holding { ctl, .. } => {
+                self.last_target_us = now_us;
                 Mode::Following { ctl, jog: None }
             }
             other => other,
         };
+        if let Some((event, stop)) = began {
+            self.record_stop(event, stop, now_us);
+        }
+    }
+
+    /// A stop that is not a fault began: an entry of the event log.
+    fn record_stop(&mut self, event: StopEvent, stop: master_link::StopStatus, now_us: u64) {
+        let reason = match event {
+            StopEvent::Disable => StopReason::Disable,
+            StopEvent::HeartbeatLate => StopReason::HeartbeatLate,
+            StopEvent::ClutchEngaged => StopReason::ClutchEngaged,
+            StopEvent::OperatorAbsent => StopReason::OperatorAbsent,
+            StopEvent::Fault(_) => return,
+        };
+        self.record_event(EventKind::Stop { reason, stop }, now_us);
     }
 
     /// Into `Stopping` (SS1): `Disable` while driving, the end of the park move (the
@@ -292,7 +351,11 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
                 ctl.hold();
             }
         }
+        let status = stop.sequence.stopper.status();
         self.mode = Mode::Stopping { stop, homed };
+        if event == Event::Disable {
+            self.record_stop(StopEvent::Disable, status, now_us);
+        }
         self.settle_stop(now_us);
     }
 
@@ -420,6 +483,17 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             self.sensing.lose_reference();
         }
         self.log.record(record, status);
+        // The relay test's latch first: a safety-chain fault is written with it pending.
+        self.sync_relay_test(now_us);
+        self.record_event(
+            EventKind::Fault {
+                cause,
+                joint: record.joint,
+                value: record.value,
+                stop: status,
+            },
+            now_us,
+        );
         if from != ModeKind::Fault {
             self.session.note(Event::Fault(cause), false);
         }

@@ -36,8 +36,7 @@ pub fn homing_fixture(
     above_stops: [f64; 3],
 ) -> (PlantHw, [f64; 6], control::runtime::RuntimeConfig<f64>) {
     let c = central_q();
-    let mech =
-        control::runtime::reference_mechanics(&c, &kinematics_core::guards::Limits::reference());
+    let mech = control::runtime::reference_mechanics(&kinematics_core::guards::Limits::reference());
     let stops = [3, 4, 5].map(|j| c[j] - mech.link_stop_below_central_rad);
     let layout = Layout::reference(&ReferenceMechanics {
         central_q: c,

@@ -5,12 +5,21 @@
 //! * [`run_control`] (an interrupt executor above the link): the control tick every
 //!   period, around [`TickService`]: the e-stop latch, the queued master requests and
 //!   their replies, the runtime's tick (which reads the safety chain, the power stage and
-//!   every sensor), timing, the deadline policy, the watchdog, the fault log kept across
-//!   resets, the status;
+//!   every sensor), timing, the deadline policy, the watchdog, the fault log and the event
+//!   log's view kept across resets, the status; then, after them, the event log's flash
+//!   writer (a few words per period, an erase only with the drives off);
 //! * [`run_link_rx`] (thread mode): bytes -> frames -> requests for the control tick; an
-//!   `EmergencyStop` message forces the outputs safe at once, before it is queued;
+//!   `EmergencyStop` message forces the outputs safe at once, before it is queued; the
+//!   link key's tags checked and the session ids issued here (SHA-256, HMAC-SHA256), never
+//!   in the control tick;
 //! * [`run_link_tx`] (thread mode): replies, and the status every telemetry period once a
-//!   `Hello` was received, with the receiving side's link counters.
+//!   session is open, with the receiving side's link counters, tagged with the key.
+//!
+//! **Sessions.** The control tick decides whether a `Hello` is accepted (one owner,
+//! `control::modes::next`); when it is, the tick leaves the session and the `Hello`'s
+//! sequence number in [`Shared::session`] before it queues the `HelloReply`, and the
+//! receive task opens it before it decodes the next bytes: the master's first frame of the
+//! session, sent after the reply, always finds it open.
 //!
 //! The tasks meet in one [`Shared`] (channels, the latest status, the e-stop latch).
 #![no_std]
@@ -19,8 +28,9 @@ use core::cell::Cell;
 use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
 use control::estop::{emergency_stop_message, EStopLatch};
+use control::event_log::{EventLog, Step};
 use control::faults::FaultLog;
-use control::link::{Inbound, LinkRx, LinkTx, Request};
+use control::link::{opened_session, BoardIdentity, Inbound, LinkRx, LinkTx, Request};
 use control::service::{TickOutcome, TickService};
 use control::telemetry::with_link;
 use control::Scalar;
@@ -32,7 +42,7 @@ use embassy_time::{Duration, Instant, Ticker, Timer};
 use hal::{Hardware, SafeOutputs};
 use kinematics_core::Mechanism;
 use master_link::{
-    BoardToMaster, FaultCause, FaultRecord, GeometryRecord, GeometryRefusal, LinkCounters,
+    BoardToMaster, FaultCause, FaultRecord, GeometryRecord, GeometryRefusal, LinkCounters, LinkKey,
     NackReason, ResetCause, ResetStatus, StatusReport, MAX_FRAME_LEN,
 };
 
@@ -57,8 +67,11 @@ pub struct Shared {
     pub has_status: AtomicBool,
     /// The receiving side's counters.
     pub link: Mutex<CriticalSectionRawMutex, Cell<Option<LinkCounters>>>,
-    /// A `Hello` was received: telemetry flows.
+    /// A session is open: telemetry flows.
     pub connected: AtomicBool,
+    /// A session the control tick accepted, with the `Hello`'s sequence number, for the
+    /// receive task to open.
+    pub session: Mutex<CriticalSectionRawMutex, Cell<Option<(u32, master_link::Seq)>>>,
     /// Replies dropped because the reply queue was full.
     pub replies_dropped: AtomicU32,
     /// Frames that could not be encoded.
@@ -82,6 +95,7 @@ impl Shared {
             has_status: AtomicBool::new(false),
             link: Mutex::new(Cell::new(None)),
             connected: AtomicBool::new(false),
+            session: Mutex::new(Cell::new(None)),
             replies_dropped: AtomicU32::new(0),
             encode_errors: AtomicU32::new(0),
             estop: EStopLatch::new(),
@@ -116,6 +130,7 @@ const EMPTY_STATUS: StatusReport = StatusReport {
         out_of_order: 0,
         dropped: 0,
         wrong_session: 0,
+        bad_tag: 0,
     },
     tick_jitter_max_us: 0,
     tick_exec_max_us: 0,
@@ -146,6 +161,7 @@ const EMPTY_STATUS: StatusReport = StatusReport {
     supply_v: 0.0,
     fault_log_len: 0,
     missed_ticks: 0,
+    owner_changes: 0,
 };
 
 impl Default for Shared {
@@ -202,6 +218,31 @@ pub trait ControlBoard<S: Scalar> {
     fn persist_fault_log(&mut self, log: &FaultLog) {
         let _ = log;
     }
+    /// Keeps the event log's RAM view for the next reset (RAM the start-up code does not
+    /// clear), after every tick that changed it. The default keeps nothing.
+    fn persist_events(&mut self, log: &EventLog) {
+        let _ = log;
+    }
+    /// Writes the event log to the board's flash (`control::event_log::EventStore::step`):
+    /// at most `words` words of its oldest pending entry at `now_ms`; an erase only when
+    /// `may_erase` (the drives off and the brakes applied; the board keeps its watchdog
+    /// alive through it, and the control task restarts its schedule after it). The default:
+    /// this board has no flash for it.
+    fn store_events(
+        &mut self,
+        log: &mut EventLog,
+        now_ms: u32,
+        words: usize,
+        may_erase: bool,
+    ) -> Step {
+        let _ = (log, now_ms, words, may_erase);
+        Step::Idle
+    }
+    /// The part of the control period after which the tick leaves no room for programming
+    /// flash in it, µs (the default: none).
+    fn program_window_us(&self) -> u32 {
+        0
+    }
     /// Writes a calibrated geometry the runtime accepted (its checks passed, the drives are
     /// off) to the board's flash and reads it back. The core may stall for the erase of a
     /// full sector (seconds): the board keeps its watchdog alive through it, and the
@@ -253,6 +294,11 @@ where
         service.begin(now, missed, shared.estop.take());
         while let Ok(req) = shared.commands.try_receive() {
             let reply = service.request(&req, now);
+            // An accepted Hello: the receive task opens its session before the reply
+            // can reach the master.
+            if let Some(session) = opened_session(&reply) {
+                shared.session.lock(|c| c.set(Some((session, req.seq))));
+            }
             shared.reply(reply);
         }
         // A geometry the runtime accepts is written after the tick (flash stalls the core).
@@ -274,11 +320,31 @@ where
         if outcome.log_changed {
             board.persist_fault_log(service.runtime().fault_log());
         }
+        if outcome.events_changed {
+            board.persist_events(service.runtime().events());
+        }
         board.after_tick(service, &outcome);
+        // The event log to flash: a few words when the tick left room for the stall, an
+        // erase only with the drives off (a pause, like the geometry's store below).
+        let in_window = outcome.exec_us <= board.program_window_us();
+        if in_window || outcome.drives_off {
+            let words = if in_window {
+                control::event_log::WORDS_PER_PERIOD
+            } else {
+                0
+            };
+            let now_ms = (now / 1000) as u32;
+            let events = service.runtime_mut().events_mut();
+            if let Step::Erased { .. } =
+                board.store_events(events, now_ms, words, outcome.drives_off)
+            {
+                service.resume_after_pause();
+            }
+        }
         if let Some((seq, record)) = accepted_geometry {
             let reply = match board.store_geometry(&record) {
                 Ok(()) => {
-                    service.runtime_mut().set_geometry_version(record.version);
+                    service.runtime_mut().geometry_stored(record.version, now);
                     BoardToMaster::GeometryStored {
                         seq,
                         version: record.version,
@@ -308,18 +374,26 @@ pub trait ByteTx {
 }
 
 /// The link's receive task: bytes -> frames -> requests for the control tick, replies the
-/// link gives itself (HelloReply, NotConnected) for the send task. An `EmergencyStop`
-/// message forces the outputs safe through `kill` before it is queued; a full queue is
-/// answered `Busy`.
+/// link gives itself (HelloRefused UnsupportedVersion, NotConnected) for the send task. An
+/// `EmergencyStop` message forces the outputs safe through `kill` before it is queued; a
+/// full queue is answered `Busy`. `identity` seeds the session ids; with a `key`, frames
+/// without a valid tag are dropped and counted.
 pub async fn run_link_rx<R: ByteRx, K: SafeOutputs>(
     shared: &'static Shared,
     rx: &mut R,
     kill: &mut K,
+    identity: BoardIdentity,
+    key: Option<LinkKey>,
 ) -> ! {
-    let mut link = LinkRx::new();
+    let mut link = LinkRx::with(identity, key);
     let mut buf = [0u8; 64];
     loop {
-        match rx.read(&mut buf).await {
+        let read = rx.read(&mut buf).await;
+        link.set_uptime(Instant::now().as_micros());
+        if let Some((session, seq)) = shared.session.lock(|c| c.take()) {
+            link.open_session(session, seq);
+        }
+        match read {
             Ok(n) => {
                 for byte in buf.iter().take(n) {
                     match link.push(*byte) {
@@ -366,9 +440,15 @@ pub async fn run_link_rx<R: ByteRx, K: SafeOutputs>(
 }
 
 /// The link's send task: replies as they come, and the latest status every
-/// `telemetry_ms` once a `Hello` was received, with the receiving side's counters.
-pub async fn run_link_tx<T: ByteTx>(shared: &'static Shared, tx: &mut T, telemetry_ms: u64) -> ! {
-    let mut link = LinkTx::new();
+/// `telemetry_ms` once a session is open, with the receiving side's counters; with a
+/// `key`, every frame tagged.
+pub async fn run_link_tx<T: ByteTx>(
+    shared: &'static Shared,
+    tx: &mut T,
+    telemetry_ms: u64,
+    key: Option<LinkKey>,
+) -> ! {
+    let mut link = LinkTx::with_key(key);
     let mut telemetry = Ticker::every(Duration::from_millis(telemetry_ms));
     let mut buf = [0u8; MAX_FRAME_LEN];
     loop {

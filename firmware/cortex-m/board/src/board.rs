@@ -76,8 +76,11 @@ bind_interrupts!(pub struct Irqs {
     DMA1_STREAM3 => dma::InterruptHandler<peripherals::DMA1_CH3>;
 });
 
-/// CPU clock, Hz (DWT cycles per second).
-pub const CPU_HZ: u32 = 168_000_000;
+/// The board: its period, clock and drive trains (the one owner of those facts).
+pub const PROFILE: board_profile::BoardProfile = board_profile::BoardProfile::REFERENCE;
+/// CPU clock, Hz (DWT cycles per second): the profile's, which the clock tree below must
+/// produce (checked at compile time).
+pub const CPU_HZ: u32 = PROFILE.cpu_hz;
 /// PWM frequency of the H-bridges (above hearing, within the bridges' switching limits).
 pub const PWM_HZ: u32 = 20_000;
 /// Master link baud rate (exact on APB1 = 42 MHz with 16x oversampling).
@@ -112,13 +115,23 @@ const DRV_EN_PIN: usize = 10;
 const BRAKE_PORT: pac::gpio::Gpio = pac::GPIOA;
 const BRAKE_PINS: [usize; 2] = [11, 12];
 
+/// The crystal, Hz.
+const HSE_HZ: u32 = 8_000_000;
+/// The PLL: divide the crystal to 1 MHz, multiply to 336 MHz, SYSCLK its half (P), USB its
+/// seventh (Q: 48 MHz).
+const PLL_PREDIV: u32 = 8;
+const PLL_MUL: u32 = 336;
+const PLL_DIVP: u32 = 2;
+// The clock tree gives the profile's core clock.
+const _: () = assert!(HSE_HZ / PLL_PREDIV * PLL_MUL / PLL_DIVP == CPU_HZ);
+
 /// The clock tree: 8 MHz HSE -> PLL 168 MHz SYSCLK, APB1 42 MHz (timers 84 MHz), APB2
 /// 84 MHz (timers 168 MHz), 48 MHz for USB.
 pub fn clock_config() -> embassy_stm32::Config {
     use embassy_stm32::rcc::*;
     let mut config = embassy_stm32::Config::default();
     config.rcc.hse = Some(Hse {
-        freq: Hertz(8_000_000),
+        freq: Hertz(HSE_HZ),
         mode: HseMode::Oscillator,
     });
     config.rcc.pll_src = PllSource::HSE;

@@ -63,17 +63,26 @@ fn iwdg_set(pr: Pr, rl: u16) {
     pac::IWDG.kr().write(|w| w.set_key(Key::RESET));
 }
 
+/// Runs `f` (a flash operation that stalls the core for up to seconds, with the drives
+/// off) with the independent watchdog's timeout raised to its maximum (about 32 s), then
+/// restores it.
+pub fn with_watchdog_raised<T>(f: impl FnOnce() -> T) -> T {
+    let (pr, rl) = (pac::IWDG.pr().read().pr(), pac::IWDG.rlr().read().rl());
+    iwdg_set(Pr::DIVIDE_BY256, 0x0FFF);
+    let result = f();
+    iwdg_set(pr, rl);
+    result
+}
+
 /// Stores `record` (accepted by the runtime) with the watchdog's timeout raised for the
 /// duration.
 pub fn store(
     flash: &mut Flash<'static, Blocking>,
     record: &GeometryRecord,
 ) -> Result<(), GeometryRefusal> {
-    let (pr, rl) = (pac::IWDG.pr().read().pr(), pac::IWDG.rlr().read().rl());
-    iwdg_set(Pr::DIVIDE_BY256, 0x0FFF);
-    let result = geometry_store::store(&mut GeometrySector(flash), record);
-    iwdg_set(pr, rl);
-    result.map(|_| ()).map_err(|_| GeometryRefusal::Flash)
+    with_watchdog_raised(|| geometry_store::store(&mut GeometrySector(flash), record))
+        .map(|_| ())
+        .map_err(|_| GeometryRefusal::Flash)
 }
 
 /// The stored calibrated geometry at boot and its version, when its record is valid and

@@ -213,8 +213,10 @@ pub struct Control {
     pub iwdg: IndependentWatchdog<'static, IWDG>,
     /// Ticks since the last timing log.
     pub ticks: u32,
-    /// The flash, for the calibrated geometry's sector.
+    /// The flash, for the calibrated geometry's sector and the event log's.
     pub flash: embassy_stm32::flash::Flash<'static, embassy_stm32::flash::Blocking>,
+    /// The event log's writer (None: its flash could not be read at boot).
+    pub events: Option<control::event_log::EventStore>,
 }
 
 impl ControlBoard<f32> for Control {
@@ -230,6 +232,35 @@ impl ControlBoard<f32> for Control {
     }
     fn persist_fault_log(&mut self, log: &control::faults::FaultLog) {
         crate::safe_halt::persist(log);
+    }
+    fn persist_events(&mut self, log: &control::event_log::EventLog) {
+        crate::safe_halt::persist_events(log);
+    }
+    fn store_events(
+        &mut self,
+        log: &mut control::event_log::EventLog,
+        now_ms: u32,
+        words: usize,
+        may_erase: bool,
+    ) -> control::event_log::Step {
+        let Some(store) = self.events.as_mut() else {
+            return control::event_log::Step::Idle;
+        };
+        let mut sectors = crate::event_flash::EventSectors(&mut self.flash);
+        let step = store.step(&mut sectors, log, now_ms, words, may_erase);
+        match step {
+            control::event_log::Step::Erased { sector } => {
+                self.iwdg.pet();
+                info!("event log: sector {} erased", sector);
+            }
+            control::event_log::Step::Failed(_) => warn!("event log: a flash operation failed"),
+            control::event_log::Step::GaveUp => warn!("event log: flash given up"),
+            _ => {}
+        }
+        step
+    }
+    fn program_window_us(&self) -> u32 {
+        crate::event_flash::PROGRAM_WINDOW_US
     }
     fn store_geometry(
         &mut self,

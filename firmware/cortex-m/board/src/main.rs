@@ -14,12 +14,14 @@
 #![no_main]
 
 mod board;
+mod event_flash;
 mod geometry_flash;
 mod hw;
 mod safe_halt;
 
 use board_tasks::{firmware_version, run_control, run_link_rx, run_link_tx, Shared};
 use control::estop::emergency_stop_isr;
+use control::event_log::EventLog;
 use control::faults::FaultLog;
 use control::runtime::{reference_config_for, Runtime};
 use control::service::{ServiceConfig, TickService};
@@ -33,10 +35,24 @@ use hal::{QuadratureCounter, SafeOutputs};
 use kinematics_core::{Branch, PerChainGeometry, RsprGeometry};
 use master_link::ResetCause;
 
-/// Control period, µs (1 kHz).
-const PERIOD_US: u32 = 1000;
+/// Control period, µs: the board profile's.
+const PERIOD_US: u32 = board::PROFILE.control_period_us;
 /// Telemetry period, ms (50 Hz).
 const TELEMETRY_MS: u64 = 20;
+
+/// The link key of this board's profile: 64 hexadecimal digits in `RSPR_LINK_KEY` when
+/// the image is built (a board whose link leaves the desk), or none (a board on a desk:
+/// frames without tags). Never logged.
+const LINK_KEY_HEX: Option<&str> = option_env!("RSPR_LINK_KEY");
+
+/// The link key of the board's profile, if it has one.
+fn link_key() -> Option<master_link::LinkKey> {
+    match LINK_KEY_HEX.map(master_link::LinkKey::from_hex) {
+        None => None,
+        Some(Ok(k)) => Some(k),
+        Some(Err(_)) => halt("RSPR_LINK_KEY is not 64 hexadecimal digits"),
+    }
+}
 
 static SHARED: Shared = Shared::new();
 static EXECUTOR_CONTROL: InterruptExecutor = InterruptExecutor::new();
@@ -84,13 +100,27 @@ async fn main(spawner: Spawner) {
     // Before anything else can reset: why the last reset, and the fault log it kept.
     let reset = board::take_reset_cause();
     let kept_log = safe_halt::take();
-    let b = match board::Board::new(p) {
+    let mut b = match board::Board::new(p) {
         Ok(b) => b,
         Err(e) => {
             error!("board setup: {}", e);
             halt("board setup");
         }
     };
+    // The event log, before the watchdog runs: its flash mounted (the view kept across a
+    // watchdog reset taken when newer), a sector erased if the next record needs one (the
+    // drives are off), and the view kept from now on for the panic handler.
+    let (event_store, events) = {
+        let mut sectors = event_flash::EventSectors(&mut b.flash);
+        let (mut store, events) = control::event_log::boot(&mut sectors, safe_halt::take_events());
+        if let Some(s) = store.as_mut() {
+            if s.prepare(&mut sectors).is_err() {
+                store = None;
+            }
+        }
+        (store, events)
+    };
+    safe_halt::persist_events(&events);
 
     // Priorities: e-stop > time driver > control > link.
     interrupt::EXTI15_10.set_priority(Priority::P0);
@@ -109,9 +139,10 @@ async fn main(spawner: Spawner) {
         iwdg,
         ticks: 0,
         flash: b.flash,
+        events: event_store,
     };
     let control_spawner = EXECUTOR_CONTROL.start(interrupt::UART4);
-    match control(Owned(control_board), reset, kept_log) {
+    match control(Owned(control_board), reset, kept_log, Owned(events)) {
         Ok(t) => control_spawner.spawn(t),
         Err(_) => halt("spawn control"),
     }
@@ -119,25 +150,42 @@ async fn main(spawner: Spawner) {
     let Some(dma_buf) = cortex_m::singleton!(: [u8; 512] = [0; 512]) else {
         halt("rx buffer");
     };
-    match link_rx(hw::LinkRx(rx.into_ring_buffered(dma_buf))) {
+    let key = link_key();
+    // The session ids' seed: the chip's unique id, and the key's secret when there is one.
+    let identity = control::link::BoardIdentity::new(&embassy_stm32::uid::uid(), key.as_ref());
+    info!(
+        "master link: {}",
+        if key.is_some() {
+            "authenticated (key)"
+        } else {
+            "no key"
+        }
+    );
+    match link_rx(
+        hw::LinkRx(rx.into_ring_buffered(dma_buf)),
+        identity,
+        key.clone(),
+    ) {
         Ok(t) => spawner.spawn(t),
         Err(_) => halt("spawn link_rx"),
     }
-    match link_tx(hw::LinkTx(tx)) {
+    match link_tx(hw::LinkTx(tx), key) {
         Ok(t) => spawner.spawn(t),
         Err(_) => halt("spawn link_tx"),
     }
 }
 
-/// The robot's runtime, booted on the encoders as they read now with the reset cause and
-/// the kept fault log, in its tick service: on the calibrated geometry stored in flash when
-/// one passes its checks, else on the symmetric reference robot (both as a
-/// `PerChainGeometry`; a geometry stored while running takes effect at the next reset).
-/// (A plain function: the intermediate values stay off the task's future.)
+/// The robot's runtime, booted on the encoders as they read now with the reset cause, the
+/// kept fault log and the event log (the relay test required again when it was pending at
+/// the end of the last power cycle), in its tick service: on the calibrated geometry
+/// stored in flash when one passes its checks, else on the symmetric reference robot (both
+/// as a `PerChainGeometry`; a geometry stored while running takes effect at the next
+/// reset). (A plain function: the intermediate values stay off the task's future.)
 fn control_service(
     board: &mut hw::Control,
     reset: ResetCause,
     log: Option<FaultLog>,
+    events: EventLog,
 ) -> TickService<f32, PerChainGeometry<f32>> {
     let nominal = RsprGeometry::<f32>::reference();
     let (robot, version) = geometry_flash::stored(&mut board.flash, &nominal, Branch::OUTER)
@@ -149,32 +197,45 @@ fn control_service(
     let Ok(mut rt) = Runtime::new(robot, cfg, now) else {
         halt("runtime configuration");
     };
+    rt.restore_events(events);
     let _ = rt.boot_done(board.hw.counts(), now, reset, log);
     // The calibrated geometry's version for the hello reply (0: the reference robot).
     rt.set_geometry_version(version);
     info!(
-        "boot done: {}, reset {}, {} faults kept",
+        "boot done: {}, reset {}, {} faults kept, boot {} with {} events, relay test pending {}",
         rt.state(),
         reset,
-        rt.fault_log().len()
+        rt.fault_log().len(),
+        rt.events().boot(),
+        rt.events().len(),
+        rt.relay_test_pending()
     );
     let cfg = ServiceConfig::for_period(PERIOD_US, board::CPU_HZ, firmware_version!());
     TickService::new(rt, cfg)
 }
 
 #[embassy_executor::task]
-async fn control(board: Owned<hw::Control>, reset: ResetCause, log: Option<FaultLog>) {
+async fn control(
+    board: Owned<hw::Control>,
+    reset: ResetCause,
+    log: Option<FaultLog>,
+    events: Owned<EventLog>,
+) {
     let mut board = board.0;
-    let mut service = control_service(&mut board, reset, log);
+    let mut service = control_service(&mut board, reset, log, events.0);
     run_control(&SHARED, &mut board, &mut service).await
 }
 
 #[embassy_executor::task]
-async fn link_rx(mut rx: hw::LinkRx) {
-    run_link_rx(&SHARED, &mut rx, &mut hw::RawKill).await
+async fn link_rx(
+    mut rx: hw::LinkRx,
+    identity: control::link::BoardIdentity,
+    key: Option<master_link::LinkKey>,
+) {
+    run_link_rx(&SHARED, &mut rx, &mut hw::RawKill, identity, key).await
 }
 
 #[embassy_executor::task]
-async fn link_tx(mut tx: hw::LinkTx) {
-    run_link_tx(&SHARED, &mut tx, TELEMETRY_MS).await
+async fn link_tx(mut tx: hw::LinkTx, key: Option<master_link::LinkKey>) {
+    run_link_tx(&SHARED, &mut tx, TELEMETRY_MS, key).await
 }

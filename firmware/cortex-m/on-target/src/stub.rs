@@ -9,7 +9,6 @@
 
 use hal::{MotorOutputs, QuadratureCounter};
 use nalgebra::ComplexField;
-use servo::encoder::{LEG_COUNTS_PER_M, LINK_COUNTS_PER_RAD};
 
 /// No-load speed at full duty: legs 0.378 m/s, links 28.5 rad/s.
 const NO_LOAD: [f64; 6] = [0.378, 0.378, 0.378, 28.5, 28.5, 28.5];
@@ -33,11 +32,10 @@ pub struct PlantStub {
 }
 
 fn counts_per_unit(j: usize) -> f64 {
-    if j < 3 {
-        LEG_COUNTS_PER_M
-    } else {
-        LINK_COUNTS_PER_RAD
-    }
+    board_profile::BoardProfile::REFERENCE
+        .joints
+        .get(j)
+        .map_or(1.0, |p| p.counts_per_unit())
 }
 
 impl PlantStub {

@@ -74,9 +74,10 @@ pub fn master_variant(m: &MasterToBoard) -> usize {
         AcknowledgeReset => 12,
         FaultLogRequest { .. } => 13,
         StoreGeometry(_) => 14,
+        EventLogRequest { .. } => 15,
     }
 }
-pub const MASTER_VARIANTS: usize = 15;
+pub const MASTER_VARIANTS: usize = 16;
 
 pub fn board_variant(m: &BoardToMaster) -> usize {
     use BoardToMaster::*;
@@ -88,9 +89,11 @@ pub fn board_variant(m: &BoardToMaster) -> usize {
         FaultLog(_) => 4,
         GeometryStored { .. } => 5,
         GeometryRefused { .. } => 6,
+        EventLog(_) => 7,
+        HelloRefused { .. } => 8,
     }
 }
-pub const BOARD_VARIANTS: usize = 7;
+pub const BOARD_VARIANTS: usize = 9;
 
 /// Every geometry refusal.
 pub const ALL_GEOMETRY_REFUSALS: [GeometryRefusal; 11] = [
@@ -119,7 +122,7 @@ pub fn max_geometry() -> GeometryRecord {
     .sealed()
 }
 
-pub const ALL_NACK_REASONS: [NackReason; 20] = [
+pub const ALL_NACK_REASONS: [NackReason; 23] = [
     NackReason::UnsupportedVersion,
     NackReason::NotConnected,
     NackReason::InvalidState,
@@ -140,6 +143,9 @@ pub const ALL_NACK_REASONS: [NackReason; 20] = [
     NackReason::SafetyRelayMismatch,
     NackReason::BrakeCheckFailed,
     NackReason::OperatorAbsent,
+    NackReason::NotOwner,
+    NackReason::TargetFromFuture,
+    NackReason::ReplayedHello,
 ];
 
 pub const ALL_STATES: [RobotState; 6] = [
@@ -171,6 +177,7 @@ pub fn max_status() -> StatusReport {
             out_of_order: u32::MAX,
             dropped: u32::MAX,
             wrong_session: u32::MAX,
+            bad_tag: u32::MAX,
         },
         tick_jitter_max_us: u32::MAX,
         tick_exec_max_us: u32::MAX,
@@ -201,6 +208,7 @@ pub fn max_status() -> StatusReport {
         supply_v: 24.0,
         fault_log_len: u16::MAX,
         missed_ticks: u32::MAX,
+        owner_changes: u16::MAX,
     }
 }
 
@@ -225,12 +233,58 @@ pub fn max_fault_log() -> FaultLogPage {
     }
 }
 
+/// Every kind of event, with maximal values.
+pub fn max_event_kinds() -> Vec<EventKind> {
+    let mut v = vec![
+        EventKind::Fault {
+            cause: FaultCause::Internal,
+            joint: NO_JOINT,
+            value: f32::MAX,
+            stop: StopStatus::SafeOperatingStop,
+        },
+        EventKind::Reset {
+            cause: ResetCause::LowPower,
+        },
+        EventKind::Master { id: u32::MAX },
+        EventKind::GeometryStored { version: u32::MAX },
+        EventKind::RelayTest { pending: true },
+        EventKind::Lost { count: u32::MAX },
+    ];
+    v.extend(StopReason::ALL.iter().map(|&reason| EventKind::Stop {
+        reason,
+        stop: StopStatus::SafeStop1Decelerating,
+    }));
+    v
+}
+
+/// The largest event-log page: every entry the largest event (a fault) with maximal
+/// varints.
+pub fn max_event_log() -> EventLogPage {
+    let entry = EventEntry {
+        seq: u32::MAX,
+        boot: u16::MAX,
+        time_ms: u32::MAX,
+        event: max_event_kinds()[0],
+        count: u16::MAX,
+        relay_test_pending: true,
+    };
+    EventLogPage {
+        len: u16::MAX,
+        total: u32::MAX,
+        first: u16::MAX,
+        count: EVENT_LOG_PAGE as u8,
+        lost: u32::MAX,
+        entries: [entry; EVENT_LOG_PAGE],
+    }
+}
+
 /// One sample of every master -> board variant (with maximal varints).
 pub fn master_samples() -> Vec<MasterToBoard> {
     vec![
         MasterToBoard::Hello {
             protocol_version: PROTOCOL_VERSION,
             nonce: u32::MAX,
+            clock_us: u64::MAX,
         },
         MasterToBoard::Enable,
         MasterToBoard::Disable,
@@ -255,6 +309,7 @@ pub fn master_samples() -> Vec<MasterToBoard> {
         MasterToBoard::AcknowledgeReset,
         MasterToBoard::FaultLogRequest { first: u16::MAX },
         MasterToBoard::StoreGeometry(max_geometry()),
+        MasterToBoard::EventLogRequest { first: u16::MAX },
     ]
 }
 
@@ -270,11 +325,17 @@ pub fn board_samples() -> Vec<BoardToMaster> {
             },
             protocol_version: PROTOCOL_VERSION,
             session: u32::MAX,
+            nonce: u32::MAX,
             reset: ResetStatus {
                 cause: ResetCause::BrownOut,
                 acknowledged: false,
             },
             geometry_version: u32::MAX,
+        },
+        BoardToMaster::HelloRefused {
+            seq: u16::MAX,
+            nonce: u32::MAX,
+            reason: NackReason::NotOwner,
         },
         BoardToMaster::Ack { seq: u16::MAX },
         BoardToMaster::GeometryStored {
@@ -285,7 +346,17 @@ pub fn board_samples() -> Vec<BoardToMaster> {
         BoardToMaster::Status(StatusReport::default()),
         BoardToMaster::FaultLog(max_fault_log()),
         BoardToMaster::FaultLog(FaultLogPage::default()),
+        BoardToMaster::EventLog(max_event_log()),
+        BoardToMaster::EventLog(EventLogPage::default()),
     ];
+    v.extend(max_event_kinds().into_iter().map(|event| {
+        let mut page = max_event_log();
+        page.entries = [EventEntry {
+            event,
+            ..page.entries[0]
+        }; EVENT_LOG_PAGE];
+        BoardToMaster::EventLog(page)
+    }));
     v.extend(ALL_NACK_REASONS.iter().map(|&reason| BoardToMaster::Nack {
         seq: 0x1234,
         reason,
@@ -314,9 +385,12 @@ pub fn arb_f3() -> impl Strategy<Value = [f32; 3]> {
 
 pub fn arb_master() -> impl Strategy<Value = MasterToBoard> {
     prop_oneof![
-        (any::<u8>(), any::<u32>()).prop_map(|(v, nonce)| MasterToBoard::Hello {
-            protocol_version: v,
-            nonce
+        (any::<u8>(), any::<u32>(), any::<u64>()).prop_map(|(v, nonce, clock_us)| {
+            MasterToBoard::Hello {
+                protocol_version: v,
+                nonce,
+                clock_us,
+            }
         }),
         Just(MasterToBoard::Enable),
         Just(MasterToBoard::Disable),
@@ -352,11 +426,12 @@ pub fn arb_master() -> impl Strategy<Value = MasterToBoard> {
                     crc,
                 })
             }),
+        any::<u16>().prop_map(|first| MasterToBoard::EventLogRequest { first }),
     ]
 }
 
 pub fn arb_counters() -> impl Strategy<Value = LinkCounters> {
-    proptest::array::uniform8(any::<u32>()).prop_map(|c| LinkCounters {
+    proptest::array::uniform9(any::<u32>()).prop_map(|c| LinkCounters {
         frames_ok: c[0],
         bad_checksum: c[1],
         malformed: c[2],
@@ -365,6 +440,7 @@ pub fn arb_counters() -> impl Strategy<Value = LinkCounters> {
         out_of_order: c[5],
         dropped: c[6],
         wrong_session: c[7],
+        bad_tag: c[8],
     })
 }
 
@@ -410,6 +486,7 @@ pub fn arb_board() -> impl Strategy<Value = BoardToMaster> {
                 },
                 protocol_version: p,
                 session,
+                nonce: session.rotate_left(3),
                 reset: ResetStatus::default(),
                 geometry_version: session.rotate_left(7),
             }
@@ -429,5 +506,6 @@ pub fn arb_board() -> impl Strategy<Value = BoardToMaster> {
             .prop_map(|(seq, reason)| BoardToMaster::Nack { seq, reason }),
         arb_status().prop_map(BoardToMaster::Status),
         Just(BoardToMaster::FaultLog(max_fault_log())),
+        Just(BoardToMaster::EventLog(max_event_log())),
     ]
 }

@@ -142,8 +142,8 @@ pub fn pins(run: &mut Run) -> Result<(), ScenarioError> {
     Ok(())
 }
 
-/// Hello -> HelloReply with the session and the reset cause (PowerOn, needs no
-/// acknowledgement), then a Status every 20 ms.
+/// Hello -> HelloReply with a session the board issued (not 0), the master's nonce echoed
+/// and the reset cause (PowerOn, needs no acknowledgement), then a Status every 20 ms.
 pub fn hello(run: &mut Run) -> Result<(), ScenarioError> {
     teleop::ci::hello(&mut run.s, &mut run.ci, 1.0)?;
     run.adopt_teleop_checks();
@@ -153,13 +153,14 @@ pub fn hello(run: &mut Run) -> Result<(), ScenarioError> {
     let n = run.s.statuses.len() - since;
     let ok = matches!(
         reply,
-        Some((_, BoardToMaster::HelloReply { protocol_version, session, reset, .. }))
+        Some((_, BoardToMaster::HelloReply { protocol_version, session, nonce, reset, .. }))
             if protocol_version == PROTOCOL_VERSION
-                && session == SESSION_NONCE
+                && session != 0
+                && nonce == SESSION_NONCE
                 && reset == ResetStatus { cause: ResetCause::PowerOn, acknowledged: true }
     );
     run.check(
-        "HelloReply carries the session and the reset cause PowerOn; a Status every 20 ms",
+        "HelloReply carries the board's session, the nonce and the reset cause PowerOn; a Status every 20 ms",
         ok && (9..=11).contains(&n),
         format!(
             "{}; master's nonce {SESSION_NONCE:#010x}; {n} statuses in 0.2 s",

@@ -5,17 +5,19 @@
 //!    (session, reset cause PowerOn).
 //! 2. [`watchdog::starved`]: the core stalled, the deadline missed and logged, the IWDG
 //!    reset; the reset cause and the fault log reported after it (before the homing, so
-//!    that one homing serves the whole run).
-//! 3. [`motion`]: homing against the switches and stops, then the park move; Enable refused
-//!    until the reset is acknowledged ([`watchdog::acknowledge`]); enable (the brake check);
+//!    that one homing serves the whole run); nothing moves until the reset is acknowledged
+//!    ([`watchdog::acknowledge`]: Home refused until then).
+//! 3. [`motion`]: homing against the switches and stops, then the park move; enable (the
+//!    brake check);
 //!    a target outside the workspace refused while the robot holds; garbage on the link
 //!    counted and ignored; the tool put on; the laparoscope path within the tracking limits,
 //!    with the lag of the setpoint behind the master's targets (the master's steps are
 //!    `host-sim teleop`'s own, `teleop::ci`).
 //! 4. [`stops`]: heartbeat loss (hold, then SS1 with the brakes before the drivers); Disable
 //!    while moving (SS1); the e-stop edge (outputs safe within 10 µs, preempting the control
-//!    interrupt); the safety relay disagreeing with the button; a driver's nFAULT (STO);
-//!    enable and Disable at the end ([`watchdog::disable`]).
+//!    interrupt); a driver's nFAULT (STO); enable and Disable ([`watchdog::disable`]);
+//!    last, the safety relay disagreeing with the button (the chain stays untrusted for the
+//!    rest of the power cycle).
 //!
 //! Each check prints its figures; [`Outcome::all_ok`] says whether every one passed.
 
@@ -404,10 +406,10 @@ fn scenarios(run: &mut Run) -> Result<(), ScenarioError> {
     boot::pins(run)?;
     boot::hello(run)?;
     watchdog::starved(run)?;
+    watchdog::acknowledge(run)?;
     if !motion::home(run)? {
         return Ok(());
     }
-    watchdog::acknowledge(run)?;
     motion::enable(run)?;
     motion::refuse_and_garbage(run)?;
     motion::attach_tool(run)?;
@@ -415,8 +417,9 @@ fn scenarios(run: &mut Run) -> Result<(), ScenarioError> {
     stops::heartbeat_loss(run)?;
     stops::disable_while_moving(run)?;
     stops::estop(run)?;
-    stops::relay_mismatch(run)?;
     stops::driver_fault(run)?;
     watchdog::disable(run)?;
+    // Last: the safety chain stays untrusted for the rest of the power cycle.
+    stops::relay_mismatch(run)?;
     Ok(())
 }

@@ -132,20 +132,21 @@ pub fn starved(run: &mut Run) -> Result<(), ScenarioError> {
     Ok(())
 }
 
-/// Once homed after the watchdog reset: Enable refused (`ResetNotAcknowledged`) until the
-/// master acknowledges the reset; then the reset reads acknowledged.
+/// After the watchdog reset: `Home` refused (`ResetNotAcknowledged`) until the master
+/// acknowledges the reset (nothing moves before a person has); then the reset reads
+/// acknowledged.
 pub fn acknowledge(run: &mut Run) -> Result<(), ScenarioError> {
-    let refused = run.s.request(MasterToBoard::Enable, 1.0)?;
+    let refused = run.s.request(MasterToBoard::Home { rehome: false }, 1.0)?;
     let ack = run.s.request(MasterToBoard::AcknowledgeReset, 1.0)?;
     let since = run.s.statuses.len();
     let row = run.wait_for(since, 0.2, |s| s.reset.acknowledged)?;
     let st = row.map(|r| r.status);
     run.check(
-        "after the watchdog reset Enable is refused (ResetNotAcknowledged) until AcknowledgeReset",
+        "after the watchdog reset Home is refused (ResetNotAcknowledged) until AcknowledgeReset",
         refused == Some(NackReason::ResetNotAcknowledged)
             && ack.is_none()
             && st.is_some_and(|s| {
-                s.state == RobotState::Ready
+                s.state == RobotState::Disabled
                     && s.reset
                         == ResetStatus {
                             cause: ResetCause::Watchdog,
@@ -153,7 +154,7 @@ pub fn acknowledge(run: &mut Run) -> Result<(), ScenarioError> {
                         }
             }),
         format!(
-            "homed; Enable answered {refused:?}; AcknowledgeReset {}; then {:?} with reset {:?}",
+            "Home answered {refused:?}; AcknowledgeReset {}; then {:?} with reset {:?}",
             ack.map_or("Ack".to_string(), |r| format!("Nack {r:?}")),
             st.map(|s| s.state),
             st.map(|s| s.reset)

@@ -18,11 +18,10 @@ pub use task::{
     range_values, KindTask, RangeError, Requirements, SynthTask, SynthTaskError, THESIS_TASK_TOML,
 };
 
-use crate::files::{out_dir, write_csv, write_text};
+use crate::files::{out_dir, write_csv, write_text, FileError};
 use crate::ranges::{
     evaluate, quantity_names, QuantityRange, Ranges, RangesError, TaskPoseFailure,
 };
-use crate::DesignError;
 use kinematics_core::{
     inverse, Branch, GeometryError, Mechanism, Robot, RobotKind, RsprGeometry, UsrGeometry,
 };
@@ -34,12 +33,15 @@ use std::fmt::Write as _;
 use std::path::Path;
 use thiserror::Error;
 
-/// The scan cannot run.
+/// The scan cannot run or its files cannot be written.
 #[derive(Debug, Error)]
 pub enum SynthError {
     /// The pool of worker threads.
     #[error("worker threads: {0}")]
     Threads(rayon::ThreadPoolBuildError),
+    /// An output file.
+    #[error(transparent)]
+    File(#[from] FileError),
 }
 
 /// A robot of the grid that cannot be built.
@@ -435,62 +437,16 @@ pub fn run(
     jobs: usize,
     out: Option<&Path>,
     progress: &(dyn Fn() + Sync),
-) -> Result<String, DesignError> {
+) -> Result<String, SynthError> {
     let k = st.kind(kind);
     let started = std::time::Instant::now();
     let found = scan(kind, dims, &st.task, &k.requirements, jobs, progress)?;
     let seconds = started.elapsed().as_secs_f64();
-
-    let names = quantity_names(kind);
-    let mut header: Vec<String> = dim_names(kind).iter().map(|s| s.to_string()).collect();
-    header.extend(
-        [
-            "envelope_volume_cm3",
-            "admissible",
-            "rejected",
-            "parallel_inv_cond_min",
-            "serial_min",
-        ]
-        .map(String::from),
-    );
-    for n in &names {
-        header.push(format!("{n}_min"));
-        header.push(format!("{n}_max"));
-    }
-    let rows: Vec<Vec<String>> = found
-        .iter()
-        .map(|c| {
-            let mut r: Vec<String> = c.dims_mm.iter().map(|&x| fixed(x, 3)).collect();
-            r.push(fixed(c.envelope_volume_cm3, 3));
-            r.push(c.rejected.is_none().to_string());
-            r.push(
-                c.rejected
-                    .as_ref()
-                    .map(ToString::to_string)
-                    .unwrap_or_default(),
-            );
-            match &c.ranges {
-                Some(g) => {
-                    r.push(fixed(g.parallel_inv_cond_min, 6));
-                    r.push(fixed(g.serial_relative_min, 6));
-                }
-                None => r.extend([String::new(), String::new()]),
-            }
-            for n in &names {
-                match c.ranges.as_ref().and_then(|g| g.get(n, "task")) {
-                    Some(q) if q.poses > 0 => {
-                        r.push(fixed(q.min, 4));
-                        r.push(fixed(q.max, 4));
-                    }
-                    _ => r.extend([String::new(), String::new()]),
-                }
-            }
-            r
-        })
-        .collect();
     let dir = out_dir(out, "synth")?;
     let all_path = dir.join("synth.csv");
-    write_csv(&all_path, &header, &rows)?;
+    let names = quantity_names(kind);
+    let rows: Vec<Vec<String>> = found.iter().map(|c| scan_row(c, &names)).collect();
+    write_csv(&all_path, &scan_header(kind, &names), &rows)?;
     let best = ranked(&found);
     let ranked_rows: Vec<Vec<String>> = best
         .iter()
@@ -507,8 +463,75 @@ pub fn run(
         source
     );
     write_text(&md_path, &markdown(kind, &best, &title))?;
-    let mut text = String::new();
+    let mut text = summary(st, kind, source, &found, &best, seconds);
+    for p in [all_path, csv_path, md_path] {
+        let _ = writeln!(text, "  wrote {}", p.display());
+    }
+    Ok(text)
+}
 
+/// The columns of `synth.csv`: the dimensions, the verdict, the margins and each
+/// quantity's range over the task.
+fn scan_header(kind: RobotKind, names: &[String]) -> Vec<String> {
+    let mut header: Vec<String> = dim_names(kind).iter().map(|s| s.to_string()).collect();
+    header.extend(
+        [
+            "envelope_volume_cm3",
+            "admissible",
+            "rejected",
+            "parallel_inv_cond_min",
+            "serial_min",
+        ]
+        .map(String::from),
+    );
+    for n in names {
+        header.push(format!("{n}_min"));
+        header.push(format!("{n}_max"));
+    }
+    header
+}
+
+/// A candidate's row of `synth.csv` (empty fields where it was not evaluated).
+fn scan_row(c: &Candidate, names: &[String]) -> Vec<String> {
+    let mut r: Vec<String> = c.dims_mm.iter().map(|&x| fixed(x, 3)).collect();
+    r.push(fixed(c.envelope_volume_cm3, 3));
+    r.push(c.rejected.is_none().to_string());
+    r.push(
+        c.rejected
+            .as_ref()
+            .map(ToString::to_string)
+            .unwrap_or_default(),
+    );
+    match &c.ranges {
+        Some(g) => {
+            r.push(fixed(g.parallel_inv_cond_min, 6));
+            r.push(fixed(g.serial_relative_min, 6));
+        }
+        None => r.extend([String::new(), String::new()]),
+    }
+    for n in names {
+        match c.ranges.as_ref().and_then(|g| g.get(n, "task")) {
+            Some(q) if q.poses > 0 => {
+                r.push(fixed(q.min, 4));
+                r.push(fixed(q.max, 4));
+            }
+            _ => r.extend([String::new(), String::new()]),
+        }
+    }
+    r
+}
+
+/// The summary to print: the counts and the rate, the task, the reference robot's verdict
+/// and the ten smallest admissible robots.
+fn summary(
+    st: &SynthTask,
+    kind: RobotKind,
+    source: &str,
+    found: &[Candidate],
+    best: &[&Candidate],
+    seconds: f64,
+) -> String {
+    let mut text = String::new();
     let _ = writeln!(
         text,
         "synth ({kind:?}, task {source}): {} robots scanned, {} admissible, {:.1} s ({:.1} robots/s)",
@@ -524,7 +547,7 @@ pub fn run(
         "task: {bx} x {by} x {bz} mm box at [0, 0, hc] on a {nx} x {ny} x {nz} grid, platform parallel and {:+} deg about [1,1,0]",
         st.task.tilt_deg
     );
-    if let Some(c) = reference_of(kind, &found) {
+    if let Some(c) = reference_of(kind, found) {
         let _ = match &c.rejected {
             None => writeln!(text, "the reference robot is admissible"),
             Some(why) => writeln!(text, "the reference robot is NOT admissible: {why}"),
@@ -544,10 +567,7 @@ pub fn run(
             c.envelope_volume_cm3
         );
     }
-    for p in [all_path, csv_path, md_path] {
-        let _ = writeln!(text, "  wrote {}", p.display());
-    }
-    Ok(text)
+    text
 }
 
 /// The reference robot of a kind among the scanned candidates, if scanned.

@@ -13,6 +13,32 @@
 //!
 //! Everything the oracles read of the simulated board is in [`probe`], so that the search
 //! can be ported to an older board application by changing that module alone.
+//!
+//! Masters speak the board's session protocol: each `Hello` carries the master's nonce and
+//! clock, the board issues the session; the second master's frames are in the session the
+//! board gave it (none, when its `Hello` was refused). The oracles follow who owns the
+//! board from the board's `HelloReply`s: a takeover is legal only while the robot is
+//! disabled (SR-6), and from then on that master's frames are the owner's.
+//!
+//! # Running it
+//!
+//! - CI, the fixed-seed budget: `cargo test -p faults --test search` (400 generated
+//!   sequences from the seed of `tests/proptest-config`, shrunk on failure; the named
+//!   counterexamples; the foreign frames).
+//! - The long search: `SEARCH_MINUTES=60 cargo test --release -p faults --test search --
+//!   --ignored explore --nocapture` (fresh cases for an hour, not shrunk: every distinct
+//!   violation printed with a case that shows it, then the cases, actions, virtual and
+//!   wall time and the violations); `SEARCH_EXPLORE=N` runs N cases instead;
+//!   `RSPR_PROPTEST_FRESH=1 RSPR_PROPTEST_SCALE=20 cargo test --release -p faults --test
+//!   search` runs the property from fresh seeds with shrinking.
+//! - Against an older board application: a worktree of that commit
+//!   (`git worktree add --detach ../old COMMIT`), `src/search/`, `tests/search.rs` and
+//!   `control/src/safety.rs` copied into it, [`probe`] and the `Hello`'s fields ported to
+//!   its board simulation and protocol, then `cargo test -p faults --test search --
+//!   counterexamples --nocapture` (each named counterexample that breaks a requirement
+//!   there is printed with the requirement, the time and the measured motion) and
+//!   `SEARCH_EXPLORE=150 cargo test -p faults --test search -- --ignored explore
+//!   --nocapture` (what the random search finds there).
 
 pub mod inject;
 pub mod oracle;
@@ -22,7 +48,9 @@ use std::collections::VecDeque;
 
 use control::safety::Requirement;
 use control::ToolLoad;
-use master_link::{BoardToMaster, MasterDecoder, MasterToBoard, ResetCause, Seq, PROTOCOL_VERSION};
+use master_link::{
+    BoardToMaster, GeometryRecord, MasterDecoder, MasterToBoard, ResetCause, Seq, PROTOCOL_VERSION,
+};
 use nalgebra::Vector3;
 use simulation::bench::{frame_in, SimMaster};
 use simulation::board::{BoardSim, BoardSimConfig, BoardSimError, Wall};
@@ -51,7 +79,7 @@ impl Start {
 /// A command of a master (its own session, next sequence number).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Cmd {
-    /// `Hello` (the owner: a reconnect with its own nonce).
+    /// `Hello` with the master's nonce and its clock now (the owner: a reconnect).
     Hello,
     /// `Enable`.
     Enable,
@@ -74,14 +102,18 @@ pub enum Cmd {
     EStop,
     /// `StatusRequest`.
     Status,
+    /// `StoreGeometry` of the reference robot's nominal geometry.
+    StoreGeometry,
 }
 
 impl Cmd {
-    fn message(self) -> MasterToBoard {
+    /// The message, a `Hello` with the nonce `nonce` and the clock `clock_us`.
+    fn message(self, nonce: u32, clock_us: u64) -> MasterToBoard {
         match self {
             Cmd::Hello => MasterToBoard::Hello {
                 protocol_version: PROTOCOL_VERSION,
-                nonce: OWNER,
+                nonce,
+                clock_us,
             },
             Cmd::Enable => MasterToBoard::Enable,
             Cmd::Disable => MasterToBoard::Disable,
@@ -92,14 +124,22 @@ impl Cmd {
             Cmd::AckReset => MasterToBoard::AcknowledgeReset,
             Cmd::EStop => MasterToBoard::EmergencyStop,
             Cmd::Status => MasterToBoard::StatusRequest,
+            Cmd::StoreGeometry => MasterToBoard::StoreGeometry(nominal_geometry()),
         }
     }
+}
+
+/// The reference robot's nominal geometry as a calibration record (version 1).
+fn nominal_geometry() -> GeometryRecord {
+    let g =
+        kinematics_core::PerChainGeometry::from(kinematics_core::RsprGeometry::<f64>::reference());
+    control::geometry_store::record_of(&g, 1)
 }
 
 /// Frames that are not the owning master's fresh commands.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Foreign {
-    /// A second master opens its own session (its `Hello`, its nonce).
+    /// A second master asks for a session (its `Hello`, its nonce, its clock).
     SecondHello,
     /// A second master's command in its own session.
     SecondCommand(Cmd),
@@ -118,6 +158,11 @@ pub enum Foreign {
         /// How far ahead of the owner's clock, ms.
         ahead_ms: u16,
     },
+    /// The owner's target, in its session with its next sequence number, stamped
+    /// `u64::MAX` (the end of its clock).
+    StampedMax,
+    /// The owner's last `Hello` and the last `Enable` it sent, replayed byte for byte.
+    ReplayHelloEnable,
 }
 
 /// One step of a case.
@@ -179,11 +224,12 @@ pub enum Action {
     },
 }
 
-/// The owner's session nonce.
+/// The owner's nonce.
 pub const OWNER: u32 = 0x0A11_CE00;
-/// The second master's session nonce.
+/// The second master's nonce.
 pub const SECOND: u32 = 0x0000_0B0B;
-/// The second master's first sequence number (far from the owner's).
+/// How far the second master's sequence numbers start from the owner's (so that the
+/// board's answers name one master's frame).
 const SECOND_SEQ: Seq = 40_000;
 /// The owner's heartbeat period, µs.
 const BEAT_US: u64 = 50_000;
@@ -213,7 +259,10 @@ pub struct Delivered {
     pub seq: Seq,
     /// The message.
     pub message: MasterToBoard,
-    /// The owner's fresh frame (else foreign: a second master, a replay, a forgery).
+    /// The nonce of the master whose fresh frame it is (None: a replay, a forgery).
+    pub from: Option<u32>,
+    /// A fresh frame of the master that owns the board as the replies showed it so far
+    /// (else foreign: a master that does not own it, a replay, a forgery).
     pub owner: bool,
 }
 
@@ -221,12 +270,18 @@ pub struct Delivered {
 pub struct World {
     /// The board.
     pub board: BoardSim,
-    /// The owning master.
+    /// The first master (the board's owner unless the second took it over).
     pub owner: SimMaster,
-    second_seq: Seq,
+    /// The second master.
+    pub second: SimMaster,
+    /// The nonce of the master that owns the board, as its replies showed it.
+    owns: Option<u32>,
     line: MasterDecoder,
-    /// The owner's frames sent so far (the newest last), for replays.
+    /// The first master's frames sent so far (the newest last), for replays.
     sent: VecDeque<(Seq, MasterToBoard, Vec<u8>)>,
+    /// Its last `Hello` and its last `Enable`, as sent.
+    last_hello: Option<(Seq, MasterToBoard, Vec<u8>)>,
+    last_enable: Option<(Seq, MasterToBoard, Vec<u8>)>,
     /// Frames delivered since the last tick.
     pending: Vec<Delivered>,
     last_beat_us: u64,
@@ -249,9 +304,12 @@ impl World {
         let mut w = World {
             board,
             owner: SimMaster::new(OWNER),
-            second_seq: SECOND_SEQ,
+            second: SimMaster::new(SECOND),
+            owns: None,
             line: MasterDecoder::new(),
             sent: VecDeque::new(),
+            last_hello: None,
+            last_enable: None,
             pending: Vec::new(),
             last_beat_us: 0,
             target: centre,
@@ -259,7 +317,7 @@ impl World {
             oracle,
             centre,
         };
-        w.owner_send(&Cmd::Hello.message());
+        w.command(Cmd::Hello);
         w.run(50, true)?;
         Ok(w)
     }
@@ -274,7 +332,7 @@ impl World {
         if start == Start::Fresh {
             return Ok(w);
         }
-        w.owner_send(&Cmd::Home { rehome: false }.message());
+        w.command(Cmd::Home { rehome: false });
         if start == Start::Homing {
             return Ok(w);
         }
@@ -291,7 +349,8 @@ impl World {
         if start == Start::Ready {
             return Ok(w);
         }
-        w.owner_send(&Cmd::Enable.message());
+        w.command(Cmd::Operator(true));
+        w.command(Cmd::Enable);
         for _ in 0..2_000 {
             w.tick(true)?;
             if probe::state(&w.board) == master_link::RobotState::Enabled {
@@ -306,31 +365,60 @@ impl World {
         self.board.now_us()
     }
 
-    fn deliver(&mut self, bytes: &[u8], seq: Seq, message: MasterToBoard, owner: bool) {
+    fn deliver(&mut self, bytes: &[u8], seq: Seq, message: MasterToBoard, from: Option<u32>) {
         self.board.receive(bytes);
         self.pending.push(Delivered {
             seq,
             message,
-            owner,
+            from,
+            owner: from.is_some() && from == self.owns,
         });
     }
 
-    /// The owner sends `msg` (its session, its next sequence number).
+    /// The first master's command `c` (a `Hello` with its clock now).
+    pub fn command(&mut self, c: Cmd) -> Seq {
+        let clock = self.next_stamp();
+        self.owner_send(&c.message(OWNER, clock))
+    }
+
+    /// The first master's clock for its next stamp: the board's time, after its last.
+    fn next_stamp(&mut self) -> u64 {
+        let stamp = self.board.now_us().max(self.last_stamp_us + 1);
+        self.last_stamp_us = stamp;
+        stamp
+    }
+
+    /// The first master sends `msg` (its session, its next sequence number).
     pub fn owner_send(&mut self, msg: &MasterToBoard) -> Seq {
         let (seq, bytes) = self.owner.frame(msg);
-        self.deliver(&bytes, seq, *msg, true);
+        self.deliver(&bytes, seq, *msg, Some(OWNER));
+        match msg {
+            MasterToBoard::Hello { .. } => self.last_hello = Some((seq, *msg, bytes.clone())),
+            MasterToBoard::Enable => self.last_enable = Some((seq, *msg, bytes.clone())),
+            _ => {}
+        }
         self.sent.push_back((seq, *msg, bytes));
         if self.sent.len() > 64 {
             self.sent.pop_front();
         }
-        self.oracle.owner_sent(msg, self.board.now_us());
         seq
+    }
+
+    /// The second master sends `msg` (its session, its next sequence number).
+    fn second_send(&mut self, msg: MasterToBoard) {
+        // Its sequence numbers start SECOND_SEQ from the owner's.
+        if self.second.next_seq() < SECOND_SEQ {
+            for _ in 0..SECOND_SEQ {
+                self.second.frame(&MasterToBoard::Heartbeat);
+            }
+        }
+        let (seq, bytes) = self.second.frame(&msg);
+        self.deliver(&bytes, seq, msg, Some(SECOND));
     }
 
     /// The owner's target at `p` (m), stamped with its clock.
     fn owner_target(&mut self, p: Vector3<f64>) {
-        let stamp = self.board.now_us().max(self.last_stamp_us + 1);
-        self.last_stamp_us = stamp;
+        let stamp = self.next_stamp();
         self.target = p;
         self.owner_send(&MasterToBoard::PoseTarget {
             timestamp_us: stamp,
@@ -346,33 +434,12 @@ impl World {
             position_m: [centre.x as f32, y as f32, centre.z as f32],
             rotation_vector_rad: [0.0; 3],
         };
-        let second = |w: &mut World, msg: MasterToBoard| {
-            let seq = w.second_seq;
-            w.second_seq = w.second_seq.wrapping_add(1);
-            let bytes = frame_in(&msg, SECOND, seq);
-            w.deliver(&bytes, seq, msg, false);
-        };
         match f {
-            Foreign::SecondHello => second(
-                self,
-                MasterToBoard::Hello {
-                    protocol_version: PROTOCOL_VERSION,
-                    nonce: SECOND,
-                },
-            ),
-            Foreign::SecondCommand(c) => {
-                let msg = match c {
-                    Cmd::Hello => MasterToBoard::Hello {
-                        protocol_version: PROTOCOL_VERSION,
-                        nonce: SECOND,
-                    },
-                    c => c.message(),
-                };
-                second(self, msg);
-            }
+            Foreign::SecondHello => self.second_send(Cmd::Hello.message(SECOND, now)),
+            Foreign::SecondCommand(c) => self.second_send(c.message(SECOND, now)),
             Foreign::SecondTarget => {
                 let msg = off_target(self.centre.y + FOREIGN_Y, now, self.centre);
-                second(self, msg);
+                self.second_send(msg);
             }
             Foreign::Replay { back } => {
                 let n = self.sent.len();
@@ -381,16 +448,24 @@ impl World {
                     let (seq, msg, bytes) = (*seq, *msg, bytes.clone());
                     // A replayed emergency stop is taken by design (no filter drops one).
                     if msg != MasterToBoard::EmergencyStop {
-                        self.deliver(&bytes, seq, msg, false);
+                        self.deliver(&bytes, seq, msg, None);
                     }
+                }
+            }
+            Foreign::ReplayHelloEnable => {
+                for (seq, msg, bytes) in [self.last_hello.clone(), self.last_enable.clone()]
+                    .into_iter()
+                    .flatten()
+                {
+                    self.deliver(&bytes, seq, msg, None);
                 }
             }
             Foreign::FarAhead(c) => {
                 let seq = self.owner.next_seq().wrapping_add(30_000);
-                let msg = c.message();
+                let msg = c.message(OWNER, now);
                 if msg != MasterToBoard::EmergencyStop {
-                    let bytes = frame_in(&msg, OWNER, seq);
-                    self.deliver(&bytes, seq, msg, false);
+                    let bytes = frame_in(&msg, self.owner.session, seq);
+                    self.deliver(&bytes, seq, msg, None);
                 }
             }
             Foreign::FutureTarget { ahead_ms } => {
@@ -399,7 +474,17 @@ impl World {
                 // Sent by the owner's link (its next sequence number), so the frame is
                 // taken: what is judged is the target's stamp.
                 let (seq, bytes) = self.owner.frame(&msg);
-                self.deliver(&bytes, seq, msg, false);
+                self.deliver(&bytes, seq, msg, None);
+            }
+            Foreign::StampedMax => {
+                let p = self.target;
+                let msg = MasterToBoard::PoseTarget {
+                    timestamp_us: u64::MAX,
+                    position_m: [p.x as f32, p.y as f32, p.z as f32],
+                    rotation_vector_rad: [0.0; 3],
+                };
+                let (seq, bytes) = self.owner.frame(&msg);
+                self.deliver(&bytes, seq, msg, None);
             }
         }
     }
@@ -410,17 +495,30 @@ impl World {
         let now = self.board.now_us();
         if beats && now >= self.last_beat_us + BEAT_US {
             self.last_beat_us = now;
-            self.owner_send(&MasterToBoard::Heartbeat);
+            // The heartbeat of the master that owns the board.
+            if self.owns == Some(SECOND) {
+                self.second_send(MasterToBoard::Heartbeat);
+            } else {
+                self.owner_send(&MasterToBoard::Heartbeat);
+            }
         }
         let delivered = std::mem::take(&mut self.pending);
         let stepped = self.board.tick();
         let out = self.board.take_output();
         self.owner.receive(self.board.now_us(), &out);
+        self.second.receive(self.board.now_us(), &out);
+        // Every frame the board sent, whichever session it is in.
+        self.line.reset_sequence();
         let replies: Vec<BoardToMaster> = self
             .line
             .feed(&out)
             .filter_map(|r| r.ok().map(|(_, m)| m))
             .collect();
+        for r in &replies {
+            if let BoardToMaster::HelloReply { nonce, .. } = r {
+                self.owns = Some(*nonce);
+            }
+        }
         match stepped {
             Ok(_) => self.oracle.tick(&self.board, &delivered, &replies),
             Err(e) => {
@@ -446,7 +544,7 @@ impl World {
             Action::Wait(ms) => self.run(u32::from(ms), true)?,
             Action::Silence(ms) => self.run(u32::from(ms), false)?,
             Action::Command(c) => {
-                self.owner_send(&c.message());
+                self.command(c);
             }
             Action::Stream {
                 x_mm,

@@ -7,12 +7,14 @@ use std::fmt;
 
 use control::safety::{Bounds, Requirement};
 use control::stops::{reaction, StopCategory, StopEvent};
-use master_link::{BoardToMaster, FaultCause, Faults, MasterToBoard, RobotState, StopStatus};
+use master_link::{
+    BoardToMaster, FaultCause, Faults, MasterToBoard, NackReason, RobotState, StopStatus,
+};
 use nalgebra::Vector3;
 use simulation::board::BoardSim;
 
 use super::inject::{Injection, Shows, Spec};
-use super::{probe, Action, Cmd, Delivered, OWNER};
+use super::{probe, Action, Cmd, Delivered};
 
 /// A requirement that did not hold.
 #[derive(Clone, Debug, PartialEq)]
@@ -107,14 +109,16 @@ struct Snap {
 pub struct Oracle {
     bounds: Bounds,
     period_us: u64,
-    heartbeat_lost_us: u64,
     violations: Vec<Violation>,
     prev: Option<Snap>,
     episode: Option<(u8, Anchor)>,
     reaction: Option<Anchor>,
     due: Option<(u8, FaultCause, u64)>,
     sto_latched: bool,
-    owner_beat_us: u64,
+    /// The nonce of the master that owns the board, as the replies showed it.
+    owns: Option<u32>,
+    /// A welded safety relay was found (not repaired since).
+    relay_found: bool,
     pending: Vec<Pending>,
     explained: Vec<FaultCause>,
     foreign: bool,
@@ -160,14 +164,14 @@ impl Oracle {
         Oracle {
             bounds: Bounds::of(cfg, &robot),
             period_us: u64::from(board.config().service.watchdog.period_us),
-            heartbeat_lost_us: cfg.heartbeat.disable_after_us,
             violations: Vec::new(),
             prev: None,
             episode: None,
             reaction: None,
             due: None,
             sto_latched: false,
-            owner_beat_us: 0,
+            owns: None,
+            relay_found: false,
             pending: Vec::new(),
             explained: Vec::new(),
             foreign: false,
@@ -197,13 +201,6 @@ impl Oracle {
         });
     }
 
-    /// The owner sent `msg` at `now_us`.
-    pub fn owner_sent(&mut self, msg: &MasterToBoard, now_us: u64) {
-        if *msg == MasterToBoard::Heartbeat {
-            self.owner_beat_us = now_us;
-        }
-    }
-
     /// The case is about to carry out `a`.
     pub fn note(&mut self, a: &Action, board: &BoardSim) {
         for c in explained_by(a) {
@@ -229,6 +226,7 @@ impl Oracle {
             // A repaired fault may still be latched after it (a jump counted, a driver's
             // latch): its causes stay explained.
             Action::Repair => {
+                self.relay_found = false;
                 for pd in self.pending.drain(..) {
                     for c in pd.spec.causes.iter().chain(pd.spec.homing_causes) {
                         if !self.explained.contains(c) {
@@ -277,7 +275,7 @@ impl Oracle {
             0.0
         };
         self.range(now, &snap);
-        self.authority(now, delivered, replies);
+        self.authority(now, &snap, delivered, replies);
         self.torque(now, board, &snap, delivered, replies);
         self.not_weakened(now, &snap, board);
         self.distance(now, &snap, p, lag);
@@ -304,29 +302,48 @@ impl Oracle {
         }
     }
 
-    /// SR-6: no frame but the owner's fresh ones is taken; no Hello but the owner's is
-    /// answered while the owner's session lives.
-    fn authority(&mut self, now: u64, delivered: &[Delivered], replies: &[BoardToMaster]) {
-        let owner_hello = delivered
-            .iter()
-            .any(|d| d.owner && matches!(d.message, MasterToBoard::Hello { .. }));
-        let live = now.saturating_sub(self.owner_beat_us) < self.heartbeat_lost_us;
+    /// SR-6: no frame but the owner's fresh ones is taken; a `Hello` is answered only
+    /// when a master sent it fresh, and takes the board from its owner only while the
+    /// robot is disabled (torque off); every fresh frame of the owner is answered (a
+    /// foreign frame does not lock it out), and its targets, stamped in order, are never
+    /// stale (a foreign stamp did not become its clock).
+    fn authority(
+        &mut self,
+        now: u64,
+        s: &Snap,
+        delivered: &[Delivered],
+        replies: &[BoardToMaster],
+    ) {
+        // Disabled as the tick that took the Hello left it (an emergency stop taken in the
+        // same tick before it disables the robot).
+        let disabled = !s.drives
+            && matches!(
+                s.state,
+                RobotState::Boot | RobotState::Disabled | RobotState::Ready | RobotState::Fault
+            );
+        let state = s.state;
         for r in replies {
             match r {
-                BoardToMaster::HelloReply { session, .. } if !owner_hello => {
-                    if *session != OWNER && live {
+                BoardToMaster::HelloReply { nonce, .. } => {
+                    let asked = delivered.iter().any(|d| {
+                        d.from == Some(*nonce) && matches!(d.message, MasterToBoard::Hello { .. })
+                    });
+                    if !asked {
                         self.violate(
                             Requirement::Authority,
                             now,
-                            format!("a second master's Hello took the live session (its session {session:#x})"),
+                            format!("a replayed Hello opened a session (nonce {nonce:#x})"),
                         );
-                    } else if *session == OWNER {
+                    } else if self.owns.is_some_and(|o| o != *nonce) && !disabled {
                         self.violate(
                             Requirement::Authority,
                             now,
-                            "a replayed Hello reopened the owner's session".into(),
+                            format!(
+                                "a second master's Hello took the board from its owner in {state:?}"
+                            ),
                         );
                     }
+                    self.owns = Some(*nonce);
                 }
                 BoardToMaster::Ack { seq } => {
                     let fresh = delivered.iter().any(|d| d.owner && d.seq == *seq);
@@ -341,7 +358,53 @@ impl Oracle {
                         );
                     }
                 }
+                BoardToMaster::Nack {
+                    seq,
+                    reason: NackReason::StaleTarget,
+                } => {
+                    let own_target = delivered.iter().any(|d| {
+                        d.owner
+                            && d.seq == *seq
+                            && matches!(d.message, MasterToBoard::PoseTarget { .. })
+                    });
+                    if own_target {
+                        self.violate(
+                            Requirement::Authority,
+                            now,
+                            format!("the owner's target (seq {seq}) was refused as stale: a foreign stamp became its clock"),
+                        );
+                    }
+                }
                 _ => {}
+            }
+        }
+        // Every fresh frame of the owner is answered in its tick (but the frames a master
+        // sends after its own Hello in the same tick, still in its old session).
+        for (i, d) in delivered.iter().enumerate() {
+            let after_hello = delivered[..i]
+                .iter()
+                .any(|e| e.from == d.from && matches!(e.message, MasterToBoard::Hello { .. }));
+            if !d.owner || after_hello || matches!(d.message, MasterToBoard::Hello { .. }) {
+                continue;
+            }
+            let answered = replies.iter().any(|r| match r {
+                BoardToMaster::Ack { seq }
+                | BoardToMaster::Nack { seq, .. }
+                | BoardToMaster::GeometryStored { seq, .. }
+                | BoardToMaster::GeometryRefused { seq, .. } => *seq == d.seq,
+                BoardToMaster::Status(_) => d.message == MasterToBoard::StatusRequest,
+                BoardToMaster::FaultLog(_) | BoardToMaster::EventLog(_) => true,
+                _ => false,
+            });
+            if !answered {
+                self.violate(
+                    Requirement::Authority,
+                    now,
+                    format!(
+                        "the owner's {:?} (seq {}) was not answered: the owner is locked out",
+                        d.message, d.seq
+                    ),
+                );
             }
         }
     }
@@ -415,6 +478,51 @@ impl Oracle {
                     s.state
                 ),
             );
+        }
+        // A welded safety relay, once found: the button can no longer cut the drives'
+        // supply, so no command brings the torque back until it is repaired.
+        let welded_found = s.faults.intersects(FaultCause::SafetyRelayMismatch.bit())
+            || self
+                .prev
+                .is_some_and(|p| p.fault == FaultCause::SafetyRelayMismatch);
+        if welded_found {
+            self.relay_found = true;
+        }
+        let welded = self
+            .pending
+            .iter()
+            .any(|p| p.injection == Injection::RelayWelded);
+        if s.drives && welded && self.relay_found {
+            self.violate(
+                Requirement::Torque,
+                now,
+                format!(
+                    "drives on in {:?} with the welded safety relay found",
+                    s.state
+                ),
+            );
+        }
+        // The geometry is replaced only with the drives off (no motion, no stop, runs on
+        // it).
+        for r in replies {
+            if let BoardToMaster::GeometryStored { .. } = r {
+                if self.prev.is_some_and(|p| {
+                    p.drives
+                        || rank(p.stop) > 0
+                            && p.stop != StopStatus::SafeTorqueOff
+                            && p.stop != StopStatus::SafeStop1Done
+                }) {
+                    self.violate(
+                        Requirement::StopNotWeakened,
+                        now,
+                        format!(
+                            "the geometry was replaced during {:?} in {:?}",
+                            self.prev.map(|p| p.stop),
+                            self.prev.map(|p| p.state)
+                        ),
+                    );
+                }
+            }
         }
         if probe::brakes_released(board) && !s.drives {
             self.violate(

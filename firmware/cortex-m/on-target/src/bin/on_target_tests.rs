@@ -738,7 +738,9 @@ fn encoder_extension_follows_wraps_in_both_directions(ctx: &mut Ctx) {
     }
     check!(ctx, wraps > 100, "only {} wraps", wraps);
     // f32 joint units keep one-count resolution 10^8 counts away from power-up.
-    let mut e = JointEncoder::<f32>::new(servo::encoder::LEG_COUNTS_PER_M as f32);
+    let mut e = JointEncoder::<f32>::new(
+        board_profile::BoardProfile::REFERENCE.joints[0].counts_per_unit() as f32,
+    );
     let mut truth = 0i64;
     for _ in 0..4000 {
         truth += 25_000;

@@ -35,7 +35,7 @@ use on_target::bench::{bench_profile_off, bench_profile_on, calibrate, measure};
 use on_target::hprintln;
 use on_target::stub::PlantStub;
 use panic_semihosting as _;
-use servo::encoder::{EncoderConfig, Encoders, LEG_COUNTS_PER_M, LINK_COUNTS_PER_RAD};
+use servo::encoder::{EncoderConfig, Encoders};
 use servo::{JointServo, Pid, PidGains, PidInput, ServoConfig};
 
 /// The board's model: the per-chain geometry (here the reference robot's), as the board
@@ -312,11 +312,7 @@ fn parts() {
     let quantize = |q: &Joints<f32>| {
         let mut q = *q;
         for j in 0..6 {
-            let c = if j < 3 {
-                LEG_COUNTS_PER_M as f32
-            } else {
-                LINK_COUNTS_PER_RAD as f32
-            };
+            let c = board_profile::BoardProfile::REFERENCE.joints[j].counts_per_unit() as f32;
             q[j] = ComplexField::round(q[j] * c) / c;
         }
         q
@@ -626,6 +622,69 @@ fn primitives() {
     }
 }
 
+/// The master link's authentication, in the link's tasks (not the control tick): the
+/// HMAC-SHA256 tag of a frame, a keyed frame decoded and checked against the same frame
+/// without a key, a keyed status frame encoded, and a session id issued (SHA-256).
+fn link_auth() {
+    use master_link::{
+        decode_frame_with, encode_with, BoardToMaster, Header, LinkKey, MasterToBoard,
+        StatusReport, MAX_FRAME_LEN,
+    };
+    let key = LinkKey::new(&[0x5a; 32]);
+    let header = Header {
+        session: 0x1234_5678,
+        seq: 77,
+    };
+    let heartbeat = [5u8, 0x78, 0x56, 0x34, 0x12, 77, 0, 7];
+    let mut tag = [0u8; 8];
+    measure(&mut || tag = key.tag(black_box(&heartbeat)));
+    hprintln!("@label link: HMAC-SHA256 tag of a heartbeat's header and body (8 B)");
+    let target = MasterToBoard::PoseTarget {
+        timestamp_us: 123_456_789,
+        position_m: [0.004, -0.002, 0.161],
+        rotation_vector_rad: [0.01, -0.02, 0.03],
+    };
+    for (k, label) in [
+        (
+            None,
+            "link: decode a PoseTarget frame, no key (COBS, CRC, postcard)",
+        ),
+        (
+            Some(&key),
+            "link: decode a PoseTarget frame with its tag checked (HMAC-SHA256)",
+        ),
+    ] {
+        let mut wire = [0u8; MAX_FRAME_LEN];
+        let n = encode_with(&target, header, k, &mut wire).unwrap();
+        for _ in 0..3 {
+            let mut frame = wire;
+            let mut ok = false;
+            measure(&mut || {
+                ok = decode_frame_with::<MasterToBoard>(&mut frame[..n - 1], k).is_ok()
+            });
+            hprintln!("@label {}", label);
+            assert!(ok);
+        }
+    }
+    let status = BoardToMaster::Status(StatusReport::default());
+    for (k, label) in [
+        (None, "link: encode a status frame, no key"),
+        (Some(&key), "link: encode a status frame with its tag"),
+    ] {
+        let mut wire = [0u8; MAX_FRAME_LEN];
+        let mut n = 0;
+        measure(&mut || n = encode_with(&status, header, k, &mut wire).unwrap_or(0));
+        hprintln!("@label {}", label);
+        black_box(n);
+    }
+    let mut issuer =
+        control::link::SessionIssuer::new(control::link::BoardIdentity::new(&[1; 12], Some(&key)));
+    let mut id = 0;
+    measure(&mut || id = issuer.issue(0xABCD, 1_000_000));
+    hprintln!("@label link: a session id for a Hello (SHA-256, once per Hello)");
+    black_box((tag, id));
+}
+
 #[entry]
 fn main() -> ! {
     hprintln!("@begin");
@@ -635,6 +694,7 @@ fn main() -> ! {
     parts();
     servo_parts();
     primitives();
+    link_auth();
     hprintln!("@end");
     debug::exit(debug::EXIT_SUCCESS);
     #[allow(clippy::empty_loop)]
