@@ -465,7 +465,11 @@ impl World {
                 let msg = c.message(OWNER, now);
                 if msg != MasterToBoard::EmergencyStop {
                     let bytes = frame_in(&msg, self.owner.session, seq);
-                    self.deliver(&bytes, seq, msg, None);
+                    // A handshake is taken whatever its sequence number: a Hello with the
+                    // owner's nonce and a clock newer than its last is the owner
+                    // reconnecting (on a link without a key anyone may say it).
+                    let from = matches!(c, Cmd::Hello).then_some(OWNER);
+                    self.deliver(&bytes, seq, msg, from);
                 }
             }
             Foreign::FutureTarget { ahead_ms } => {

@@ -502,27 +502,26 @@ impl Oracle {
                 ),
             );
         }
-        // The geometry is replaced only with the drives off (no motion, no stop, runs on
-        // it).
-        for r in replies {
-            if let BoardToMaster::GeometryStored { .. } = r {
-                if self.prev.is_some_and(|p| {
-                    p.drives
-                        || rank(p.stop) > 0
-                            && p.stop != StopStatus::SafeTorqueOff
-                            && p.stop != StopStatus::SafeStop1Done
-                }) {
-                    self.violate(
-                        Requirement::StopNotWeakened,
-                        now,
-                        format!(
-                            "the geometry was replaced during {:?} in {:?}",
-                            self.prev.map(|p| p.stop),
-                            self.prev.map(|p| p.state)
-                        ),
-                    );
-                }
-            }
+        // The geometry is replaced only with the drives off and no stop running (as the
+        // tick that took it left them: an emergency stop taken before it stops them).
+        let running = s.drives
+            || !matches!(
+                s.stop,
+                StopStatus::None | StopStatus::SafeTorqueOff | StopStatus::SafeStop1Done
+            );
+        if running
+            && replies
+                .iter()
+                .any(|r| matches!(r, BoardToMaster::GeometryStored { .. }))
+        {
+            self.violate(
+                Requirement::StopNotWeakened,
+                now,
+                format!(
+                    "the geometry was replaced during {:?} in {:?}",
+                    s.stop, s.state
+                ),
+            );
         }
         if probe::brakes_released(board) && !s.drives {
             self.violate(
