@@ -25,7 +25,8 @@
 //!   ([`monitors`]), the second position channel against the encoders ([`absolute`]), the
 //!   fault log ([`faults`]) and the non-volatile event log ([`event_log`]), the heartbeat
 //!   ([`heartbeat`]), the e-stop's interrupt path ([`estop`]) and the deadline
-//!   ([`watchdog`]);
+//!   ([`watchdog`]); the safety requirements all of it serves, with their bounds
+//!   ([`safety`]);
 //! - the calibrated geometry: [`geometry_store`] (the checks of a received
 //!   record, its flash layout and log);
 //! - the master link's board side: [`link`] (frames to requests, replies to frames),
@@ -59,6 +60,7 @@ pub mod monitors;
 pub mod park;
 pub mod planner;
 pub mod runtime;
+pub mod safety;
 pub mod scalar;
 pub mod sensing;
 pub mod service;

@@ -634,6 +634,10 @@ impl<S: Float> Standstill<S> {
         let (l, r) = (lit::<S>(0.25e-3), lit::<S>(0.005));
         Self::new([l, l, l, r, r, r])
     }
+    /// The windows per joint (m, rad).
+    pub fn windows(&self) -> [S; NUM_JOINTS] {
+        self.window
+    }
     /// Starts monitoring at the joints `q`.
     pub fn start(&mut self, q: &[S; NUM_JOINTS]) {
         self.hold = Some(*q);

@@ -489,7 +489,7 @@ fn a_stuck_encoder_stops_with_sto_and_brakes() {
 }
 
 /// Property: outside homing, enabling and enabled, once any stop is complete, the drives
-/// are off and the brakes applied on every tick.
+/// are off and the brakes applied on every tick (SR-4).
 #[test]
 fn outputs_stay_off_outside_the_driving_states() {
     for (state, mut rt, mut hw, mut t) in snapshots() {

@@ -978,7 +978,8 @@ proptest! {
     /// Property: from any mode, any sequence of master commands, faults, silences and
     /// e-stop presses keeps, at every step and every tick, the drives on only where the
     /// mode allows, the brakes released only with torque, the reported state the mode's,
-    /// and a stop in force never weakened.
+    /// and a stop in force never weakened (SR-3, SR-4, on the runtime alone; the search
+    /// checks them on the whole board).
     #[test]
     fn random_sequences_never_weaken_a_stop(
         start in 0usize..14,

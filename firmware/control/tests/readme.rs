@@ -42,3 +42,18 @@ fn the_readme_prints_the_transition_table_of_the_code() {
     control::modes::write_table(&mut table).unwrap();
     check_copy("mode-table", &table, "modes::next");
 }
+
+/// Property: the table between the README's `safety-requirements` markers is exactly what
+/// `safety::write_table` writes from `safety::Requirement` with the bounds of the
+/// reference robot's settings (SR-1 .. SR-7 written once).
+#[test]
+fn the_readme_prints_the_safety_requirements_of_the_code() {
+    let robot = kinematics_core::RsprGeometry::<f64>::reference();
+    let cfg =
+        control::runtime::reference_config_for(&robot, kinematics_core::Branch::OUTER, None, None)
+            .unwrap();
+    let bounds = control::safety::Bounds::of(&cfg, &robot);
+    let mut table = String::new();
+    control::safety::write_table(&mut table, &bounds).unwrap();
+    check_copy("safety-requirements", &table, "safety::Requirement");
+}

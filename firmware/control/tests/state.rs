@@ -417,7 +417,8 @@ fn a_switch_actuated_far_from_its_position_fails_before_any_motion() {
 
 /// Property: a switch that never closes (a switch failed the other way) is given up
 /// where the joint's estimated position reaches the end of its homing range: the joint
-/// never goes beyond it by more than one tick of its approach.
+/// never goes beyond it by more than one tick of its approach (SR-1: homing keeps the
+/// joint inside its travel).
 #[test]
 fn a_switch_that_never_closes_stops_the_joint_at_its_range() {
     let cfg = test_homing_config();

@@ -99,7 +99,7 @@ fn trigger(rt: &mut Rt, hw: &mut PlantHw, event: StopEvent, t: u64) -> bool {
 /// and brakes applied in the first tick; SS1: the brakes applied while the drives hold,
 /// torque off once they have engaged; SS2: decelerate, then hold under power, brakes
 /// released, standstill monitored), and the platform moves at most 0.1 mm after an SS1 or
-/// SS2 and 0.5 mm after an STO with brakes.
+/// SS2 and 0.5 mm after an STO with brakes (SR-2, SR-7: within the requirements' bounds).
 #[test]
 fn every_row_of_the_stop_table_stops_as_its_category_says() {
     let (rt0, hw0, t0) = holding_with_tool();
@@ -207,7 +207,7 @@ fn every_row_of_the_stop_table_stops_as_its_category_says() {
 }
 
 /// Property: a stop never weakens one in force (STO over SS1 over SS2), and a standstill
-/// lost during a safe operating stop falls back to STO with brakes.
+/// lost during a safe operating stop falls back to STO with brakes (SR-3).
 #[test]
 fn stops_only_escalate_and_a_lost_standstill_is_sto() {
     let (mut rt, mut hw, mut t) = holding_with_tool();

@@ -13,6 +13,7 @@ use simulation::board::{BoardSim, BoardSimConfig, BoardSimError};
 use thiserror::Error;
 
 use crate::kinds::{Detection, Expectation, FaultKind, Only, Reaction};
+use control::safety::Requirement;
 
 /// Why a cell could not be run (not a fault of the board: a failure of the set-up).
 #[derive(Debug, Error)]
@@ -42,8 +43,22 @@ pub enum Condition {
     Fast,
     /// Holding still with the thesis's tool attached (1.2 kg on a 0.1 m lever).
     Tool,
-    /// The kind's own phase (homing, enabling): the running conditions do not apply.
-    Phase,
+    /// Homing: 1.5 s after `Home` (the first leg searching its switch); the kinds of the
+    /// homing (a dead home switch) from its start.
+    Homing,
+    /// The brake check at the enable: 20 ms after `Enable`; worn brakes from before it.
+    BrakeCheck,
+    /// A safe operating stop (the clutch engaged) with the tool attached and a push of
+    /// 10 N along +x (a wall pressing 0.1 mm into the platform).
+    HeldTool,
+    /// 20 ms into the SS1 of a `Disable` from 25 mm/s.
+    DuringSs1,
+    /// 20 ms into the SS2 of the clutch engaged at 25 mm/s.
+    DuringSs2,
+    /// The first tick enabled (the brakes just released).
+    AfterEnable,
+    /// Following at 2.5 mm/s, the kind and its partner ([`partner`]) at the same instant.
+    Double,
 }
 
 impl Condition {
@@ -55,6 +70,21 @@ impl Condition {
         Condition::Tool,
     ];
 
+    /// Every condition, in the matrix's order.
+    pub const ALL: [Condition; 11] = [
+        Condition::Holding,
+        Condition::Slow,
+        Condition::Fast,
+        Condition::Tool,
+        Condition::Homing,
+        Condition::BrakeCheck,
+        Condition::HeldTool,
+        Condition::DuringSs1,
+        Condition::DuringSs2,
+        Condition::AfterEnable,
+        Condition::Double,
+    ];
+
     /// The condition's name (the matrix's columns).
     pub const fn name(self) -> &'static str {
         match self {
@@ -62,25 +92,95 @@ impl Condition {
             Condition::Slow => "slow",
             Condition::Fast => "fast",
             Condition::Tool => "tool",
-            Condition::Phase => "phase",
+            Condition::Homing => "homing",
+            Condition::BrakeCheck => "brake-check",
+            Condition::HeldTool => "held-tool-push",
+            Condition::DuringSs1 => "during-ss1",
+            Condition::DuringSs2 => "during-ss2",
+            Condition::AfterEnable => "after-enable",
+            Condition::Double => "double",
         }
     }
 
     /// The condition of a name.
     pub fn from_name(name: &str) -> Option<Condition> {
-        Condition::RUNNING
-            .into_iter()
-            .chain([Condition::Phase])
-            .find(|c| c.name() == name)
+        Condition::ALL.into_iter().find(|c| c.name() == name)
     }
 
     /// The speed of the streamed motion, m/s.
     fn speed(self) -> f64 {
         match self {
-            Condition::Slow => 0.0025,
-            Condition::Fast => 0.025,
+            Condition::Slow | Condition::Double => 0.0025,
+            Condition::Fast | Condition::DuringSs1 | Condition::DuringSs2 => 0.025,
             _ => 0.0,
         }
+    }
+
+    /// The stop the condition itself has in force when the fault strikes (0: none, SS2 1,
+    /// SS1 2): a fault's stop may only add to it.
+    fn own_stop(self) -> u8 {
+        match self {
+            Condition::HeldTool | Condition::DuringSs2 => 1,
+            Condition::DuringSs1 => 2,
+            _ => 0,
+        }
+    }
+
+    /// The requirements a cell of `kind` in this condition checks: the travel (SR-1),
+    /// the detection and its naming (SR-5), the reaction and the distance after it
+    /// (SR-7); with a stop in force, its distance and strength (SR-2, SR-3); frames that
+    /// are not the master's, its authority (SR-6).
+    pub fn requirements(self, kind: FaultKind) -> Vec<Requirement> {
+        use Requirement as R;
+        let mut r = vec![R::Range, R::Detection];
+        if matches!(kind, FaultKind::ReplayedFrames | FaultKind::GarbageBurst) {
+            r.push(R::Authority);
+        } else {
+            r.push(R::Reaction);
+        }
+        if self.own_stop() > 0 {
+            r.extend([R::StopDistance, R::StopNotWeakened]);
+        }
+        r.sort_by_key(|x| x.id());
+        r
+    }
+}
+
+/// The partner of `kind` in the double-fault column: the next kind of the list that is a
+/// fault of the robot or the board (not of the link, the targets, a phase or a wall), on
+/// its own joint.
+pub fn partner(kind: FaultKind) -> FaultKind {
+    let all = FaultKind::ALL;
+    let i = all.iter().position(|k| *k == kind).unwrap_or(0);
+    (1..all.len())
+        .map(|d| all[(i + d) % all.len()])
+        .find(|k| k.is_physical())
+        .unwrap_or(FaultKind::EncoderJump)
+}
+
+/// Whether `kind` applies in `condition` (else the cell is n/a): a kind of its own phase
+/// only there; targets only while following; the link's kinds while enabled; a wall only
+/// in motion.
+pub fn applies(kind: FaultKind, condition: Condition) -> bool {
+    use Condition as C;
+    use FaultKind as K;
+    match kind.expectation().only {
+        Some(Only::Homing) => return condition == C::Homing,
+        Some(Only::Enabling) => return condition == C::BrakeCheck,
+        None => {}
+    }
+    let following = matches!(
+        condition,
+        C::Holding | C::Slow | C::Fast | C::Tool | C::AfterEnable | C::Double
+    );
+    match kind {
+        K::NanTarget | K::UnreachableTarget => following,
+        K::LinkLoss | K::GarbageBurst | K::ReplayedFrames => following || condition == C::HeldTool,
+        K::WallContact => matches!(
+            condition,
+            C::Holding | C::Slow | C::Fast | C::Tool | C::Double
+        ),
+        _ => true,
     }
 }
 
@@ -121,6 +221,13 @@ pub struct Cell {
     pub logged: String,
     /// The platform's speed at the injection, mm/s.
     pub speed_mm_s: f64,
+    /// How far the platform moved from when the fault showed (the injection, or the
+    /// probe's start) to its detection, mm (SR-5).
+    pub before_mm: f64,
+    /// How far it may: the tip speed for the kind's bound, mm.
+    pub before_allowed_mm: f64,
+    /// The requirements the cell checks (`SR-1 SR-5 SR-7`).
+    pub requirements: String,
     /// The verdict.
     pub pass: bool,
     /// Why it failed, if it did.
@@ -134,7 +241,8 @@ const AFTER_MS: u64 = 900;
 /// speed, 25 mm/s.
 fn before_ms(condition: Condition) -> u64 {
     match condition {
-        Condition::Fast => 1_580,
+        Condition::Fast | Condition::DuringSs1 | Condition::DuringSs2 => 1_580,
+        Condition::AfterEnable => 0,
         _ => 600,
     }
 }
@@ -218,7 +326,10 @@ pub fn run_cell(kind: FaultKind, condition: Condition) -> Result<Cell, CampaignE
     let exp = kind.expectation();
     match exp.only {
         Some(only) => phase_cell(kind, &mut b, only).map_err(ctx),
-        None => running_cell(kind, condition, &mut b).map_err(ctx),
+        None if Condition::RUNNING.contains(&condition) => {
+            running_cell(kind, condition, &mut b).map_err(ctx)
+        }
+        None => staged_cell(kind, condition, &mut b).map_err(ctx),
     }
 }
 
@@ -395,7 +506,7 @@ impl Watch {
     }
 
     /// Takes in the tick that just ran.
-    fn tick(&mut self, b: &Bench, det: &Detector, exp: &Expectation) {
+    fn tick(&mut self, b: &Bench, det: &Detector, det2: Option<&Detector>, exp: &Expectation) {
         let now = b.now_us();
         if let Some(sp) = setpoint(b) {
             self.last_sp = Some(sp);
@@ -407,7 +518,7 @@ impl Watch {
                 .max((b.board.truth().pose.t - sp).norm());
         }
         if self.detected.is_none() {
-            if let Some(what) = det.check(b) {
+            if let Some(what) = det.check(b).or_else(|| det2.and_then(|d| d.check(b))) {
                 self.detected = Some((now, what));
                 let p = b.board.truth().pose.t;
                 self.at_detect = Some((p, self.last_sp.unwrap_or(p)));
@@ -466,6 +577,14 @@ impl Watch {
     /// (the probe's start or the injection), or from the injection `t_inj` when noticed
     /// before that.
     fn detect_ms(&self, kind: FaultKind, t_inj: u64, t_ref: u64) -> Option<f64> {
+        let t_ref = self.shown_from(kind, t_inj, t_ref);
+        self.detected
+            .as_ref()
+            .map(|(t, _)| t.saturating_sub(t_ref) as f64 * 1e-3)
+    }
+
+    /// When the fault showed, as [`Watch::detect_ms`] times it, µs.
+    fn shown_from(&self, kind: FaultKind, t_inj: u64, t_ref: u64) -> u64 {
         let t_ref = if kind == FaultKind::WallContact {
             self.overload_from.unwrap_or(t_ref)
         } else if let Some(t) = self.shows_at {
@@ -474,13 +593,10 @@ impl Watch {
             t_ref
         };
         // Noticed before the probe started: timed from the injection.
-        let t_ref = match &self.detected {
+        match &self.detected {
             Some((t, _)) if *t < t_ref => t_inj,
             _ => t_ref,
-        };
-        self.detected
-            .as_ref()
-            .map(|(t, _)| t.saturating_sub(t_ref) as f64 * 1e-3)
+        }
     }
 }
 
@@ -490,14 +606,27 @@ fn running_cell(kind: FaultKind, condition: Condition, b: &mut Bench) -> Result<
     let mut stream = lead_in(condition, &exp, b)?;
     // The detector's baseline before the injection: a frame may be counted as it arrives.
     let mut det = Detector::new(b, exp.detection, None);
+    let pair = (condition == Condition::Double).then(|| partner(kind));
+    let det2 = pair.map(|k| Detector::new(b, k.expectation().detection, None));
     let t_inj = b.now_us();
     det.seq = kind.inject(b);
+    if let Some(k) = pair {
+        k.inject(b);
+    }
+    let expected = match pair {
+        Some(k) => reaction_of_rank(rank_of(exp.reaction).max(rank_of(k.expectation().reaction))),
+        None => exp.reaction,
+    };
     let speed_at_injection = b.board.truth().velocity.norm();
     // A fault that only shows while its joint works is probed by a small move in the
     // conditions where the joint may not work at all (holding, or moving slowly).
     let holding = matches!(
         condition,
-        Condition::Holding | Condition::Tool | Condition::Slow
+        Condition::Holding
+            | Condition::Tool
+            | Condition::Slow
+            | Condition::AfterEnable
+            | Condition::Double
     );
     let t_ref = if exp.needs_motion && holding {
         stream.probe_from_us = Some(t_inj + PROBE_DELAY_MS * 1000);
@@ -508,20 +637,35 @@ fn running_cell(kind: FaultKind, condition: Condition, b: &mut Bench) -> Result<
     let mut watch = Watch::new(b);
     let end = t_ref + AFTER_MS * 1000;
     let mut k = 0u64;
+    let mut track = vec![(b.now_us(), b.board.truth().pose.t)];
+    let mut contacts = Contacts::new(b);
     while b.now_us() < end {
         if k.is_multiple_of(10) {
             send_target(b, &stream);
         }
         k += 1;
         b.tick()?;
-        watch.tick(b, &det, &exp);
+        track.push((b.now_us(), b.board.truth().pose.t));
+        contacts.check(b);
+        watch.tick(b, &det, det2.as_ref(), &exp);
     }
-    let allowed = match exp.reaction {
+    let t_from = watch.shown_from(kind, t_inj, t_ref);
+    let before = watch
+        .detected
+        .as_ref()
+        .map_or(0.0, |(t, _)| travel_between(&track, t_from, *t));
+    let allowed = match expected {
         Reaction::Stop(StopCategory::Sto) => 0.5,
         Reaction::Stop(_) => watch.sp_travel * 1e3 + 0.1,
         Reaction::Continue => 1.0,
     };
-    let shown = if exp.reaction == Reaction::Continue {
+    let mut extra = contacts.found;
+    let mut accepted = accepted_causes(kind);
+    if let Some(k) = pair {
+        accepted.extend(accepted_causes(k));
+    }
+    extra.extend(misnamed(b, det.log_len, &accepted));
+    let shown = if expected == Reaction::Continue {
         watch.deviation * 1e3
     } else {
         watch.moved * 1e3
@@ -539,11 +683,90 @@ fn running_cell(kind: FaultKind, condition: Condition, b: &mut Bench) -> Result<
         deviation_mm: watch.after_injection * 1e3,
         logged: det.logged(b),
         speed_mm_s: speed_at_injection * 1e3,
+        before_mm: before * 1e3,
+        expected,
+        at_least: pair.is_some(),
+        may_not_show: false,
+        extra,
+        bound_ms: pair.map_or(exp.bound_ms, |k| exp.bound_ms.max(k.expectation().bound_ms)),
+        judge_time: true,
     }))
+}
+
+/// The causes that name `kind` as the first fault logged after it (SR-5), or none where
+/// it is noticed otherwise (a refusal, the link's counters, a hold).
+fn accepted_causes(kind: FaultKind) -> Vec<FaultCause> {
+    let mut c = match kind.expectation().detection {
+        Detection::Cause(causes, _) => causes.to_vec(),
+        _ => Vec::new(),
+    };
+    // The button itself is the first thing the board sees of a welded relay.
+    if matches!(kind, FaultKind::RelayWelded | FaultKind::EStop) {
+        c.push(FaultCause::EmergencyStopButton);
+    }
+    c
+}
+
+/// SR-5: the first fault logged after the baseline `log_len`, if it is none of
+/// `accepted` (nothing to judge when `accepted` is empty).
+fn misnamed(b: &Bench, log_len: usize, accepted: &[FaultCause]) -> Option<String> {
+    let first = b.board.runtime().fault_log().get(log_len)?.record;
+    (!accepted.is_empty() && !accepted.contains(&first.cause)).then(|| {
+        format!(
+            "SR-5: the first fault logged is {:?} on joint {}",
+            first.cause, first.joint
+        )
+    })
+}
+
+/// The largest distance of the platform from where it stood at `from_us`, until `to_us`
+/// (the motion before a detection), m.
+fn travel_between(track: &[(u64, Vector3<f64>)], from_us: u64, to_us: u64) -> f64 {
+    let Some(p0) = track.iter().find(|(t, _)| *t >= from_us).map(|(_, p)| *p) else {
+        return 0.0;
+    };
+    track
+        .iter()
+        .filter(|(t, _)| *t >= from_us && *t <= to_us)
+        .map(|(_, p)| (p - p0).norm())
+        .fold(0.0, f64::max)
+}
+
+/// SR-1 along a cell: a joint arriving at a hard stop (a leg's end stop ever, a link's
+/// stop outside homing).
+struct Contacts {
+    at: [bool; 6],
+    found: Vec<String>,
+}
+
+impl Contacts {
+    fn new(b: &Bench) -> Self {
+        Contacts {
+            at: crate::search::probe::at_hard_stop(&b.board),
+            found: Vec::new(),
+        }
+    }
+    fn check(&mut self, b: &Bench) {
+        let now = crate::search::probe::at_hard_stop(&b.board);
+        let homing = b.board.runtime().state() == RobotState::Homing;
+        for (j, (n, was)) in now.iter().zip(self.at).enumerate() {
+            if *n && !was && (j < 3 || !homing) && self.found.is_empty() {
+                self.found.push(format!(
+                    "SR-1: joint {j} met its hard stop at {:.3} s",
+                    b.now_us() as f64 * 1e-6
+                ));
+            }
+        }
+        self.at = now;
+    }
 }
 
 /// A cell of a kind with its own phase (homing, enabling).
 fn phase_cell(kind: FaultKind, b: &mut Bench, only: Only) -> Result<Cell, BenchError> {
+    let condition = match only {
+        Only::Homing => Condition::Homing,
+        Only::Enabling => Condition::BrakeCheck,
+    };
     let exp = kind.expectation();
     let hello = b.hello_msg();
     b.request(&hello, 100)?;
@@ -580,9 +803,13 @@ fn phase_cell(kind: FaultKind, b: &mut Bench, only: Only) -> Result<Cell, BenchE
     let mut reaction = Reaction::Continue;
     let mut moved = 0.0f64;
     let end = t_inj + (exp.bound_ms + AFTER_MS) * 1000;
+    let mut contacts = Contacts::new(b);
+    let mut track = vec![(b.now_us(), b.board.truth().pose.t)];
     while b.now_us() < end {
         b.tick()?;
         let now = b.now_us();
+        contacts.check(b);
+        track.push((now, b.board.truth().pose.t));
         if detected.is_none() {
             if let Some(what) = det.check(b) {
                 detected = Some((now, what));
@@ -603,9 +830,15 @@ fn phase_cell(kind: FaultKind, b: &mut Bench, only: Only) -> Result<Cell, BenchE
         Reaction::Stop(StopCategory::Sto) => 0.5,
         _ => 0.1,
     };
+    // Homing moves at its own speeds, not the supervisor's: the motion before the
+    // detection is judged by SR-1 (the hard stops) there.
+    let before = match (&detected, only) {
+        (Some((t, _)), Only::Enabling) => travel_between(&track, t_inj, *t),
+        _ => 0.0,
+    };
     Ok(verdict(Verdict {
         kind,
-        condition: Condition::Phase,
+        condition,
         detected,
         detect_ms,
         reaction,
@@ -616,7 +849,257 @@ fn phase_cell(kind: FaultKind, b: &mut Bench, only: Only) -> Result<Cell, BenchE
         deviation_mm: moved * 1e3,
         logged: det.logged(b),
         speed_mm_s: 0.0,
+        before_mm: before * 1e3,
+        expected: exp.reaction,
+        at_least: false,
+        may_not_show: false,
+        extra: contacts.found,
+        bound_ms: exp.bound_ms,
+        judge_time: true,
     }))
+}
+
+/// A cell in a condition with its own set-up (homing, the brake check, a held stop with
+/// the tool and a push, during an SS1 or an SS2): the fault injected once the condition
+/// stands, judged like a running cell, the reaction as at least the stronger of the
+/// kind's and the condition's own stop (SR-7); with a stop in force, the platform within
+/// its distance (SR-2) and the stop never weakened (SR-3). A fault that needs motion may
+/// not show where the robot stands still: not detected then passes, the motion judged.
+fn staged_cell(kind: FaultKind, condition: Condition, b: &mut Bench) -> Result<Cell, BenchError> {
+    let exp = kind.expectation();
+    let hello = b.hello_msg();
+    let bounds = safety_bounds();
+    // The stop the condition puts in force: where and when it began, the lag then.
+    let mut own_stop: Option<(Vector3<f64>, f64)> = None;
+    match condition {
+        Condition::Homing => {
+            b.request(&hello, 100)?;
+            b.command(&MasterToBoard::Home { rehome: false })?;
+            b.run_ms(1_500)?;
+        }
+        Condition::BrakeCheck => {
+            b.request(&hello, 100)?;
+            b.command(&MasterToBoard::Home { rehome: false })?;
+            b.run_until("homed", 120_000, |s| {
+                s.runtime().state() != RobotState::Homing
+            })?;
+            b.run_ms(100)?;
+            b.command(&MasterToBoard::OperatorPresent { present: true })?;
+            b.send(&MasterToBoard::Enable);
+            b.run_ms(20)?;
+        }
+        Condition::HeldTool => {
+            b.bring_up()?;
+            b.board.set_tool(Some(ToolLoad::thesis()));
+            b.run_ms(300)?;
+            b.command(&MasterToBoard::Clutch { engaged: true })?;
+            b.run_ms(300)?;
+            let p = b.board.truth().pose.t;
+            own_stop = Some((p, lag(b)));
+            // A wall 0.1 mm past o_p on the -x side: 10 N along +x.
+            b.board.set_wall(Some(simulation::board::Wall {
+                point: p + Vector3::new(0.0001, 0.0, 0.0),
+                normal: Vector3::new(1.0, 0.0, 0.0),
+                stiffness_n_per_m: 1e5,
+                damping_n_s_per_m: 200.0,
+            }));
+            b.run_ms(100)?;
+        }
+        Condition::DuringSs1 | Condition::DuringSs2 => {
+            b.bring_up()?;
+            let centre = setpoint(b).unwrap_or_else(|| b.board.truth().pose.t);
+            let stream = Stream {
+                centre,
+                speed: condition.speed(),
+                amplitude: 0.006,
+                t0_us: b.now_us(),
+                probe_from_us: None,
+                probe_step_m: None,
+            };
+            for k in 0..before_ms(condition) {
+                if k % 10 == 0 {
+                    let t = b.now_us();
+                    let p = stream.position(t);
+                    b.send(&MasterToBoard::PoseTarget {
+                        timestamp_us: t,
+                        position_m: [p.x as f32, p.y as f32, p.z as f32],
+                        rotation_vector_rad: [0.0; 3],
+                    });
+                }
+                b.tick()?;
+            }
+            own_stop = Some((b.board.truth().pose.t, lag(b)));
+            b.send(&if condition == Condition::DuringSs1 {
+                MasterToBoard::Disable
+            } else {
+                MasterToBoard::Clutch { engaged: true }
+            });
+            b.run_ms(20)?;
+        }
+        _ => return running_cell(kind, condition, b),
+    }
+    let mut det = Detector::new(b, exp.detection, None);
+    let homing_det = (condition == Condition::Homing)
+        .then(|| Detector::new(b, Detection::Cause(&[FaultCause::HomingFailed], None), None));
+    let t_inj = b.now_us();
+    det.seq = kind.inject(b);
+    let speed_at_injection = b.board.truth().velocity.norm();
+    let expected = reaction_of_rank(rank_of(exp.reaction).max(condition.own_stop()));
+    let mut detected: Option<(u64, String)> = None;
+    let mut at_detect: Option<(Vector3<f64>, Vector3<f64>)> = None;
+    let mut reaction = Reaction::Continue;
+    let (mut moved, mut sp_travel, mut deviation, mut during) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+    let mut last_sp = setpoint(b);
+    let mut contacts = Contacts::new(b);
+    let mut track = vec![(t_inj, b.board.truth().pose.t)];
+    let mut weakened: Option<String> = None;
+    let mut rank_before = stop_rank(b.board.runtime().status().stop);
+    // While homing, a fault is in time if it is found before the homing (and its park
+    // move) ends: the cell runs until then.
+    let homing = condition == Condition::Homing;
+    let mut end = t_inj + (exp.bound_ms + AFTER_MS) * 1000;
+    // A fault that needs motion shows from the first tick its joint moves under power at
+    // three times the back-EMF check's floor (the search's threshold).
+    let mut shows_at: Option<u64> = (!exp.needs_motion).then_some(t_inj);
+    loop {
+        let now = b.now_us();
+        let in_homing = b.board.runtime().state() == RobotState::Homing;
+        if homing && in_homing && now < t_inj + 30_000_000 {
+            end = end.max(now + AFTER_MS * 1000);
+        }
+        if now >= end {
+            break;
+        }
+        b.tick()?;
+        let now = b.now_us();
+        let p = b.board.truth().pose.t;
+        if shows_at.is_none() {
+            if let Some(j) = kind.joint() {
+                let threshold = if j < 3 { 4.3e-3 } else { 0.25 };
+                let v = b.board.hw.plant.joint_velocities()[j].abs();
+                if v >= threshold && crate::search::probe::powered(&b.board) {
+                    shows_at = Some(now);
+                }
+            }
+        }
+        track.push((now, p));
+        contacts.check(b);
+        if let Some(sp) = setpoint(b) {
+            last_sp = Some(sp);
+        }
+        let st = b.board.runtime().status();
+        let r = stop_rank(st.stop);
+        let done =
+            matches!(st.state, RobotState::Ready | RobotState::Disabled) && !b.board.hw.enabled;
+        if r < rank_before && !done && weakened.is_none() && condition.own_stop() > 0 {
+            weakened = Some(format!(
+                "SR-3: the stop weakened to {:?} in {:?} at {:.3} s",
+                st.stop,
+                st.state,
+                now as f64 * 1e-6
+            ));
+        }
+        rank_before = r;
+        if let Some((p0, _)) = own_stop {
+            during = during.max((p - p0).norm());
+        }
+        if detected.is_none() {
+            let seen = det
+                .check(b)
+                .or_else(|| homing_det.as_ref().and_then(|d| d.check(b)));
+            if let Some(what) = seen {
+                detected = Some((now, what));
+                at_detect = Some((p, last_sp.unwrap_or(p)));
+            }
+        }
+        if let (Some((t_det, _)), Some((p0, sp0))) = (&detected, &at_detect) {
+            moved = moved.max((p - p0).norm());
+            let sp = last_sp.unwrap_or(*sp0);
+            sp_travel = sp_travel.max((sp - sp0).norm());
+            deviation = deviation.max((p - sp).norm());
+            if now == *t_det + 30_000 {
+                reaction = category_of(b.board.runtime().status().stop);
+            }
+        }
+    }
+    // Timed from when it showed (detected before it showed: from the injection).
+    let t_ref = match (&detected, shows_at) {
+        (Some((t, _)), Some(s)) if *t >= s => s,
+        _ => t_inj,
+    };
+    let detect_ms = detected
+        .as_ref()
+        .map(|(t, _)| t.saturating_sub(t_ref) as f64 * 1e-3);
+    let allowed = match expected {
+        Reaction::Stop(StopCategory::Sto) => 0.5,
+        Reaction::Stop(_) => sp_travel * 1e3 + 0.1,
+        Reaction::Continue => 1.0,
+    };
+    let mut extra = contacts.found;
+    extra.extend(weakened);
+    // A fault that showed must be found (one that never could, passes: nothing moved it).
+    if detected.is_none() && exp.needs_motion && shows_at.is_some() {
+        extra.push("not detected after it showed".into());
+    }
+    let mut accepted = accepted_causes(kind);
+    if condition == Condition::Homing && !accepted.is_empty() {
+        accepted.push(FaultCause::HomingFailed);
+    }
+    extra.extend(misnamed(b, det.log_len, &accepted));
+    // SR-2: from where the condition's stop began, its distance (and an STO's on top if a
+    // fault's STO replaced it).
+    if let Some((_, lag0)) = own_stop {
+        let category = if condition == Condition::DuringSs1 {
+            StopCategory::Ss1
+        } else {
+            StopCategory::Ss2
+        };
+        let bound =
+            bounds.stop_distance_m(category) + lag0 + bounds.stop_distance_m(StopCategory::Sto);
+        if during > bound {
+            extra.push(format!(
+                "SR-2: {:.3} mm during the stop > {:.3} mm",
+                during * 1e3,
+                bound * 1e3
+            ));
+        }
+    }
+    // Homing moves at its own speeds: SR-1 judges the motion before the detection there.
+    let before = match (&detected, condition) {
+        (Some((t, _)), c) if c != Condition::Homing => travel_between(&track, t_ref, *t),
+        _ => 0.0,
+    };
+    Ok(verdict(Verdict {
+        kind,
+        condition,
+        detected,
+        detect_ms,
+        reaction,
+        final_stop: b.board.runtime().status().stop,
+        shown_mm: moved * 1e3,
+        allowed_mm: allowed,
+        still_enabled: b.board.runtime().state() == RobotState::Enabled,
+        deviation_mm: deviation * 1e3,
+        logged: det.logged(b),
+        speed_mm_s: speed_at_injection * 1e3,
+        before_mm: before * 1e3,
+        expected,
+        at_least: true,
+        may_not_show: exp.needs_motion,
+        extra,
+        bound_ms: exp.bound_ms,
+        judge_time: !homing,
+    }))
+}
+
+/// The platform's distance from its setpoint now, m (0 without a controller).
+fn lag(b: &Bench) -> f64 {
+    setpoint(b).map_or(0.0, |sp| (b.board.truth().pose.t - sp).norm())
+}
+
+/// A stop's strength: none 0, SS2 1, SS1 2, STO 3.
+fn stop_rank(stop: StopStatus) -> u8 {
+    rank_of(category_of(stop))
 }
 
 struct Verdict {
@@ -632,46 +1115,108 @@ struct Verdict {
     deviation_mm: f64,
     logged: String,
     speed_mm_s: f64,
+    /// The platform's motion from when the fault showed to its detection, mm.
+    before_mm: f64,
+    /// The reaction expected (the kind's, or the stronger of a pair, or the condition's
+    /// own stop).
+    expected: Reaction,
+    /// The reaction is judged as at least the expected one (a stop in force, a pair).
+    at_least: bool,
+    /// Not detected passes: the fault could not show (it needs motion, and the condition
+    /// has none or stops it).
+    may_not_show: bool,
+    /// Other failures found along the cell (SR-1's hard stops, SR-3's weakened stop, a
+    /// misnamed first fault).
+    extra: Vec<String>,
+    /// The detection's bound, ms (the kind's; the larger of a pair's).
+    bound_ms: u64,
+    /// The time is judged against it (else: detected before the homing ended is in time).
+    judge_time: bool,
+}
+
+fn rank_of(r: Reaction) -> u8 {
+    match r {
+        Reaction::Continue => 0,
+        Reaction::Stop(StopCategory::Ss2) => 1,
+        Reaction::Stop(StopCategory::Ss1) => 2,
+        Reaction::Stop(StopCategory::Sto) => 3,
+    }
+}
+
+fn reaction_of_rank(r: u8) -> Reaction {
+    match r {
+        0 => Reaction::Continue,
+        1 => Reaction::Stop(StopCategory::Ss2),
+        2 => Reaction::Stop(StopCategory::Ss1),
+        _ => Reaction::Stop(StopCategory::Sto),
+    }
 }
 
 fn verdict(v: Verdict) -> Cell {
-    let exp = v.kind.expectation();
+    let bounds = safety_bounds();
+    let before_allowed_mm = bounds.before_detection_m(v.bound_ms as f64 * 1e-3) * 1e3;
     let mut why = Vec::new();
-    if v.detected.is_none() {
+    if v.detected.is_none() && !v.may_not_show {
         why.push("not detected".to_string());
     }
-    if let Some(ms) = v.detect_ms {
-        if ms > exp.bound_ms as f64 {
-            why.push(format!("late: {ms:.0} ms > {} ms", exp.bound_ms));
+    if let (Some(ms), true) = (v.detect_ms, v.judge_time) {
+        if ms > v.bound_ms as f64 {
+            why.push(format!("late: {ms:.0} ms > {} ms", v.bound_ms));
         }
     }
-    if v.detected.is_some() && v.reaction != exp.reaction {
+    let reaction_ok = if v.at_least {
+        rank_of(v.reaction) >= rank_of(v.expected)
+    } else {
+        v.reaction == v.expected
+    };
+    if v.detected.is_some() && !reaction_ok {
         why.push(format!(
-            "reaction {} instead of {}",
+            "reaction {} instead of {}{}",
             v.reaction.name(),
-            exp.reaction.name()
+            if v.at_least { "at least " } else { "" },
+            v.expected.name()
         ));
     }
-    if exp.reaction == Reaction::Continue && v.detected.is_some() && !v.still_enabled {
+    if v.expected == Reaction::Continue && v.detected.is_some() && !v.still_enabled {
         why.push("left Enabled".into());
     }
     // (A NaN figure fails too.)
-    if v.shown_mm.partial_cmp(&v.allowed_mm) != Some(std::cmp::Ordering::Less)
-        && v.shown_mm != v.allowed_mm
-    {
+    let within = |x: f64, bound: f64| {
+        x.partial_cmp(&bound) != Some(std::cmp::Ordering::Greater) && !x.is_nan()
+    };
+    if !within(v.shown_mm, v.allowed_mm) {
         why.push(format!(
             "moved {:.3} mm > {:.3} mm",
             v.shown_mm, v.allowed_mm
         ));
     }
+    if !within(v.before_mm, before_allowed_mm) {
+        why.push(format!(
+            "moved {:.3} mm before the detection > {:.3} mm",
+            v.before_mm, before_allowed_mm
+        ));
+    }
+    why.extend(v.extra);
+    let requirements: Vec<&str> = v
+        .condition
+        .requirements(v.kind)
+        .iter()
+        .map(|r| r.id())
+        .collect();
     Cell {
         kind: v.kind,
         condition: v.condition,
         detected: v.detected.is_some(),
         detect_ms: v.detect_ms,
-        bound_ms: exp.bound_ms,
-        noticed: v.detected.map(|(_, w)| w).unwrap_or_default(),
-        expected: exp.reaction,
+        bound_ms: v.bound_ms,
+        noticed: v.detected.map(|(_, w)| w).unwrap_or_else(|| {
+            if v.may_not_show {
+                "not shown (no motion)".into()
+            } else {
+                String::new()
+            }
+        }),
+        expected: v.expected,
         reaction: v.reaction,
         final_stop: v.final_stop,
         moved_mm: v.shown_mm,
@@ -679,26 +1224,41 @@ fn verdict(v: Verdict) -> Cell {
         deviation_mm: v.deviation_mm,
         logged: v.logged,
         speed_mm_s: v.speed_mm_s,
+        before_mm: v.before_mm,
+        before_allowed_mm,
+        requirements: requirements.join(" "),
         pass: why.is_empty(),
         why: why.join("; "),
     }
 }
 
-/// The cells of `kinds` x `conditions` (a kind with its own phase runs once, in it).
+/// The requirements' bounds of the reference board.
+fn safety_bounds() -> control::safety::Bounds {
+    let robot = kinematics_core::RsprGeometry::<f64>::reference();
+    match control::runtime::reference_config_for(&robot, kinematics_core::Branch::OUTER, None, None)
+    {
+        Ok(cfg) => control::safety::Bounds::of(&cfg, &robot),
+        // (The reference robot's central pose has its inverse kinematics.)
+        Err(_) => control::safety::Bounds {
+            tip_speed_m_s: f64::NAN,
+            tip_accel_m_s2: f64::NAN,
+            period_s: f64::NAN,
+            brake_engage_s: f64::NAN,
+            decel_timeout_s: f64::NAN,
+            standstill: [f64::NAN; 6],
+            standstill_platform_m: f64::NAN,
+            heartbeat_s: [f64::NAN; 2],
+        },
+    }
+}
+
+/// The cells of `kinds` x `conditions` that apply ([`applies`]).
 pub fn cells(kinds: &[FaultKind], conditions: &[Condition]) -> Vec<(FaultKind, Condition)> {
     let mut out = Vec::new();
     for k in kinds {
-        if k.expectation().only.is_some() {
-            if conditions.contains(&Condition::Phase)
-                || conditions.len() == Condition::RUNNING.len()
-            {
-                out.push((*k, Condition::Phase));
-            }
-        } else {
-            for c in conditions {
-                if *c != Condition::Phase {
-                    out.push((*k, *c));
-                }
+        for c in conditions {
+            if applies(*k, *c) {
+                out.push((*k, *c));
             }
         }
     }

@@ -240,6 +240,36 @@ impl FaultKind {
         }
     }
 
+    /// A fault of the robot or the board (not of the link, a target, a phase of its own
+    /// or the environment).
+    pub fn is_physical(self) -> bool {
+        !matches!(
+            self,
+            FaultKind::LinkLoss
+                | FaultKind::GarbageBurst
+                | FaultKind::ReplayedFrames
+                | FaultKind::NanTarget
+                | FaultKind::UnreachableTarget
+                | FaultKind::WallContact
+                | FaultKind::HomingSwitchDead
+                | FaultKind::BrakeWeak
+        )
+    }
+
+    /// The joint the kind is injected on, if one.
+    pub const fn joint(self) -> Option<usize> {
+        match self {
+            FaultKind::EncoderStuck | FaultKind::DriverFault | FaultKind::HomingSwitchDead => {
+                Some(0)
+            }
+            FaultKind::EncoderJump | FaultKind::Overcurrent | FaultKind::BridgeStuckOn => Some(1),
+            FaultKind::MotorOpen | FaultKind::LimitSwitchClosed => Some(2),
+            FaultKind::EncoderDead | FaultKind::LoadSeized => Some(4),
+            FaultKind::MotorShorted => Some(5),
+            _ => None,
+        }
+    }
+
     /// The kind of a name.
     pub fn from_name(name: &str) -> Option<FaultKind> {
         FaultKind::ALL.into_iter().find(|k| k.name() == name)

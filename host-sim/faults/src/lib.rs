@@ -13,10 +13,14 @@
 //! move 100 ms after the injection, and timed from the probe.
 //!
 //! [`run`] runs the cells, [`report`] prints the matrix and writes it as CSV and PNG.
+//! [`search`] is the search for counterexamples to the safety requirements
+//! (`control::safety`): random sequences of commands, frames and faults, every
+//! requirement's oracle at every tick.
 
 pub mod campaign;
 pub mod kinds;
 pub mod report;
+pub mod search;
 
 pub use campaign::{cells, run_cell, CampaignError, Cell, Condition};
 pub use kinds::{Detection, Expectation, FaultKind, Only, Reaction};

@@ -1,6 +1,6 @@
 //! The campaign's matrix: printed (one row per kind, one column per condition), as CSV
 //! (one row per cell) and as a PNG (the grid, green where the cell passed, red where not,
-//! with the detection time and the motion in each).
+//! with the detection time, the motion and the requirements each cell checks).
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -22,14 +22,8 @@ pub enum ReportError {
     Plot { path: String, source: PlotError },
 }
 
-/// The columns of the matrix, in order: the running conditions, then the phase column.
-pub const COLUMNS: [Condition; 5] = [
-    Condition::Holding,
-    Condition::Slow,
-    Condition::Fast,
-    Condition::Tool,
-    Condition::Phase,
-];
+/// The columns of the matrix, in order: every condition.
+pub const COLUMNS: [Condition; 11] = Condition::ALL;
 
 fn cell_of(cells: &[Cell], k: FaultKind, c: Condition) -> Option<&Cell> {
     cells.iter().find(|x| x.kind == k && x.condition == c)
@@ -61,6 +55,17 @@ pub fn matrix_text(cells: &[Cell]) -> String {
     let _ = write!(o, "{:<20} {:>7} {:>8}", "kind", "bound", "expect");
     for c in COLUMNS {
         let _ = write!(o, " | {:<22}", c.name());
+    }
+    o.push('\n');
+    // What each column checks (a row of the link's frames checks SR-6 for SR-7).
+    let _ = write!(o, "{:<20} {:>7} {:>8}", "checks", "", "");
+    for c in COLUMNS {
+        let ids: Vec<&str> = c
+            .requirements(FaultKind::EncoderJump)
+            .iter()
+            .map(|r| r.id())
+            .collect();
+        let _ = write!(o, " | {:<22}", ids.join(" "));
     }
     o.push('\n');
     for k in kinds {
@@ -116,6 +121,9 @@ struct Row<'a> {
     final_stop: String,
     moved_mm: f64,
     allowed_mm: f64,
+    before_mm: f64,
+    before_allowed_mm: f64,
+    requirements: &'a str,
     pass: bool,
     why: &'a str,
 }
@@ -140,6 +148,9 @@ pub fn write_csv(cells: &[Cell], path: &Path) -> Result<(), ReportError> {
             final_stop: format!("{:?}", c.final_stop),
             moved_mm: c.moved_mm,
             allowed_mm: c.allowed_mm,
+            before_mm: c.before_mm,
+            before_allowed_mm: c.before_allowed_mm,
+            requirements: &c.requirements,
             pass: c.pass,
             why: &c.why,
         })
@@ -162,17 +173,18 @@ pub fn write_png(cells: &[Cell], path: &Path) -> Result<(), ReportError> {
         .into_iter()
         .filter(|k| cells.iter().any(|c| c.kind == *k))
         .collect();
-    let (label_w, cell_w, cell_h, head_h) = (190i32, 170i32, 30i32, 60i32);
+    let (label_w, cell_w, cell_h, head_h) = (190i32, 150i32, 40i32, 60i32);
     let width = label_w + cell_w * COLUMNS.len() as i32 + 10;
     let height = head_h + cell_h * kinds.len() as i32 + 40;
     let root = BitMapBackend::new(path, (width as u32, height as u32)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(PlotError::new(e)))?;
     let font = ("sans-serif", 13).into_font();
+    let small = ("sans-serif", 11).into_font();
     let bold = ("sans-serif", 15).into_font();
     let passed = cells.iter().filter(|c| c.pass).count();
     root.draw(&Text::new(
         format!(
-            "fault-injection campaign: {passed} of {} cells pass (time to detect, reaction, motion after)",
+            "fault-injection campaign: {passed} of {} cells pass (time to detect, reaction, motion after; the requirements each cell checks)",
             cells.len()
         ),
         (10, 10),
@@ -190,7 +202,7 @@ pub fn write_png(cells: &[Cell], path: &Path) -> Result<(), ReportError> {
             .map_err(|e| err(PlotError::new(e)))?;
         for (i, c) in COLUMNS.iter().enumerate() {
             let x = label_w + cell_w * i as i32;
-            let (fill, text) = match cell_of(cells, *k, *c) {
+            let (fill, text, checks) = match cell_of(cells, *k, *c) {
                 Some(cell) => (
                     if cell.pass {
                         RGBColor(190, 235, 190)
@@ -204,15 +216,18 @@ pub fn write_png(cells: &[Cell], path: &Path) -> Result<(), ReportError> {
                         cell.reaction.name(),
                         cell.moved_mm
                     ),
+                    cell.requirements.clone(),
                 ),
-                None => (RGBColor(225, 225, 225), "n/a".to_string()),
+                None => (RGBColor(225, 225, 225), "n/a".to_string(), String::new()),
             };
             root.draw(&Rectangle::new(
                 [(x + 1, y + 1), (x + cell_w - 1, y + cell_h - 1)],
                 fill.filled(),
             ))
             .map_err(|e| err(PlotError::new(e)))?;
-            root.draw(&Text::new(text, (x + 6, y + 8), font.clone()))
+            root.draw(&Text::new(text, (x + 6, y + 5), font.clone()))
+                .map_err(|e| err(PlotError::new(e)))?;
+            root.draw(&Text::new(checks, (x + 6, y + 22), small.clone()))
                 .map_err(|e| err(PlotError::new(e)))?;
         }
     }

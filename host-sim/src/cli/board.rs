@@ -19,8 +19,8 @@ pub struct FaultsArgs {
     /// wall-contact, homing-switch-dead, brake-weak.
     #[arg(long, value_delimiter = ',')]
     pub kinds: Vec<String>,
-    /// Conditions, comma-separated [default: all]: holding, slow, fast, tool (and phase:
-    /// the kinds that have their own, homing or enabling).
+    /// Conditions, comma-separated [default: all]: holding, slow, fast, tool, homing,
+    /// brake-check, held-tool-push, during-ss1, during-ss2, after-enable, double.
     #[arg(long, value_delimiter = ',')]
     pub conditions: Vec<String>,
     /// Threads [default: 2].
@@ -48,9 +48,7 @@ pub fn faults(args: &FaultsArgs) -> Result<(), CliError> {
             .collect::<Result<Vec<_>, _>>()?
     };
     let conditions = if args.conditions.is_empty() {
-        let mut all = faults::Condition::RUNNING.to_vec();
-        all.push(faults::Condition::Phase);
-        all
+        faults::Condition::ALL.to_vec()
     } else {
         args.conditions
             .iter()

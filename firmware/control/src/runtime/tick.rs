@@ -84,7 +84,10 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
     /// names it right).
     fn findings(&mut self, now_us: u64) -> [Option<Finding>; 9] {
         let i = self.inputs;
-        let torque_on = self.outputs.torque_on();
+        // An open safety relay has taken the drivers' supply away: whatever the outputs
+        // ask, no motor is driven, and a missing current says nothing about the motor or
+        // the encoder (the relay's own check names the fault).
+        let torque_on = self.outputs.torque_on() && !i.relay_open;
         let button = i
             .estop_pressed
             .then(|| Finding::board::<S>(FaultCause::EmergencyStopButton, S::one()));

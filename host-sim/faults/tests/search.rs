@@ -1,0 +1,432 @@
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+//! The search for counterexamples to the safety requirements (SR-1 .. SR-7,
+//! `control::safety`): random sequences of the owning master's commands and streams, a
+//! second master's and replayed or forged frames, injected faults (alone and two at
+//! once, at any tick, in every mode), the e-stop button, the tool, walls and pushes, on
+//! the whole board application against the plant, every requirement's oracle checked at
+//! every tick (`faults::search`).
+//!
+//! CI runs `SEARCH_CASES` cases from the fixed seed of `tests/proptest-config`; a deeper
+//! search: `RSPR_PROPTEST_FRESH=1 RSPR_PROPTEST_SCALE=20 cargo test --release -p faults
+//! --test search` (fresh seeds, 20 times the cases; proptest records a failure in
+//! `search.proptest-regressions`, which is committed and replayed by every later run).
+//! Each counterexample found once is also written out below as a named case.
+
+use control::safety::Requirement;
+use faults::search::{run_case, Action, Cmd, Foreign, Injection, OpenHole, Start};
+use proptest::prelude::*;
+
+/// The cases CI runs: about 0.24 s each on one core of the CI machine (homing, the
+/// enable, up to 24 actions and 600 ms after them in virtual time), 400 cases in about
+/// a minute and a half.
+const SEARCH_CASES: u32 = 400;
+
+/// The holes known open on this branch, each closed by work in progress elsewhere: their
+/// violations are counted and printed, and the case goes on. When the work lands, its
+/// entry goes (the search then holds it to the requirement). `SEARCH_OPEN=SR-5,SR-2`
+/// tolerates more requirements, to explore past a hole.
+const OPEN: &[OpenHole] = &[
+    OpenHole {
+        requirements: &[Requirement::Detection],
+        involving: "after EncoderDead",
+        closed_by: "nobody yet (reported): a leg's encoder dying 129 ms into homing is named MotorOpen on that joint (start Homing: Wait(129), Fault(EncoderDead(0)))",
+    },
+    OpenHole {
+        requirements: &[Requirement::Authority],
+        involving: "a replayed Hello opened a session",
+        closed_by: "nobody yet (reported): the board keeps only its owner's last clock, so a former owner's Hello replayed while the robot is disabled takes the board back and resets that master's sequence to the replayed number, locking it out (Fresh: a second master's Hello, then the first's replayed); the generator leaves ReplayHelloEnable out until it is closed",
+    },
+    OpenHole {
+        requirements: &[],
+        involving: "EncoderLosesCounts",
+        closed_by: "the second position channel: an encoder that loses counts is named MotorOpen (SR-5), and the joint runs faster and further than measured (SR-2, SR-7)",
+    },
+    OpenHole {
+        requirements: &[Requirement::StopDistance, Requirement::Reaction],
+        involving: "BrakesWorn",
+        closed_by: "nobody yet (reported): the brakes are checked only at an enable; worn since, they let an STO coast past v t_e (0.76 mm against 0.75 mm with the tool and a push)",
+    },
+    OpenHole {
+        requirements: &[Requirement::Detection],
+        involving: "is EncoderDead on joint",
+        closed_by: "nobody yet (reported): a link's motor leads opening at a small duty (its model current below the motor check's 0.05 A floor) are named EncoderDead by the back-EMF check, which believes a circuit that drew current in the last 100 ticks",
+    },
+];
+
+fn open() -> Vec<OpenHole> {
+    let extra = std::env::var("SEARCH_OPEN").unwrap_or_default();
+    let extra: &'static [Requirement] = Box::leak(
+        extra
+            .split(',')
+            .filter_map(|id| Requirement::of_id(id.trim()))
+            .collect::<Vec<_>>()
+            .into_boxed_slice(),
+    );
+    let mut open = OPEN.to_vec();
+    if !extra.is_empty() {
+        open.push(OpenHole {
+            requirements: extra,
+            involving: "",
+            closed_by: "SEARCH_OPEN",
+        });
+    }
+    open
+}
+
+fn start() -> impl Strategy<Value = Start> {
+    prop_oneof![
+        1 => Just(Start::Fresh),
+        2 => Just(Start::Homing),
+        2 => Just(Start::Ready),
+        5 => Just(Start::Following),
+    ]
+}
+
+fn cmd() -> impl Strategy<Value = Cmd> {
+    prop_oneof![
+        Just(Cmd::Hello),
+        Just(Cmd::Enable),
+        Just(Cmd::Disable),
+        any::<bool>().prop_map(|rehome| Cmd::Home { rehome }),
+        any::<bool>().prop_map(Cmd::Clutch),
+        any::<bool>().prop_map(Cmd::Operator),
+        Just(Cmd::ClearFault),
+        Just(Cmd::AckReset),
+        Just(Cmd::EStop),
+        Just(Cmd::Status),
+        Just(Cmd::StoreGeometry),
+    ]
+}
+
+fn foreign() -> impl Strategy<Value = Foreign> {
+    prop_oneof![
+        Just(Foreign::SecondHello),
+        cmd().prop_map(Foreign::SecondCommand),
+        Just(Foreign::SecondTarget),
+        (1u8..40).prop_map(|back| Foreign::Replay { back }),
+        // (Not a Hello: a handshake's number is not checked, and a Hello with the owner's
+        // nonce and a newer clock is the owner reconnecting; on a link without a key a
+        // forger who knows the nonce is the owner, and it resets the owner's sequence
+        // to its number. The link key closes that.)
+        cmd()
+            .prop_filter("a handshake", |c| *c != Cmd::Hello)
+            .prop_map(Foreign::FarAhead),
+        (0u16..5_000).prop_map(|ahead_ms| Foreign::FutureTarget { ahead_ms }),
+        Just(Foreign::StampedMax),
+        // (Not the owner's Hello and Enable replayed: after a second master's takeover,
+        // the first's old Hello takes the board back and resets its sequence, the hole
+        // of `OPEN`; the named case replays them to the owner.)
+    ]
+}
+
+fn injection() -> impl Strategy<Value = Injection> {
+    let j = 0u8..6;
+    prop_oneof![
+        j.clone().prop_map(Injection::EncoderStuck),
+        j.clone().prop_map(Injection::EncoderJump),
+        j.clone().prop_map(Injection::EncoderDead),
+        j.clone().prop_map(Injection::EncoderLosesCounts),
+        j.clone().prop_map(Injection::MotorOpen),
+        j.clone().prop_map(Injection::MotorShorted),
+        j.clone().prop_map(Injection::DriverFault),
+        Just(Injection::SupplySag),
+        j.clone().prop_map(Injection::Overcurrent),
+        j.clone().prop_map(Injection::BridgeStuckOn),
+        Just(Injection::RelayWelded),
+        Just(Injection::RelayStuckOpen),
+        Just(Injection::TickOverrun),
+        j.clone().prop_map(Injection::SwitchClosed),
+        (0u8..3).prop_map(Injection::SwitchDead),
+        j.prop_map(Injection::LoadSeized),
+        Just(Injection::BrakesWorn),
+    ]
+}
+
+fn action() -> impl Strategy<Value = Action> {
+    prop_oneof![
+        6 => (0u16..400).prop_map(Action::Wait),
+        1 => (50u16..700).prop_map(Action::Silence),
+        5 => cmd().prop_map(Action::Command),
+        5 => (-15i8..=15, -5i8..=5, 1u8..=30, 10u16..1_500).prop_map(
+            |(x_mm, z_mm, speed_mm_s, ms)| Action::Stream { x_mm, z_mm, speed_mm_s, ms }
+        ),
+        1 => (0u8..6, -30i8..=30, 10u16..600)
+            .prop_map(|(joint, velocity, ms)| Action::Jog { joint, velocity, ms }),
+        3 => foreign().prop_map(Action::Foreign),
+        4 => injection().prop_map(Action::Fault),
+        1 => Just(Action::Repair),
+        1 => any::<bool>().prop_map(Action::Button),
+        1 => any::<bool>().prop_map(Action::Tool),
+        1 => (any::<bool>(), 0u16..400).prop_map(|(plus, depth_um)| Action::Push { plus, depth_um }),
+        1 => (any::<bool>(), 0u16..3_000).prop_map(|(plus, ahead_um)| Action::Wall { plus, ahead_um }),
+    ]
+}
+
+proptest! {
+    #![proptest_config(proptest_config::cases(SEARCH_CASES))]
+
+    /// Property (SR-1, SR-2, SR-3, SR-4, SR-5, SR-6, SR-7): from any start (powered up,
+    /// homing, ready, following), any sequence of the owner's commands and streams,
+    /// foreign frames, faults (alone or two at once), the button, the tool, walls and
+    /// pushes keeps every safety requirement at every tick.
+    #[test]
+    fn random_sequences_keep_every_requirement(
+        start in start(),
+        actions in proptest::collection::vec(action(), 1..24),
+    ) {
+        let r = run_case(start, &actions, &open());
+        prop_assert!(r.setup.is_none(), "set-up: {:?}", r.setup);
+        prop_assert!(r.violations.is_empty(), "{}", r.first().unwrap_or_default());
+    }
+}
+
+/// Property (SR-6): no foreign frame is taken while the owner's session lives: a second
+/// master's Hello, its commands and targets, replayed frames, frames far ahead in the
+/// owner's sequence, a target stamped in the future.
+#[test]
+fn a_foreign_frame_never_moves_the_robot() {
+    use Action as A;
+    let hold = [A::Command(Cmd::Clutch(true)), A::Wait(200)];
+    let cases: Vec<(&str, Vec<Action>)> = vec![
+        (
+            "a second master's Hello while the owner holds",
+            [&hold[..], &[A::Foreign(Foreign::SecondHello), A::Wait(100)]].concat(),
+        ),
+        (
+            "a second master's target after its Hello",
+            vec![
+                A::Foreign(Foreign::SecondHello),
+                A::Wait(10),
+                A::Foreign(Foreign::SecondTarget),
+                A::Wait(300),
+            ],
+        ),
+        (
+            "the owner's Hello replayed, then its old target",
+            vec![A::Foreign(Foreign::Replay { back: 30 }), A::Wait(10)],
+        ),
+        (
+            "a target far ahead in the owner's sequence",
+            vec![
+                A::Foreign(Foreign::FarAhead(Cmd::Clutch(false))),
+                A::Wait(50),
+            ],
+        ),
+        (
+            "a target stamped in the future",
+            vec![
+                A::Foreign(Foreign::FutureTarget { ahead_ms: 1_000 }),
+                A::Wait(300),
+            ],
+        ),
+    ];
+    for (what, actions) in cases {
+        let r = run_case(Start::Following, &actions, OPEN);
+        assert!(
+            r.violations.is_empty(),
+            "{what}: {}",
+            r.first().unwrap_or_default()
+        );
+        for v in &r.tolerated {
+            println!("{what}: open: {v}");
+        }
+    }
+}
+
+/// Not a property: the long search. `SEARCH_EXPLORE=N` (fresh random cases) or
+/// `SEARCH_MINUTES=M` (as many as fit in M minutes of wall time), run with
+/// `cargo test --release -p faults --test search -- --ignored explore --nocapture`: every
+/// case runs to its end without stopping or shrinking (the holes of `OPEN` tolerated), and
+/// every distinct violation is printed (its requirement and words) with a case that shows
+/// it, then the figures: cases, actions, virtual time, wall time, violations.
+#[test]
+#[ignore = "the long search: run it by hand (SEARCH_EXPLORE, SEARCH_MINUTES)"]
+fn explore() {
+    use proptest::strategy::ValueTree;
+    use proptest::test_runner::TestRunner;
+    let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<u64>().ok());
+    let minutes = env("SEARCH_MINUTES");
+    let n = env("SEARCH_EXPLORE").unwrap_or(if minutes.is_some() { u64::MAX } else { 200 });
+    let budget = std::time::Duration::from_secs(minutes.unwrap_or(u64::MAX / 120) * 60);
+    let t0 = std::time::Instant::now();
+    let mut runner = TestRunner::default();
+    let strategy = (start(), proptest::collection::vec(action(), 1..24));
+    let mut seen: std::collections::BTreeMap<String, (usize, String)> = Default::default();
+    let (mut cases, mut steps, mut virtual_s, mut found) = (0u64, 0usize, 0.0f64, 0usize);
+    while cases < n && t0.elapsed() < budget {
+        let (s, actions) = strategy.new_tree(&mut runner).unwrap().current();
+        let r = run_case(s, &actions, &open());
+        cases += 1;
+        steps += actions.len();
+        virtual_s += r.virtual_s;
+        found += r.violations.len();
+        for v in r.violations.iter().chain(r.tolerated.iter()) {
+            // The kind of violation: its requirement and its words without figures.
+            let words: String = v
+                .what
+                .split(|c: char| c.is_ascii_digit())
+                .next()
+                .unwrap_or_default()
+                .to_string();
+            let key = format!("{} {words}", v.requirement.id());
+            let e = seen
+                .entry(key)
+                .or_insert((0, format!("{v} from {s:?}: {actions:?}")));
+            e.0 += 1;
+        }
+    }
+    for (k, (count, example)) in &seen {
+        println!("{count:4} x {k}\n       {example}\n");
+    }
+    println!(
+        "explored: {cases} cases, {steps} actions, {virtual_s:.0} s virtual, {:.0} s wall, \
+         {found} violations not tolerated, {} distinct kinds (tolerated included)",
+        t0.elapsed().as_secs_f64(),
+        seen.len()
+    );
+}
+
+/// The counterexamples the search found, each replayed: the holes fixed hold now, the
+/// holes still open show as such (covered by [`OPEN`], printed) until their work lands.
+/// (SR-1 .. SR-7: each case names the requirement it broke.)
+#[test]
+fn counterexamples_found_once_hold_now() {
+    use Action as A;
+    let stream = |x_mm, speed_mm_s, ms| A::Stream {
+        x_mm,
+        z_mm: 0,
+        speed_mm_s,
+        ms,
+    };
+    let hold = [A::Command(Cmd::Clutch(true)), A::Wait(200)];
+    let cases: Vec<(&str, Start, Vec<Action>)> = vec![
+        (
+            "SR-3: StoreGeometry during the SS1 of a Disable was taken",
+            Start::Following,
+            vec![
+                stream(10, 25, 400),
+                A::Command(Cmd::Disable),
+                A::Wait(5),
+                A::Command(Cmd::StoreGeometry),
+                A::Wait(400),
+            ],
+        ),
+        (
+            "SR-4: ClearFault with the safety relay welded re-enabled the drives",
+            Start::Following,
+            vec![
+                A::Fault(Injection::RelayWelded),
+                A::Wait(100),
+                A::Button(false),
+                A::Wait(50),
+                A::Command(Cmd::ClearFault),
+                A::Wait(10),
+                A::Command(Cmd::Operator(true)),
+                A::Command(Cmd::Enable),
+                A::Wait(300),
+            ],
+        ),
+        (
+            "SR-6: a second master's Hello during a hold took the board and moved it",
+            Start::Following,
+            [
+                &hold[..],
+                &[
+                    A::Foreign(Foreign::SecondHello),
+                    A::Wait(10),
+                    A::Foreign(Foreign::SecondCommand(Cmd::Clutch(false))),
+                    A::Foreign(Foreign::SecondTarget),
+                    A::Wait(300),
+                ],
+            ]
+            .concat(),
+        ),
+        (
+            "SR-6: the owner's Hello and Enable replayed enabled the robot",
+            Start::Following,
+            vec![
+                A::Command(Cmd::Disable),
+                A::Wait(400),
+                A::Foreign(Foreign::ReplayHelloEnable),
+                A::Wait(300),
+            ],
+        ),
+        (
+            "SR-6: a frame 30 000 ahead in the owner's sequence locked the owner out",
+            Start::Following,
+            vec![
+                A::Foreign(Foreign::FarAhead(Cmd::Status)),
+                A::Wait(10),
+                A::Command(Cmd::Status),
+                A::Wait(300),
+            ],
+        ),
+        (
+            "SR-6: a target stamped u64::MAX made the owner's targets stale",
+            Start::Following,
+            vec![A::Foreign(Foreign::StampedMax), stream(5, 10, 300)],
+        ),
+        (
+            "SR-1: a leg's home switch failed closed drove the leg out of its range",
+            Start::Homing,
+            vec![A::Fault(Injection::SwitchClosed(1)), A::Wait(4_000)],
+        ),
+        (
+            "SR-3: Home during the SS1 of a Disable ended the stop and homed under power",
+            Start::Following,
+            vec![
+                stream(10, 25, 400),
+                A::Command(Cmd::Disable),
+                A::Wait(5),
+                A::Command(Cmd::Home { rehome: true }),
+                A::Wait(400),
+            ],
+        ),
+        (
+            "SR-1: a leg's dead home switch drove the leg through its travel while homing",
+            Start::Homing,
+            vec![A::Fault(Injection::SwitchDead(1)), A::Wait(4_000)],
+        ),
+        (
+            "SR-5: the safety relay opening while the robot moves was named MotorOpen (the \
+             drives had lost their supply; the monitors judged the motors)",
+            Start::Following,
+            vec![
+                stream(6, 10, 200),
+                A::Fault(Injection::RelayStuckOpen),
+                stream(12, 10, 300),
+            ],
+        ),
+        (
+            "SR-5: three overruns in a row across the 100-tick boundary of the overrun count \
+             were never a missed deadline (the count restarted every 100 ticks)",
+            Start::Following,
+            vec![A::Wait(7), A::Fault(Injection::TickOverrun), A::Wait(10)],
+        ),
+        (
+            "SR-5: a link's open motor at a small duty is named EncoderDead (open)",
+            Start::Following,
+            vec![A::Fault(Injection::MotorOpen(5)), stream(11, 14, 700)],
+        ),
+        (
+            "SR-5: an encoder losing one count in three is named MotorOpen (open)",
+            Start::Following,
+            vec![
+                A::Fault(Injection::EncoderLosesCounts(0)),
+                stream(0, 1, 40),
+                stream(5, 10, 400),
+            ],
+        ),
+    ];
+    let mut failed = Vec::new();
+    for (what, start, actions) in &cases {
+        let r = run_case(*start, actions, OPEN);
+        for v in &r.tolerated {
+            println!("{what}: open: {v}");
+        }
+        if let Some(v) = r.first() {
+            failed.push(format!("{what}: {v}"));
+        }
+    }
+    assert!(failed.is_empty(), "{}", failed.join("\n"));
+}
