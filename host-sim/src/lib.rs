@@ -3,7 +3,7 @@
 //! the work is done by the library crates it drives.
 //!
 //! The core (`kinematics-core`) is SI; the edge in millimetres and degrees
-//! (shared/CONVENTIONS.md) is `robot-config`'s. Modules:
+//! (the repository's `CONVENTIONS.md`) is `robot-config`'s. Modules:
 //! - `cli`: the clap command line, the robot and limits selection, and the commands that
 //!   drive the libraries (`design`, `simulation`, `teleop`);
 //! - `commands`: the row-wise commands `ik`, `fk`, `jacobian`, `forces`, `singularity`,

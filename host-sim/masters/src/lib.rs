@@ -11,7 +11,7 @@
 //! - [`keyboard`]: jogging from key events.
 //!
 //! SI units in every API; millimetres and degrees at the edges (recordings, datagrams),
-//! as `shared/CONVENTIONS.md` says. See the crate's README for the formats and a
+//! as the repository's `CONVENTIONS.md` says. See the crate's README for the formats and a
 //! SpaceMouse walkthrough.
 
 pub mod device;

@@ -3,7 +3,7 @@
 //!
 //! A pose is CRTK's `cp` (Cartesian position): a position and an orientation. At the
 //! edges (recordings, datagrams) it is written `x_mm, y_mm, z_mm, rx_deg, ry_deg, rz_deg`,
-//! (rx, ry, rz) the rotation vector (axis × angle), as in `shared/CONVENTIONS.md`.
+//! (rx, ry, rz) the rotation vector (axis × angle), as in the repository's `CONVENTIONS.md`.
 //!
 //! The rotation increment between two orientations ([`rotation_increment`]) is computed
 //! so that it is **exactly** zero (bit for bit) when the two orientations are equal: the

@@ -1,7 +1,7 @@
 //! `robot-config`: the robot and its limits at the edge of the host tools.
 //!
 //! The core (`kinematics-core`) is SI; this crate is where millimetres and degrees meet it
-//! (shared/CONVENTIONS.md, "Units"). Modules:
+//! (the repository's `CONVENTIONS.md`, "Units"). Modules:
 //! - [`geometry_file`]: a robot's dimensions in TOML (`geometry/*.toml`);
 //! - [`per_chain_file`]: a per-chain (calibrated) RSPR geometry in TOML;
 //! - [`limits_file`]: the guards' limits in TOML (`limits/reference.toml`);
