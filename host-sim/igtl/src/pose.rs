@@ -3,9 +3,9 @@
 //! Frame: a TRANSFORM or POSITION carries the pose of the platform frame {p} in the
 //! *client frame*: the 4x4 matrix maps {p} coordinates to client coordinates, its
 //! translation is the platform centre o_p in millimetres. By default the client frame is
-//! the robot base frame {0} of `shared/CONVENTIONS.md`. A [`Registration`] (image or RAS to
-//! robot base, fixed) may be set: targets are mapped client → base before they reach the
-//! robot, and measured poses base → client before they are sent.
+//! the robot base frame {0} of the repository's `CONVENTIONS.md`. A [`Registration`]
+//! (image or RAS to robot base, fixed) may be set: targets are mapped client → base before
+//! they reach the robot, and measured poses base → client before they are sent.
 //!
 //! Values are checked, never silently mended: every number must be finite; a TRANSFORM's
 //! 3x3 block must be a rotation to within [`ROTATION_TOLERANCE`] (float32 and the client's
