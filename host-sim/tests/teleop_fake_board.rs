@@ -14,8 +14,8 @@
 use control::link::{Answer, Inbound, LinkRx, LinkTx};
 use master_link::MasterToBoard as Command;
 use master_link::{
-    BoardToMaster, FaultCause, FaultRecord, FirmwareVersion, ResetStatus, RobotState, StatusReport,
-    StopStatus, Warnings, MAX_FRAME_LEN,
+    BoardToMaster, FaultCause, FaultRecord, FirmwareVersion, ResetCause, ResetStatus, RobotState,
+    StatusReport, StopStatus, Warnings, MAX_FRAME_LEN,
 };
 use std::io::{Read, Write};
 use std::os::unix::net::{UnixListener, UnixStream};
@@ -179,7 +179,11 @@ fn fake_board(mut stream: UnixStream) {
                         let result = match req.message {
                             Command::Hello { nonce, .. } => Ok(Answer::Hello {
                                 nonce,
-                                reset: ResetStatus::default(),
+                                // A power-on reset needs no acknowledgement.
+                                reset: ResetStatus {
+                                    cause: ResetCause::PowerOn,
+                                    acknowledged: true,
+                                },
                                 geometry_version: 0,
                             }),
                             Command::StatusRequest => Ok(Answer::Status),

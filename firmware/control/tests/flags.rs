@@ -161,9 +161,11 @@ fn link_errors_when_frames_were_rejected() {
 #[test]
 fn cycle_overrun_when_a_tick_runs_too_long() {
     let (rt, mut hw, _) = booted(|_| {});
+    let profile = board_profile::BoardProfile::REFERENCE;
+    let cycles_per_us = profile.cpu_hz / 1_000_000;
     let cfg = ServiceConfig::for_period(
-        1000,
-        168_000_000,
+        profile.control_period_us,
+        profile.cpu_hz,
         FirmwareVersion {
             major: 0,
             minor: 1,
@@ -174,12 +176,12 @@ fn cycle_overrun_when_a_tick_runs_too_long() {
     let mut t = 1000;
     s.begin(t, 0, Default::default());
     s.tick(&mut hw, t);
-    let out = s.finish(t, 168 * 100);
+    let out = s.finish(t, cycles_per_us * 100);
     assert!(!out.status.warnings.contains(Warnings::CYCLE_OVERRUN));
     t += 1000;
     s.begin(t, 0, Default::default());
     s.tick(&mut hw, t);
-    let out = s.finish(t, 168 * 900);
+    let out = s.finish(t, cycles_per_us * 900);
     assert!(out.status.warnings.contains(Warnings::CYCLE_OVERRUN));
 }
 

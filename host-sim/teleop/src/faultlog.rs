@@ -18,37 +18,11 @@ use master_link::{
 };
 
 use crate::session::Session;
+use crate::start::value_unit;
 use crate::TeleopError;
 
 /// The joint names in joint order.
 const JOINTS: [&str; 6] = ["l1", "l2", "l3", "theta1", "theta2", "theta3"];
-
-/// The unit of a cause's value.
-pub fn value_unit(cause: FaultCause, joint: u8) -> &'static str {
-    let leg = joint < 3;
-    match cause {
-        FaultCause::JointLimit
-        | FaultCause::LimitSwitch
-        | FaultCause::FollowingError
-        | FaultCause::StandstillLost
-        | FaultCause::BrakeCheck => {
-            if leg {
-                "m"
-            } else {
-                "rad"
-            }
-        }
-        FaultCause::EncoderJump | FaultCause::EncoderDead => "counts",
-        FaultCause::Overcurrent | FaultCause::Overload | FaultCause::CurrentImplausible => "A",
-        FaultCause::SupplyVoltage => "V",
-        FaultCause::HeartbeatTimeout => "ms",
-        FaultCause::DeadlineMissed => "us late",
-        FaultCause::OverTemperature => "x rating",
-        FaultCause::NoMotion | FaultCause::MotorOpen => "duty",
-        FaultCause::HomingFailed => "code",
-        _ => "",
-    }
-}
 
 /// Reads the whole log: the reset the board reported and every entry, oldest first.
 pub fn read(s: &mut Session) -> Result<(ResetStatus, Vec<FaultLogEntry>), TeleopError> {

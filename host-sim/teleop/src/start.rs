@@ -15,7 +15,6 @@
 //! A robot enabled (or homing, or enabling) under another master, and a `Hello` the board
 //! refuses because another master owns it, end the front end with the reason.
 
-use crate::faultlog::value_unit;
 use master_link::{FaultCause, FaultRecord, NackReason, ResetCause, RobotState, NO_JOINT};
 
 /// What the person allowed at start (`--acknowledge-reset`, `--clear-fault`).
@@ -86,6 +85,34 @@ pub fn fault_words(cause: FaultCause) -> &'static str {
         }
         FaultCause::PositionSensor => "a joint's second position sensor failed",
         FaultCause::Internal => "an internal error",
+    }
+}
+
+/// The unit of a cause's value.
+pub fn value_unit(cause: FaultCause, joint: u8) -> &'static str {
+    let leg = joint < 3;
+    match cause {
+        FaultCause::JointLimit
+        | FaultCause::LimitSwitch
+        | FaultCause::FollowingError
+        | FaultCause::StandstillLost
+        | FaultCause::BrakeCheck
+        | FaultCause::EncoderDisagree => {
+            if leg {
+                "m"
+            } else {
+                "rad"
+            }
+        }
+        FaultCause::EncoderJump | FaultCause::EncoderDead => "counts",
+        FaultCause::Overcurrent | FaultCause::Overload | FaultCause::CurrentImplausible => "A",
+        FaultCause::SupplyVoltage => "V",
+        FaultCause::HeartbeatTimeout => "ms",
+        FaultCause::DeadlineMissed => "us late",
+        FaultCause::OverTemperature => "x rating",
+        FaultCause::NoMotion | FaultCause::MotorOpen => "duty",
+        FaultCause::HomingFailed => "code",
+        _ => "",
     }
 }
 
