@@ -13,8 +13,8 @@
 use std::fmt::Write as _;
 
 use master_link::{
-    BoardToMaster, EventEntry, EventKind, EventLogPage, FaultCause, FaultLogEntry, MasterToBoard,
-    ResetCause, ResetStatus, StopReason, StopStatus, EVENT_LOG_PAGE, FAULT_LOG_PAGE, NO_JOINT,
+    BoardToMaster, EventEntry, EventKind, EventLogPage, FaultLogEntry, MasterToBoard, ResetCause,
+    ResetStatus, StopReason, StopStatus, EVENT_LOG_PAGE, FAULT_LOG_PAGE, NO_JOINT,
 };
 
 use crate::session::Session;
