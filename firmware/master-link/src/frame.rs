@@ -13,8 +13,10 @@ use crate::messages::{Seq, WireMessage};
 /// confirmation and frames of up to 255 bytes; 5 the session the board issues, one owner
 /// (`HelloRefused`, `NotOwner`), the master's clock in `Hello`, the sequence window, targets
 /// from the future refused and the authentication tag; 6 the non-volatile event log
-/// (`EventLogRequest`, `EventLog`).
-pub const PROTOCOL_VERSION: u8 = 6;
+/// (`EventLogRequest`, `EventLog`); 7 refused targets with the guard or rule, subject,
+/// value and limit (`TargetRefused`: the reply to a target refused at submission, and a
+/// message of its own for every target the path check refuses).
+pub const PROTOCOL_VERSION: u8 = 7;
 
 /// Header length: version (1 byte) + session (4 bytes, little endian) + sequence number
 /// (2 bytes, little endian).

@@ -114,7 +114,12 @@ pub fn hand_controller(
     let report = report?;
     // Leave the robot disabled (holding brakes on): nobody streams to it any more.
     let _ = board.request(master_link::MasterToBoard::Disable);
-    print!("{}", report.summary());
+    // The summary's final state is the one the board reports after the Disable.
+    let after = board
+        .wait_status(1.0, |s| s.state != master_link::RobotState::Enabled)
+        .ok()
+        .flatten();
+    print!("{}", report.summary_after(after.as_ref()));
     Ok(())
 }
 
