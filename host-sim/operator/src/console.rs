@@ -710,6 +710,24 @@ fn event_loop(
     }
 }
 
+/// Why the board refused a geometry, in words.
+fn geometry_refusal_text(r: master_link::GeometryRefusal) -> String {
+    use master_link::GeometryRefusal as G;
+    match r {
+        G::Crc => "its checksum does not match".into(),
+        G::Layout { found } => format!("record layout {found} is not one this board reads"),
+        G::Version => "version 0 is reserved".into(),
+        G::NonFinite { index } => format!("value {index} is not finite"),
+        G::Nominal { index } => format!("nominal value {index} is not this robot's"),
+        G::OutOfTolerance { index } => format!("value {index} is too far from the nominal"),
+        G::NotAssemblable => "the geometry cannot be assembled".into(),
+        G::CentralPose => "no inverse kinematics at the central pose".into(),
+        G::InvalidState => "the drives are on: disable first".into(),
+        G::Flash => "writing the flash failed".into(),
+        G::Unsupported => "this board cannot store a geometry".into(),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     #![allow(clippy::unwrap_used)]
@@ -786,23 +804,5 @@ mod tests {
             c.key(KeyCode::Char('o'), KeyModifiers::NONE, 0.4),
             vec![Action::Send(MasterToBoard::Home { rehome: false })]
         );
-    }
-}
-
-/// Why the board refused a geometry, in words.
-fn geometry_refusal_text(r: master_link::GeometryRefusal) -> String {
-    use master_link::GeometryRefusal as G;
-    match r {
-        G::Crc => "its checksum does not match".into(),
-        G::Layout { found } => format!("record layout {found} is not one this board reads"),
-        G::Version => "version 0 is reserved".into(),
-        G::NonFinite { index } => format!("value {index} is not finite"),
-        G::Nominal { index } => format!("nominal value {index} is not this robot's"),
-        G::OutOfTolerance { index } => format!("value {index} is too far from the nominal"),
-        G::NotAssemblable => "the geometry cannot be assembled".into(),
-        G::CentralPose => "no inverse kinematics at the central pose".into(),
-        G::InvalidState => "the drives are on: disable first".into(),
-        G::Flash => "writing the flash failed".into(),
-        G::Unsupported => "this board cannot store a geometry".into(),
     }
 }

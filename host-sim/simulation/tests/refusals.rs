@@ -8,6 +8,10 @@ use master_link::{BoardToMaster, GuardId, MasterToBoard, NackReason, RefusedTarg
 use simulation::bench::Bench;
 use simulation::board::{BoardSim, BoardSimConfig};
 
+/// A target (position mm, rotation vector deg), the guard and rule expected, the words,
+/// and whether the path check refuses it after its Ack.
+type Case = ([f32; 3], [f32; 3], GuardId, NackReason, &'static str, bool);
+
 fn bench() -> Bench {
     let cfg = BoardSimConfig::reference(None).unwrap();
     Bench::new(
@@ -65,7 +69,7 @@ fn every_refused_target_is_answered_with_guard_value_and_limit() {
 
     b.bring_up().unwrap();
     b.run_ms(200).unwrap();
-    let cases: [([f32; 3], [f32; 3], GuardId, NackReason, &str, bool); 3] = [
+    let cases: [Case; 3] = [
         (
             [0.0, 0.0, 177.0],
             [0.0; 3],
