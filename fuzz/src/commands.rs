@@ -738,6 +738,12 @@ impl Board {
                 }
                 0
             }
+            BoardToMaster::TargetRefused(r) => {
+                if !self.outcome.nacks.contains(&r.reason) {
+                    self.outcome.nacks.push(r.reason);
+                }
+                2
+            }
         };
         if let Some(k) = self.outcome.replies.get_mut(kind) {
             *k += 1;
@@ -833,6 +839,14 @@ impl Board {
         // The end of the tick: the deadline policy may latch a fault now (its stop acts on
         // the next tick's outputs).
         let outcome = self.service.finish(now, cycles);
+        // As the board: a target its path check refused is sent on its own.
+        if let Some(refused) = outcome.refused {
+            assert_eq!(
+                refused.reply_to, None,
+                "a later refusal replies to no frame"
+            );
+            self.send(BoardToMaster::TargetRefused(refused));
+        }
         let state = self.service.runtime().state();
         assert_eq!(outcome.state, state, "outcome state");
         assert_eq!(outcome.status.state, state, "status state");
@@ -843,7 +857,10 @@ impl Board {
         let rt = self.service.runtime();
         let seq = req.seq;
         let ack = *reply == BoardToMaster::Ack { seq };
-        let ack_or_nack = ack || matches!(reply, BoardToMaster::Nack { seq: s, .. } if *s == seq);
+        let ack_or_nack = ack
+            || matches!(reply, BoardToMaster::Nack { seq: s, .. } if *s == seq)
+            || matches!(reply, BoardToMaster::TargetRefused(r) if r.reply_to == Some(seq)
+                && matches!(req.message, Command::PoseTarget { .. } | Command::Jog { .. }));
         let fits = match req.message {
             // The session the link issued, the nonce echoed; or refused, echoed too.
             Command::Hello { nonce, .. } => match reply {

@@ -33,6 +33,8 @@ struct Board {
     rotation: [f32; 3],
     /// Targets refused (StatusReport::targets_refused).
     refused: u32,
+    /// Refusals of the "path check" not sent yet.
+    refusals: Vec<master_link::RefusedTarget>,
     /// The latched fault.
     fault: FaultCause,
 }
@@ -72,9 +74,9 @@ impl Board {
                 Ok(())
             }
             Command::PoseTarget {
+                timestamp_us,
                 position_m,
                 rotation_vector_rad,
-                ..
             } => {
                 if self.state != RobotState::Enabled || self.late(now) {
                     return Err(N::InvalidState);
@@ -85,6 +87,19 @@ impl Board {
                     self.rotation = rotation_vector_rad;
                 } else {
                     self.refused += 1;
+                    // As the firmware: the path check's refusal names the guard, the
+                    // value and the limit (the face of the box with its margin, 25 mm).
+                    self.refusals.push(master_link::RefusedTarget {
+                        reply_to: None,
+                        timestamp_us,
+                        reason: N::OutOfWorkspace,
+                        breach: master_link::Breach {
+                            guard: master_link::GuardId::Workspace,
+                            subject: 0,
+                            value: position_m[0],
+                            limit: 0.025f32.copysign(position_m[0]),
+                        },
+                    });
                 }
                 Ok(())
             }
@@ -160,6 +175,7 @@ fn fake_board(mut stream: UnixStream) {
         position: [0.0, 0.0, 0.15],
         rotation: [0.0; 3],
         refused: 0,
+        refusals: Vec::new(),
         fault: FaultCause::None,
     };
     let _ = stream.set_read_timeout(Some(Duration::from_millis(2)));
@@ -210,6 +226,7 @@ fn fake_board(mut stream: UnixStream) {
             Err(_) => return,
         }
         board.tick(now);
+        out.extend(board.refusals.drain(..).map(BoardToMaster::TargetRefused));
         if !rx.connected() {
             next_status = now;
         } else if now >= next_status {

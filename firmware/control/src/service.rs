@@ -83,6 +83,9 @@ pub struct TickOutcome {
     pub events_changed: bool,
     /// The drives are off and the brakes applied: a flash erase may stall the core.
     pub drives_off: bool,
+    /// A target the supervisor's path check refused after its `Ack`: send it to the
+    /// master (`BoardToMaster::TargetRefused`).
+    pub refused: Option<master_link::RefusedTarget>,
 }
 
 /// How the board's status LED shows the state: solid in `Fault`, fast blink while the
@@ -248,7 +251,16 @@ impl<S: Scalar, M: Mechanism<S> + Clone> TickService<S, M> {
 
     /// One queued master request: its reply.
     pub fn request(&mut self, req: &Request, now_us: u64) -> BoardToMaster {
+        let _ = self.runtime.take_refused_now();
         let result = self.runtime.command(&req.message, now_us);
+        // A target the supervisor refused: the reply names the guard or rule, the value
+        // and the limit.
+        if let (Err(_), Some(refused)) = (result, self.runtime.take_refused_now()) {
+            return BoardToMaster::TargetRefused(master_link::RefusedTarget {
+                reply_to: Some(req.seq),
+                ..refused
+            });
+        }
         req.reply(result, &self.runtime.status(), self.cfg.firmware)
     }
 
@@ -311,6 +323,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> TickService<S, M> {
             log_changed,
             events_changed,
             drives_off: !out.torque_on() && !out.brakes_released(),
+            refused: self.runtime.take_refused_later(),
         }
     }
 }

@@ -369,14 +369,14 @@ fn every_message_round_trips_with_its_reply() {
     };
     let (s, r) = exchange(&mut m, &mut b, &bad);
     assert_eq!(r, nack(s, NackReason::InvalidValue));
-    // Too far in one jump.
+    // Too far in one jump, and outside the workspace: the workspace is named first.
     let far = MasterToBoard::PoseTarget {
         timestamp_us: stamp + 2000,
         position_m: [0.0, 0.0, 0.25],
         rotation_vector_rad: [0.0; 3],
     };
     let (s, r) = exchange(&mut m, &mut b, &far);
-    assert_eq!(r, nack(s, NackReason::VelocityLimit));
+    assert_eq!(r, nack(s, NackReason::OutOfWorkspace));
     run(&mut b, 1500);
     let (_, r) = exchange(&mut m, &mut b, &MasterToBoard::StatusRequest);
     let BoardToMaster::Status(st) = r else {
@@ -711,7 +711,8 @@ fn refusals_and_guards_map_to_nack_reasons() {
     assert_eq!(
         refusal_reason::<f64>(&Refusal::TooFar {
             distance: 1.0,
-            angle: 0.0
+            angle: 0.0,
+            breaks: None,
         }),
         NackReason::VelocityLimit
     );

@@ -15,8 +15,10 @@ use crate::messages::{Seq, WireMessage};
 /// from the future refused and the authentication tag; 6 the non-volatile event log
 /// (`EventLogRequest`, `EventLog`); 7 the second position channel
 /// (`StatusReport::position_channel`, the causes `EncoderDisagree` and `PositionSensor`,
-/// the fault flag `POSITION_SENSOR`).
-pub const PROTOCOL_VERSION: u8 = 7;
+/// the fault flag `POSITION_SENSOR`); 8 refused targets with the guard or rule, subject,
+/// value and limit (`TargetRefused`: the reply to a target refused at submission, and a
+/// message of its own for every target the path check refuses).
+pub const PROTOCOL_VERSION: u8 = 8;
 
 /// Header length: version (1 byte) + session (4 bytes, little endian) + sequence number
 /// (2 bytes, little endian).

@@ -252,7 +252,7 @@ pub struct FirmwareVersion {
 }
 
 /// Why a command was refused.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum NackReason {
     /// `Hello` carried a protocol version the board does not speak.
@@ -260,6 +260,7 @@ pub enum NackReason {
     /// No `Hello` received yet.
     NotConnected,
     /// Command not allowed in the current state.
+    #[default]
     InvalidState,
     /// The robot must be homed first.
     NotHomed,
@@ -303,6 +304,107 @@ pub enum NackReason {
     /// A `Hello` with the owner's nonce whose clock is not newer than the owner's last:
     /// a recording replayed.
     ReplayedHello,
+}
+
+/// The guard or rule that refused a target, on the wire ([`Breach::guard`]): the
+/// supervisor's guards (`kinematics-core::guards::Guard`, same names) and the admission
+/// rules of a target.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum GuardId {
+    /// Nothing measured: the [`NackReason`] is the whole answer.
+    #[default]
+    None,
+    /// The pose has no inverse-kinematics solution (subject: the chain that fails).
+    Reach,
+    /// Prismatic stroke l_i, m (subject: the chain).
+    Stroke,
+    /// Rotating-link angle θ_i from its central value, rad (subject: the chain).
+    LinkAngle,
+    /// USR lower-link yaw α_i from its central value, rad (subject: the chain).
+    Yaw,
+    /// USR lower-link pitch β_i from its central value, rad (subject: the chain).
+    Pitch,
+    /// Spherical-joint tilt, rad (subject: the chain).
+    Tilt,
+    /// Piercing radius of the leg axis in the plane of the central motors' tops, m
+    /// (subject: the chain).
+    Collision,
+    /// The platform centre's coordinate in {0} against the face of the task box with its
+    /// margin, m (subject: the axis, 0 = x, 1 = y, 2 = z).
+    Workspace,
+    /// Platform tilt (angle between its normal and z0), rad.
+    TiltCone,
+    /// Serial singularity measure, dimensionless (subject: the chain).
+    SerialSingularity,
+    /// Parallel singularity measure (inverse condition number), dimensionless.
+    ParallelSingularity,
+    /// Prismatic actuator force for the declared payload, N (subject: the joint).
+    Force,
+    /// Revolute actuator torque for the declared payload, N m (subject: the joint).
+    Torque,
+    /// Speed of the platform centre, m/s.
+    TipSpeed,
+    /// Angular speed of the platform, rad/s.
+    AngularSpeed,
+    /// Acceleration of the platform centre, m/s².
+    TipAccel,
+    /// Angular acceleration of the platform, rad/s².
+    AngularAccel,
+    /// Joint speed, m/s or rad/s (subject: the joint).
+    JointSpeed,
+    /// Joint acceleration, m/s² or rad/s² (subject: the joint).
+    JointAccel,
+    /// The distance of the target from the setpoint against the longest step one target
+    /// may make, m.
+    Step,
+    /// The rotation of the target from the setpoint against the largest one target may
+    /// make, rad.
+    StepAngle,
+    /// The target's age against the staleness limit, s (negative: from the future).
+    Age,
+}
+
+/// What refused a target, measured: the guard or rule, what it concerns, the value and
+/// the limit it broke, SI (the host formats them with units: [`GuardId`] says which).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Breach {
+    /// The guard or rule.
+    pub guard: GuardId,
+    /// What it concerns: a chain (0..=2: leg, link, spherical joint i + 1), a joint
+    /// (0..=5, joint order), an axis (0..=2: x, y, z) as [`GuardId`] says, or
+    /// [`NO_JOINT`].
+    pub subject: u8,
+    /// The measured value, SI.
+    pub value: f32,
+    /// The limit it broke, SI.
+    pub limit: f32,
+}
+
+impl Breach {
+    /// Nothing measured.
+    pub const NONE: Breach = Breach {
+        guard: GuardId::None,
+        subject: NO_JOINT,
+        value: 0.0,
+        limit: 0.0,
+    };
+}
+
+/// A refused target (`BoardToMaster::TargetRefused`): which, why and what was measured.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct RefusedTarget {
+    /// `Some(seq)`: the reply to the target's frame (refused at submission); `None`: the
+    /// supervisor's path check refused it after its `Ack`.
+    pub reply_to: Option<Seq>,
+    /// The target's master timestamp, µs (a jog: 0).
+    pub timestamp_us: u64,
+    /// The rule, as a `Nack` would give it.
+    pub reason: NackReason,
+    /// What was measured ([`Breach::NONE`] when the reason is the whole answer).
+    pub breach: Breach,
 }
 
 /// Controller state machine state.
@@ -962,6 +1064,11 @@ pub enum BoardToMaster {
         /// Why (`NotOwner`, `ReplayedHello`, `UnsupportedVersion`, `Busy`).
         reason: NackReason,
     },
+    /// A pose target (or jog) refused, with the guard or rule and what it measured: the
+    /// reply to the target's frame when refused at submission (instead of a `Nack`), or
+    /// sent on its own when the supervisor's path check refuses a target it had
+    /// acknowledged (protocol version 7).
+    TargetRefused(RefusedTarget),
 }
 
 impl WireMessage for BoardToMaster {

@@ -180,4 +180,11 @@ pub trait Robot {
 
     /// The current state.
     fn state(&self) -> RobotState;
+
+    /// Targets taken earlier and refused since by the robot's own later check (a path
+    /// check that runs after the target was taken), each with the client that sent it: the
+    /// server answers each with a STATUS to that client. None by default.
+    fn take_later_refusals(&mut self) -> Vec<(std::net::SocketAddr, Refusal)> {
+        Vec::new()
+    }
 }

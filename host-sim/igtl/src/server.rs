@@ -173,6 +173,9 @@ struct Client {
     next_pose_at: Instant,
     push_state: bool,
     last_state: Option<(RobotState, Instant)>,
+    /// The header of the last target it sent that was taken (version, device name,
+    /// message id): a later refusal of it is answered as that target's STATUS.
+    last_target: Option<(HeaderVersion, String, u32)>,
     close: Option<CloseReason>,
     /// The token was sent (or none is required).
     authenticated: bool,
@@ -285,6 +288,7 @@ impl Server {
             next_pose_at: Instant::now(),
             push_state: stream_on_connect,
             last_state: None,
+            last_target: None,
             close: None,
             authenticated,
         });
@@ -300,6 +304,32 @@ impl Server {
         let mut clients = std::mem::take(&mut self.clients);
         for client in &mut clients {
             self.read_and_answer(client, robot, &mut report);
+        }
+        // Targets taken before and refused since: a STATUS each, to the client that sent
+        // it, as the answer to its last target taken.
+        for (peer, refusal) in robot.take_later_refusals() {
+            report.targets_refused += 1;
+            if let Some(client) = clients.iter_mut().find(|c| c.peer == peer) {
+                let (version, device, id) =
+                    client
+                        .last_target
+                        .clone()
+                        .unwrap_or((client.version, String::new(), 0));
+                let to = Request {
+                    version,
+                    device_name: &device,
+                    message_id: id,
+                };
+                self.send_status(
+                    client,
+                    &to,
+                    refusal.reason.status_code(),
+                    refusal.reason.error_name(),
+                    &refusal.detail,
+                );
+            }
+        }
+        for client in &mut clients {
             if client.close.is_none() {
                 self.push_due(client, robot, &state, now);
             }
@@ -645,6 +675,7 @@ impl Server {
             Ok(()) => {
                 self.counters.targets_accepted += 1;
                 report.targets_accepted += 1;
+                client.last_target = Some((m.version, m.device_name.clone(), m.message_id));
                 if self.config.acknowledge_targets {
                     self.send_status(client, &to, StatusCode::Ok, "OK", "target accepted");
                 }

@@ -49,7 +49,7 @@ pub enum BoardError {
     Protocol { board: u8, master: u8 },
     #[error("no status from the board")]
     NoStatus,
-    #[error("the board refused {request}: {reason:?} ({})", refusal_text(*reason))]
+    #[error("the board refused {request}: {}", refusal_text(*reason))]
     Refused { request: String, reason: NackReason },
     #[error("no answer to {request} within {} s", REPLY_TIMEOUT_S)]
     NoReply { request: String },
@@ -83,6 +83,9 @@ pub enum Outcome {
     Ack,
     /// Refused, with the board's reason.
     Refused(NackReason),
+    /// A target refused at once by the board's supervisor, with the guard or rule and
+    /// what it measured (`board_words::refusal` says it in words).
+    TargetRefused(master_link::RefusedTarget),
     /// The answer to `Hello`.
     HelloReply(HelloInfo),
     /// The answer to `FaultLogRequest`.
@@ -137,6 +140,9 @@ pub enum BoardEvent {
     Status(f64, StatusReport),
     /// The answer to a request.
     Reply(Reply),
+    /// A target acknowledged before and refused by the board's path check since, with its
+    /// arrival time, s.
+    TargetRefused(f64, master_link::RefusedTarget),
 }
 
 /// A connected board.
@@ -381,6 +387,18 @@ impl Board {
             BoardToMaster::Nack { seq, reason } => {
                 answer(&mut self.pending, &|p| p.0 == seq, Outcome::Refused(reason))
             }
+            BoardToMaster::TargetRefused(refused) => match refused.reply_to {
+                Some(seq) => answer(
+                    &mut self.pending,
+                    &|p| p.0 == seq,
+                    Outcome::TargetRefused(refused),
+                ),
+                None => {
+                    self.backlog
+                        .push_back(BoardEvent::TargetRefused(r.t_s, refused));
+                    None
+                }
+            },
             BoardToMaster::FaultLog(page) => answer(
                 &mut self.pending,
                 &|p| matches!(p.1, MasterToBoard::FaultLogRequest { first } if first == page.first),
@@ -522,8 +540,18 @@ impl Board {
 
     /// Sends a pose target and waits for the board's answer.
     pub fn request_target(&mut self, pose: &CartesianPose) -> Result<Outcome, BoardError> {
-        let (seq, _) = self.send_target(pose)?;
-        self.answer_to(seq)
+        Ok(self.request_target_stamped(pose)?.0)
+    }
+
+    /// Sends a target and waits for its answer, as [`Board::request_target`]; the answer
+    /// and the target's stamp, µs (the board names a target its path check refuses later
+    /// by it).
+    pub fn request_target_stamped(
+        &mut self,
+        pose: &CartesianPose,
+    ) -> Result<(Outcome, u64), BoardError> {
+        let (seq, stamp) = self.send_target(pose)?;
+        Ok((self.answer_to(seq)?, stamp))
     }
 
     /// Waits for the answer to request `seq` (at most [`REPLY_TIMEOUT_S`]: then
@@ -859,31 +887,7 @@ pub fn request_name(msg: &MasterToBoard) -> &'static str {
 }
 
 /// Why the board refused, in words a person at the robot can act on (at most 44
-/// characters: the console shows it on one line).
+/// characters: the console shows it on one line); `board_words::reason`.
 pub fn refusal_text(reason: NackReason) -> &'static str {
-    match reason {
-        NackReason::UnsupportedVersion => "the board speaks another protocol",
-        NackReason::NotConnected => "no session: say hello first",
-        NackReason::InvalidState => "not allowed in this state",
-        NackReason::NotHomed => "not homed: home the robot first",
-        NackReason::Faulted => "a fault is latched: clear it first",
-        NackReason::FaultStillActive => "the fault's cause is still present",
-        NackReason::InvalidJoint => "no such joint",
-        NackReason::InvalidValue => "a value is not finite or not valid",
-        NackReason::OutOfWorkspace => "the target is outside the workspace",
-        NackReason::JointLimit => "the target violates a joint limit",
-        NackReason::NearSingularity => "the target is too near a singularity",
-        NackReason::VelocityLimit => "too fast",
-        NackReason::StaleTarget => "the target is stale or out of order",
-        NackReason::ClutchDisengaged => "the clutch is not engaged",
-        NackReason::Busy => "busy (homing, enabling, brakes): retry",
-        NackReason::AlreadyHomed => "already homed: re-homing needs confirming",
-        NackReason::ResetNotAcknowledged => "acknowledge the board's last reset first",
-        NackReason::SafetyRelayMismatch => "e-stop button and safety relay disagree",
-        NackReason::BrakeCheckFailed => "the holding brakes failed their check",
-        NackReason::OperatorAbsent => "operator absent (dead-man released)",
-        NackReason::NotOwner => "another master owns the board",
-        NackReason::TargetFromFuture => "the target's stamp is in the future",
-        NackReason::ReplayedHello => "an old Hello of this master: a replay",
-    }
+    board_words::reason(reason)
 }

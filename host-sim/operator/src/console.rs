@@ -29,9 +29,7 @@
 use crate::board::{refusal_text, request_name, Board, BoardEvent, HelloInfo, Outcome, Reply};
 use crate::conversions::{measured_cp, setpoint_cp};
 use crate::error::OperatorError;
-use master_link::{
-    LinkCounters, MasterToBoard, NackReason, RobotState, StatusReport, Warnings, NO_JOINT,
-};
+use master_link::{LinkCounters, MasterToBoard, NackReason, RobotState, StatusReport, Warnings};
 use ratatui::crossterm::event::{self, Event, KeyCode, KeyEventKind, KeyModifiers};
 use ratatui::layout::Rect;
 use ratatui::style::{Color, Modifier, Style};
@@ -286,6 +284,17 @@ impl Console {
                 None
             }
             BoardEvent::Reply(r) => self.reply(r),
+            BoardEvent::TargetRefused(t, r) => {
+                self.note(
+                    *t,
+                    format!(
+                        "target refused by the board's path check: {}",
+                        board_words::refusal(r)
+                    ),
+                    true,
+                );
+                None
+            }
         }
     }
 
@@ -301,7 +310,7 @@ impl Console {
                 if let Some(j) = self.jog.as_mut() {
                     j.answered = true;
                 }
-                let refused = matches!(o, Outcome::Refused(_));
+                let refused = matches!(o, Outcome::Refused(_) | Outcome::TargetRefused(_));
                 if refused {
                     self.jog = None;
                 }
@@ -348,20 +357,21 @@ impl Console {
     fn outcome_note(&mut self, t_s: f64, what: &str, o: Outcome) {
         let (text, refused) = match o {
             Outcome::Ack => (format!("{what} -> Ack"), false),
-            Outcome::Refused(reason) => (
-                format!("{what} REFUSED ({reason:?}): {}", refusal_text(reason)),
+            Outcome::Refused(reason) => (format!("{what} REFUSED: {}", refusal_text(reason)), true),
+            Outcome::TargetRefused(r) => (
+                format!("{what} REFUSED: {}", board_words::refusal(&r)),
                 true,
             ),
             Outcome::HelloReply(h) => {
                 self.hello = Some(h);
                 (
                     format!(
-                        "{what} -> firmware {}.{}.{}, protocol {}, reset {:?}{}",
+                        "{what} -> firmware {}.{}.{}, protocol {}, reset {}{}",
                         h.firmware.major,
                         h.firmware.minor,
                         h.firmware.patch,
                         h.protocol_version,
-                        h.reset.cause,
+                        board_words::reset_cause(h.reset.cause),
                         if h.reset.acknowledged {
                             ""
                         } else {
@@ -374,7 +384,10 @@ impl Console {
             Outcome::FaultLog(p) => (format!("{what} -> {} entries", p.len), false),
             Outcome::EventLog(p) => (format!("{what} -> {} entries", p.len), false),
             Outcome::GeometryStored(v) => (format!("{what} -> stored, version {v}"), false),
-            Outcome::GeometryRefused(reason) => (format!("{what} REFUSED ({reason:?})"), true),
+            Outcome::GeometryRefused(reason) => (
+                format!("{what} REFUSED: {}", geometry_refusal_text(reason)),
+                true,
+            ),
             Outcome::NoReply => (format!("{what} -> no answer"), true),
         };
         self.note(t_s, text, refused);
@@ -436,8 +449,8 @@ impl Console {
             self.state_line(s),
             fault_line(s),
             Line::from(format!(
-                "Reset    {:?}{}  supply {:.1} V  fault log {} entries",
-                s.reset.cause,
+                "Reset    {}{}  supply {:.1} V  fault log {} entries",
+                board_words::reset_cause(s.reset.cause),
                 if s.reset.acknowledged {
                     " (acknowledged)"
                 } else {
@@ -473,10 +486,13 @@ impl Console {
         };
         Line::from(vec![
             Span::raw("State "),
-            Span::styled(format!("{:<9}", format!("{:?}", s.state)), state_style),
+            Span::styled(
+                format!("{:<9}", board_words::state_label(s.state)),
+                state_style,
+            ),
             Span::raw(format!(
-                " Stop {:<22} Homed {homed:<3} Clutch {} Op {}",
-                format!("{:?}", s.stop),
+                " Stop {:<25} Homed {homed:<3} Clutch {} Op {}",
+                board_words::stop(s.state, s.stop).unwrap_or(""),
                 if self.clutch { "on " } else { "off" },
                 if self.present { "present" } else { "ABSENT" }
             )),
@@ -488,7 +504,7 @@ impl Console {
     fn host_link_line(&self, s: &StatusReport) -> Line<'static> {
         let h = self.host_counters;
         Line::from(format!(
-            "         host rx ok {} rejected {} lost {}  beat gap {:.0} ms  workspace {}",
+            "         host rx ok {} rejected {} lost {}  beat gap {:.0} ms  workspace {} left",
             h.frames_ok,
             h.rejected(),
             h.dropped,
@@ -561,31 +577,9 @@ fn red() -> Style {
 fn fault_line(s: &StatusReport) -> Line<'static> {
     let f = s.fault;
     let none = f.cause == master_link::FaultCause::None;
-    let fault = if none {
-        "none".to_string()
-    } else {
-        let joint = if f.joint == NO_JOINT {
-            String::new()
-        } else {
-            format!(
-                " joint {}",
-                JOINT_NAMES
-                    .get(usize::from(f.joint))
-                    .copied()
-                    .unwrap_or("?")
-            )
-        };
-        let base = format!(
-            "{:?}{joint} value {:.4} at {} ms",
-            f.cause, f.value, f.time_ms
-        );
-        // In words when the line has room (78 columns less the label's 9).
-        let words = format!("{base}: {}; c clears", teleop::start::fault_words(f.cause));
-        if words.chars().count() <= 69 {
-            words
-        } else {
-            format!("{base}; c clears")
-        }
+    let fault = match board_words::fault(&f) {
+        None => "none".to_string(),
+        Some(words) => format!("{words} ({})", board_words::board_time(f.time_ms)),
     };
     Line::from(vec![
         Span::raw("Fault    "),
@@ -621,10 +615,10 @@ fn joints_line(s: &StatusReport) -> Line<'static> {
     ))
 }
 
-/// A guard margin with two decimals, or `--` when not finite.
+/// A guard margin as the share of its range left, %, or `--` when not finite.
 fn margin_text(x: f32) -> String {
     if x.is_finite() {
-        format!("{x:.2}")
+        format!("{:.0} %", x * 100.0)
     } else {
         "--".into()
     }
@@ -634,13 +628,8 @@ fn margin_text(x: f32) -> String {
 fn margins_line(s: &StatusReport) -> Line<'static> {
     let m = s.margins;
     Line::from(format!(
-        "Margins  nearest {} serial {} par {} stroke {} tilt {} coll {}",
-        margin_text(m.nearest),
-        margin_text(m.serial),
-        margin_text(m.parallel),
-        margin_text(m.stroke),
-        margin_text(m.tilt),
-        margin_text(m.collision)
+        "Margins  nearest {}",
+        board_words::nearest_margin_short(&m)
     ))
 }
 
@@ -752,6 +741,24 @@ fn event_loop(
     Ok(())
 }
 
+/// Why the board refused a geometry, in words.
+fn geometry_refusal_text(r: master_link::GeometryRefusal) -> String {
+    use master_link::GeometryRefusal as G;
+    match r {
+        G::Crc => "its checksum does not match".into(),
+        G::Layout { found } => format!("record layout {found} is not one this board reads"),
+        G::Version => "version 0 is reserved".into(),
+        G::NonFinite { index } => format!("value {index} is not finite"),
+        G::Nominal { index } => format!("nominal value {index} is not this robot's"),
+        G::OutOfTolerance { index } => format!("value {index} is too far from the nominal"),
+        G::NotAssemblable => "the geometry cannot be assembled".into(),
+        G::CentralPose => "no inverse kinematics at the central pose".into(),
+        G::InvalidState => "the drives are on: disable first".into(),
+        G::Flash => "writing the flash failed".into(),
+        G::Unsupported => "this board cannot store a geometry".into(),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     #![allow(clippy::unwrap_used)]
@@ -793,7 +800,7 @@ mod tests {
             .map(|row| row.iter().map(|cell| cell.symbol()).collect::<String>() + "\n")
             .collect();
         assert!(
-            screen.contains("FollowingError joint th1 value -0.0123"),
+            screen.contains("following error on link 1: error -0.70 deg"),
             "{screen}"
         );
         assert!(screen.contains("s/SPACE stop"), "{screen}");

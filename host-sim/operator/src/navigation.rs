@@ -27,9 +27,11 @@ use igtl::{
     ServerConfig, TargetPose,
 };
 use kinematics_core::Pose;
-use master_link::{FaultCause, NackReason, RobotState, StatusReport, StopStatus, NO_JOINT};
+use master_link::{FaultCause, NackReason, RobotState, StatusReport};
 use masters::CartesianPose;
 use nalgebra::{Rotation3, UnitQuaternion};
+use std::collections::VecDeque;
+use std::net::SocketAddr;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
@@ -41,9 +43,16 @@ pub struct BoardRobot<'a> {
     refused_at_accept: Option<u32>,
     /// Targets accepted and refused by the board.
     pub accepted: u64,
-    /// Targets refused at once.
+    /// Targets refused (at once, or later by the board's path check).
     pub refused: u64,
+    /// The stamps of the newest targets the board accepted and the clients that sent them.
+    senders: VecDeque<(u64, SocketAddr)>,
+    /// Refusals of the board's path check not handed to the server yet.
+    later: Vec<(SocketAddr, Refusal)>,
 }
+
+/// Accepted targets whose sender is remembered for a later refusal.
+const SENDERS_KEPT: usize = 64;
 
 impl<'a> BoardRobot<'a> {
     /// Around a board (brought up or not: the state tells the clients).
@@ -55,6 +64,8 @@ impl<'a> BoardRobot<'a> {
             refused_at_accept: None,
             accepted: 0,
             refused: 0,
+            senders: VecDeque::new(),
+            later: Vec::new(),
         }
     }
 
@@ -63,14 +74,40 @@ impl<'a> BoardRobot<'a> {
         self.board
     }
 
-    /// Receives from the board for at most `wait` (statuses, heartbeats).
+    /// Receives from the board for at most `wait` (statuses, heartbeats, targets its path
+    /// check refused: each becomes a refusal for the client that sent the target).
     pub fn poll_board(&mut self, wait: Duration) -> Result<(), OperatorError> {
         for e in self.board.poll(wait)? {
-            if let BoardEvent::Status(_, s) = e {
-                self.status = Some(s);
+            match e {
+                BoardEvent::Status(_, s) => self.status = Some(s),
+                BoardEvent::TargetRefused(_, r) => self.refused_later(&r),
+                BoardEvent::Reply(_) => {}
             }
         }
         Ok(())
+    }
+
+    /// A target the board's path check refused after its `Ack`, for its sender.
+    fn refused_later(&mut self, r: &master_link::RefusedTarget) {
+        let Some(&(_, peer)) = self
+            .senders
+            .iter()
+            .find(|(stamp, _)| *stamp == r.timestamp_us)
+        else {
+            return;
+        };
+        self.refused += 1;
+        let state = self.status.map(|s| s.state);
+        self.later.push((
+            peer,
+            Refusal::new(
+                refusal_reason(r.reason, state),
+                format!(
+                    "board refused the target after accepting it (path check): {}",
+                    board_words::refusal(r)
+                ),
+            ),
+        ));
     }
 
     fn current_orientation(&self) -> Option<UnitQuaternion<f64>> {
@@ -132,9 +169,9 @@ impl Robot for BoardRobot<'_> {
             position_m: target.t,
             orientation,
         };
-        let outcome = self
+        let (outcome, stamp_us) = self
             .board
-            .request_target(&pose)
+            .request_target_stamped(&pose)
             .map_err(|e| Refusal::new(RefusalReason::HardwareFailure, e.to_string()))?;
         // Statuses that came while waiting.
         if let Some((_, s)) = self.board.status() {
@@ -144,6 +181,12 @@ impl Robot for BoardRobot<'_> {
             Outcome::Ack => {
                 self.accepted += 1;
                 self.refused_at_accept = self.status.map(|s| s.targets_refused);
+                // The board's path check may refuse it later: its answer goes to this
+                // client.
+                if self.senders.len() >= SENDERS_KEPT {
+                    self.senders.pop_front();
+                }
+                self.senders.push_back((stamp_us, target.peer));
                 Ok(())
             }
             Outcome::Refused(reason) => {
@@ -151,10 +194,15 @@ impl Robot for BoardRobot<'_> {
                 let state = self.status.map(|s| s.state);
                 Err(Refusal::new(
                     refusal_reason(reason, state),
-                    format!(
-                        "board refused the target: {reason:?} ({})",
-                        refusal_text(reason)
-                    ),
+                    format!("board refused the target: {}", refusal_text(reason)),
+                ))
+            }
+            Outcome::TargetRefused(r) => {
+                self.refused += 1;
+                let state = self.status.map(|s| s.state);
+                Err(Refusal::new(
+                    refusal_reason(r.reason, state),
+                    format!("board refused the target: {}", board_words::refusal(&r)),
                 ))
             }
             _ => {
@@ -173,6 +221,10 @@ impl Robot for BoardRobot<'_> {
             t: p.position_m,
             r: Rotation3::from(p.orientation),
         })
+    }
+
+    fn take_later_refusals(&mut self) -> Vec<(SocketAddr, Refusal)> {
+        std::mem::take(&mut self.later)
     }
 
     fn state(&self) -> IgtlState {
@@ -203,11 +255,6 @@ pub fn state_of(s: &StatusReport, refused_at_accept: Option<u32>) -> IgtlState {
         ),
         RobotState::Fault => {
             let f = s.fault;
-            let joint = if f.joint == NO_JOINT {
-                String::new()
-            } else {
-                format!(" joint {}", f.joint + 1)
-            };
             let hardware = !matches!(
                 f.cause,
                 FaultCause::EmergencyStopButton
@@ -223,8 +270,10 @@ pub fn state_of(s: &StatusReport, refused_at_accept: Option<u32>) -> IgtlState {
                     Condition::SafetyStop
                 },
                 format!(
-                    "fault {:?}{joint} value {}; stop {:?}",
-                    f.cause, f.value, s.stop
+                    "fault: {}{}",
+                    board_words::fault(&f).unwrap_or_else(|| "not reported".to_string()),
+                    board_words::stop(s.state, s.stop)
+                        .map_or(String::new(), |stop| format!("; {stop}"))
                 ),
             )
         }
@@ -236,8 +285,8 @@ pub fn state_of(s: &StatusReport, refused_at_accept: Option<u32>) -> IgtlState {
             let later = refused_at_accept
                 .map(|r| s.targets_refused.wrapping_sub(r))
                 .filter(|n| *n > 0);
-            let mut detail = if s.stop != StopStatus::None {
-                format!("holding ({:?})", s.stop)
+            let mut detail = if let Some(stop) = board_words::stop(s.state, s.stop) {
+                stop.to_string()
             } else if moving {
                 "moving".to_string()
             } else {

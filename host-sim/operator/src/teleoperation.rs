@@ -115,6 +115,16 @@ impl RunReport {
         self.trace.reports.last().map(|(_, s)| s)
     }
 
+    /// The run's summary with `last` as the board's final status: the status the board
+    /// reported after the last command (a `Disable` after the run), when there is one.
+    pub fn summary_after(&self, last: Option<&StatusReport>) -> String {
+        let summary = self.summary();
+        let (Some(last), Some(traced)) = (last, self.final_status()) else {
+            return summary;
+        };
+        summary.replace(&final_line(traced), &final_line(last))
+    }
+
     /// The run's summary as printed by `host-sim teleop --device`.
     pub fn summary(&self) -> String {
         let mut o = String::new();
@@ -150,17 +160,17 @@ impl RunReport {
             }
         );
         for (t, what, reason) in &self.refused {
-            let _ = writeln!(o, "  at {t:.2} s the board refused {what}: {reason:?}");
+            let _ = writeln!(
+                o,
+                "  at {t:.2} s the board refused {what}: {}",
+                board_words::reason(*reason)
+            );
         }
         if self.device_errors > 0 {
             let _ = writeln!(o, "device read errors: {}", self.device_errors);
         }
         if let Some(st) = self.final_status() {
-            let _ = writeln!(
-                o,
-                "board: final state {:?}, stop {:?}, fault {:?}; supervisor refusals {}; nearest margin {:.3}",
-                st.state, st.stop, st.fault.cause, st.targets_refused, st.margins.nearest
-            );
+            let _ = writeln!(o, "{}", final_line(st));
         }
         if let Some(d) = self.filter_delay_s {
             let _ = writeln!(
@@ -281,6 +291,7 @@ pub fn run(
             match e {
                 BoardEvent::Status(t, s) => state.status(t, &s)?,
                 BoardEvent::Reply(r) => state.reply(&r)?,
+                BoardEvent::TargetRefused(t, r) => state.target_refused(t, &r)?,
             }
         }
         let t = board.now_s();
@@ -441,15 +452,27 @@ impl RunState {
                 *self
                     .report
                     .targets_refused
-                    .entry(format!("{reason:?}"))
+                    .entry(board_words::reason(reason).to_string())
                     .or_default() += 1;
+            }
+            (MasterToBoard::PoseTarget { .. }, Outcome::TargetRefused(refused)) => {
+                let words = board_words::refusal(&refused);
+                *self
+                    .report
+                    .targets_refused
+                    .entry(refusal_kind(&refused))
+                    .or_default() += 1;
+                self.rec
+                    .note(r.t_s, format!("target refused at once: {words}"))?;
             }
             (MasterToBoard::PoseTarget { .. }, _) => {}
             (req, Outcome::Refused(reason)) => {
                 let what = request_name(&req);
                 self.report.refused.push((r.t_s, what, reason));
-                self.rec
-                    .note(r.t_s, format!("refused {what}: {reason:?}"))?;
+                self.rec.note(
+                    r.t_s,
+                    format!("refused {what}: {}", board_words::reason(reason)),
+                )?;
             }
             (req, Outcome::NoReply) => {
                 self.rec
@@ -458,6 +481,27 @@ impl RunState {
             _ => {}
         }
         Ok(())
+    }
+
+    /// A target the board's path check refused after its acknowledgement: counted with
+    /// the targets refused and noted in the recording in words.
+    fn target_refused(
+        &mut self,
+        t: f64,
+        refused: &master_link::RefusedTarget,
+    ) -> Result<(), OperatorError> {
+        *self
+            .report
+            .targets_refused
+            .entry(refusal_kind(refused))
+            .or_default() += 1;
+        self.rec.note(
+            t,
+            format!(
+                "target refused by the board's path check: {}",
+                board_words::refusal(refused)
+            ),
+        )
     }
 
     /// One tick at `t`: the master's sample, its buttons told to the board when they
@@ -558,5 +602,28 @@ impl RunState {
         };
         report.trace = self.rec.trace;
         Ok(report)
+    }
+}
+
+/// The board's final status in words: its state, the stop in force (none when none is),
+/// the fault with its cause, joint and value, the targets its supervisor refused and the
+/// nearest guard margin with its warn and stop levels.
+fn final_line(st: &StatusReport) -> String {
+    let stop =
+        board_words::stop(st.state, st.stop).map_or(String::new(), |s| format!(", stop: {s}"));
+    let fault = board_words::fault(&st.fault).map_or(String::new(), |f| format!(", fault: {f}"));
+    format!(
+        "board: final state {}{stop}{fault}; targets refused by the supervisor {}; margins {}",
+        board_words::state(st.state),
+        st.targets_refused,
+        board_words::nearest_margin(&st.margins)
+    )
+}
+
+/// The kind of a refused target, for counting: the guard or rule that refused it.
+fn refusal_kind(r: &master_link::RefusedTarget) -> String {
+    match r.breach.guard {
+        master_link::GuardId::None => board_words::reason(r.reason).to_string(),
+        g => board_words::guard_name(g).to_string(),
     }
 }

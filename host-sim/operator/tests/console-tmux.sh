@@ -78,7 +78,7 @@ echo "  screen: $lines lines, widest $cols columns"
 
 echo "==> a refused command: Enable before homing"
 keys e
-wait_for "Enable REFUSED (NotHomed): not homed: home the robot first" 5
+wait_for "Enable REFUSED: not homed: home the robot first" 5
 if [ "${RSPR_CONSOLE_NOT_HOMED_ONLY:-0}" = 1 ]; then
     quit_console
     exit 0

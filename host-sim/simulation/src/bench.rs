@@ -64,6 +64,8 @@ pub struct SimMaster {
     pub fault_logs: Vec<FaultLogPage>,
     /// Event-log pages received.
     pub event_logs: Vec<EventLogPage>,
+    /// Every refused target, with what refused it.
+    pub refused: Vec<master_link::RefusedTarget>,
 }
 
 impl SimMaster {
@@ -86,6 +88,7 @@ impl SimMaster {
             hellos: 0,
             fault_logs: Vec::new(),
             event_logs: Vec::new(),
+            refused: Vec::new(),
         }
     }
 
@@ -129,6 +132,12 @@ impl SimMaster {
                 }
                 BoardToMaster::FaultLog(page) => self.fault_logs.push(page),
                 BoardToMaster::EventLog(page) => self.event_logs.push(page),
+                BoardToMaster::TargetRefused(r) => {
+                    if let Some(seq) = r.reply_to {
+                        self.replies.insert(seq, (t_us, msg));
+                    }
+                    self.refused.push(r);
+                }
             }
         }
     }
@@ -263,6 +272,7 @@ impl Bench {
                 return Ok(match reply {
                     BoardToMaster::Nack { reason, .. }
                     | BoardToMaster::HelloRefused { reason, .. } => Some(*reason),
+                    BoardToMaster::TargetRefused(r) => Some(r.reason),
                     _ => None,
                 });
             }

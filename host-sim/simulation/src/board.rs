@@ -574,6 +574,9 @@ impl BoardSim {
         let outcome = self
             .service
             .finish(now, exec_us * (PROFILE.cpu_hz / 1_000_000));
+        if let Some(refused) = outcome.refused {
+            self.send(&BoardToMaster::TargetRefused(refused));
+        }
         if self.rx.connected() && now >= self.next_status_us {
             self.next_status_us = now + self.cfg.telemetry_us;
             let mut st = outcome.status;

@@ -161,7 +161,13 @@ pub fn hand_controller(
     });
     drop(master);
     if let Some(report) = report? {
-        print!("{}", report.summary());
+        // The summary's final state is the one the board reports after the shutdown
+        // path's Disable.
+        let after = board
+            .wait_status(1.0, |s| s.state != master_link::RobotState::Enabled)
+            .ok()
+            .flatten();
+        print!("{}", report.summary_after(after.as_ref()));
     }
     Ok(())
 }

@@ -463,13 +463,24 @@ pub fn refuse(s: &mut Session, checks: &mut Checks, centre: &Pose<f64>) -> Resul
         .last()
         .map_or(refused_before, |r| r.status.targets_refused);
     let refused = refused_after.saturating_sub(refused_before);
+    // The board's own words for it: at once (the reply) or from its path check.
+    let words = s
+        .refused
+        .iter()
+        .rev()
+        .find(|r| r.phase == phase)
+        .map(|r| r.words.clone())
+        .unwrap_or_default();
     let reply_text = match reply {
-        master_link::BoardToMaster::Nack { reason, .. } => format!("Nack {reason:?}"),
-        _ => "Ack, then refused by the supervisor's path check".into(),
+        master_link::BoardToMaster::Nack { reason, .. } => {
+            format!("refused: {}", board_words::reason(reason))
+        }
+        master_link::BoardToMaster::TargetRefused(_) => format!("refused: {words}"),
+        _ => format!("acknowledged, then refused by the board's path check: {words}"),
     };
     checks.check(
         "a target outside the workspace is refused and the robot holds",
-        moved < 0.05e-3 && left.is_none() && refused >= 1,
+        moved < 0.05e-3 && left.is_none() && refused >= 1 && words.starts_with("workspace x"),
         format!(
             "target 30 mm beyond the task box in x; reply {reply_text}; status targets_refused +{refused}; largest displacement over the next 1.0 s {}; {}",
             mm(moved),

@@ -274,7 +274,17 @@ pub fn summary(s: &Session, checks: &ci::Checks) -> String {
     );
     for r in &s.refused {
         let phase = s.phases.get(r.phase).map_or("?", String::as_str);
-        let _ = writeln!(o, "  refused in {phase}: {:?} -> {:?}", r.request, r.reason);
+        let when = if r.later {
+            "by the path check after its acknowledgement"
+        } else {
+            "at once"
+        };
+        let _ = writeln!(
+            o,
+            "  refused in {phase} ({when}): {}: {}",
+            request_name(&r.request),
+            r.words
+        );
     }
     if let Some(last) = s.last_status() {
         let c = last.status.link;
@@ -285,8 +295,11 @@ pub fn summary(s: &Session, checks: &ci::Checks) -> String {
         );
         let _ = writeln!(
             o,
-            "board tick: worst execution {} us, worst start jitter {} us; final state {:?}, faults {:?}",
-            last.status.tick_exec_max_us, last.status.tick_jitter_max_us, last.status.state, last.status.faults
+            "board tick: worst execution {} us, worst start jitter {} us; final state {}; {}",
+            last.status.tick_exec_max_us,
+            last.status.tick_jitter_max_us,
+            board_words::state(last.status.state),
+            board_words::fault(&last.status.fault).unwrap_or_else(|| "no fault".to_string())
         );
     }
     let c = s.link.counters();
@@ -379,4 +392,45 @@ pub fn write_csv(s: &Session, dir: &Path) -> Result<PathBuf, TeleopError> {
     }
     w.flush().map_err(TeleopError::TelemetryFlush)?;
     Ok(path)
+}
+
+/// A request's name in words (the summary's lines).
+pub fn request_name(msg: &master_link::MasterToBoard) -> String {
+    use master_link::MasterToBoard;
+    match msg {
+        MasterToBoard::PoseTarget {
+            timestamp_us,
+            position_m,
+            ..
+        } => format!(
+            "target at {:.1}, {:.1}, {:.1} mm (stamp {} µs)",
+            f64::from(position_m[0]) * 1e3,
+            f64::from(position_m[1]) * 1e3,
+            f64::from(position_m[2]) * 1e3,
+            timestamp_us
+        ),
+        MasterToBoard::Jog { joint, velocity } => format!(
+            "jog of {} at {velocity}",
+            board_words::joint_name(*joint).unwrap_or_else(|| format!("joint {joint}"))
+        ),
+        MasterToBoard::Hello { .. } => "hello".into(),
+        MasterToBoard::Enable => "enable".into(),
+        MasterToBoard::Disable => "disable".into(),
+        MasterToBoard::Home { rehome: false } => "home".into(),
+        MasterToBoard::Home { rehome: true } => "re-home".into(),
+        MasterToBoard::Clutch { engaged } => {
+            format!("clutch {}", if *engaged { "engaged" } else { "released" })
+        }
+        MasterToBoard::Heartbeat => "heartbeat".into(),
+        MasterToBoard::EmergencyStop => "emergency stop".into(),
+        MasterToBoard::ClearFault => "clear fault".into(),
+        MasterToBoard::StatusRequest => "status request".into(),
+        MasterToBoard::OperatorPresent { present } => {
+            format!("operator {}", if *present { "present" } else { "absent" })
+        }
+        MasterToBoard::AcknowledgeReset => "acknowledge reset".into(),
+        MasterToBoard::FaultLogRequest { .. } => "fault log request".into(),
+        MasterToBoard::StoreGeometry(_) => "store geometry".into(),
+        MasterToBoard::EventLogRequest { .. } => "event log request".into(),
+    }
 }

@@ -50,7 +50,7 @@ pub struct StatusRow {
 }
 
 /// A refused request.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Refused {
     /// When the Nack arrived, s.
     pub t_s: f64,
@@ -60,6 +60,11 @@ pub struct Refused {
     pub request: MasterToBoard,
     /// Why.
     pub reason: NackReason,
+    /// Why in words, with what the board measured (`board_words::refusal`): "workspace z
+    /// 177.0 mm > 175.0 mm", "not homed: home the robot first".
+    pub words: String,
+    /// Refused by the board's path check after its `Ack` (not at submission).
+    pub later: bool,
 }
 
 /// How long a `Hello` refused with `NotOwner` is sent again, s: the stop that ends the
@@ -197,6 +202,7 @@ impl Session {
         let seq = self.send_target(pose)?;
         match self.reply(seq, 1.0)? {
             BoardToMaster::Nack { reason, .. } => Ok(Some(reason)),
+            BoardToMaster::TargetRefused(r) => Ok(Some(r.reason)),
             _ => Ok(None),
         }
     }
@@ -243,6 +249,33 @@ impl Session {
                         phase,
                         request: *request,
                         reason,
+                        words: board_words::reason(reason).to_string(),
+                        later: false,
+                    });
+                }
+            }
+            BoardToMaster::TargetRefused(refused) => {
+                let words = board_words::refusal(&refused);
+                let request = match refused.reply_to {
+                    Some(seq) => self.requests.get_mut(&seq).map(|(request, reply)| {
+                        *reply = Some((r.t_s, r.msg));
+                        *request
+                    }),
+                    // The path check's refusal of a target acknowledged before: the
+                    // target is the one with its stamp.
+                    None => self.requests.values().map(|(req, _)| *req).find(|req| {
+                        matches!(req, MasterToBoard::PoseTarget { timestamp_us, .. }
+                            if *timestamp_us == refused.timestamp_us)
+                    }),
+                };
+                if let Some(request) = request {
+                    self.refused.push(Refused {
+                        t_s: r.t_s,
+                        phase,
+                        request,
+                        reason: refused.reason,
+                        words,
+                        later: refused.reply_to.is_none(),
                     });
                 }
             }
@@ -345,6 +378,7 @@ impl Session {
         let seq = self.send(msg)?;
         match self.reply(seq, timeout_s)? {
             BoardToMaster::Nack { reason, .. } => Ok(Some(reason)),
+            BoardToMaster::TargetRefused(r) => Ok(Some(r.reason)),
             _ => Ok(None),
         }
     }

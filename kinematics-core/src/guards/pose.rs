@@ -199,6 +199,32 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
         (v, sol)
     }
 
+    /// `r` as people read it at `pose`: a workspace reading's value becomes the platform
+    /// centre's coordinate on the reading's axis in {0} and its limit the face of the task
+    /// box (with its margin) on that side of the box's centre [0, 0, hc], both m (the
+    /// reading itself measures the distance from that centre); margin and severity stay.
+    /// Every other reading is returned as it is.
+    pub fn in_world(&self, r: &Reading<T>, pose: &Pose<T>) -> Reading<T> {
+        let (Guard::Workspace, Subject::Axis(k)) = (r.guard, r.subject) else {
+            return *r;
+        };
+        let (x, centre) = match k {
+            0 => (pose.t.x, T::zero()),
+            1 => (pose.t.y, T::zero()),
+            _ => (pose.t.z, self.robot.hc()),
+        };
+        let face = if x >= centre {
+            centre + r.limit
+        } else {
+            centre - r.limit
+        };
+        Reading {
+            value: x,
+            limit: face,
+            ..*r
+        }
+    }
+
     pub(super) fn workspace_readings(&self, pose: &Pose<T>, visit: &mut impl FnMut(&Reading<T>)) {
         let l = &self.limits;
         let d = Vector3::new(pose.t.x, pose.t.y, pose.t.z - self.robot.hc());

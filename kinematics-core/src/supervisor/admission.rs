@@ -3,9 +3,11 @@
 //! master's stream ([`super::lead`]), and the refusals with their counters. An admitted
 //! target goes to the path check ([`super::verification`]).
 
+use crate::guards::{Depth, Evaluation, Reading, Severity};
 use crate::mechanism::Mechanism;
 use crate::pose::{rotation_angle, Pose};
 use crate::scalar::{lit, norm3, Real};
+use crate::singularity::ConditionEstimator;
 
 use super::path::Target;
 use super::profile::BRAKING_SHARE;
@@ -61,9 +63,10 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
                 Target {
                     to: led,
                     plain: Some(*target),
+                    stamp_us,
                 }
             }
-            _ => Target::plain(target),
+            _ => Target::plain(target, stamp_us),
         })
     }
 
@@ -97,12 +100,38 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         self.segment_from_setpoint(target).2
     }
 
-    /// Refuses a target too far from the current setpoint.
+    /// Refuses a target too far from the current setpoint, naming the first stop-level
+    /// kinematic guard the target itself breaks, if any (a target far outside the
+    /// workspace is refused for the workspace, not for its distance).
     pub(super) fn check_distance(&mut self, target: &Pose<T>) -> Result<(), Refusal<T>> {
         let (distance, angle, within) = self.segment_from_setpoint(target);
         if !within {
-            self.refuse(Refusal::TooFar { distance, angle })?;
+            let breaks = self.first_breach(target);
+            self.refuse(Refusal::TooFar {
+                distance,
+                angle,
+                breaks,
+            })?;
         }
         Ok(())
+    }
+
+    /// The first stop-level reading of the kinematic guards at `pose` (workspace first,
+    /// then reach, joint ranges, tilt, collision, serial singularity), as people read it.
+    fn first_breach(&self, pose: &Pose<T>) -> Option<Reading<T>> {
+        let mut first: Option<Reading<T>> = None;
+        let mut eval = Evaluation::new(self.guards.branch());
+        self.guards.evaluate_pose_into(
+            pose,
+            &mut |r| {
+                if first.is_none() && r.severity == Some(Severity::Stop) {
+                    first = Some(*r);
+                }
+            },
+            &mut ConditionEstimator::new(),
+            &mut eval,
+            Depth::Kinematic,
+        );
+        first.map(|r| self.guards.in_world(&r, pose))
     }
 }

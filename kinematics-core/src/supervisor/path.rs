@@ -6,20 +6,23 @@ use crate::pose::{rotation_angle, rotation_vector, Pose};
 use crate::scalar::{lit, norm3, scale3, sub3, to_f64, Real};
 use nalgebra::Vector3;
 
-/// A target to verify: the pose, and the master's plain target when the pose leads it
-/// along the stream (see [`super::lead`]).
+/// A target to verify: the pose, the master's plain target when the pose leads it along
+/// the stream (see [`super::lead`]), and the stamp it was submitted with (its identity in
+/// a refusal, [`super::Refusal::Path`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Target<T: Real> {
     pub to: Pose<T>,
     pub plain: Option<Pose<T>>,
+    pub stamp_us: u64,
 }
 
 impl<T: Real> Target<T> {
-    /// The master's target as it came.
-    pub fn plain(to: &Pose<T>) -> Self {
+    /// The master's target as it came, stamped `stamp_us`.
+    pub fn plain(to: &Pose<T>, stamp_us: u64) -> Self {
         Target {
             to: *to,
             plain: None,
+            stamp_us,
         }
     }
 }
@@ -31,6 +34,8 @@ pub(super) struct Pending<T: Real> {
     to: Pose<T>,
     /// The master's plain target when `to` leads it.
     plain: Option<Pose<T>>,
+    /// The target's stamp.
+    stamp_us: u64,
     /// The whole segment ([`segment`]), computed once, not for every sample.
     dv: Vector3<T>,
     dw: Vector3<T>,
@@ -51,6 +56,7 @@ impl<T: Real> Pending<T> {
             from: *from,
             to: t.to,
             plain: t.plain,
+            stamp_us: t.stamp_us,
             dv,
             dw,
             samples: samples.max(1),
@@ -64,6 +70,7 @@ impl<T: Real> Pending<T> {
         Target {
             to: self.to,
             plain: self.plain,
+            stamp_us: self.stamp_us,
         }
     }
 

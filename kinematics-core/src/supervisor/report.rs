@@ -59,7 +59,9 @@ pub struct Margins<T: Real> {
     pub parallel: T,
 }
 
-/// Why a target was refused.
+/// Why a target was refused. A reading in a refusal is as people read it
+/// ([`crate::guards::Guards::in_world`]: a workspace reading gives the platform centre's
+/// coordinate and the face of the box it crossed).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Refusal<T: Real> {
     /// A component is NaN or infinite.
@@ -68,10 +70,21 @@ pub enum Refusal<T: Real> {
     Stale { age_us: i64 },
     /// The timestamp is not newer than the last accepted one.
     OutOfOrder,
-    /// Too far from the current setpoint (m, rad).
-    TooFar { distance: T, angle: T },
-    /// The straight path to it crosses a stop-level region at this fraction of the way.
-    Path { fraction: T, reading: Reading<T> },
+    /// Too far from the current setpoint (m, rad). `breaks` is the first stop-level
+    /// kinematic guard the target itself breaks (workspace, reach, joint ranges, tilt,
+    /// collision, serial singularity), if any: the rule to name before the distance.
+    TooFar {
+        distance: T,
+        angle: T,
+        breaks: Option<Reading<T>>,
+    },
+    /// The straight path to the target stamped `stamp_us` crosses a stop-level region at
+    /// this fraction of the way (1: the target itself, checked first).
+    Path {
+        fraction: T,
+        reading: Reading<T>,
+        stamp_us: u64,
+    },
     /// The supervisor is stopped; clear it first.
     Latched,
 }
@@ -82,13 +95,21 @@ impl<T: Real> fmt::Display for Refusal<T> {
             Refusal::NonFinite => f.write_str("target is not finite"),
             Refusal::Stale { age_us } => write!(f, "target is stale ({age_us} µs old)"),
             Refusal::OutOfOrder => f.write_str("target timestamp is not newer than the last"),
-            Refusal::TooFar { distance, angle } => write!(
+            Refusal::TooFar {
+                breaks: Some(reading),
+                ..
+            } => write!(f, "target breaks {}", reading.guard),
+            Refusal::TooFar {
+                distance, angle, ..
+            } => write!(
                 f,
                 "target too far from the setpoint ({:.1} mm, {:.1} deg)",
                 to_f64(*distance) * 1e3,
                 to_f64(*angle).to_degrees()
             ),
-            Refusal::Path { fraction, reading } => write!(
+            Refusal::Path {
+                fraction, reading, ..
+            } => write!(
                 f,
                 "path crosses {} at {:.0}% of the way",
                 reading.guard,

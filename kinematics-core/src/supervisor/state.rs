@@ -172,6 +172,11 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
     }
 
     /// The counters.
+    pub fn config(&self) -> &SupervisorConfig<T> {
+        &self.cfg
+    }
+
+    /// Counts of what it refused or did.
     pub fn counters(&self) -> &Counters {
         &self.counters
     }

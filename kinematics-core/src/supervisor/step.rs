@@ -102,7 +102,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
         }
         // A stream fallen silent after a led target: back to the master's newest target.
         if let Some(plain) = self.stream.tick(self.dt_us) {
-            self.take_target(&Target::plain(&plain));
+            self.take_target(&Target::plain(&plain, self.last_stamp_us.unwrap_or(0)));
         }
         // Standing still, a verified target waiting for a braking-point check takes over
         // at once (there is no motion to look past the goal).

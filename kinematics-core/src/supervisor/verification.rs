@@ -102,7 +102,7 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
                 Some(_) if self.within_segment(&q.to) => self.start_pending(&q),
                 Some(plain) => {
                     if self.check_distance(&plain).is_ok() {
-                        self.start_pending(&Target::plain(&plain));
+                        self.start_pending(&Target::plain(&plain, q.stamp_us));
                     }
                 }
                 None => {
@@ -136,13 +136,15 @@ impl<T: Real, M: Mechanism<T> + Clone> Supervisor<T, M> {
                 if self.queued.is_some() {
                     self.start_queued();
                 } else if self.check_distance(&plain).is_ok() {
-                    self.start_pending(&Target::plain(&plain));
+                    self.start_pending(&Target::plain(&plain, p.target().stamp_us));
                 }
                 return;
             }
+            let reading = self.guards.in_world(&reading, &p.sample());
             let _ = self.refuse(Refusal::Path {
                 fraction: p.fraction(),
                 reading,
+                stamp_us: p.target().stamp_us,
             });
             self.start_queued();
             return;

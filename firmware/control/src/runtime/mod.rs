@@ -103,6 +103,42 @@ pub struct Runtime<S: Scalar, M: Mechanism<S> + Clone> {
     /// When the last target (pose or jog) was accepted while following, or following
     /// began: `TARGET_STALE` beyond the supervisor's staleness age.
     last_target_us: u64,
+    /// Targets refused with what was measured (see [`Refused`]).
+    refused: Refused,
+}
+
+/// Target refusals for the link: the supervisor's refusal of the target being submitted
+/// (the reply to its frame) and those of its path check, which come after the target's
+/// `Ack` (each sent on its own). The path check names a target by the board stamp it was
+/// submitted with; the newest few stamps are kept with the master's to name it as the
+/// master does.
+#[derive(Clone, Debug, Default)]
+struct Refused {
+    /// The refusal of the target in hand (taken by the reply).
+    now: Option<master_link::RefusedTarget>,
+    /// Refusals of the path check not sent yet.
+    later: heapless::Deque<master_link::RefusedTarget, 4>,
+    /// (board stamp, master stamp) of the newest targets submitted, a ring.
+    stamps: [(u64, u64); 4],
+    next: usize,
+    /// The supervisor's count of path refusals reported so far.
+    path_seen: u32,
+}
+
+impl Refused {
+    fn submitted(&mut self, board_us: u64, master_us: u64) {
+        if let Some(slot) = self.stamps.get_mut(self.next) {
+            *slot = (board_us, master_us);
+        }
+        self.next = (self.next + 1) % self.stamps.len();
+    }
+
+    fn master_stamp(&self, board_us: u64) -> u64 {
+        self.stamps
+            .iter()
+            .find(|(b, _)| *b == board_us)
+            .map_or(0, |(_, m)| *m)
+    }
 }
 
 impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
@@ -145,6 +181,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             geometry_version: 0,
             refusals: 0,
             last_target_us: 0,
+            refused: Refused::default(),
             cfg,
         })
     }
@@ -470,6 +507,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             if let Some(ctl) = self.mode.controller_mut() {
                 ctl.evaluate();
             }
+            self.note_path_refusal();
         }
         self.check_channel(now_us);
         self.update_warnings(now_us);
@@ -509,6 +547,45 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
     pub fn set_tick_timing(&mut self, worst_jitter_us: u32, worst_exec_us: u32, missed: u32) {
         self.tick_timing = (worst_jitter_us, worst_exec_us);
         self.missed_ticks = missed;
+    }
+
+    /// A refusal of the path check since the last tick, kept for the link with the
+    /// master's stamp of its target.
+    fn note_path_refusal(&mut self) {
+        let Some(ctl) = self.mode.controller() else {
+            return;
+        };
+        let sup = ctl.supervisor();
+        let n = sup.counters().path_refused;
+        if n < self.refused.path_seen {
+            // A new controller: its count starts afresh.
+            self.refused.path_seen = 0;
+        }
+        if n == self.refused.path_seen {
+            return;
+        }
+        self.refused.path_seen = n;
+        if let Some(r @ kinematics_core::supervisor::Refusal::Path { stamp_us, .. }) =
+            sup.last_refusal()
+        {
+            let master = self.refused.master_stamp(*stamp_us);
+            let refused = crate::wire::refused_target(r, sup.config(), master);
+            if self.refused.later.is_full() {
+                self.refused.later.pop_front();
+            }
+            let _ = self.refused.later.push_back(refused);
+        }
+    }
+
+    /// The refusal of the target just submitted by [`Runtime::command`], if the
+    /// supervisor refused it (taken: the reply to its frame carries it).
+    pub fn take_refused_now(&mut self) -> Option<master_link::RefusedTarget> {
+        self.refused.now.take()
+    }
+
+    /// The oldest refusal of the path check not sent yet (one target each).
+    pub fn take_refused_later(&mut self) -> Option<master_link::RefusedTarget> {
+        self.refused.later.pop_front()
     }
 
     /// Sets or clears extra warnings (e.g. `CYCLE_OVERRUN` from the board).

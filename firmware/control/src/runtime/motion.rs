@@ -68,8 +68,12 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         let Mode::Following { ctl, jog } = &mut self.mode else {
             return Err(NackReason::InvalidState);
         };
-        ctl.submit(&pose, stamp, now_us)
-            .map_err(|r| wire::refusal_reason(&r))?;
+        if let Err(r) = ctl.submit(&pose, stamp, now_us) {
+            let refused = wire::refused_target(&r, ctl.supervisor().config(), 0);
+            self.refused.now = Some(refused);
+            return Err(refused.reason);
+        }
+        self.refused.submitted(stamp, 0);
         *jog = Some(Jog {
             joint: j,
             last_us: now_us,
@@ -93,8 +97,12 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         let Mode::Following { ctl, jog } = &mut self.mode else {
             return Err(NackReason::InvalidState);
         };
-        ctl.submit(&pose, board_stamp, now_us)
-            .map_err(|r| wire::refusal_reason(&r))?;
+        if let Err(r) = ctl.submit(&pose, board_stamp, now_us) {
+            let refused = wire::refused_target(&r, ctl.supervisor().config(), stamp_us);
+            self.refused.now = Some(refused);
+            return Err(refused.reason);
+        }
+        self.refused.submitted(board_stamp, stamp_us);
         // A Cartesian target ends any jog stream.
         *jog = None;
         self.last_target_us = now_us;

@@ -313,6 +313,9 @@ where
         service.tick(board.hardware(), now);
         let cycles = board.cycles().wrapping_sub(c0);
         let outcome = service.finish(now, cycles);
+        if let Some(refused) = outcome.refused {
+            shared.reply(BoardToMaster::TargetRefused(refused));
+        }
         shared.status.lock(|s| s.set(outcome.status));
         shared.has_status.store(true, Ordering::Release);
         if outcome.feed_watchdog {

@@ -91,9 +91,10 @@ pub fn board_variant(m: &BoardToMaster) -> usize {
         GeometryRefused { .. } => 6,
         EventLog(_) => 7,
         HelloRefused { .. } => 8,
+        TargetRefused(_) => 9,
     }
 }
-pub const BOARD_VARIANTS: usize = 9;
+pub const BOARD_VARIANTS: usize = 10;
 
 /// Every geometry refusal.
 pub const ALL_GEOMETRY_REFUSALS: [GeometryRefusal; 11] = [
@@ -361,6 +362,25 @@ pub fn board_samples() -> Vec<BoardToMaster> {
     v.extend(ALL_NACK_REASONS.iter().map(|&reason| BoardToMaster::Nack {
         seq: 0x1234,
         reason,
+    }));
+    // A refused target at submission (the reply) and one of the path check, with a
+    // measured breach at its largest (u64::MAX stamp) and without one.
+    v.push(BoardToMaster::TargetRefused(master_link::RefusedTarget {
+        reply_to: Some(u16::MAX),
+        timestamp_us: u64::MAX,
+        reason: NackReason::OutOfWorkspace,
+        breach: master_link::Breach {
+            guard: master_link::GuardId::Workspace,
+            subject: 2,
+            value: 0.177,
+            limit: 0.175,
+        },
+    }));
+    v.push(BoardToMaster::TargetRefused(master_link::RefusedTarget {
+        reply_to: None,
+        timestamp_us: 12,
+        reason: NackReason::NotHomed,
+        breach: master_link::Breach::NONE,
     }));
     v.extend(
         ALL_GEOMETRY_REFUSALS

@@ -160,6 +160,24 @@ def main():
         fail(f"fake robot: expected code 8 Unreachable, got {status.code} {status.error_name}")
     print(f"pyigtl: refused target answered: code {status.code} {status.error_name!r}: "
           f"{status.status_string}", flush=True)
+    if not args.fake:
+        # The board names the first guard the target breaks, with value and limit.
+        if "workspace z" not in status.status_string or "> 175.0 mm" not in status.status_string:
+            fail(f"the refusal does not name the workspace, value and limit: "
+                 f"{status.status_string!r}")
+        # 4b. just outside the box (z = 177 mm against 175): the board takes it and its path
+        # check refuses it; that refusal is answered too.
+        near = goal3.copy()
+        near[2, 3] = 177.0
+        client.send_message(pyigtl.TransformMessage(near, device_name="Target"), wait=True)
+        later = wait_for(client, "Target", 5.0,
+                         lambda m: m.message_type == "STATUS" and m.code not in (0, 1))
+        if later is None:
+            fail("no STATUS for the target 2 mm above the workspace")
+        if "workspace z 177.0 mm > 175.0 mm" not in later.status_string:
+            fail(f"the path check's refusal does not name the workspace: {later.status_string!r}")
+        print(f"pyigtl: target 2 mm above the workspace answered: code {later.code} "
+              f"{later.error_name!r}: {later.status_string}", flush=True)
 
     # 5. garbage on the same connection.
     before = counters(client)
