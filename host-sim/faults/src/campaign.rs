@@ -395,6 +395,10 @@ impl Detector {
                     BoardToMaster::Nack { reason, .. } if reasons.contains(reason) => {
                         Some(format!("Nack {reason:?}"))
                     }
+                    // A target refused at submission: its reply names the guard.
+                    BoardToMaster::TargetRefused(r) if reasons.contains(&r.reason) => Some(
+                        format!("TargetRefused {:?} ({:?})", r.reason, r.breach.guard),
+                    ),
                     _ => None,
                 }
             }

@@ -361,7 +361,12 @@ impl Oracle {
                 BoardToMaster::Nack {
                     seq,
                     reason: NackReason::StaleTarget,
-                } => {
+                }
+                | BoardToMaster::TargetRefused(master_link::RefusedTarget {
+                    reply_to: Some(seq),
+                    reason: NackReason::StaleTarget,
+                    ..
+                }) => {
                     let own_target = delivered.iter().any(|d| {
                         d.owner
                             && d.seq == *seq
@@ -392,6 +397,7 @@ impl Oracle {
                 | BoardToMaster::Nack { seq, .. }
                 | BoardToMaster::GeometryStored { seq, .. }
                 | BoardToMaster::GeometryRefused { seq, .. } => *seq == d.seq,
+                BoardToMaster::TargetRefused(t) => t.reply_to == Some(d.seq),
                 BoardToMaster::Status(_) => d.message == MasterToBoard::StatusRequest,
                 BoardToMaster::FaultLog(_) | BoardToMaster::EventLog(_) => true,
                 _ => false,
