@@ -120,7 +120,7 @@ impl Console {
             joint: 0,
             speed: 2,
             clutch: false,
-            present: true,
+            present: false,
             confirm_rehome: false,
             confirm_reset: None,
             jog: None,
@@ -364,6 +364,10 @@ impl Console {
             ),
             Outcome::HelloReply(h) => {
                 self.hello = Some(h);
+                // A session starts with the clutch released and the operator absent
+                // (command authority): the person presses the dead-man (p) to enable.
+                self.clutch = false;
+                self.present = false;
                 (
                     format!(
                         "{what} -> firmware {}.{}.{}, protocol {}, reset {}{}",

@@ -90,6 +90,10 @@ wait_for "Home -> Ack" 5
 wait_for "State Ready" 60
 wait_for "Homed yes" 5
 
+echo "==> the dead-man: a new session starts with the operator absent"
+keys p
+wait_for "Operator present -> Ack" 5
+
 echo "==> enable (the board answers Busy while its brakes engage: the console sends it again)"
 keys e
 wait_for "Enable -> Ack" 5
