@@ -157,7 +157,7 @@ echo "==> stop, then clear the fault"
 keys s
 wait_for "Stop -> Ack" 5
 wait_for "State Fault" 5
-wait_for "EmergencyStopMessage" 5
+wait_for "Fault    e-stop message" 5
 keys c
 wait_for "Clear fault -> Ack" 5
 
