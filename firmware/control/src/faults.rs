@@ -202,14 +202,17 @@ impl Persisted {
 /// Marks a persisted log of this layout.
 pub const PERSIST_MAGIC: u32 = 0x464C_4F47; // "FLOG"
 
-fn cause_code(c: FaultCause) -> u32 {
+/// A fault cause's code in a persisted record (0: none; then `FaultCause::ALL`'s order),
+/// shared by the fault log and the event log.
+pub(crate) fn cause_code(c: FaultCause) -> u32 {
     FaultCause::ALL
         .iter()
         .position(|x| *x == c)
         .map_or(0, |i| i as u32 + 1)
 }
 
-fn cause_of(code: u32) -> Option<FaultCause> {
+/// The cause of a persisted code (`None`: not a code of this firmware).
+pub(crate) fn cause_of(code: u32) -> Option<FaultCause> {
     match code {
         0 => Some(FaultCause::None),
         n => FaultCause::ALL.get(n as usize - 1).copied(),

@@ -24,7 +24,8 @@
 //! does not match is a torn record (a write cut by a reset or a power loss), skipped; the
 //! words are programmed in order and the CRC last, so a record is valid only once whole.
 
-use master_link::{EventEntry, EventKind, FaultCause, ResetCause, StopReason, StopStatus, CRC32};
+use crate::faults::{cause_code, cause_of};
+use master_link::{EventEntry, EventKind, ResetCause, StopReason, StopStatus, CRC32};
 
 /// Words per record.
 pub const RECORD_WORDS: usize = 8;
@@ -78,20 +79,6 @@ const RESETS: [ResetCause; 7] = [
 
 fn index_of<T: PartialEq>(all: &[T], x: &T) -> u32 {
     all.iter().position(|a| a == x).map_or(0, |i| i as u32)
-}
-
-fn cause_code(c: FaultCause) -> u32 {
-    FaultCause::ALL
-        .iter()
-        .position(|x| *x == c)
-        .map_or(0, |i| i as u32 + 1)
-}
-
-fn cause_of(code: u32) -> Option<FaultCause> {
-    match code {
-        0 => Some(FaultCause::None),
-        n => FaultCause::ALL.get(n as usize - 1).copied(),
-    }
 }
 
 /// The kind's (kind, code, joint, stop, value) fields.
