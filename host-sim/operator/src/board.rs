@@ -8,10 +8,12 @@
 //! it comes ([`Board::poll`]). [`Board::request`] waits for one answer (the bring-up
 //! steps, the OpenIGTLink bridge's targets).
 //!
-//! The board's clock: the host's, or paced by the board's telemetry
-//! ([`Board::set_paced`], `teleop::pacing`), for an emulated board that its host may
-//! stall: the heartbeats, the stream, the target stamps, the timeouts and the arrival
-//! times recorded then follow the board's own time.
+//! The connection's clock is paced by the board's telemetry (`teleop::pacing`; the host's
+//! with [`Board::set_paced`]`(false)`): the heartbeats, the stream, the target stamps, the
+//! timeouts and the arrival times recorded follow the board's own time, so that an
+//! emulated board that its host stalls never sees this master's targets as coming from
+//! its future (its bound is 50 ms), nor its heartbeats late. On a real board the two
+//! clocks agree.
 
 use crate::conversions::wire_pose;
 use master_link::{
@@ -167,6 +169,9 @@ pub struct Board {
     interrupt: Option<Arc<AtomicBool>>,
     /// Why the board refused this master's last Hello.
     hello_refused: Option<NackReason>,
+    /// The last Hello sent (sequence number, message, when): a HelloReply for this
+    /// connection's nonce that comes after the request timed out answers it still.
+    last_hello: Option<(Seq, MasterToBoard, f64)>,
 }
 
 impl Board {
@@ -196,11 +201,12 @@ impl Board {
             backlog: VecDeque::new(),
             deferred: VecDeque::new(),
             statuses: 0,
-            paced: false,
+            paced: true,
             clock: BoardClock::default(),
             beat_gap_max_s: 0.0,
             interrupt: None,
             hello_refused: None,
+            last_hello: None,
         })
     }
 
@@ -215,10 +221,10 @@ impl Board {
         self.clock.now_s(self.link.now_s(), self.paced)
     }
 
-    /// Paces this connection's clock by the board's telemetry (`teleop::pacing`): for an
-    /// emulated board, whose virtual time slips behind the wall clock when its host stalls
-    /// it. A board silent for [`SILENCE_LIMIT_S`] of host time then ends every wait with an
-    /// error.
+    /// Paces this connection's clock by the board's telemetry (`teleop::pacing`; on from
+    /// the start): for an emulated board, whose virtual time slips behind the wall clock
+    /// when its host stalls it. A board silent for [`SILENCE_LIMIT_S`] of host time then
+    /// ends every wait with an error. Off: the host's clock.
     pub fn set_paced(&mut self, on: bool) {
         self.paced = on;
     }
@@ -284,7 +290,11 @@ impl Board {
             other => other,
         };
         let seq = self.link.send(&msg)?;
-        self.pending.push((seq, msg, self.now_s()));
+        let sent = (seq, msg, self.now_s());
+        if matches!(msg, MasterToBoard::Hello { .. }) {
+            self.last_hello = Some(sent);
+        }
+        self.pending.push(sent);
         Ok(seq)
     }
 
@@ -376,12 +386,26 @@ impl Board {
                     reset,
                     geometry_version,
                 };
+                let late = self.hello.is_none();
                 self.hello = Some(info);
                 answer(
                     &mut self.pending,
                     &|p| matches!(p.1, MasterToBoard::Hello { .. }),
                     Outcome::HelloReply(info),
                 )
+                .or_else(|| {
+                    // The first answer to this connection's nonce after its request timed
+                    // out (a board still booting, an emulator behind the wall clock): the
+                    // session is confirmed all the same, and a front end must know it.
+                    let (seq, request, sent_s) = self.last_hello.filter(|_| late)?;
+                    Some(Reply {
+                        request,
+                        seq,
+                        sent_s,
+                        t_s: r.t_s,
+                        outcome: Outcome::HelloReply(info),
+                    })
+                })
             }
             BoardToMaster::Ack { seq } => answer(&mut self.pending, &|p| p.0 == seq, Outcome::Ack),
             BoardToMaster::Nack { seq, reason } => {

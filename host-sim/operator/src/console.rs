@@ -348,6 +348,12 @@ impl Console {
             (MasterToBoard::Home { rehome: false }, Outcome::Refused(NackReason::AlreadyHomed)) => {
                 self.confirm_rehome = true;
             }
+            // No session yet (a board still booting): say Hello again until it answers.
+            (MasterToBoard::Hello { .. }, Outcome::NoReply) if self.hello.is_none() => {
+                self.outcome_note(r.t_s, "Hello", r.outcome);
+                self.note(r.t_s, "no session yet: saying Hello again".into(), false);
+                return Some(r.request);
+            }
             _ => {}
         }
         self.outcome_note(r.t_s, name, r.outcome);
