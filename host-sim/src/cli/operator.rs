@@ -2,8 +2,8 @@
 //! (a hand controller), `replay`, `console` and `igtl`.
 
 use crate::error::CliError;
-use clap::Args;
-use masters::{MotionScale, TeleopConfig, TeleopState};
+use clap::{Args, ValueEnum};
+use masters::{MotionScale, TeleopConfig, TeleopState, TremorSuppression};
 use operator::board::{Board, BringUpTimeouts};
 use operator::devices::{self, DeviceSpec};
 use operator::navigation::{self, BoardRobot};
@@ -31,15 +31,41 @@ pub struct HandControllerArgs {
     /// Motion scaling of rotation.
     #[arg(long, default_value_t = 1.0)]
     pub scale_rotation: f64,
-    /// No tremor filter (5 Hz low-pass + 10 Hz notch, 60 ms of delay).
-    #[arg(long)]
-    pub no_tremor_filter: bool,
+    /// How the hand's tremor is taken out: canceller (adaptive, estimates the tremor and
+    /// subtracts it: no delay of the voluntary motion), classic (5 Hz low-pass + 10 Hz
+    /// notch: 60 ms of delay) or off. Their settings and defaults:
+    /// host-sim/masters/README.md.
+    #[arg(long, value_enum, default_value_t = Tremor::Canceller)]
+    pub tremor: Tremor,
     /// The session recording (MCAP) [default: target/teleop/sessions/session-<unix time>.mcap].
     #[arg(long, value_name = "FILE.mcap")]
     pub record: Option<PathBuf>,
     /// Stop after this many seconds [default: until Ctrl-C, or q on the keyboard].
     #[arg(long)]
     pub duration_s: Option<f64>,
+}
+
+/// The tremor suppression chosen on the command line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Tremor {
+    /// The adaptive canceller with its default settings (`masters::CancellerConfig`).
+    Canceller,
+    /// The classic low-pass and notch with their default corners
+    /// (`masters::TremorFilterConfig`).
+    Classic,
+    /// None.
+    Off,
+}
+
+impl Tremor {
+    /// The mapping's setting.
+    pub fn suppression(self) -> Option<TremorSuppression> {
+        match self {
+            Tremor::Canceller => Some(TremorSuppression::Canceller(Default::default())),
+            Tremor::Classic => Some(TremorSuppression::classic()),
+            Tremor::Off => None,
+        }
+    }
 }
 
 /// What the person allows a front end to do at start (`teleop::start`): never done
@@ -173,7 +199,7 @@ pub fn hand_controller(
 }
 
 /// The run's settings from the options: the mapping at `stream_rate_hz` with the scales
-/// and the tremor filter, the recording (by default under
+/// and the tremor suppression, the recording (by default under
 /// `target/teleop/sessions/`, named by the time), the device named in the recording.
 fn teleoperation_settings(
     args: &HandControllerArgs,
@@ -186,20 +212,25 @@ fn teleoperation_settings(
             .map_or(0, |d| d.as_secs());
         output::default_dir(&["teleop", "sessions"]).join(format!("session-{unix}.mcap"))
     });
-    let mut teleop = TeleopConfig {
+    let teleop = TeleopConfig {
         stream_rate_hz,
         scale: MotionScale::new(args.scale_translation, args.scale_rotation)
             .map_err(operator::OperatorError::from)?,
+        tremor: args.tremor.suppression(),
         ..TeleopConfig::default()
     };
-    if args.no_tremor_filter {
-        teleop.tremor = None;
-    }
     Ok(TeleoperationSettings {
         teleop,
         duration_s: args.duration_s,
         record: Some(record),
-        settings_text: [("device".to_string(), device.to_string())].into(),
+        settings_text: [
+            ("device".to_string(), device.to_string()),
+            (
+                "tremor".to_string(),
+                format!("{:?}", args.tremor).to_lowercase(),
+            ),
+        ]
+        .into(),
         ..TeleoperationSettings::default()
     })
 }
@@ -442,4 +473,56 @@ pub fn igtl(args: &IgtlArgs) -> Result<(), CliError> {
         );
         Ok(())
     })
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::expect_used)]
+mod tests {
+    use super::*;
+    use crate::cli::{Cli, Command};
+    use clap::Parser;
+
+    fn hand(extra: &[&str]) -> Result<HandControllerArgs, clap::Error> {
+        let mut argv = vec![
+            "host-sim",
+            "teleop",
+            "--connect",
+            "/tmp/board.sock",
+            "--device",
+            "keyboard",
+        ];
+        argv.extend_from_slice(extra);
+        match Cli::try_parse_from(argv)?.command {
+            Command::Teleop(t) => Ok(t.hand),
+            other => panic!("parsed as {other:?}"),
+        }
+    }
+
+    /// `--tremor` chooses the mapping's suppression (the canceller when not given); a
+    /// word it does not know is refused, naming the choices.
+    #[test]
+    fn the_tremor_flag_chooses_the_suppression() {
+        let tremor = |extra: &[&str]| {
+            let args = hand(extra).unwrap();
+            teleoperation_settings(&args, "keyboard", 100.0)
+                .unwrap()
+                .teleop
+                .tremor
+        };
+        assert_eq!(
+            tremor(&[]),
+            Some(TremorSuppression::Canceller(Default::default()))
+        );
+        assert_eq!(tremor(&["--tremor", "canceller"]), tremor(&[]));
+        assert_eq!(
+            tremor(&["--tremor", "classic"]),
+            Some(TremorSuppression::classic())
+        );
+        assert_eq!(tremor(&["--tremor", "off"]), None);
+        let e = hand(&["--tremor", "butterworth"]).unwrap_err().to_string();
+        assert!(
+            e.contains("butterworth") && e.contains("canceller") && e.contains("classic"),
+            "{e}"
+        );
+    }
 }
