@@ -10,7 +10,7 @@
 //! says so. The target of another master is not in the board's status, so `/servo_cp`
 //! stays empty here (the simulation's MCAP has it).
 
-use crate::board::{Board, BoardEvent};
+use crate::board::{Board, BoardError, BoardEvent};
 use crate::conversions::{measured_cp, setpoint_cp};
 use crate::error::OperatorError;
 use kinematics_core::pose::Pose;
@@ -93,7 +93,12 @@ pub fn run(
             last_description = now;
             scene.log_description(now_ns());
         }
-        for e in board.poll(Duration::from_millis(5))? {
+        let events = board.poll(Duration::from_millis(5))?;
+        if let Some(reason) = board.take_hello_refused() {
+            // One owner: another master has the robot (enabled), so no status comes.
+            return Err(BoardError::HelloRefused(reason).into());
+        }
+        for e in events {
             if let BoardEvent::Status(_, s) = e {
                 let before = scene.unposed;
                 scene.log(&snapshot(now_ns(), &s));
