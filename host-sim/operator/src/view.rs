@@ -32,14 +32,16 @@ pub struct ViewCounters {
     pub unposed: u64,
 }
 
-fn pose_of(p: &CartesianPose) -> Pose<f64> {
+/// A master-side pose as the kinematics' pose.
+pub fn pose_of(p: &CartesianPose) -> Pose<f64> {
     Pose {
         t: p.position_m,
         r: p.orientation.to_rotation_matrix(),
     }
 }
 
-fn now_ns() -> u64 {
+/// Unix time, ns: the live channels' log time.
+pub fn now_ns() -> u64 {
     SystemTime::now()
         .duration_since(UNIX_EPOCH)
         .map_or(0, |d| u64::try_from(d.as_nanos()).unwrap_or(u64::MAX))

@@ -4,6 +4,7 @@ messages, binary message data, protobuf payloads described by the advertised
 FileDescriptorSet), and the `mcap` library reading a recording.
 
     python3 foxglove_peer.py ws URL REFERENCE.csv   # a live `host-sim view`
+    python3 foxglove_peer.py ws-teleop URL          # `host-sim teleop --device ... --view`
     python3 foxglove_peer.py mcap FILE.mcap         # the simulation's MCAP (or view --record)
 
 Checks, on both:
@@ -22,6 +23,11 @@ Live (ws) also:
   decimals; the robot is held by its brakes, so within 0.01 mm and 0.01 deg: a few encoder
   counts);
 - the latched-fault channel says no fault and the state `Ready`.
+Live under teleoperation (ws-teleop) also:
+- every channel is heard, `/servo_cp` (the targets this master streams) included, the
+  state is `Enabled`, and the setpoint stays within 2 mm of the last target: the master
+  moves at most 20 mm/s (its speed cap) and the supervisor leads a streamed target, so a
+  lag of 0.1 s would be 2 mm.
 The MCAP (mcap) also:
 - `/servo_cp` (the master's target) is there, and at the end of the run (the step
   scenario's last target held for seconds) the setpoint has reached it within 0.01 mm.
@@ -94,7 +100,7 @@ def rotvec(R):
     return v / (2 * math.sin(angle)) * angle
 
 
-def check_scene(messages, schemas, live):
+def check_scene(messages, schemas, live, quiet=LIVE_QUIET):
     """messages: topic -> list of (log_time_ns, decoded message), schemas: topic -> name."""
     for topic, name in SCHEMAS.items():
         if topic not in schemas:
@@ -103,7 +109,7 @@ def check_scene(messages, schemas, live):
             fail(f"channel {topic} has schema {schemas[topic]}, expected {name}")
     # Live, the board's status carries no target, and no setpoint while the drives are off
     # (the robot the test watches is Ready): those channels are advertised, not sent.
-    quiet = LIVE_QUIET if live else ()
+    quiet = quiet if live else ()
     wanted = [t for t in SCHEMAS if t not in quiet]
     for t in wanted:
         if not messages.get(t):
@@ -162,7 +168,7 @@ def check_scene(messages, schemas, live):
     return P
 
 
-async def live(url, reference):
+async def live(url, reference, teleop=False):
     import websockets
     async with websockets.connect(url, subprotocols=["foxglove.sdk.v1"], max_size=None) as ws:
         if ws.subprotocol != "foxglove.sdk.v1":
@@ -191,10 +197,12 @@ async def live(url, reference):
         # host slows the board's paced clock, never fails the test.
         messages = {}
         start = loop.time()
-        wanted = [t for t in SCHEMAS if t not in LIVE_QUIET]
+        quiet = () if teleop else LIVE_QUIET
+        wanted = [t for t in SCHEMAS if t not in quiet]
         while True:
             now = loop.time()
-            if now - start > 30 or (now - start > 2.5 and all(messages.get(t) for t in wanted)):
+            # (Under teleoperation the board is brought up first: enabling takes a while.)
+            if now - start > (90 if teleop else 30) or (now - start > 2.5 and all(messages.get(t) for t in wanted)):
                 break
             try:
                 raw = await asyncio.wait_for(ws.recv(), timeout=1.0)
@@ -206,6 +214,25 @@ async def live(url, reference):
             topic, cls = decoders[sub]
             messages.setdefault(topic, []).append((t, cls.FromString(raw[13:])))
     print(f"Foxglove WebSocket client (foxglove.sdk.v1) on {url}:")
+    if teleop:
+        check_scene(messages, schemas, live=True, quiet=())
+        state = messages["/robot_state"][-1][1]
+        if state.state != "Enabled" or state.fault_latched:
+            fail(f"/robot_state under teleoperation: {state}")
+        targets = messages["/servo_cp"]
+        last_target = {}
+        worst, k = 0.0, 0
+        for t, sp in messages["/setpoint_cp"]:
+            while k < len(targets) and targets[k][0] <= t:
+                last_target = targets[k][1]
+                k += 1
+            if last_target:
+                a, b = last_target.pose.position, sp.pose.position
+                worst = max(worst, math.dist((a.x, a.y, a.z), (b.x, b.y, b.z)))
+        if worst > 0.002:
+            fail(f"the setpoint is {worst * 1000:.2f} mm from the last target")
+        print(f"  /servo_cp: {len(targets)} targets; the setpoint within {worst * 1000:.3f} mm of the last one; state Enabled")
+        return
     P = check_scene(messages, schemas, live=True)
     ref = list(csv.DictReader(open(reference)))[-1]
     want_t = np.array([float(ref[c]) for c in ("x_mm", "y_mm", "z_mm")])
@@ -248,6 +275,8 @@ def recorded(path):
 def main():
     if sys.argv[1] == "ws":
         asyncio.run(live(sys.argv[2], sys.argv[3]))
+    elif sys.argv[1] == "ws-teleop":
+        asyncio.run(live(sys.argv[2], None, teleop=True))
     elif sys.argv[1] == "mcap":
         recorded(sys.argv[2])
     else:

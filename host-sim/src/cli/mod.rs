@@ -301,7 +301,7 @@ impl Command {
             Command::Workspace(args) => design::workspace(args, robot, limits),
             Command::Synth(args) => design::synth(args, robot.kind()),
             Command::Compare(args) => design::compare(args, robot),
-            Command::Teleop(args) => teleop::run(args),
+            Command::Teleop(args) => teleop::run(args, selected, &limits.limits),
             Command::Faults(args) => board::faults(args),
             Command::Board(args) => board::board(args),
             Command::Replay(args) => operator::replay(args),

@@ -36,27 +36,44 @@ pub struct ViewArgs {
     pub key: KeyArgs,
 }
 
-/// Runs `view`.
-pub fn run(
-    args: &ViewArgs,
+/// A scene served live: the server, the optional recording, the channels.
+pub(crate) struct LiveScene {
+    /// The context the channels and sinks belong to (dropping it ends them).
+    _ctx: std::sync::Arc<foxglove::Context>,
+    server: foxglove::WebSocketServerHandle,
+    mcap: Option<foxglove::McapWriterHandle<std::io::BufWriter<std::fs::File>>>,
+    /// The scene's channels.
+    pub scene: scene::Scene,
+    /// Where Foxglove connects: ws://HOST:PORT.
+    pub url: String,
+}
+
+impl LiveScene {
+    /// Stops the server and closes the recording.
+    pub fn close(self) -> Result<(), CliError> {
+        self.server.stop().wait_blocking();
+        if let Some(w) = self.mcap {
+            w.close()
+                .map_err(|e| CliError::View(format!("the recording: {e}")))?;
+        }
+        Ok(())
+    }
+}
+
+/// The scene of the selected robot on a Foxglove WebSocket server at `listen` (a port on
+/// 127.0.0.1, or ADDR:PORT), also recorded to `record` when given.
+pub(crate) fn start_scene(
+    listen: &str,
+    record: Option<&std::path::Path>,
     selected: &SelectedRobot,
     limits: &Limits<f64>,
-) -> Result<(), CliError> {
-    let (host, port) = match args.listen.parse::<u16>() {
+) -> Result<LiveScene, CliError> {
+    let bad = || CliError::View(format!("--listen {listen}: not PORT or ADDR:PORT"));
+    let (host, port) = match listen.parse::<u16>() {
         Ok(port) => ("127.0.0.1".to_string(), port),
-        Err(_) => match args.listen.rsplit_once(':') {
-            Some((h, p)) => (
-                h.to_string(),
-                p.parse::<u16>().map_err(|_| {
-                    CliError::View(format!("--listen {}: not PORT or ADDR:PORT", args.listen))
-                })?,
-            ),
-            None => {
-                return Err(CliError::View(format!(
-                    "--listen {}: not PORT or ADDR:PORT",
-                    args.listen
-                )))
-            }
+        Err(_) => match listen.rsplit_once(':') {
+            Some((h, p)) => (h.to_string(), p.parse::<u16>().map_err(|_| bad())?),
+            None => return Err(bad()),
         },
     };
     let description = Description::new(&selected.robot, limits, Branch::OUTER)
@@ -65,11 +82,11 @@ pub fn run(
     let ctx = foxglove::Context::new();
     let server = ctx
         .websocket_server()
-        .name("rspr host-sim view")
+        .name("rspr host-sim")
         .bind(host.clone(), port)
         .start_blocking()
         .map_err(|e| CliError::View(format!("WebSocket server on {host}:{port}: {e}")))?;
-    let mcap = match &args.record {
+    let mcap = match record {
         Some(path) => Some(
             ctx.mcap_writer()
                 .create_new_buffered_file(path)
@@ -77,7 +94,24 @@ pub fn run(
         ),
         None => None,
     };
-    let mut scene = scene::Scene::new(&ctx, description, urdf);
+    let url = format!("ws://{host}:{}", server.port());
+    let scene = scene::Scene::new(&ctx, description, urdf);
+    Ok(LiveScene {
+        _ctx: ctx,
+        server,
+        mcap,
+        scene,
+        url,
+    })
+}
+
+/// Runs `view`.
+pub fn run(
+    args: &ViewArgs,
+    selected: &SelectedRobot,
+    limits: &Limits<f64>,
+) -> Result<(), CliError> {
+    let mut live = start_scene(&args.listen, args.record.as_deref(), selected, limits)?;
     let shutdown = super::operator::shutdown_on_signals()?;
     if let Some(d) = args.duration_s {
         let s = shutdown.clone();
@@ -93,25 +127,22 @@ pub fn run(
         args.key.key()?,
     )?;
     println!(
-        "Foxglove WebSocket on ws://{host}:{} for the board {} (read-only; topics: {})",
-        server.port(),
+        "Foxglove WebSocket on {} for the board {} (read-only; topics: {})",
+        live.url,
         args.connect.display(),
         scene::TOPICS.join(" ")
     );
     let _ = std::io::stdout().flush();
+    let scene = &mut live.scene;
     let counters = super::operator::with_board(&mut board, &shutdown, |board| {
         Ok(operator::view::run(
             board,
-            &mut scene,
+            scene,
             shutdown.flag(),
             &mut |m| println!("view: {m}"),
         )?)
     })?;
-    server.stop().wait_blocking();
-    if let Some(w) = mcap {
-        w.close()
-            .map_err(|e| CliError::View(format!("the recording: {e}")))?;
-    }
+    live.close()?;
     println!(
         "view: statuses {}, without a pose for the description {}",
         counters.statuses, counters.unposed
