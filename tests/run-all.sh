@@ -65,6 +65,10 @@ section "the operator's front ends on the simulated board: OpenIGTLink clients (
 bash host-sim/operator/tests/igtl-board.sh
 bash host-sim/masters/tests/spacenavd-daemon.sh
 
+section "the robot description and the live 3-D scene: check_urdf, yourdfpy, a Foxglove WebSocket client, mcap"
+bash host-sim/description/tests/urdf.sh
+bash host-sim/scene/tests/foxglove.sh
+
 section "the operator's front ends on the emulated board (the release image): scripted operator, latency, OpenIGTLink; the console in tmux, through a serial device on a board not homed"
 bash host-sim/operator/tests/against-emulator.sh
 

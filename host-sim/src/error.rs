@@ -48,6 +48,12 @@ pub enum CliError {
     BoardSim(#[from] simulation::board::BoardSimError),
     #[error(transparent)]
     Serve(#[from] simulation::serve::ServeError),
+    /// `describe`: the description, its input or its output.
+    #[error("describe: {0}")]
+    Describe(String),
+    /// `view`: its server, its recording or its flags.
+    #[error("view: {0}")]
+    View(String),
     #[error("unknown {what} `{name}`")]
     UnknownName { what: &'static str, name: String },
     #[error("cannot create {path}: {source}")]

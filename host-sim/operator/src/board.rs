@@ -612,6 +612,12 @@ impl Board {
         Ok(None)
     }
 
+    /// The reason of a `HelloRefused` received since the last call (or since
+    /// [`Board::hello`] looked), taken.
+    pub fn take_hello_refused(&mut self) -> Option<NackReason> {
+        self.hello_refused.take()
+    }
+
     /// Hello until the board answers (it may still be booting), at most `timeout_s`.
     /// A Hello the board refuses (another master owns the robot) is an error.
     pub fn hello(&mut self, timeout_s: f64) -> Result<HelloInfo, BoardError> {

@@ -7,10 +7,12 @@
 
 pub mod board;
 pub mod calibrate;
+pub mod describe;
 pub mod design;
 pub mod operator;
 pub mod sim;
 pub mod teleop;
+pub mod view;
 
 use crate::commands::{check, fk, ik, jacobian, singularity};
 use crate::error::CliError;
@@ -166,8 +168,9 @@ pub enum Command {
     ///
     /// Runs a scenario (laparoscope, step, box-sweep, payload, backlash-off, or all) with
     /// the controller at control.rate_hz and the plant at least 10x faster, the tool's
-    /// weight mapped to the joints, and writes summary.json, trace.csv, path.png and
-    /// errors.png (default target/sim/<scenario>/). Settings:
+    /// weight mapped to the joints, and writes summary.json, trace.csv, path.png,
+    /// errors.png and scene.mcap (the run's 3-D scene for Foxglove, the channels of `view`)
+    /// (default target/sim/<scenario>/). Settings:
     /// host-sim/simulation/default.toml.
     Sim(sim::SimArgs),
     /// The columns of thesis Tables 8.2/8.3 over the task box: joint min, max and span,
@@ -265,6 +268,20 @@ pub enum Command {
     /// target/calibration/). `calibrate plan`: the poses to measure. `calibrate
     /// simulate`: the proof on a simulated robot and tracker.
     Calibrate(calibrate::CalibrateArgs),
+    /// The robot description (URDF) of the geometry in use, and its joint states.
+    ///
+    /// --urdf: the base, the three rotating (USR: lower) links, the spherical joints, the
+    /// legs (cylinder and piston; USR: upper links), the platform pins and the platform as
+    /// primitives at the geometry's dimensions, for RViz, Foxglove and Slicer; the closed
+    /// chains as a tree (the platform hangs off chain 1; every passive joint follows
+    /// /joint_states). --out PATH writes it to a file, else to stdout. --joint-states:
+    /// every joint's value for actuated joints read as CSV (see its flag).
+    Describe(describe::DescribeArgs),
+    /// The live 3-D view of a board for Foxglove (read-only): the robot description, its
+    /// transforms, the measured and setpoint poses, the joints, the guard margins and the
+    /// latched fault from the board's status stream, on the Foxglove SDK's WebSocket
+    /// server (--listen, default 127.0.0.1:8765; --record FILE.mcap records the same).
+    View(view::ViewArgs),
 }
 
 impl Command {
@@ -284,7 +301,7 @@ impl Command {
             Command::Workspace(args) => design::workspace(args, robot, limits),
             Command::Synth(args) => design::synth(args, robot.kind()),
             Command::Compare(args) => design::compare(args, robot),
-            Command::Teleop(args) => teleop::run(args),
+            Command::Teleop(args) => teleop::run(args, selected, &limits.limits),
             Command::Faults(args) => board::faults(args),
             Command::Board(args) => board::board(args),
             Command::Replay(args) => operator::replay(args),
@@ -292,6 +309,8 @@ impl Command {
             Command::Igtl(args) => operator::igtl(args),
             Command::Faultlog(args) => board::faultlog(args),
             Command::Calibrate(args) => calibrate::run(args, selected, limits),
+            Command::Describe(args) => describe::run(args, selected, &limits.limits),
+            Command::View(args) => view::run(args, selected, &limits.limits),
         }
     }
 }

@@ -43,6 +43,10 @@ pub struct HandControllerArgs {
     /// Stop after this many seconds [default: until Ctrl-C, or q on the keyboard].
     #[arg(long)]
     pub duration_s: Option<f64>,
+    /// Serve the live 3-D view on this WebSocket port (127.0.0.1) or ADDR:PORT: the
+    /// channels of `host-sim view`, with the targets this master streams as /servo_cp.
+    #[arg(long, value_name = "[ADDR:]PORT", requires = "device")]
+    pub view: Option<String>,
 }
 
 /// The tremor suppression chosen on the command line.
@@ -100,7 +104,7 @@ pub fn shutdown_on_signals() -> Result<Shutdown, CliError> {
 
 /// Runs a front end's body on `board` through the one way out (`operator::shutdown`):
 /// the robot disabled whatever ended it; the stop a signal asked is no error.
-fn with_board<T: Default>(
+pub(crate) fn with_board<T: Default>(
     board: &mut Board,
     shutdown: &Shutdown,
     body: impl FnOnce(&mut Board) -> Result<T, CliError>,
@@ -125,7 +129,9 @@ pub struct BoardLink<'a> {
 }
 
 /// `host-sim teleop --device ...`: bring the board up from the state it is in,
-/// teleoperate, and, whatever ends it, disable (`operator::shutdown`); summarise.
+/// teleoperate, and, whatever ends it, disable (`operator::shutdown`); summarise. With
+/// `--view`, the live 3-D view of the selected robot (`robot`) is served meanwhile.
+#[allow(clippy::too_many_arguments)]
 pub fn hand_controller(
     board: BoardLink<'_>,
     connect_timeout_s: f64,
@@ -134,8 +140,23 @@ pub fn hand_controller(
     args: &HandControllerArgs,
     device: &str,
     start: StartOptions,
+    robot: (
+        &robot_config::selection::SelectedRobot,
+        &kinematics_core::guards::Limits<f64>,
+    ),
 ) -> Result<(), CliError> {
     let BoardLink { connect, baud, key } = board;
+    let mut live = match &args.view {
+        Some(listen) => {
+            let l = super::view::start_scene(listen, None, robot.0, robot.1)?;
+            println!(
+                "Foxglove WebSocket on {} (the channels of host-sim view, targets as /servo_cp)",
+                l.url
+            );
+            Some(l)
+        }
+        None => None,
+    };
     let spec: DeviceSpec = device.parse()?;
     let shutdown = shutdown_on_signals()?;
     let mut master = devices::open(&spec, shutdown.flag())?;
@@ -168,12 +189,26 @@ pub fn hand_controller(
         );
         let _ = std::io::stdout().flush();
         let mut last_print = f64::NEG_INFINITY;
+        let (mut last_scene, mut last_description) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
         let report = teleoperation::run(
             board,
             master.as_mut(),
             &settings,
             shutdown.flag(),
             &mut |v| {
+                if let (Some(l), Some(s)) = (live.as_mut(), v.status) {
+                    // The board's status period: every status once, with the last target.
+                    if v.t_s - last_scene >= 0.02 {
+                        last_scene = v.t_s;
+                        let mut snap = operator::view::snapshot(operator::view::now_ns(), s);
+                        snap.target = v.target.as_ref().map(operator::view::pose_of);
+                        l.scene.log(&snap);
+                    }
+                    if v.t_s - last_description >= operator::view::DESCRIPTION_PERIOD_S {
+                        last_description = v.t_s;
+                        l.scene.log_description(operator::view::now_ns());
+                    }
+                }
                 if v.t_s - last_print < 0.2 {
                     return;
                 }
@@ -186,6 +221,9 @@ pub fn hand_controller(
         Ok(Some(report?))
     });
     drop(master);
+    if let Some(l) = live {
+        l.close()?;
+    }
     if let Some(report) = report? {
         // The summary's final state is the one the board reports after the shutdown
         // path's Disable.
