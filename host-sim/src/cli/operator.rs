@@ -74,7 +74,7 @@ pub fn shutdown_on_signals() -> Result<Shutdown, CliError> {
 
 /// Runs a front end's body on `board` through the one way out (`operator::shutdown`):
 /// the robot disabled whatever ended it; the stop a signal asked is no error.
-fn with_board<T: Default>(
+pub(crate) fn with_board<T: Default>(
     board: &mut Board,
     shutdown: &Shutdown,
     body: impl FnOnce(&mut Board) -> Result<T, CliError>,
