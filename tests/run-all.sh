@@ -69,6 +69,9 @@ section "the robot description and the live 3-D scene: check_urdf, yourdfpy, a F
 bash host-sim/description/tests/urdf.sh
 bash host-sim/scene/tests/foxglove.sh
 
+section "ROS 2 on the simulated board: a CycloneDDS (Python) peer with the ROS 2 type names, on the loopback"
+bash host-sim/ros2/tests/ros2-board.sh
+
 section "the operator's front ends on the emulated board (the release image): scripted operator, latency, OpenIGTLink; the console in tmux, through a serial device on a board not homed"
 bash host-sim/operator/tests/against-emulator.sh
 

@@ -40,6 +40,12 @@ pub enum CliError {
     /// The operator's front ends (hand controller, console, OpenIGTLink, replay).
     #[error(transparent)]
     Operator(#[from] operator::OperatorError),
+    /// The ROS 2 node could not be set up.
+    #[error(transparent)]
+    Ros2Node(#[from] ros2::NodeError),
+    /// The ROS 2 side failed while serving (the board's errors are `Operator`'s).
+    #[error(transparent)]
+    Ros2(ros2::BridgeError),
     #[error(transparent)]
     Campaign(#[from] faults::CampaignError),
     #[error(transparent)]
@@ -128,3 +134,13 @@ through!(
     OutputError => Sim,
     operator::BoardError => Operator,
 );
+
+impl From<ros2::BridgeError> for CliError {
+    /// The board's errors as every front end's (a stop by a signal is recognised there).
+    fn from(e: ros2::BridgeError) -> Self {
+        match e {
+            ros2::BridgeError::Board(b) => CliError::Operator(b.into()),
+            other => CliError::Ros2(other),
+        }
+    }
+}

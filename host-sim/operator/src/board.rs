@@ -172,6 +172,8 @@ pub struct Board {
     /// The last Hello sent (sequence number, message, when): a HelloReply for this
     /// connection's nonce that comes after the request timed out answers it still.
     last_hello: Option<(Seq, MasterToBoard, f64)>,
+    /// Host times of the `StatusRequest`s sent and not answered yet.
+    status_requests: VecDeque<f64>,
 }
 
 impl Board {
@@ -207,6 +209,7 @@ impl Board {
             interrupt: None,
             hello_refused: None,
             last_hello: None,
+            status_requests: VecDeque::new(),
         })
     }
 
@@ -317,6 +320,35 @@ impl Board {
         Ok((seq, stamp))
     }
 
+    /// Asks the board for its status now (`StatusRequest`), untracked: the board answers
+    /// with a `Status` like its periodic ones (every 20 ms), so a front end that needs a
+    /// faster view of the robot (the ROS 2 node's 100 Hz) asks between them.
+    ///
+    /// The paced clock advances one status period per *periodic* status; a status that
+    /// answers a request does not advance it. A status carries no stamp, so the first
+    /// status after a request counts as its answer (the board answers every
+    /// `StatusRequest`, within a tick); a request not answered within [`REPLY_TIMEOUT_S`] of
+    /// host time (a frame lost on a serial line) is forgotten, at the cost of one periodic
+    /// status taken for its answer: the clock then lags one period (20 ms), once.
+    pub fn request_status(&mut self) -> Result<(), BoardError> {
+        self.link.send(&MasterToBoard::StatusRequest)?;
+        self.status_requests.push_back(self.link.now_s());
+        Ok(())
+    }
+
+    /// Whether a status arriving now answers a `StatusRequest` ([`Board::request_status`]).
+    fn answers_status_request(&mut self) -> bool {
+        let now = self.link.now_s();
+        while self
+            .status_requests
+            .front()
+            .is_some_and(|sent| now - sent > REPLY_TIMEOUT_S)
+        {
+            self.status_requests.pop_front();
+        }
+        self.status_requests.pop_front().is_some()
+    }
+
     fn beat(&mut self) -> Result<(), BoardError> {
         let now = self.now_s();
         if self.heartbeat && now - self.last_beat_s >= HEARTBEAT_PERIOD_S {
@@ -331,8 +363,8 @@ impl Board {
     }
 
     fn handle(&mut self, mut r: Received) {
-        self.clock
-            .received(r.t_s, matches!(r.msg, BoardToMaster::Status(_)));
+        let periodic = matches!(r.msg, BoardToMaster::Status(_)) && !self.answers_status_request();
+        self.clock.received(r.t_s, periodic);
         if self.paced {
             r.t_s = self.now_s();
         }

@@ -10,6 +10,7 @@ pub mod calibrate;
 pub mod describe;
 pub mod design;
 pub mod operator;
+pub mod ros2;
 pub mod sim;
 pub mod teleop;
 pub mod view;
@@ -248,6 +249,13 @@ pub enum Command {
     /// measured pose is streamed as TRANSFORM from device Robot, the state as STATUS and
     /// STRING; GET_ requests are answered.
     Igtl(operator::IgtlArgs),
+    /// ROS 2 with CRTK names (no ROS installation needed): measured_cp, setpoint_cp
+    /// (PoseStamped), measured_js, setpoint_js (JointState) and /tf at 100 Hz,
+    /// operating_state (crtk_msgs/OperatingState), diagnostics (the latched fault, the guard
+    /// margins) and refusal (a refused command and its reason); servo_cp (PoseStamped: a
+    /// target through the board's supervisor) and state_command (enable, disable, home,
+    /// pause, resume) subscribed. DDS stays on the loopback unless --network says otherwise.
+    Ros2(ros2::Ros2Args),
     /// The simulated board (the board application on the plant) on a Unix socket, its
     /// virtual clock paced by the wall clock and by its masters (it pauses, never jumps,
     /// when the host falls behind), for `teleop`, the console, `igtl` and `faultlog`.
@@ -307,6 +315,7 @@ impl Command {
             Command::Replay(args) => operator::replay(args),
             Command::Console(args) => operator::console(args),
             Command::Igtl(args) => operator::igtl(args),
+            Command::Ros2(args) => ros2::run(args, robot),
             Command::Faultlog(args) => board::faultlog(args),
             Command::Calibrate(args) => calibrate::run(args, selected, limits),
             Command::Describe(args) => describe::run(args, selected, &limits.limits),
