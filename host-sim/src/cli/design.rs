@@ -440,9 +440,20 @@ pub fn compare(args: &CompareArgs, robot: &Robot<f64>) -> Result<(), CliError> {
         branch: parse_branch(&args.branch).map_err(FlagError::from)?,
         ..PathSpec::thesis_diagonal()
     };
+    // The same comparison with the selected RSPR's eccentricity (the prototype's 20 mm):
+    // on both robots, and on the RSPR only against the RRPS at e = 0.
+    let mut others = Vec::new();
+    if g.e > 0.0 {
+        let eccentric = Pair::with_eccentricity(g.e, g.rb, g.rp, g.hc)?;
+        others.push(eccentric);
+        others.push(Pair {
+            rspr: eccentric.rspr,
+            rrps: pair.rrps,
+        });
+    }
     print!(
         "{}",
-        design::compare::run(&pair, &spec, args.out.as_deref())?
+        design::compare::run_with(&pair, &others, &spec, args.out.as_deref())?
     );
     Ok(())
 }

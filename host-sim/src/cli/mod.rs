@@ -143,8 +143,22 @@ pub enum Command {
     /// In: x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg,branch. Out: the input, then RSPR
     /// serial1_mm..serial3_mm (|Cn2_i|) or USR serial1_mm2..serial3_mm2
     /// (|Cn1 Cr2 - Cr1 Cn2|), serial1_frac..serial3_frac (over rb, or l1^2),
-    /// parallel_inv_cond, det_sign, nearest (parallel or serial:N), error.
+    /// parallel_inv_cond, det_sign, nearest (parallel or serial:N), then the line
+    /// geometry of thesis chapter 10: rank (of the six Plücker lines of the tripod
+    /// Jacobian), circuits (every minimal dependent subset as variety:lines, e.g. 3D:1245),
+    /// configurations (the S1..S13 of Table 10.3 whose conditions hold), complex (5A or 5B
+    /// at rank 5), gained (the twists the platform gains: twist=(v; rp*w) unit,
+    /// pitch_mm, axis_mm relative to o_p), serial1_case..serial3_case (RSPR a..d of Eq.
+    /// 10.6, USR A..F of Eq. 10.11, joined by +), error.
     Singularity(singularity::SingularityArgs),
+    /// The pose nearest each singular configuration S1..S13 (thesis Table 10.3) over a
+    /// task box.
+    ///
+    /// Out: a comment line, then CSV configuration,residual,which,x_mm..rz_deg,pose: the
+    /// smallest residual of the configuration's condition over the grid (lengths over rp,
+    /// sines of angles, singular values; 0 at the configuration), the index set that gives
+    /// it (e.g. S9(1,2)) and the pose where it is smallest.
+    SingularityScan(singularity::SingularityScanArgs),
     /// A readable report of the robot over the thesis's task box.
     ///
     /// Dimensions, the inverse kinematics of the central pose on all 8 branches, the
@@ -302,6 +316,7 @@ impl Command {
             Command::Jacobian(args) => Ok(jacobian::run(args, robot, &limits.limits)?),
             Command::Forces(args) => design::forces(args, robot, &limits.limits),
             Command::Singularity(args) => Ok(singularity::run(args, robot)?),
+            Command::SingularityScan(args) => Ok(singularity::run_scan(args, robot)?),
             Command::Report(args) => design::report(args, selected),
             Command::Check(args) => Ok(check::run(args, selected, limits)?),
             Command::Sim(args) => sim::run(args, selected, limits),
