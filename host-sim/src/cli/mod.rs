@@ -6,6 +6,7 @@
 //! library returns.
 
 pub mod board;
+pub mod board_session;
 pub mod calibrate;
 pub mod describe;
 pub mod design;

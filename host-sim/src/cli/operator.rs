@@ -1,13 +1,13 @@
 //! The operator's front ends on the command line (the `operator` crate): `teleop --device`
 //! (a hand controller), `replay`, `console` and `igtl`.
 
+use super::board_session::{shutdown_on_signals, with_board};
 use crate::error::CliError;
 use clap::{Args, ValueEnum};
 use masters::{MotionScale, TeleopConfig, TeleopState, TremorSuppression};
 use operator::board::{Board, BringUpTimeouts};
 use operator::devices::{self, DeviceSpec};
 use operator::navigation::{self, BoardRobot};
-use operator::shutdown::{self, Shutdown};
 use operator::teleoperation::{self, TeleoperationSettings, TickView};
 use robot_config::output;
 use std::io::Write;
@@ -95,27 +95,6 @@ impl StartArgs {
             clear_fault: self.clear_fault,
         }
     }
-}
-
-/// The SIGINT and SIGTERM flag of a front end (`operator::shutdown`).
-pub fn shutdown_on_signals() -> Result<Shutdown, CliError> {
-    Ok(Shutdown::on_signals()?)
-}
-
-/// Runs a front end's body on `board` through the one way out (`operator::shutdown`):
-/// the robot disabled whatever ended it; the stop a signal asked is no error.
-pub(crate) fn with_board<T: Default>(
-    board: &mut Board,
-    shutdown: &Shutdown,
-    body: impl FnOnce(&mut Board) -> Result<T, CliError>,
-) -> Result<T, CliError> {
-    shutdown::with_board(
-        board,
-        shutdown,
-        &mut |m| eprintln!("board: {m}"),
-        body,
-        |e| matches!(e, CliError::Operator(o) if o.is_interrupted()),
-    )
 }
 
 /// Where the board is: its socket or serial device, the baud rate, the link key.

@@ -2,7 +2,8 @@
 //! live board, with the front ends' session rules (one owner, the robot disabled on the
 //! way out: `operator::shutdown`).
 
-use super::operator::{shutdown_on_signals, with_board, StartArgs};
+use super::board_session::{shutdown_on_signals, with_board};
+use super::operator::StartArgs;
 use crate::error::CliError;
 use clap::Args;
 use kinematics_core::Robot;

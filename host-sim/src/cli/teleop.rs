@@ -97,6 +97,6 @@ pub fn run(
         start: args.start.options(),
     };
     // SIGINT and SIGTERM end the run through its way out: the robot disabled.
-    let shutdown = super::operator::shutdown_on_signals()?;
+    let shutdown = super::board_session::shutdown_on_signals()?;
     Ok(teleop::run(&settings, shutdown.flag())?)
 }

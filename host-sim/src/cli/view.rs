@@ -112,7 +112,7 @@ pub fn run(
     limits: &Limits<f64>,
 ) -> Result<(), CliError> {
     let mut live = start_scene(&args.listen, args.record.as_deref(), selected, limits)?;
-    let shutdown = super::operator::shutdown_on_signals()?;
+    let shutdown = super::board_session::shutdown_on_signals()?;
     if let Some(d) = args.duration_s {
         let s = shutdown.clone();
         std::thread::spawn(move || {
@@ -134,7 +134,7 @@ pub fn run(
     );
     let _ = std::io::stdout().flush();
     let scene = &mut live.scene;
-    let counters = super::operator::with_board(&mut board, &shutdown, |board| {
+    let counters = super::board_session::with_board(&mut board, &shutdown, |board| {
         Ok(operator::view::run(
             board,
             scene,
