@@ -451,8 +451,14 @@ fn run_upload(args: &UploadArgs) -> Result<(), CliError> {
             println!("stored calibrated geometry version {v}");
             Ok(())
         }
-        GeometryAnswer::Refused(reason) => Err(CliError::Upload(format!("refused: {reason:?}"))),
-        GeometryAnswer::Nack(reason) => Err(CliError::Upload(format!("refused: {reason:?}"))),
+        GeometryAnswer::Refused(reason) => Err(CliError::Upload(format!(
+            "refused: {}",
+            board_words::geometry_refusal(reason)
+        ))),
+        GeometryAnswer::Nack(reason) => Err(CliError::Upload(format!(
+            "refused: {}",
+            board_words::reason(reason)
+        ))),
         GeometryAnswer::Unexpected(what) => {
             Err(CliError::Upload(format!("unexpected reply {what}")))
         }
