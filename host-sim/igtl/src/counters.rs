@@ -50,7 +50,7 @@ impl std::fmt::Display for Counters {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "received {} ({}); sent {} ({}); malformed {} ({}); targets accepted {}, refused {}; \
+            "received {} ({}); sent {} ({}); malformed {} ({}); targets taken {}, refused on arrival {}; \
              poses not streamed to a client not reading {}; send failures {}; bytes discarded {}; \
              connections accepted {}, refused {}, closed {}",
             self.received.values().sum::<u64>(),
@@ -173,7 +173,7 @@ mod tests {
         c.connections_accepted = 1;
         let text = c.to_string();
         assert!(
-            text.starts_with("received 3 (STRING 1, TRANSFORM 2); sent 1 (STATUS 1); malformed 1 (bad_crc 1); targets accepted 1, refused 1;"),
+            text.starts_with("received 3 (STRING 1, TRANSFORM 2); sent 1 (STATUS 1); malformed 1 (bad_crc 1); targets taken 1, refused on arrival 1;"),
             "{text}"
         );
         assert!(!text.contains('{') && !text.contains("Counters"), "{text}");
