@@ -310,6 +310,8 @@ pub fn plot(c: &Comparison, title: &str, path: &Path) -> Result<(), PlotError> {
                 }
             }
             Panel {
+                levels: Vec::new(),
+                bands: Vec::new(),
                 caption: None,
                 x_desc: "path parameter s".into(),
                 y_desc: if p == 0 { "N" } else { "N m" }.into(),

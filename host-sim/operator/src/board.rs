@@ -102,6 +102,28 @@ pub enum Outcome {
     NoReply,
 }
 
+impl Outcome {
+    /// The answer in words, for a person.
+    pub fn words(&self) -> String {
+        match self {
+            Outcome::Ack => "accepted".into(),
+            Outcome::Refused(r) => format!("refused: {}", board_words::reason(*r)),
+            Outcome::TargetRefused(t) => format!("refused: {}", board_words::refusal(t)),
+            Outcome::HelloReply(h) => format!(
+                "hello: firmware {}.{}.{}, protocol {}",
+                h.firmware.major, h.firmware.minor, h.firmware.patch, h.protocol_version
+            ),
+            Outcome::FaultLog(p) => format!("a fault log page of {} entries", p.count),
+            Outcome::EventLog(p) => format!("an event log page of {} entries", p.count),
+            Outcome::GeometryStored(v) => format!("calibrated geometry version {v} stored"),
+            Outcome::GeometryRefused(r) => {
+                format!("geometry refused: {}", board_words::geometry_refusal(*r))
+            }
+            Outcome::NoReply => format!("no answer within {REPLY_TIMEOUT_S} s"),
+        }
+    }
+}
+
 /// The board's `HelloReply`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct HelloInfo {
@@ -745,7 +767,8 @@ impl Board {
             };
             status = cleared.ok_or_else(|| {
                 BoardError::FaultLatched(format!(
-                    "{text}; Clear fault answered {outcome:?}: the fault stays"
+                    "{text}; Clear fault: {}: the fault stays",
+                    outcome.words()
                 ))
             })?;
             log("fault cleared");
@@ -766,12 +789,12 @@ impl Board {
     ) -> Result<(), BoardError> {
         let h = self.hello(timeout_s)?;
         log(&format!(
-            "hello: firmware {}.{}.{}, protocol {}, last reset {:?}{}",
+            "hello: firmware {}.{}.{}, protocol {}, last reset {}{}",
             h.firmware.major,
             h.firmware.minor,
             h.firmware.patch,
             h.protocol_version,
-            h.reset.cause,
+            board_words::reset_cause(h.reset.cause),
             if h.reset.acknowledged {
                 ""
             } else {
@@ -790,8 +813,8 @@ impl Board {
             }
             self.expect_ack(MasterToBoard::AcknowledgeReset)?;
             log(&format!(
-                "{:?} reset acknowledged (--acknowledge-reset)",
-                h.reset.cause
+                "{} reset acknowledged (--acknowledge-reset)",
+                board_words::reset_cause(h.reset.cause)
             ));
         }
         Ok(())
@@ -830,7 +853,10 @@ impl Board {
                 Ok(())
             }
             Some(s) => Err(BoardError::Faulted {
-                cause: format!("{:?} while homing", s.fault.cause),
+                cause: format!(
+                    "{} while homing",
+                    board_words::fault(&s.fault).unwrap_or_else(|| "no fault cause".into())
+                ),
             }),
             None => Err(BoardError::Timeout {
                 what: "homing",
@@ -871,7 +897,10 @@ impl Board {
                 Ok(s)
             }
             Some(s) => Err(BoardError::Faulted {
-                cause: format!("{:?} while enabling", s.fault.cause),
+                cause: format!(
+                    "{} while enabling",
+                    board_words::fault(&s.fault).unwrap_or_else(|| "no fault cause".into())
+                ),
             }),
             None => Err(BoardError::Timeout {
                 what: "enabling",

@@ -1,9 +1,10 @@
 //! The files a run writes: `summary.json`, `trace.csv`, `path.png`, `errors.png`, and the
 //! run's 3-D scene for Foxglove, `scene.mcap` ([`write_scene`]).
 
+use crate::metrics::PhaseSummary;
 use crate::run::{Outcome, TraceRow};
 use plots::plotters::prelude::*;
-use plots::{line_charts, span, Layout, Panel, PlotError, Series};
+use plots::{line_charts, span, Band, Layout, Panel, PlotError, Series, PALETTE};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use thiserror::Error;
@@ -134,7 +135,12 @@ pub fn write_all(outcome: &Outcome, dir: &Path, plots: bool) -> Result<Written, 
         plot_path(&outcome.trace, &outcome.summary.scenario, &p)?;
         written.files.push(p);
         let p = dir.join("errors.png");
-        plot_errors(&outcome.trace, &outcome.summary.scenario, &p)?;
+        plot_errors(
+            &outcome.trace,
+            &outcome.summary.scenario,
+            &outcome.summary.phases,
+            &p,
+        )?;
         written.files.push(p);
     }
     Ok(written)
@@ -155,6 +161,8 @@ pub fn plot_path(rows: &[TraceRow], scenario: &str, path: &Path) -> Result<(), P
     let panels: Vec<Panel> = [((0, 1), "y [mm]"), ((0, 2), "z [mm]")]
         .into_iter()
         .map(|((ax, ay), ylabel)| Panel {
+            levels: Vec::new(),
+            bands: Vec::new(),
             caption: Some(
                 if ay == 1 {
                     "x-y (top view)"
@@ -185,8 +193,32 @@ pub fn plot_path(rows: &[TraceRow], scenario: &str, path: &Path) -> Result<(), P
     )
 }
 
-/// The errors over time: tip tracking error, tip error against the target, orientation.
-pub fn plot_errors(rows: &[TraceRow], scenario: &str, path: &Path) -> Result<(), PlotError> {
+/// The errors over time: tip tracking error, tip error against the target, orientation;
+/// the judged phases (the passes) shaded, and within them the intervals where the master's
+/// stream asks more than the tip acceleration limit (the report names both).
+pub fn plot_errors(
+    rows: &[TraceRow],
+    scenario: &str,
+    phases: &[PhaseSummary],
+    path: &Path,
+) -> Result<(), PlotError> {
+    let mut bands: Vec<Band> = Vec::new();
+    for (k, p) in phases.iter().enumerate() {
+        bands.push(Band {
+            label: format!("phase: {}", p.name),
+            x: (p.start_s, p.end_s),
+            color: PALETTE[[0, 2, 4, 9][k % 4]],
+        });
+    }
+    for p in phases {
+        for [a, b] in p.beyond_limits.iter().flat_map(|l| l.intervals_s.iter()) {
+            bands.push(Band {
+                label: "stream beyond the tip acceleration limit".into(),
+                x: (*a, *b),
+                color: PALETTE[3],
+            });
+        }
+    }
     let t_end = rows.last().map(|r| r.t_s).unwrap_or(1.0).max(1e-3);
     let specs: [(&str, &str, ValueOf, RGBColor); 3] = [
         (
@@ -211,6 +243,8 @@ pub fn plot_errors(rows: &[TraceRow], scenario: &str, path: &Path) -> Result<(),
     let panels: Vec<Panel> = specs
         .into_iter()
         .map(|(title, unit, get, color)| Panel {
+            levels: Vec::new(),
+            bands: bands.clone(),
             caption: Some(title.into()),
             x_desc: "t [s]".into(),
             y_desc: unit.into(),

@@ -264,12 +264,16 @@ fn live_line(v: &TickView) -> String {
             let p = operator::conversions::measured_cp(s)
                 .map(|p| p.to_mm_deg())
                 .unwrap_or([f64::NAN; 6]);
-            (p, s.margins.nearest, format!("{:?}", s.state))
+            (
+                p,
+                board_words::nearest_margin_short(&s.margins),
+                board_words::state_label(s.state).to_string(),
+            )
         }
-        None => ([f64::NAN; 6], f32::NAN, "?".into()),
+        None => ([f64::NAN; 6], "--".to_string(), "?".into()),
     };
     format!(
-        "{board_state:<8} {state:<24} edge {:<10} margin {margin:5.2}  x {:7.2} y {:7.2} z {:7.2} mm   ",
+        "{board_state:<8} {state:<24} edge {:<10} margin {margin}  x {:7.2} y {:7.2} z {:7.2} mm   ",
         v.cue.as_str(),
         pose[0],
         pose[1],
@@ -471,7 +475,7 @@ pub fn igtl(args: &IgtlArgs) -> Result<(), CliError> {
             server.local_addr(),
             args.connect.display(),
             args.rate_hz,
-            if args.allow.is_empty() { String::new() } else { format!("; clients allowed: {:?}", args.allow) },
+            if args.allow.is_empty() { String::new() } else { format!("; clients allowed: {}", args.allow.iter().map(ToString::to_string).collect::<Vec<_>>().join(", ")) },
             if args.token_file.is_some() { "; a token is required (STRING to device Token first)" } else { "" },
         );
         let _ = std::io::stdout().flush();
@@ -485,7 +489,7 @@ pub fn igtl(args: &IgtlArgs) -> Result<(), CliError> {
         )?;
         let c = server.counters();
         println!(
-            "igtl: targets accepted {}, refused {}; counters {c:?}",
+            "igtl: targets accepted {}, refused {}; messages: {c}",
             robot.accepted, robot.refused
         );
         Ok(())

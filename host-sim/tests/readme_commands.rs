@@ -1,0 +1,226 @@
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+//! The README's examples run as written: every `host-sim …` line of its ```sh blocks (and
+//! `cargo run … -p host-sim -- …`, which is the same binary), in the README's order, through
+//! `sh -c` in one fresh directory with this build's `host-sim` first on `PATH`, so that
+//! redirections (`< poses.csv > joints.csv`) and the files one line writes for the next
+//! (`target/calibration/calibrated.toml`) work as a user's shell has them.
+//!
+//! What the README presumes of the user is provided, and nothing else is changed:
+//! - the user's own files: `poses.csv` as a pose CSV before `ik --csv`, and as tracker
+//!   measurements (simulated) before `calibrate --measurements`;
+//! - `host-sim board --socket /tmp/board.sock` runs in the background for the lines after
+//!   it that connect to that socket, on a socket in the test's directory (the path
+//!   replaced, so that tests and users do not share one);
+//! - a line for a real board's serial device (`/dev/ttyUSB0`) must fail, naming the device;
+//! - `host-sim faults` (the whole campaign, about a minute) is run on one fault kind in
+//!   one condition: its flags are the README's, the campaign is `host-sim/faults`'s tests.
+//!
+//! Every other line must exit 0. A README line this test does not recognise fails it.
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::Duration;
+
+/// The README's shell lines that run `host-sim`, comments removed, `cargo run … --` made
+/// `host-sim`.
+fn readme_commands() -> Vec<String> {
+    let readme = Path::new(env!("CARGO_MANIFEST_DIR")).join("../README.md");
+    let text = std::fs::read_to_string(&readme).unwrap();
+    let mut out = Vec::new();
+    let mut in_sh = false;
+    for line in text.lines() {
+        if let Some(fence) = line.strip_prefix("```") {
+            in_sh = !in_sh && fence.trim() == "sh";
+            continue;
+        }
+        if !in_sh {
+            continue;
+        }
+        let command = match line.find(" #") {
+            Some(i) => &line[..i],
+            None => line,
+        }
+        .trim();
+        if let Some(rest) = command.strip_prefix("cargo run ") {
+            // `cargo run [--release] -p host-sim -- ARGS`.
+            let (flags, args) = rest.split_once(" -- ").unwrap_or((rest, ""));
+            if flags.split_whitespace().any(|w| w == "host-sim") {
+                out.push(format!("host-sim {args}").trim().to_string());
+            }
+        } else if command.starts_with("host-sim ") {
+            out.push(command.to_string());
+        }
+    }
+    out
+}
+
+/// A directory of the test's own with `bin/host-sim`.
+fn workspace() -> (tempfile::TempDir, PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    let bin = dir.path().join("bin");
+    std::fs::create_dir_all(&bin).unwrap();
+    std::os::unix::fs::symlink(env!("CARGO_BIN_EXE_host-sim"), bin.join("host-sim")).unwrap();
+    (dir, bin)
+}
+
+struct Shell {
+    cwd: PathBuf,
+    path: String,
+}
+
+struct Ran {
+    code: Option<i32>,
+    stdout: String,
+    stderr: String,
+}
+
+impl Shell {
+    fn command(&self, line: &str) -> Command {
+        let mut c = Command::new("sh");
+        c.arg("-c")
+            .arg(line)
+            .current_dir(&self.cwd)
+            .env("PATH", &self.path);
+        c
+    }
+
+    fn run(&self, line: &str) -> Ran {
+        let out = self.command(line).stdin(Stdio::null()).output().unwrap();
+        Ran {
+            code: out.status.code(),
+            stdout: String::from_utf8_lossy(&out.stdout).into_owned(),
+            stderr: String::from_utf8_lossy(&out.stderr).into_owned(),
+        }
+    }
+
+    fn ok(&self, line: &str) -> Ran {
+        let r = self.run(line);
+        assert_eq!(
+            r.code,
+            Some(0),
+            "README line `{line}` failed:\n{}\n{}",
+            r.stdout,
+            r.stderr
+        );
+        r
+    }
+}
+
+/// The background board, stopped (SIGINT, as a user's Ctrl-C) when dropped.
+struct Background(Child);
+
+impl Drop for Background {
+    fn drop(&mut self) {
+        let _ = Command::new("kill")
+            .args(["-INT", &self.0.id().to_string()])
+            .status();
+        for _ in 0..50 {
+            if matches!(self.0.try_wait(), Ok(Some(_))) {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(100));
+        }
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+#[test]
+fn every_command_of_the_readme_runs_as_written() {
+    let commands = readme_commands();
+    // The README's examples: kinematics, design, calibration, the board; a parse that
+    // finds far fewer has lost them.
+    assert!(commands.len() >= 20, "{commands:#?}");
+    let (dir, bin) = workspace();
+    let sh = Shell {
+        cwd: dir.path().to_path_buf(),
+        path: format!(
+            "{}:{}",
+            bin.display(),
+            std::env::var("PATH").unwrap_or_default()
+        ),
+    };
+    let socket = dir.path().join("board.sock");
+    let socket_text = socket.to_str().unwrap();
+    let mut board: Option<Background> = None;
+    for line in &commands {
+        eprintln!("$ {line}");
+        let line = line.replace("/tmp/board.sock", socket_text);
+        if line.starts_with("host-sim board ") {
+            let child = sh
+                .command(&format!("exec {line}"))
+                .stdin(Stdio::null())
+                .stdout(Stdio::null())
+                .stderr(Stdio::null())
+                .spawn()
+                .unwrap();
+            board = Some(Background(child));
+            // The socket exists once the board serves (a failure detector, not a timing).
+            let mut waited = 0;
+            while !socket.exists() && waited < 600 {
+                std::thread::sleep(Duration::from_millis(100));
+                waited += 1;
+            }
+            assert!(socket.exists(), "`{line}` made no socket in 60 s");
+            continue;
+        }
+        if line.contains("/dev/ttyUSB0") {
+            let r = sh.run(&line);
+            assert_ne!(r.code, Some(0), "`{line}` without a board succeeded");
+            assert!(
+                r.stderr.contains("/dev/ttyUSB0"),
+                "`{line}`: the error does not name the device: {}",
+                r.stderr
+            );
+            continue;
+        }
+        if line.contains(socket_text) {
+            assert!(board.is_some(), "`{line}` before the README's board line");
+        }
+        if line.contains("ik --csv < poses.csv") {
+            std::fs::write(
+                dir.path().join("poses.csv"),
+                "x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg\n0,0,160,0,0,0\n10,-5,165,5,0,0\n",
+            )
+            .unwrap();
+            sh.ok(&line);
+            let joints = std::fs::read_to_string(dir.path().join("joints.csv")).unwrap();
+            assert_eq!(joints.lines().count(), 3, "{joints}");
+            continue;
+        }
+        if line.contains("calibrate --measurements poses.csv") {
+            sh.ok("host-sim calibrate simulate --poses 40 --validation 20 --out measured");
+            std::fs::copy(
+                dir.path().join("measured/measurements.csv"),
+                dir.path().join("poses.csv"),
+            )
+            .unwrap();
+        }
+        if line == "host-sim faults" {
+            sh.ok("host-sim faults --kinds e-stop --conditions holding");
+            continue;
+        }
+        let r = sh.ok(&line);
+        assert!(
+            !r.stdout.contains("{ ") && !r.stderr.contains("{ "),
+            "`{line}` prints Debug text:\n{}\n{}",
+            r.stdout,
+            r.stderr
+        );
+    }
+    drop(board);
+}
+
+/// The parser finds what the README shows, comments removed and `cargo run` made the
+/// binary (a check of the test's own reading).
+#[test]
+fn the_readme_lines_are_read_as_commands() {
+    let c = readme_commands();
+    assert!(c.iter().any(|l| l == "host-sim sim"), "{c:#?}");
+    assert!(
+        c.iter()
+            .any(|l| l == "host-sim ik --csv < poses.csv > joints.csv"),
+        "{c:#?}"
+    );
+    assert!(c.iter().all(|l| !l.contains('#')), "{c:#?}");
+}
