@@ -179,6 +179,12 @@ pub struct Board {
     heartbeat: bool,
     last_beat_s: f64,
     last_stamp_us: u64,
+    /// How far this connection's clock ran past its `Hello`'s stamp before the board's
+    /// answer came, µs: the board takes the `Hello`'s clock as the master's when it reads
+    /// it, so a board that reads it late (still booting, an emulator stalled by its host)
+    /// would find every later target that much in its future. Target stamps are taken
+    /// back by it.
+    stamp_offset_us: u64,
     backlog: VecDeque<BoardEvent>,
     deferred: VecDeque<BoardEvent>,
     statuses: u64,
@@ -222,6 +228,7 @@ impl Board {
             heartbeat: true,
             last_beat_s: f64::NEG_INFINITY,
             last_stamp_us: 0,
+            stamp_offset_us: 0,
             backlog: VecDeque::new(),
             deferred: VecDeque::new(),
             statuses: 0,
@@ -332,7 +339,9 @@ impl Board {
     /// sequence number and stamp, µs.
     pub fn send_target(&mut self, pose: &CartesianPose) -> Result<(Seq, u64), BoardError> {
         let (position_m, rotation_vector_rad) = wire_pose(pose);
-        let stamp = ((self.now_s() * 1e6) as u64).max(self.last_stamp_us + 1);
+        let stamp = ((self.now_s() * 1e6) as u64)
+            .saturating_sub(self.stamp_offset_us)
+            .max(self.last_stamp_us + 1);
         self.last_stamp_us = stamp;
         let seq = self.send(MasterToBoard::PoseTarget {
             timestamp_us: stamp,
@@ -442,6 +451,9 @@ impl Board {
                 };
                 let late = self.hello.is_none();
                 self.hello = Some(info);
+                if let Some((_, MasterToBoard::Hello { clock_us, .. }, _)) = self.last_hello {
+                    self.stamp_offset_us = ((r.t_s * 1e6) as u64).saturating_sub(clock_us);
+                }
                 answer(
                     &mut self.pending,
                     &|p| matches!(p.1, MasterToBoard::Hello { .. }),
