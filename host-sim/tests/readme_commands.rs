@@ -146,6 +146,13 @@ fn every_command_of_the_readme_runs_as_written() {
     for line in &commands {
         eprintln!("$ {line}");
         let line = line.replace("/tmp/board.sock", socket_text);
+        // A board line run in the background (`... &`) once the README's board serves:
+        // that board is the one it means.
+        let line = match line.strip_suffix('&') {
+            Some(l) if board.is_some() && l.trim_end().starts_with("host-sim board ") => continue,
+            Some(l) => l.trim_end().to_string(),
+            None => line,
+        };
         if line.starts_with("host-sim board ") {
             let child = sh
                 .command(&format!("exec {line}"))
@@ -174,8 +181,23 @@ fn every_command_of_the_readme_runs_as_written() {
             );
             continue;
         }
+        if line.contains("--device spacemouse") {
+            // Without spacenavd (no SpaceMouse here) it must say what is missing.
+            let r = sh.run(&line);
+            assert_ne!(r.code, Some(0), "`{line}` without spacenavd succeeded");
+            assert!(
+                r.stderr.to_lowercase().contains("spacenav"),
+                "`{line}`: the error does not name spacenavd: {}",
+                r.stderr
+            );
+            continue;
+        }
         if line.contains(socket_text) {
             assert!(board.is_some(), "`{line}` before the README's board line");
+        }
+        if line.starts_with("host-sim ros2 ") || line.starts_with("host-sim view ") {
+            serves_until_stopped(&sh, &line);
+            continue;
         }
         if line.contains("ik --csv < poses.csv") {
             std::fs::write(
@@ -209,6 +231,58 @@ fn every_command_of_the_readme_runs_as_written() {
         );
     }
     drop(board);
+}
+
+/// A front end that serves until the user stops it (`ros2`, `view`): started, it must say
+/// it serves (its own first line on stdout, after the bring-up's `board: ...` lines, within
+/// 120 s: a failure detector, not a timing),
+/// still run a second later, and end with exit 0 on SIGINT
+/// (a user's Ctrl-C; the robot disabled on the way out).
+fn serves_until_stopped(sh: &Shell, line: &str) {
+    use std::io::BufRead;
+    let mut child = sh
+        .command(&format!("exec {line}"))
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let stdout = child.stdout.take().unwrap();
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let mut reader = std::io::BufReader::new(stdout);
+        // Its own first line: the bring-up's lines (`board: ...`) come before it.
+        let mut first = String::new();
+        loop {
+            first.clear();
+            match reader.read_line(&mut first) {
+                Ok(n) if n > 0 && first.starts_with("board: ") => continue,
+                _ => break,
+            }
+        }
+        let _ = tx.send(first);
+        // Drained to the end, so that the front end never writes to a closed pipe.
+        let _ = std::io::copy(&mut reader, &mut std::io::sink());
+    });
+    let first = rx.recv_timeout(Duration::from_secs(120));
+    // Still serving a second later (not failing after its first line).
+    std::thread::sleep(Duration::from_secs(1));
+    let running = matches!(child.try_wait(), Ok(None));
+    let _ = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status();
+    let out = child.wait_with_output().unwrap();
+    assert!(
+        first.as_ref().is_ok_and(|l| !l.is_empty()) && running,
+        "`{line}` did not serve (first line {first:?}, running {running}): {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "`{line}` did not end cleanly on SIGINT: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }
 
 /// The parser finds what the README shows, comments removed and `cargo run` made the
