@@ -330,7 +330,7 @@ impl Command {
             Command::Replay(args) => operator::replay(args),
             Command::Console(args) => operator::console(args),
             Command::Igtl(args) => operator::igtl(args),
-            Command::Ros2(args) => ros2::run(args, robot),
+            Command::Ros2(args) => ros2::run(args, selected, &limits.limits),
             Command::Faultlog(args) => board::faultlog(args),
             Command::Calibrate(args) => calibrate::run(args, selected, limits),
             Command::Describe(args) => describe::run(args, selected, &limits.limits),
