@@ -3,8 +3,8 @@
 //!
 //! - **Rates.** The board sends a status every 20 ms; the bridge asks for one
 //!   (`StatusRequest`) whenever [`STATUS_PERIOD_S`] has passed on the board's clock without
-//!   one: `measured_cp`, `measured_js`, `setpoint_cp`, `setpoint_js` and `/tf` are
-//!   published once per status, and `/joint_states` and `/tf` with them, at 100 Hz or more (measured by `ros2-board.sh` on the
+//!   one: `measured_cp`, `measured_js`, `setpoint_cp`, `setpoint_js`, `/joint_states`
+//!   and `/tf` are published once per status, at 100 Hz or more (measured by `ros2-board.sh` on the
 //!   simulated board: 127 Hz, the median interval 9.8 ms, the longest 20 ms when a
 //!   request's answer and a periodic status coincide; each
 //!   message a new status, none repeated). Their stamps are the board's clock (the
@@ -18,8 +18,8 @@
 //!   equal `measured_js`, the passive ones (spherical joints, pins) are computed; `/tf` is
 //!   every joint's transform from its parent link to its child, so the frames from `base`
 //!   to `platform` need no `robot_state_publisher`. A status whose joints have no forward
-//!   kinematics (an unhomed robot's encoders) gets none of the two; the first such status
-//!   and each new reason are logged, and the summary counts them.
+//!   kinematics (joints that no pose has) gets neither; the reason is logged when it
+//!   changes, and the summary counts such statuses.
 //! - **`servo_cp`**: the newest pose received becomes one target to the board, through the
 //!   board's supervisor like every target (admission, path check, speed profile); older
 //!   ones still queued are dropped (a servo stream wants its latest). The bridge waits for
