@@ -57,6 +57,9 @@ pub enum CliError {
     /// `describe`: the description, its input or its output.
     #[error("describe: {0}")]
     Describe(String),
+    /// `ros2`: the robot description of the geometry in use.
+    #[error("ros2: the robot description: {0}")]
+    Ros2Description(String),
     /// `view`: its server, its recording or its flags.
     #[error("view: {0}")]
     View(String),

@@ -3,8 +3,8 @@
 //!
 //! - **Rates.** The board sends a status every 20 ms; the bridge asks for one
 //!   (`StatusRequest`) whenever [`STATUS_PERIOD_S`] has passed on the board's clock without
-//!   one: `measured_cp`, `measured_js`, `setpoint_cp`, `setpoint_js` and `/tf` are
-//!   published once per status, at 100 Hz or more (measured by `ros2-board.sh` on the
+//!   one: `measured_cp`, `measured_js`, `setpoint_cp`, `setpoint_js`, `/joint_states`
+//!   and `/tf` are published once per status, at 100 Hz or more (measured by `ros2-board.sh` on the
 //!   simulated board: 127 Hz, the median interval 9.8 ms, the longest 20 ms when a
 //!   request's answer and a periodic status coincide; each
 //!   message a new status, none repeated). Their stamps are the board's clock (the
@@ -12,6 +12,14 @@
 //!   status: when the board measured, not when the host got round to it. `operating_state` is published when it changes
 //!   and every [`SLOW_PERIOD_S`], the diagnostics every [`SLOW_PERIOD_S`] and when the
 //!   board's state changes.
+//! - **`/joint_states` and `/tf`**: every joint of the robot description at the measured
+//!   joints (the forward kinematics of the status's encoders, then the description's
+//!   joint states at that pose, [`convert::measured_joint_states`]): the actuated ones
+//!   equal `measured_js`, the passive ones (spherical joints, pins) are computed; `/tf` is
+//!   every joint's transform from its parent link to its child, so the frames from `base`
+//!   to `platform` need no `robot_state_publisher`. A status whose joints have no forward
+//!   kinematics (joints that no pose has) gets neither; the reason is logged when it
+//!   changes, and the summary counts such statuses.
 //! - **`servo_cp`**: the newest pose received becomes one target to the board, through the
 //!   board's supervisor like every target (admission, path check, speed profile); older
 //!   ones still queued are dropped (a servo stream wants its latest). The bridge waits for
@@ -19,19 +27,32 @@
 //!   `servo_cp refused: <the board's reason in words>`, e.g. `servo_cp refused: workspace
 //!   z 250.0 mm > 175.0 mm`, and so is a target the board's path check refuses after
 //!   accepting it.
+//! - **`servo_jp`** (`sensor_msgs/JointState`, the six actuated joints by name, in any
+//!   order, SI): the forward kinematics of the joints (from the measured pose, on the
+//!   description's branch) becomes the pose target, sent as `servo_cp`'s is; only the
+//!   newest is taken. A message with a wrong count of names or positions, a name that is
+//!   not an actuated joint, a value that is not finite, or joints with no forward
+//!   kinematics is refused on `refusal` as `servo_jp refused: <what is wrong>`; the board's
+//!   refusals of the pose as `servo_jp refused: <the board's reason>`.
+//! - While the robot is paused (`state_command pause`: the board holds under SS2), the
+//!   board refuses every target; the refusal says so: `... refused: not allowed in this
+//!   state (the robot is paused: state_command resume)`.
 //! - **`state_command`** (`crtk_msgs/StringStamped`): CRTK's words as the board's requests
 //!   ([`crate::crtk`]); a refusal is published as `state_command <word> refused: <reason>`.
 //!
 //! Refusal words are those of `board_words`, the same as the console's and the
 //! OpenIGTLink bridge's.
 
-use crate::convert::{self, target_of};
-use crate::crtk::{operating_state, Operating, StateCommand};
-use crate::messages::{Header, OperatingState, StdString, StringStamped, Time};
+use crate::convert::{self, target_of, target_of_joints};
+use crate::crtk::{operating_state, MetaState, Operating, StateCommand};
+use crate::messages::{Header, JointState, OperatingState, StdString, StringStamped, Time};
 use crate::node::RosNode;
-use kinematics_core::Mechanism;
+use kinematics_core::{Mechanism, Pose};
 use master_link::{MasterToBoard, NackReason, RobotState, StatusReport};
+use masters::CartesianPose;
 use operator::board::{Board, BoardError, BoardEvent, Outcome};
+use operator::conversions::measured_cp;
+use robot_description::Description;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 use thiserror::Error;
@@ -67,6 +88,15 @@ pub struct Counters {
     pub targets_refused: u64,
     /// `servo_cp` messages dropped for a newer one.
     pub targets_superseded: u64,
+    /// `servo_jp` targets accepted by the board.
+    pub joint_targets_accepted: u64,
+    /// `servo_jp` targets refused (by the bridge or by the board).
+    pub joint_targets_refused: u64,
+    /// `servo_jp` messages dropped for a newer one.
+    pub joint_targets_superseded: u64,
+    /// Statuses whose measured joints had no forward kinematics: no `/joint_states` and
+    /// `/tf` for them.
+    pub unposed: u64,
     /// `state_command`s carried out.
     pub commands_done: u64,
     /// `state_command`s refused.
@@ -83,12 +113,12 @@ impl Counters {
     }
 }
 
-/// The bridge between `board` and `node`; `robot` is the geometry the board runs (for
-/// `setpoint_js`).
-pub struct Bridge<'a, M: Mechanism<f64> + ?Sized> {
+/// The bridge between `board` and `node`; `description` is that of the geometry the
+/// board runs (for `setpoint_js`, `/joint_states`, `/tf` and `servo_jp`).
+pub struct Bridge<'a> {
     board: &'a mut Board,
     node: &'a RosNode,
-    robot: &'a M,
+    description: &'a Description,
     counters: Counters,
     first_status_s: Option<f64>,
     last_status_s: f64,
@@ -97,6 +127,13 @@ pub struct Bridge<'a, M: Mechanism<f64> + ?Sized> {
     last_slow_s: f64,
     /// The host's clock and the board's at the first status.
     anchor: Option<(Time, f64)>,
+    /// The pose of the last measured joints (their forward kinematics).
+    pose: Option<Pose<f64>>,
+    /// The last reason a status could not be posed (logged when it changes).
+    unposed_reason: Option<String>,
+    /// The last refusal logged, and how many times it came again since.
+    last_refusal: Option<String>,
+    refusal_repeats: u64,
 }
 
 fn published<E: std::fmt::Debug>(topic: &'static str, r: Result<(), E>) -> Result<(), BridgeError> {
@@ -106,13 +143,13 @@ fn published<E: std::fmt::Debug>(topic: &'static str, r: Result<(), E>) -> Resul
     })
 }
 
-impl<'a, M: Mechanism<f64> + ?Sized> Bridge<'a, M> {
+impl<'a> Bridge<'a> {
     /// Around a board (brought up or only greeted: the state tells the ROS side).
-    pub fn new(board: &'a mut Board, node: &'a RosNode, robot: &'a M) -> Self {
+    pub fn new(board: &'a mut Board, node: &'a RosNode, description: &'a Description) -> Self {
         Bridge {
             board,
             node,
-            robot,
+            description,
             counters: Counters::default(),
             first_status_s: None,
             last_status_s: f64::NEG_INFINITY,
@@ -120,6 +157,10 @@ impl<'a, M: Mechanism<f64> + ?Sized> Bridge<'a, M> {
             last_state: None,
             last_slow_s: f64::NEG_INFINITY,
             anchor: None,
+            pose: None,
+            unposed_reason: None,
+            last_refusal: None,
+            refusal_repeats: 0,
         }
     }
 
@@ -150,6 +191,7 @@ impl<'a, M: Mechanism<f64> + ?Sized> Bridge<'a, M> {
             self.last_request_s = now;
         }
         self.servo_cp(log)?;
+        self.servo_jp(log)?;
         self.state_commands(log)?;
         Ok(())
     }
@@ -161,7 +203,7 @@ impl<'a, M: Mechanism<f64> + ?Sized> Bridge<'a, M> {
     ) -> Result<(), BridgeError> {
         for e in events {
             match e {
-                BoardEvent::Status(t, s) => self.publish_status(t, &s)?,
+                BoardEvent::Status(t, s) => self.publish_status(t, &s, log)?,
                 BoardEvent::TargetRefused(_, r) => {
                     self.counters.targets_refused += 1;
                     self.refuse(
@@ -192,7 +234,12 @@ impl<'a, M: Mechanism<f64> + ?Sized> Bridge<'a, M> {
         }
     }
 
-    fn publish_status(&mut self, t_s: f64, s: &StatusReport) -> Result<(), BridgeError> {
+    fn publish_status(
+        &mut self,
+        t_s: f64,
+        s: &StatusReport,
+        log: &mut dyn FnMut(&str),
+    ) -> Result<(), BridgeError> {
         let stamp = self.stamp(t_s);
         let n = self.node;
         self.counters.statuses += 1;
@@ -209,12 +256,10 @@ impl<'a, M: Mechanism<f64> + ?Sized> Bridge<'a, M> {
         if let Some(m) = convert::setpoint_cp_msg(s, stamp) {
             published("setpoint_cp", n.setpoint_cp.publish(m))?;
         }
-        if let Some(m) = convert::setpoint_js_msg(self.robot, s, stamp) {
+        if let Some(m) = convert::setpoint_js_msg(self.description.robot(), s, stamp) {
             published("setpoint_js", n.setpoint_js.publish(m))?;
         }
-        if let Some(m) = convert::tf_msg(s, stamp) {
-            published("/tf", n.tf.publish(m))?;
-        }
+        self.publish_joint_states(s, stamp, log)?;
         let o = operating_state(s);
         let changed = self.last_state != Some((o, s.state));
         if changed || t_s - self.last_slow_s >= SLOW_PERIOD_S {
@@ -240,8 +285,68 @@ impl<'a, M: Mechanism<f64> + ?Sized> Bridge<'a, M> {
         Ok(())
     }
 
+    /// `/joint_states` and `/tf` at the measured joints of `s`.
+    fn publish_joint_states(
+        &mut self,
+        s: &StatusReport,
+        stamp: Time,
+        log: &mut dyn FnMut(&str),
+    ) -> Result<(), BridgeError> {
+        let d = self.description;
+        let guess = measured_cp(s)
+            .map(|p| convert::kinematic_pose(&p))
+            .or(self.pose)
+            .unwrap_or_else(|| Pose::central(d.robot().hc()));
+        let q = s.joints.map(f64::from);
+        let states = match convert::measured_joint_states(d, q, &guess) {
+            Ok((pose, states)) => {
+                self.pose = Some(pose);
+                self.unposed_reason = None;
+                states
+            }
+            Err(e) => {
+                self.counters.unposed += 1;
+                let why = e.to_string();
+                if self.unposed_reason.as_deref() != Some(why.as_str()) {
+                    log(&format!("/joint_states and /tf not published: {why}"));
+                    self.unposed_reason = Some(why);
+                }
+                return Ok(());
+            }
+        };
+        let n = self.node;
+        published(
+            "/joint_states",
+            n.joint_states
+                .publish(convert::joint_states_msg(&states, stamp)),
+        )?;
+        match convert::tf_msg(d, &states, stamp) {
+            Some(m) => published("/tf", n.tf.publish(m)),
+            None => {
+                self.counters.unposed += 1;
+                log("/tf not published: a joint of the description has no value");
+                Ok(())
+            }
+        }
+    }
+
+    /// Publishes a refusal on `refusal`, every one of them; the log hears a refusal
+    /// repeated back to back (a servo stream while paused) once, and how many times it
+    /// came when another follows.
     fn refuse(&mut self, text: &str, log: &mut dyn FnMut(&str)) -> Result<(), BridgeError> {
-        log(text);
+        if self.last_refusal.as_deref() == Some(text) {
+            self.refusal_repeats += 1;
+        } else {
+            if self.refusal_repeats > 0 {
+                log(&format!(
+                    "(the refusal before repeated {} more times)",
+                    self.refusal_repeats
+                ));
+            }
+            self.refusal_repeats = 0;
+            self.last_refusal = Some(text.to_string());
+            log(text);
+        }
         published(
             "refusal",
             self.node.refusal.publish(StdString {
@@ -250,46 +355,105 @@ impl<'a, M: Mechanism<f64> + ?Sized> Bridge<'a, M> {
         )
     }
 
-    fn servo_cp(&mut self, log: &mut dyn FnMut(&str)) -> Result<(), BridgeError> {
+    /// The newest sample of `subscription`, counting the older ones dropped.
+    fn newest<T: serde::de::DeserializeOwned + 'static>(
+        subscription: &ros2_client::dds::Subscription<T>,
+        topic: &str,
+        superseded: &mut u64,
+        log: &mut dyn FnMut(&str),
+    ) -> Option<T> {
         let mut newest = None;
         loop {
-            match self.node.servo_cp.take() {
+            match subscription.take() {
                 Ok(Some((m, _))) => {
                     if newest.replace(m).is_some() {
-                        self.counters.targets_superseded += 1;
+                        *superseded += 1;
                     }
                 }
                 Ok(None) => break,
                 // A sample that could not be read (a peer leaving, a foreign type): not
                 // a command.
                 Err(e) => {
-                    log(&format!("servo_cp: a sample could not be read: {e:?}"));
+                    log(&format!("{topic}: a sample could not be read: {e:?}"));
                     break;
                 }
             }
         }
-        let Some(msg) = newest else {
+        newest
+    }
+
+    fn servo_cp(&mut self, log: &mut dyn FnMut(&str)) -> Result<(), BridgeError> {
+        let Some(msg) = Self::newest(
+            &self.node.servo_cp,
+            "servo_cp",
+            &mut self.counters.targets_superseded,
+            log,
+        ) else {
             return Ok(());
         };
-        let pose = match target_of(&msg) {
-            Ok(p) => p,
+        let accepted = match target_of(&msg) {
+            Ok(pose) => self.send_target("servo_cp", &pose, log)?,
             Err(e) => {
-                self.counters.targets_refused += 1;
-                return self.refuse(&format!("servo_cp refused: {e}"), log);
+                self.refuse(&format!("servo_cp refused: {e}"), log)?;
+                false
             }
         };
-        let outcome = self.board.request_target(&pose)?;
-        let why = match outcome {
-            Outcome::Ack => {
-                self.counters.targets_accepted += 1;
-                return Ok(());
+        if accepted {
+            self.counters.targets_accepted += 1;
+        } else {
+            self.counters.targets_refused += 1;
+        }
+        Ok(())
+    }
+
+    fn servo_jp(&mut self, log: &mut dyn FnMut(&str)) -> Result<(), BridgeError> {
+        let Some(msg): Option<JointState> = Self::newest(
+            &self.node.servo_jp,
+            "servo_jp",
+            &mut self.counters.joint_targets_superseded,
+            log,
+        ) else {
+            return Ok(());
+        };
+        let d = self.description;
+        let guess = self.pose.unwrap_or_else(|| Pose::central(d.robot().hc()));
+        let accepted = match target_of_joints(d.robot(), d.branch(), &msg, &guess) {
+            Ok(pose) => self.send_target("servo_jp", &pose, log)?,
+            Err(e) => {
+                self.refuse(&format!("servo_jp refused: {e}"), log)?;
+                false
             }
+        };
+        if accepted {
+            self.counters.joint_targets_accepted += 1;
+        } else {
+            self.counters.joint_targets_refused += 1;
+        }
+        Ok(())
+    }
+
+    /// Sends a target of `topic` to the board and waits for its answer: whether it was
+    /// accepted; a refusal is published with the board's reason.
+    fn send_target(
+        &mut self,
+        topic: &str,
+        pose: &CartesianPose,
+        log: &mut dyn FnMut(&str),
+    ) -> Result<bool, BridgeError> {
+        let outcome = self.board.request_target(pose)?;
+        let paused = matches!(self.last_state, Some((o, _)) if o.state == MetaState::Paused);
+        let why = match outcome {
+            Outcome::Ack => return Ok(true),
+            Outcome::Refused(NackReason::InvalidState) if paused => format!(
+                "{} (the robot is paused: state_command resume)",
+                board_words::reason(NackReason::InvalidState)
+            ),
             Outcome::Refused(reason) => board_words::reason(reason).to_string(),
             Outcome::TargetRefused(r) => board_words::refusal(&r),
             _ => "the board did not answer the target".to_string(),
         };
-        self.counters.targets_refused += 1;
-        self.refuse(&format!("servo_cp refused: {why}"), log)
+        self.refuse(&format!("{topic} refused: {why}"), log)?;
+        Ok(false)
     }
 
     fn state_commands(&mut self, log: &mut dyn FnMut(&str)) -> Result<(), BridgeError> {

@@ -2,7 +2,8 @@
 //! publishers and subscriptions.
 //!
 //! Topics are relative to the node's namespace (`/rspr` by default: DDS topic
-//! `rt/rspr/measured_cp`), except `/tf`. QoS: ROS 2's default profile (reliable, volatile,
+//! `rt/rspr/measured_cp`), except `/tf` and `/joint_states`, which are where
+//! `robot_state_publisher`, RViz and Foxglove look for them. QoS: ROS 2's default profile (reliable, volatile,
 //! keep the last 10) on every topic, as `rclcpp` publishers and subscriptions use by
 //! default. Discovery and traffic stay on the loopback interface unless asked otherwise
 //! ([`Network`]): RustDDS is told to use only 127.0.0.1 and to announce itself to the
@@ -95,7 +96,9 @@ pub struct RosNode {
     pub diagnostics: Publisher<DiagnosticArray>,
     pub refusal: Publisher<StdString>,
     pub tf: Publisher<TfMessage>,
+    pub joint_states: Publisher<JointState>,
     pub servo_cp: Subscription<PoseStamped>,
+    pub servo_jp: Subscription<JointState>,
     pub state_command: Subscription<StringStamped>,
 }
 
@@ -190,7 +193,9 @@ impl RosNode {
             diagnostics: publisher(n, "", "diagnostics")?,
             refusal: publisher(n, "", "refusal")?,
             tf: publisher(n, "/", "tf")?,
+            joint_states: publisher(n, "/", "joint_states")?,
             servo_cp: subscription(n, "servo_cp")?,
+            servo_jp: subscription(n, "servo_jp")?,
             state_command: subscription(n, "state_command")?,
             node,
         })

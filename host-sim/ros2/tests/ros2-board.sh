@@ -36,8 +36,12 @@ grep -q '^ROS 2 node ' "$work/ros2.out" || { cat "$work/ros2.out" "$work/ros2.er
 cat "$work/ros2.out"
 echo "node ready after $(elapsed) s (domain $ROS_DOMAIN_ID)"
 
+# The URDF of the geometry the node runs, whose joint names /joint_states must carry.
+"$bin" describe --urdf --out "$work/rspr.urdf"
+
 status=0
-TOLERANCE_MM="${TOLERANCE_MM:-0.05}" timeout 300 python3 "$here/crtk_peer.py" || status=$?
+TOLERANCE_MM="${TOLERANCE_MM:-0.05}" RSPR_URDF="$work/rspr.urdf" HOST_SIM="$bin" \
+    timeout 300 python3 "$here/crtk_peer.py" || status=$?
 
 kill -INT $bridge
 for _ in $(seq 50); do kill -0 $bridge 2>/dev/null || break; sleep 0.1; done

@@ -265,11 +265,14 @@ pub enum Command {
     /// STRING; GET_ requests are answered.
     Igtl(operator::IgtlArgs),
     /// ROS 2 with CRTK names (no ROS installation needed): measured_cp, setpoint_cp
-    /// (PoseStamped), measured_js, setpoint_js (JointState) and /tf at 100 Hz,
-    /// operating_state (crtk_msgs/OperatingState), diagnostics (the latched fault, the guard
-    /// margins) and refusal (a refused command and its reason); servo_cp (PoseStamped: a
-    /// target through the board's supervisor) and state_command (enable, disable, home,
-    /// pause, resume) subscribed. DDS stays on the loopback unless --network says otherwise.
+    /// (PoseStamped), measured_js, setpoint_js (JointState), /joint_states (every joint of
+    /// the URDF of `describe --urdf`, passive ones computed) and /tf (the URDF's tree) at
+    /// 100 Hz, operating_state (crtk_msgs/OperatingState), diagnostics (the latched fault,
+    /// the guard margins) and refusal (a refused command and its reason); servo_cp
+    /// (PoseStamped: a target through the board's supervisor), servo_jp (JointState: the
+    /// six actuated joints, their forward kinematics a target) and state_command (enable,
+    /// disable, home, pause, resume) subscribed. DDS stays on the loopback unless --network
+    /// says otherwise.
     Ros2(ros2::Ros2Args),
     /// The simulated board (the board application on the plant) on a Unix socket, its
     /// virtual clock paced by the wall clock and by its masters (it pauses, never jumps,
@@ -331,7 +334,7 @@ impl Command {
             Command::Replay(args) => operator::replay(args),
             Command::Console(args) => operator::console(args),
             Command::Igtl(args) => operator::igtl(args),
-            Command::Ros2(args) => ros2::run(args, robot),
+            Command::Ros2(args) => ros2::run(args, selected, &limits.limits),
             Command::Faultlog(args) => board::faultlog(args),
             Command::Calibrate(args) => calibrate::run(args, selected, limits),
             Command::Describe(args) => describe::run(args, selected, &limits.limits),

@@ -6,8 +6,11 @@ use super::board_session::{shutdown_on_signals, with_board};
 use super::operator::StartArgs;
 use crate::error::CliError;
 use clap::Args;
-use kinematics_core::Robot;
+use kinematics_core::guards::Limits;
+use kinematics_core::Branch;
 use operator::board::{Board, BringUpTimeouts};
+use robot_config::selection::SelectedRobot;
+use robot_description::Description;
 use ros2::{Bridge, Network, NodeConfig, RosNode};
 use std::io::Write;
 use std::path::PathBuf;
@@ -79,8 +82,15 @@ fn domain(flag: Option<u16>) -> Result<u16, CliError> {
 }
 
 /// Serves the board on ROS 2 until Ctrl-C (or the duration); the robot disabled on the
-/// way out.
-pub fn run(args: &Ros2Args, robot: &Robot<f64>) -> Result<(), CliError> {
+/// way out. The selected geometry and limits make the robot description of
+/// `/joint_states`, `/tf`, `setpoint_js` and `servo_jp` (the prototype's branch, 0).
+pub fn run(
+    args: &Ros2Args,
+    selected: &SelectedRobot,
+    limits: &Limits<f64>,
+) -> Result<(), CliError> {
+    let description = Description::new(&selected.robot, limits, Branch::OUTER)
+        .map_err(|e| CliError::Ros2Description(e.to_string()))?;
     let config = NodeConfig {
         domain: domain(args.domain_id)?,
         namespace: args.namespace.clone(),
@@ -112,7 +122,7 @@ pub fn run(args: &Ros2Args, robot: &Robot<f64>) -> Result<(), CliError> {
             board.connect(10.0, start, &mut |m| println!("board: {m}"))?;
         }
         println!(
-            "ROS 2 node {}/{} on domain {} ({}) for the board {}: publishing {} {} {} {} (100 Hz), /tf, {} {} (10 Hz), {}; subscribing {} {}",
+            "ROS 2 node {}/{} on domain {} ({}) for the board {}: publishing {} {} {} {} /joint_states /tf (100 Hz), {} {} (10 Hz), {}; subscribing {} {} {}",
             config.namespace.trim_end_matches('/'),
             config.name,
             config.domain,
@@ -130,19 +140,24 @@ pub fn run(args: &Ros2Args, robot: &Robot<f64>) -> Result<(), CliError> {
             node.topic("diagnostics"),
             node.topic("refusal"),
             node.topic("servo_cp"),
+            node.topic("servo_jp"),
             node.topic("state_command"),
         );
         let _ = std::io::stdout().flush();
-        let mut bridge = Bridge::new(board, &node, robot);
+        let mut bridge = Bridge::new(board, &node, &description);
         let result = bridge.run(shutdown.flag(), &mut |m| eprintln!("ros2: {m}"));
         let c = bridge.counters();
         println!(
-            "ros2: {} statuses published at {:.1} Hz; servo_cp accepted {}, refused {}, superseded {}; state_command done {}, refused {}",
+            "ros2: {} statuses published at {:.1} Hz ({} without /joint_states: no forward kinematics); servo_cp accepted {}, refused {}, superseded {}; servo_jp accepted {}, refused {}, superseded {}; state_command done {}, refused {}",
             c.statuses,
             c.rate_hz(),
+            c.unposed,
             c.targets_accepted,
             c.targets_refused,
             c.targets_superseded,
+            c.joint_targets_accepted,
+            c.joint_targets_refused,
+            c.joint_targets_superseded,
             c.commands_done,
             c.commands_refused
         );
