@@ -524,6 +524,73 @@ fn usr_serial_case_f_where_the_determinant_vanishes() {
     assert!(c.has('F'), "{c:?}");
 }
 
+/// Every chain stretched straight up: on the reference USR (e = rp) the level platform at
+/// height l1 + l2 (the end of the reach along the vertical, found by bisection) puts each p_i straight above e_i at the links' full length, so each
+/// chain's two links are collinear (C) and along the yaw axis (B); then ŝn × l_b = 0 and
+/// ŝr × l_b is horizontal and perpendicular to the vertical ŝ1 and to ŝ2 (horizontal,
+/// along r_i, itself along ŝr), so both Cn (A) and both Cr (E) vanish, and with them the
+/// determinant (F). ŝ2 is horizontal and l_b vertical, so D does not hold.
+#[test]
+fn usr_serial_cases_a_b_c_e_with_every_chain_stretched_vertically() {
+    let g = UsrGeometry::<f64>::reference();
+    // The reach's end along the vertical, from below (l1 + l2 itself may round outside).
+    let level = |h: f64| Pose::central(h);
+    let (mut a, mut b) = (g.hc, g.l1 + g.l2 + MM);
+    assert!(solve(&g, &level(a), 0).is_some() && solve(&g, &level(b), 0).is_none());
+    for _ in 0..200 {
+        let m = 0.5 * (a + b);
+        if solve(&g, &level(m), 0).is_some() {
+            a = m
+        } else {
+            b = m
+        }
+    }
+    assert!((a - (g.l1 + g.l2)).abs() < 1e-12, "{a}");
+    let h = a / MM;
+    let sol = solve(&g, &level(a), 0).unwrap();
+    for c in Chain::ALL {
+        let cases = usr_cases(&g, &sol.chains[c], &tol());
+        for letter in ['A', 'B', 'C', 'E', 'F'] {
+            assert!(cases.has(letter), "chain {c:?}: {letter} not in {cases:?}");
+        }
+        assert!(!cases.has('D'), "chain {c:?}: {cases:?}");
+    }
+    // A millimetre lower the knees bend: none of the cases holds.
+    let lower = solve(&g, &pose([0.0, 0.0, h - 1.0], [0.0; 3]), 0).unwrap();
+    for c in Chain::ALL {
+        assert!(usr_cases(&g, &lower.chains[c], &tol()).is_empty());
+    }
+}
+
+/// Turning the platform about x0 at a fixed height, chain 1 (whose revolute axis r_1 is
+/// along y_p) reaches the end of its reach where the two roots of Eq. 6.32 meet: found by
+/// bisection on the inverse kinematics' success (the failure beyond names chain 1). There
+/// the upper revolute axis ŝ2 lies along the lower link (D) and the chain's Cn vanish (A).
+#[test]
+fn usr_serial_case_d_where_chain_1s_roots_meet() {
+    let g = UsrGeometry::<f64>::reference();
+    let fam = |s: f64| pose([0.0, 0.0, 100.0], [80.0 * s, 0.0, 0.0]);
+    let (mut a, mut b) = (0.0, 1.0);
+    assert!(solve(&g, &fam(a), 0).is_some() && solve(&g, &fam(b), 0).is_none());
+    for _ in 0..200 {
+        let m = 0.5 * (a + b);
+        if solve(&g, &fam(m), 0).is_some() {
+            a = m
+        } else {
+            b = m
+        }
+    }
+    let beyond = inverse(&g, &fam(b), Branch::OUTER).unwrap_err();
+    assert_eq!(beyond.chain, Chain::One);
+    let sol = solve(&g, &fam(a), 0).unwrap();
+    let cases = usr_cases(&g, &sol.chains[Chain::One], &tol());
+    assert!(
+        cases.has('D') && cases.has('A') && cases.has('F'),
+        "{cases:?}"
+    );
+    assert!(!cases.has('B') && !cases.has('C'), "{cases:?}");
+}
+
 proptest! {
     // About a third of the segments cross a parallel singularity (measured: 22 of 64;
     // on the USR mostly S12, on the RSPR S13 and S12).
