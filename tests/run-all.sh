@@ -61,6 +61,9 @@ bash host-sim/board-scenarios/run.sh
 section "tests (unit, property, integration, CLI)"
 cargo test --workspace
 
+section "the analysis from Python: the rspr wheel (maturin, PyO3) against the CLI, pytest"
+bash host-sim/python/tests/run.sh
+
 section "the operator's front ends on the simulated board: OpenIGTLink clients (pyigtl, libopenigtlink), spacenavd"
 bash host-sim/operator/tests/igtl-board.sh
 bash host-sim/masters/tests/spacenavd-daemon.sh

@@ -31,6 +31,9 @@ pub enum CliError {
     Limits(#[from] LimitsFileError),
     #[error(transparent)]
     Design(#[from] DesignError),
+    /// `dct`: the double circular-triangular robot has no solution at the pose.
+    #[error("dct: {0}")]
+    Dct(#[from] design::dct_robot::DctError),
     #[error(transparent)]
     SynthTask(#[from] SynthTaskError),
     #[error(transparent)]

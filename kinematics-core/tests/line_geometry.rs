@@ -524,6 +524,162 @@ fn usr_serial_case_f_where_the_determinant_vanishes() {
     assert!(c.has('F'), "{c:?}");
 }
 
+/// Every chain stretched straight up: on the reference USR (e = rp) the level platform at
+/// height l1 + l2 (the end of the reach along the vertical, found by bisection) puts each p_i straight above e_i at the links' full length, so each
+/// chain's two links are collinear (C) and along the yaw axis (B); then ŝn × l_b = 0 and
+/// ŝr × l_b is horizontal and perpendicular to the vertical ŝ1 and to ŝ2 (horizontal,
+/// along r_i, itself along ŝr), so both Cn (A) and both Cr (E) vanish, and with them the
+/// determinant (F). ŝ2 is horizontal and l_b vertical, so D does not hold.
+#[test]
+fn usr_serial_cases_a_b_c_e_with_every_chain_stretched_vertically() {
+    let g = UsrGeometry::<f64>::reference();
+    // The reach's end along the vertical, from below (l1 + l2 itself may round outside).
+    let level = |h: f64| Pose::central(h);
+    let (mut a, mut b) = (g.hc, g.l1 + g.l2 + MM);
+    assert!(solve(&g, &level(a), 0).is_some() && solve(&g, &level(b), 0).is_none());
+    for _ in 0..200 {
+        let m = 0.5 * (a + b);
+        if solve(&g, &level(m), 0).is_some() {
+            a = m
+        } else {
+            b = m
+        }
+    }
+    assert!((a - (g.l1 + g.l2)).abs() < 1e-12, "{a}");
+    let h = a / MM;
+    let sol = solve(&g, &level(a), 0).unwrap();
+    for c in Chain::ALL {
+        let cases = usr_cases(&g, &sol.chains[c], &tol());
+        for letter in ['A', 'B', 'C', 'E', 'F'] {
+            assert!(cases.has(letter), "chain {c:?}: {letter} not in {cases:?}");
+        }
+        assert!(!cases.has('D'), "chain {c:?}: {cases:?}");
+    }
+    // A millimetre lower the knees bend: none of the cases holds.
+    let lower = solve(&g, &pose([0.0, 0.0, h - 1.0], [0.0; 3]), 0).unwrap();
+    for c in Chain::ALL {
+        assert!(usr_cases(&g, &lower.chains[c], &tol()).is_empty());
+    }
+}
+
+/// Turning the platform about x0 at a fixed height, chain 1 (whose revolute axis r_1 is
+/// along y_p) reaches the end of its reach where the two roots of Eq. 6.32 meet: found by
+/// bisection on the inverse kinematics' success (the failure beyond names chain 1). There
+/// the upper revolute axis ŝ2 lies along the lower link (D) and the chain's Cn vanish (A).
+#[test]
+fn usr_serial_case_d_where_chain_1s_roots_meet() {
+    let g = UsrGeometry::<f64>::reference();
+    let fam = |s: f64| pose([0.0, 0.0, 100.0], [80.0 * s, 0.0, 0.0]);
+    let (mut a, mut b) = (0.0, 1.0);
+    assert!(solve(&g, &fam(a), 0).is_some() && solve(&g, &fam(b), 0).is_none());
+    for _ in 0..200 {
+        let m = 0.5 * (a + b);
+        if solve(&g, &fam(m), 0).is_some() {
+            a = m
+        } else {
+            b = m
+        }
+    }
+    let beyond = inverse(&g, &fam(b), Branch::OUTER).unwrap_err();
+    assert_eq!(beyond.chain, Chain::One);
+    let sol = solve(&g, &fam(a), 0).unwrap();
+    let cases = usr_cases(&g, &sol.chains[Chain::One], &tol());
+    assert!(
+        cases.has('D') && cases.has('A') && cases.has('F'),
+        "{cases:?}"
+    );
+    assert!(!cases.has('B') && !cases.has('C'), "{cases:?}");
+}
+
+/// Nelder-Mead on f over R^6 from x0 with initial steps `step`: the simplex method,
+/// derivative-free, for the residuals (a max of distances: not smooth).
+fn nelder_mead(
+    f: &dyn Fn(&[f64; 6]) -> f64,
+    x0: [f64; 6],
+    step: f64,
+    iters: usize,
+) -> ([f64; 6], f64) {
+    let mut pts: Vec<([f64; 6], f64)> = (0..7)
+        .map(|k| {
+            let mut x = x0;
+            if k > 0 {
+                x[k - 1] += step;
+            }
+            (x, f(&x))
+        })
+        .collect();
+    let comb = |a: &[f64; 6], b: &[f64; 6], t: f64| -> [f64; 6] {
+        std::array::from_fn(|i| a[i] + t * (b[i] - a[i]))
+    };
+    for _ in 0..iters {
+        pts.sort_by(|a, b| a.1.total_cmp(&b.1));
+        let c: [f64; 6] =
+            std::array::from_fn(|i| pts[..6].iter().map(|p| p.0[i]).sum::<f64>() / 6.0);
+        let (worst, fw) = pts[6];
+        let r = comb(&c, &worst, -1.0);
+        let fr = f(&r);
+        if fr < pts[0].1 {
+            let e = comb(&c, &worst, -2.0);
+            let fe = f(&e);
+            pts[6] = if fe < fr { (e, fe) } else { (r, fr) };
+        } else if fr < pts[5].1 {
+            pts[6] = (r, fr);
+        } else {
+            let k = comb(&c, &worst, 0.5);
+            let fk = f(&k);
+            if fk < fw {
+                pts[6] = (k, fk);
+            } else {
+                let best = pts[0].0;
+                for p in pts.iter_mut().skip(1) {
+                    p.0 = comb(&best, &p.0, 0.5);
+                    p.1 = f(&p.0);
+                }
+            }
+        }
+    }
+    pts.sort_by(|a, b| a.1.total_cmp(&b.1));
+    pts[0]
+}
+
+/// S4, S10 and S11 (special cases of S12 in Table 10.3) on the reference RSPR: each is
+/// found as a zero of its own residual, minimised (Nelder-Mead over the pose, mm and deg)
+/// from a start near it (a rough point of a search over random starts), to below 1e-9.
+/// There the condition holds, S12 holds too (the thesis's inclusion), the six lines have
+/// rank 5 (a linear complex), and Jtilde is singular (inverse condition number below
+/// 1e-9).
+#[test]
+fn s4_s10_s11_are_reachable_special_cases_of_s12() {
+    let g = rspr();
+    let rp = g.rp;
+    for (conf, start) in [
+        (Configuration::S4, [-9.4, -85.0, 0.5, -0.4, -1.2, -38.8]),
+        (Configuration::S10, [9.0, 36.0, 42.0, 11.0, 56.0, -12.0]),
+        (Configuration::S11, [-49.0, -11.0, 0.3, 2.0, 1.0, -15.0]),
+    ] {
+        let f = |x: &[f64; 6]| {
+            solve(&g, &pose([x[0], x[1], x[2]], [x[3], x[4], x[5]]), 0)
+                .map_or(1e3, |sol| residual(&sol, rp, conf))
+        };
+        let mut best = (start, f(&start));
+        for step in [1.0, 0.1, 0.01] {
+            best = nelder_mead(&f, best.0, step, 3000);
+        }
+        assert!(best.1 < 1e-9, "{conf}: residual {} at {:?}", best.1, best.0);
+        let x = best.0;
+        let sol = solve(&g, &pose([x[0], x[1], x[2]], [x[3], x[4], x[5]]), 0).unwrap();
+        assert!(
+            residual(&sol, rp, Configuration::S12) < 1e-6,
+            "{conf} without S12 at {x:?}"
+        );
+        let a = analyse(&sol, rp, &tol()).unwrap();
+        assert_eq!(a.rank, 5, "{conf} at {x:?}");
+        let inv_cond =
+            kinematics_core::singularity::parallel_inv_cond(&tripod_jacobian(&sol), rp).unwrap();
+        assert!(inv_cond < 1e-9, "{conf}: {inv_cond}");
+    }
+}
+
 proptest! {
     // About a third of the segments cross a parallel singularity (measured: 22 of 64;
     // on the USR mostly S12, on the RSPR S13 and S12).

@@ -19,6 +19,7 @@
 
 pub mod compare;
 pub mod dct;
+pub mod dct_robot;
 pub mod files;
 pub mod forces_path;
 pub mod ranges;

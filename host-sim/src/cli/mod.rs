@@ -231,6 +231,18 @@ pub enum Command {
     /// rspr_f1_n..rspr_t3_nm, rrps_f1_n..rrps_t3_nm, error) and compare.png to --out
     /// (default target/design/compare/).
     Compare(design::CompareArgs),
+    /// The double circular-triangular robot of thesis Appendix A (Table 4.1's "double
+    /// planar"): two planar circle-triangle mechanisms, U joints, a prismatic and a
+    /// helical joint on the output link.
+    ///
+    /// Without --pose: the appendix's evaluation (the task box about the central
+    /// configuration, the 200 mm envelope, the slider forces along the diagonal against
+    /// the reference RSPR's leg forces, and the thesis's conclusion checked). With --pose
+    /// (x_mm..rz_deg of the tool point): the joints (arc length along the circle, mm, and
+    /// the slider angle, deg; lower mechanism first), the triangles' poses, J = dq/dx (SI)
+    /// and the sliders' forces for --wrench at the screw's --eta. The geometry flags do not
+    /// apply (the robot is Table 4.1's).
+    Dct(design::DctArgs),
     /// The host master of the board: hello, home, enable, stream a path with heartbeats,
     /// record the status telemetry and print a summary (tracking, refusals, link counters).
     ///
@@ -328,6 +340,7 @@ impl Command {
             Command::Workspace(args) => design::workspace(args, robot, limits),
             Command::Synth(args) => design::synth(args, robot.kind()),
             Command::Compare(args) => design::compare(args, robot),
+            Command::Dct(args) => design::dct(args),
             Command::Teleop(args) => teleop::run(args, selected, &limits.limits),
             Command::Faults(args) => board::faults(args),
             Command::Board(args) => board::board(args),
