@@ -182,12 +182,14 @@ fn every_command_of_the_readme_runs_as_written() {
             continue;
         }
         if line.contains("--device spacemouse") {
-            // Without spacenavd (no SpaceMouse here) it must say what is missing.
+            // Without a SpaceMouse (no spacenavd, no 3Dconnexion input device here) it
+            // must say what is missing.
             let r = sh.run(&line);
-            assert_ne!(r.code, Some(0), "`{line}` without spacenavd succeeded");
+            assert_ne!(r.code, Some(0), "`{line}` without a SpaceMouse succeeded");
+            let e = r.stderr.to_lowercase();
             assert!(
-                r.stderr.to_lowercase().contains("spacenav"),
-                "`{line}`: the error does not name spacenavd: {}",
+                e.contains("spacenav") || e.contains("3dconnexion"),
+                "`{line}`: the error does not name the device: {}",
                 r.stderr
             );
             continue;
@@ -197,6 +199,7 @@ fn every_command_of_the_readme_runs_as_written() {
         }
         if line.starts_with("host-sim ros2 ") || line.starts_with("host-sim view ") {
             serves_until_stopped(&sh, &line);
+            board_takes_a_new_master(&sh, socket_text);
             continue;
         }
         if line.contains("ik --csv < poses.csv") {
@@ -283,6 +286,32 @@ fn serves_until_stopped(sh: &Shell, line: &str) {
         "`{line}` did not end cleanly on SIGINT: {}",
         String::from_utf8_lossy(&out.stderr)
     );
+}
+
+/// Waits until the board takes a new master's `Hello` after a front end that held it has
+/// gone (`faultlog` says Hello and reads the log), at most 60 s: a failure detector, not a
+/// timing. How long it took is printed: after `ros2` disabled a following robot on its
+/// way out, the simulated board refused another master (`NotOwner`) for more than the
+/// front ends' 1 s of retries, though the board's own stop ends in about 31 ms; the cause
+/// is not found yet.
+fn board_takes_a_new_master(sh: &Shell, socket: &str) {
+    let start = std::time::Instant::now();
+    loop {
+        let r = sh.run(&format!("host-sim faultlog --connect {socket}"));
+        if r.code == Some(0) {
+            eprintln!(
+                "the board took a new master {:.1} s after the front end ended",
+                start.elapsed().as_secs_f64()
+            );
+            return;
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(60),
+            "the board refuses a new master 60 s after the front end ended: {}",
+            r.stderr
+        );
+        std::thread::sleep(Duration::from_millis(200));
+    }
 }
 
 /// The parser finds what the README shows, comments removed and `cargo run` made the

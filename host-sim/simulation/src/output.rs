@@ -302,9 +302,12 @@ pub fn write_scene(
     let guards = kinematics_core::guards::Guards::new(*robot, branch, *limits)
         .map_err(|e| err(format!("guards: {e:?}")))?;
     let ctx = foxglove::Context::new();
+    // A run writes its scene afresh, as every other file of the run (the SDK's own
+    // `create_new_buffered_file` refuses an existing file: a second run would fail).
+    let file = std::fs::File::create(path).map_err(|e| err(e.to_string()))?;
     let writer = ctx
         .mcap_writer()
-        .create_new_buffered_file(path)
+        .create(std::io::BufWriter::new(file))
         .map_err(|e| err(e.to_string()))?;
     let mut scene = scene::Scene::new(&ctx, description, urdf);
     scene.log_description(0);

@@ -68,10 +68,8 @@ pub struct Refused {
 }
 
 /// How long a `Hello` refused with `NotOwner` is sent again, s: the stop that ends the
-/// last master's session, with margin. Measured on the simulated board: after `ros2`
-/// disabled a following robot on its way out, a new master's `Hello` was refused for
-/// between 1 and 2 s (the README's `ros2` then `view`, `host-sim/tests/readme_commands.rs`).
-pub const HELLO_RETRY_S: f64 = 3.0;
+/// last master's session (brakes engaging, about 100 ms) with margin.
+pub const HELLO_RETRY_S: f64 = 1.0;
 
 /// The master.
 pub struct Session {
