@@ -26,3 +26,14 @@ pub(crate) fn with_board<T: Default>(
         |e| matches!(e, CliError::Operator(o) if o.is_interrupted()),
     )
 }
+
+/// Asks `shutdown` after `duration_s` (None: never): a front end's `--duration`.
+pub(crate) fn stop_after(shutdown: &Shutdown, duration_s: Option<f64>) {
+    if let Some(d) = duration_s {
+        let s = shutdown.clone();
+        std::thread::spawn(move || {
+            std::thread::sleep(std::time::Duration::from_secs_f64(d.max(0.0)));
+            s.request();
+        });
+    }
+}

@@ -446,13 +446,7 @@ pub fn igtl(args: &IgtlArgs) -> Result<(), CliError> {
     config.allow = args.allow.clone();
     config.token = args.token_file.as_deref().map(read_token).transpose()?;
     let shutdown = shutdown_on_signals()?;
-    if let Some(d) = args.duration_s {
-        let s = shutdown.clone();
-        std::thread::spawn(move || {
-            std::thread::sleep(Duration::from_secs_f64(d.max(0.0)));
-            s.request();
-        });
-    }
+    super::board_session::stop_after(&shutdown, args.duration_s);
     let mut board = Board::open_with_key(
         &args.connect,
         args.baud,

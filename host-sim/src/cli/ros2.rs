@@ -99,13 +99,7 @@ pub fn run(
     };
     let node = RosNode::new(&config)?;
     let shutdown = shutdown_on_signals()?;
-    if let Some(d) = args.duration_s {
-        let s = shutdown.clone();
-        std::thread::spawn(move || {
-            std::thread::sleep(Duration::from_secs_f64(d.max(0.0)));
-            s.request();
-        });
-    }
+    super::board_session::stop_after(&shutdown, args.duration_s);
     let mut board = Board::open_with_key(
         &args.connect,
         args.baud,
