@@ -23,6 +23,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 source firmware/cortex-m/scripts.sh
+# One build from scratch: incremental compilation's caches would only cost time here.
+export CARGO_INCREMENTAL=${CARGO_INCREMENTAL:-0}
 started=$(date +%s)
 
 section() { printf '\n==> %s (%d s)\n' "$*" "$(( $(date +%s) - started ))"; }
@@ -80,6 +82,6 @@ bash host-sim/operator/tests/against-emulator.sh
 
 section "fuzzing: the link's frame decoder and the board's command handling (libFuzzer, fixed seed)"
 (cd fuzz && cargo test --release --quiet)
-FUZZ_RUNS=${FUZZ_RUNS:-300000} bash fuzz/run.sh ci
+FUZZ_RUNS=${FUZZ_RUNS:-300000} FUZZ_PARALLEL=${FUZZ_PARALLEL:-1} bash fuzz/run.sh ci
 
 section "all passed in $(( $(date +%s) - started )) s"
