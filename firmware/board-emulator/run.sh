@@ -18,7 +18,7 @@ started=$(date +%s)
 section() { printf '\n==> %s (%d s)\n' "$*" "$(( $(date +%s) - started ))"; }
 
 section "the board image (release, thumbv7em-none-eabihf)"
-bash "$HERE/../cortex-m/board/build-and-size.sh"
+bash "$HERE/../cortex-m/board/build-and-size.sh" board
 export RSPR_BOARD_ELF="$(target_dir)/$TARGET/release/rspr-board"
 
 cd "$HERE"
