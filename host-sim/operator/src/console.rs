@@ -344,7 +344,7 @@ impl Console {
             BoardEvent::TargetRefused(t, r) => {
                 self.note(
                     *t,
-                    format!("Target REFUSED (path check): {}", board_words::refusal(r)),
+                    format!("Target REFUSED (path): {}", board_words::refusal(r)),
                     true,
                 );
                 None
@@ -1040,7 +1040,7 @@ mod tests {
             texts,
             [
                 "Target REFUSED: workspace z 400.0 mm > 175.0 mm",
-                "Target REFUSED (path check): tilt spherical joint 1 31.2 deg > 30.0 deg"
+                "Target REFUSED (path): tilt spherical joint 1 31.2 deg > 30.0 deg"
             ]
         );
         for l in c.reply_lines(2) {
