@@ -12,8 +12,10 @@
 //! ([`robot_config::verdict`]), shared with the Python module.
 
 use super::{execute, pose_columns, pose_flags, RowError};
-use crate::batch::{BatchError, Calculation};
-use crate::columns::{parse_branch, pose_from_edge, read_branch, read_pose, EdgeError, Row, POSE};
+use crate::batch::{BatchError, Calculation, ColumnDefault};
+use crate::columns::{
+    parse_branch, pose_from_edge, read_branch, read_pose, EdgeError, Row, BRANCH, POSE,
+};
 use crate::flags::{self, FlagError};
 use clap::Args;
 use kinematics_core::guards::{Guard, GuardSetupError, Guards, Limits, Reading, Severity, Subject};
@@ -68,8 +70,8 @@ pub const TASK_COLUMNS: [&str; 11] = [
 /// violations and `error`. Or `--task-box`: the worst margins over the task.
 #[derive(Debug, Args)]
 pub struct CheckArgs {
-    /// Batch form: CSV on stdin (columns x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg,branch, found
-    /// by name, extra columns echoed), CSV on stdout, one row per input row; bad rows are
+    /// Batch form: CSV on stdin (columns x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg and optionally
+    /// branch, found by name, extra columns echoed), CSV on stdout, one row per input row; bad rows are
     /// reported in the `error` column and do not stop the run. With --task-box: the task
     /// table as CSV (the conclusion goes to stderr).
     #[arg(long, conflicts_with = "pose")]
@@ -85,8 +87,8 @@ pub struct CheckArgs {
     )]
     pub pose: Option<String>,
     /// Inverse-kinematics branch 0..=7, one bit per chain, chain 1 in bit 0 (0 = the
-    /// prototype's all-outer branch) [default: 0]. Not with the row-wise --csv (there the
-    /// branch is a column).
+    /// prototype's all-outer branch) [default: 0]; with the row-wise --csv, the branch of
+    /// rows without a `branch` column.
     #[arg(long, value_name = "0..7")]
     pub branch: Option<String>,
     /// Check the thesis's task: the 40 x 40 x 20 mm box centred at [0, 0, hc], platform
@@ -143,19 +145,19 @@ pub fn run(
         }
         .into());
     }
-    if args.csv && args.branch.is_some() {
-        return Err(FlagError::Invalid {
-            flag: "--branch",
-            reason: "not with --csv (the branch is a column of the input)".into(),
-        }
-        .into());
-    }
-    let flags = pose_flags(args.pose.as_deref(), args.branch.as_deref().unwrap_or("0"));
+    let branch = args.branch.as_deref().unwrap_or("0");
+    let flags = pose_flags(args.pose.as_deref(), branch);
+    // Rows without a `branch` column take --branch (0 when not given), as in `ik --csv`.
+    let defaults = [ColumnDefault {
+        flag: "--branch",
+        column: BRANCH,
+        value: branch.to_string(),
+    }];
     Ok(execute(
         &Check::new(&selected.robot, &limits.limits),
         args.csv,
         &flags,
-        &[],
+        &defaults,
     )?)
 }
 
