@@ -730,7 +730,9 @@ impl Board {
                 2
             }
             BoardToMaster::Status(_) => 3,
-            BoardToMaster::FaultLog(_) | BoardToMaster::EventLog(_) => 4,
+            BoardToMaster::FaultLog(_)
+            | BoardToMaster::EventLog(_)
+            | BoardToMaster::Commissioning(_) => 4,
             BoardToMaster::GeometryStored { .. } | BoardToMaster::GeometryRefused { .. } => 5,
             BoardToMaster::HelloRefused { reason, .. } => {
                 if !self.outcome.nacks.contains(&reason) {

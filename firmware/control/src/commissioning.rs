@@ -87,7 +87,7 @@ impl<S: Float> CommissionConfig<S> {
     ) -> Self {
         let deg = lit::<S>(core::f64::consts::PI / 180.0);
         let per = |leg: S, link: S| core::array::from_fn(|j| if j < 3 { leg } else { link });
-        let counts = |n: f64| core::array::from_fn(|j| lit::<S>(n) / counts_per_unit[j]);
+        let counts = |n: f64| core::array::from_fn(|j| lit::<S>(n) / at(&counts_per_unit, j));
         CommissionConfig {
             target: per(lit(0.0015), lit::<S>(1.5) * deg),
             limit: per(lit(0.003), lit::<S>(3.0) * deg),
@@ -221,7 +221,7 @@ impl<S: Float> JointTest<S> {
     pub fn duty(&self, now_us: u64) -> [S; NUM_JOINTS] {
         let mut duty = [S::zero(); NUM_JOINTS];
         let d = match self.phase {
-            Phase::Applied { .. } => self.cfg.applied_duty[self.joint],
+            Phase::Applied { .. } => at(&self.cfg.applied_duty, self.joint),
             Phase::Ramp { since_us } => self.ramp_duty(since_us, now_us),
             _ => S::zero(),
         };
@@ -234,7 +234,7 @@ impl<S: Float> JointTest<S> {
     fn ramp_duty(&self, since_us: u64, now_us: u64) -> S {
         let t = S::from(now_us.saturating_sub(since_us)).unwrap_or_else(S::zero);
         let ramp = S::from(self.cfg.ramp_us.max(1)).unwrap_or_else(S::one);
-        self.cfg.max_duty[self.joint] * (t / ramp).min(S::one())
+        at(&self.cfg.max_duty, self.joint) * (t / ramp).min(S::one())
     }
 
     /// Each sensor's motion since the start over its joint's `scale` (encoders, then the
@@ -242,7 +242,7 @@ impl<S: Float> JointTest<S> {
     fn motions(&self, r: &Readings<S>, scale: &[S; NUM_JOINTS]) -> (S, usize, S) {
         let mut enc = (S::zero(), 255usize);
         for k in 0..NUM_JOINTS {
-            let m = ((r.motor[k] - self.start_motor[k]) / scale[k]).abs();
+            let m = ((at(&r.motor, k) - at(&self.start_motor, k)) / at(scale, k)).abs();
             if !(m <= enc.0) {
                 enc = (m, k);
             }
@@ -250,7 +250,7 @@ impl<S: Float> JointTest<S> {
         let mut abs = S::zero();
         if let (Some(a), Some(a0)) = (r.absolute, self.start_abs) {
             for k in 0..NUM_JOINTS {
-                let m = ((a[k] - a0[k]) / scale[k]).abs();
+                let m = ((at(&a, k) - at(&a0, k)) / at(scale, k)).abs();
                 if !(m <= abs) {
                     abs = m;
                 }
@@ -277,10 +277,10 @@ impl<S: Float> JointTest<S> {
         let sw = r.switches.get(j).copied().unwrap_or(false);
         if sw != self.switch_start && self.switch_position.is_nan() {
             if let Some(a) = r.absolute {
-                self.switch_position = a[j];
+                self.switch_position = at(&a, j);
             }
         }
-        let current = r.current[j];
+        let current = at(&r.current, j);
         match self.phase {
             Phase::Driver => {
                 if r.driver_fault {
@@ -331,10 +331,12 @@ impl<S: Float> JointTest<S> {
                     self.moving_n += 1;
                 }
                 if let (None, Some(a), Some(a0)) = (self.scale_from, r.absolute, self.start_abs) {
-                    if (a[j] - a0[j]).abs() >= lit::<S>(SCALE_FROM) * self.cfg.target[j] {
+                    if (at(&a, j) - at(&a0, j)).abs()
+                        >= lit::<S>(SCALE_FROM) * at(&self.cfg.target, j)
+                    {
                         let (_, k, _) = self.motions(r, &self.cfg.target);
                         let k = k.min(NUM_JOINTS - 1);
-                        self.scale_from = Some((r.motor[k], a[j]));
+                        self.scale_from = Some((at(&r.motor, k), at(&a, j)));
                     }
                 }
                 let ramp_end = now_us.saturating_sub(since_us) >= self.cfg.ramp_us;
@@ -368,7 +370,7 @@ impl<S: Float> JointTest<S> {
         }
         let pushed = matches!(self.phase, Phase::Ramp { .. });
         if self.offset_n > 0 {
-            rec.applied_motion = f32_of(self.applied_motion * cfg.slip[j]);
+            rec.applied_motion = f32_of(self.applied_motion * at(&cfg.slip, j));
         }
         rec.reference = self.start_abs.is_some() && r.absolute.is_some();
         // The switch: actuated at rest where the reference puts the joint away from it.
@@ -376,8 +378,8 @@ impl<S: Float> JointTest<S> {
         rec.switch = u8::from(self.switch_start) | (u8::from(sw_end) << 1);
         rec.switch_position = f32_of(self.switch_position);
         if self.switch_start {
-            match (self.start_abs, cfg.home_switch[j]) {
-                (Some(a0), Some((at, travel))) if a0[j] > at + travel => {
+            match (self.start_abs, cfg.home_switch.get(j).copied().flatten()) {
+                (Some(a0), Some((home, travel))) if at(&a0, j) > home + travel => {
                     self.findings.insert(F::SWITCH_INVERTED)
                 }
                 (Some(_), None) => self.findings.insert(F::SWITCH_INVERTED),
@@ -412,18 +414,18 @@ impl<S: Float> JointTest<S> {
         self.record.breakaway_duty = f32_of(self.breakaway);
         // A brake that let the joint move at the applied push's duty and needed more than
         // that duty to move once released held harder released than applied.
-        let harder_released = !moved || self.breakaway > cfg.applied_duty[j];
+        let harder_released = !moved || self.breakaway > at(&cfg.applied_duty, j);
         match (applied_moved, moved) {
             (true, _) if harder_released => self.findings.insert(F::BRAKE_INVERTED),
             (true, _) => self.findings.insert(F::BRAKE_NOT_HOLDING),
             (false, false) => self.findings.insert(F::NO_MOTION),
             (false, true) => {}
         }
-        if !moved || k >= NUM_JOINTS || enc * cfg.target[k] / cfg.still[k] <= S::one() {
+        if !moved || k >= NUM_JOINTS || enc * at(&cfg.target, k) / at(&cfg.still, k) <= S::one() {
             return;
         }
         self.record.moved_encoder = k as u8;
-        let dm = r.motor[k] - self.start_motor[k];
+        let dm = at(&r.motor, k) - at(&self.start_motor, k);
         self.record.encoder_motion = f32_of(dm);
         if k != j {
             self.findings.insert(F::ENCODER_SWAPPED);
@@ -438,7 +440,7 @@ impl<S: Float> JointTest<S> {
         }
         match (r.absolute, self.start_abs) {
             (Some(a), Some(a0)) => {
-                let dp = a[j] - a0[j];
+                let dp = at(&a, j) - at(&a0, j);
                 self.record.reference_motion = f32_of(dp);
                 if dp < S::zero() {
                     self.findings.insert(F::MOTOR_REVERSED);
@@ -449,10 +451,10 @@ impl<S: Float> JointTest<S> {
                 // The scale of this joint's own encoder (another's is checked once the
                 // cables are put right).
                 if let (Some((m1, p1)), true) = (self.scale_from, k == j) {
-                    let (em, ep) = (r.motor[k] - m1, a[j] - p1);
+                    let (em, ep) = (at(&r.motor, k) - m1, at(&a, j) - p1);
                     // Over half the target at least: the channel's resolution and noise
                     // stay well inside the tolerance.
-                    if ep.abs() >= lit::<S>(0.5) * cfg.target[j] {
+                    if ep.abs() >= lit::<S>(0.5) * at(&cfg.target, j) {
                         let scale = (em / ep).abs();
                         self.record.scale = f32_of(scale);
                         if !((scale - S::one()).abs() <= cfg.scale_tolerance) {
@@ -481,4 +483,10 @@ impl<S: Float> JointTest<S> {
 
 fn f32_of<S: Float>(x: S) -> f32 {
     x.to_f32().unwrap_or(f32::NAN)
+}
+
+/// Joint `j` of `x` (NaN beyond the joints: every comparison with it fails, so a wrong
+/// index can only end a test, never move a joint).
+fn at<S: Float>(x: &[S; NUM_JOINTS], j: usize) -> S {
+    x.get(j).copied().unwrap_or_else(S::nan)
 }
