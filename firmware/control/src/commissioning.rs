@@ -158,6 +158,8 @@ pub struct JointTest<S> {
 
 impl<S: Float> JointTest<S> {
     /// The test of `joint` starting from the readings `r`.
+    // Once per joint's test: cold, compiled for size (the board image's text).
+    #[cold]
     pub fn start(cfg: CommissionConfig<S>, joint: usize, r: &Readings<S>) -> Self {
         let j = joint.min(NUM_JOINTS - 1);
         JointTest {
@@ -355,6 +357,7 @@ impl<S: Float> JointTest<S> {
     }
 
     /// Ends the push: the findings from what was measured, then the brakes engage.
+    #[cold]
     fn finish(&mut self, r: &Readings<S>, now_us: u64) {
         let j = self.joint;
         let cfg = self.cfg;
@@ -404,6 +407,7 @@ impl<S: Float> JointTest<S> {
     }
 
     /// The released push's findings: what moved, which way, by how much.
+    #[cold]
     fn judge_motion(&mut self, r: &Readings<S>) {
         let j = self.joint;
         let cfg = self.cfg;

@@ -110,6 +110,8 @@ pub struct JointServo<S> {
 
 impl<S: Float> JointServo<S> {
     /// Six servos with `config` (validated first).
+    // Cold (at enable, a stop, the park move; never in a tick): compiled for size.
+    #[cold]
     pub fn new(config: &ServoConfig<S>) -> Result<Self, ConfigError> {
         config.validate()?;
         let mut channels = [Channel {
