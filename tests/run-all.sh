@@ -61,9 +61,19 @@ bash host-sim/board-scenarios/run.sh
 section "tests (unit, property, integration, CLI)"
 cargo test --workspace
 
+section "the analysis from Python: the rspr wheel (maturin, PyO3) against the CLI, pytest"
+bash host-sim/python/tests/run.sh
+
 section "the operator's front ends on the simulated board: OpenIGTLink clients (pyigtl, libopenigtlink), spacenavd"
 bash host-sim/operator/tests/igtl-board.sh
 bash host-sim/masters/tests/spacenavd-daemon.sh
+
+section "the robot description and the live 3-D scene: check_urdf, yourdfpy, a Foxglove WebSocket client, mcap"
+bash host-sim/description/tests/urdf.sh
+bash host-sim/scene/tests/foxglove.sh
+
+section "ROS 2 on the simulated board: a CycloneDDS (Python) peer with the ROS 2 type names, on the loopback"
+bash host-sim/ros2/tests/ros2-board.sh
 
 section "the operator's front ends on the emulated board (the release image): scripted operator, latency, OpenIGTLink; the console in tmux, through a serial device on a board not homed"
 bash host-sim/operator/tests/against-emulator.sh

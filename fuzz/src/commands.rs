@@ -1242,8 +1242,45 @@ mod tests {
         }
     }
 
-    /// Finding 3 (README, fixed): enabled and holding, a session opens; `EmergencyStop`,
-    /// `ClearFault` and `Enable` arrive before the next tick. The receive path forces the
+    /// A master's frames sent after its `Hello` but before the board's reply carry the
+    /// session that Hello replaced: the tick refuses them (`NotOwner`) while an emergency
+    /// stop from the same queue is still taken. Property: after the reconnect, a `Disable`
+    /// of the replaced session leaves the robot enabled and a stop of it stops the robot.
+    #[test]
+    fn frames_of_a_replaced_session_are_refused_but_a_stop_is_taken() {
+        let hello = frame(Msg::Hello {
+            version: None,
+            nonce: snapshots::OWNER_NONCE,
+            clock: Stamp::Now,
+        });
+        let mut b = Board::new(Start::Enabled, Strict::ALL);
+        for a in [
+            hello.clone(),
+            frame(Msg::Any(MasterToBoard::Disable)),
+            ticks(1),
+        ] {
+            b.act(&a);
+        }
+        assert_eq!(
+            b.outcome.nacks,
+            vec![NackReason::NotOwner],
+            "{:?}",
+            b.outcome
+        );
+        assert_eq!(b.service.runtime().state(), State::Enabled);
+        for a in [
+            hello,
+            frame(Msg::Any(MasterToBoard::EmergencyStop)),
+            ticks(1),
+        ] {
+            b.act(&a);
+        }
+        assert_eq!(b.service.runtime().state(), State::Fault, "{:?}", b.outcome);
+    }
+
+    /// Finding 3 (README, fixed): enabled and holding, the owner reconnects (its fresh
+    /// session open from the next tick on, as the board issues it); `EmergencyStop`,
+    /// `ClearFault` and `Enable` arrive before the following tick. The receive path forces the
     /// outputs safe (`emergency_stop_message`: bridges off, brakes applied); the tick takes
     /// the latch and the requests: `Fault`, cleared (`Ready`), `Enabling`. The runtime used
     /// to believe its bridges still on and drove disabled bridges until the open-motor
@@ -1259,17 +1296,27 @@ mod tests {
                 nonce: snapshots::OWNER_NONCE,
                 clock: Stamp::Now,
             }),
+            // The master learns its session from the HelloReply; frames it sent before
+            // that carry the replaced session and are refused (`NotOwner`).
+            ticks(1),
             frame(Msg::Any(MasterToBoard::EmergencyStop)),
             frame(Msg::Any(MasterToBoard::ClearFault)),
             frame(Msg::Any(MasterToBoard::Enable)),
-            ticks(19),
+            ticks(18),
         ];
         let mut b = Board::new(Start::Enabled, Strict::ALL);
         for a in &actions {
             b.act(a);
         }
         let rt = b.service.runtime();
-        assert_eq!(b.outcome.states, vec![State::Enabling], "{:?}", b.outcome);
+        // Still enabled after the reconnect; enabling again after the stop and the clear.
+        assert_eq!(
+            b.outcome.states,
+            vec![State::Enabled, State::Enabling],
+            "{:?}",
+            b.outcome
+        );
+        assert!(b.outcome.nacks.is_empty(), "{:?}", b.outcome);
         assert_eq!(b.outcome.stale_outputs, 0, "{:?}", b.outcome);
         let log = rt.fault_log().page(0);
         let causes: Vec<FaultCause> = log

@@ -31,6 +31,9 @@ pub enum CliError {
     Limits(#[from] LimitsFileError),
     #[error(transparent)]
     Design(#[from] DesignError),
+    /// `dct`: the double circular-triangular robot has no solution at the pose.
+    #[error("dct: {0}")]
+    Dct(#[from] design::dct_robot::DctError),
     #[error(transparent)]
     SynthTask(#[from] SynthTaskError),
     #[error(transparent)]
@@ -40,6 +43,12 @@ pub enum CliError {
     /// The operator's front ends (hand controller, console, OpenIGTLink, replay).
     #[error(transparent)]
     Operator(#[from] operator::OperatorError),
+    /// The ROS 2 node could not be set up.
+    #[error(transparent)]
+    Ros2Node(#[from] ros2::NodeError),
+    /// The ROS 2 side failed while serving (the board's errors are `Operator`'s).
+    #[error(transparent)]
+    Ros2(ros2::BridgeError),
     #[error(transparent)]
     Campaign(#[from] faults::CampaignError),
     #[error(transparent)]
@@ -48,6 +57,15 @@ pub enum CliError {
     BoardSim(#[from] simulation::board::BoardSimError),
     #[error(transparent)]
     Serve(#[from] simulation::serve::ServeError),
+    /// `describe`: the description, its input or its output.
+    #[error("describe: {0}")]
+    Describe(String),
+    /// `ros2`: the robot description of the geometry in use.
+    #[error("ros2: the robot description: {0}")]
+    Ros2Description(String),
+    /// `view`: its server, its recording or its flags.
+    #[error("view: {0}")]
+    View(String),
     #[error("unknown {what} `{name}`")]
     UnknownName { what: &'static str, name: String },
     #[error("cannot create {path}: {source}")]
@@ -125,3 +143,13 @@ through!(
     OutputError => Sim,
     operator::BoardError => Operator,
 );
+
+impl From<ros2::BridgeError> for CliError {
+    /// The board's errors as every front end's (a stop by a signal is recognised there).
+    fn from(e: ros2::BridgeError) -> Self {
+        match e {
+            ros2::BridgeError::Board(b) => CliError::Operator(b.into()),
+            other => CliError::Ros2(other),
+        }
+    }
+}

@@ -51,10 +51,10 @@ fn faultlog_prints_what_the_board_logged() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    assert!(text.contains("last reset: PowerOn"), "{text}");
+    assert!(text.contains("last reset: power-on"), "{text}");
     assert!(text.contains("1 entries"), "{text}");
-    assert!(text.contains("EmergencyStopMessage"), "{text}");
-    assert!(text.contains("SafeTorqueOff"), "{text}");
+    assert!(text.contains("e-stop message"), "{text}");
+    assert!(text.contains("torque off, brakes on"), "{text}");
     // The event log in plain words: the boot, the master, the e-stop with its stop.
     assert!(text.contains("event log (kept in flash"), "{text}");
     assert!(text.contains("board started after power-on"), "{text}");

@@ -72,3 +72,36 @@ fn forces_columns_carry_their_units_and_the_verdict() {
     );
     assert_eq!(t.text(0, "guards"), "ok");
 }
+
+/// The CLI's refusal of a pose names the guard, the value and the limit with its unit:
+/// one pose per guard the board refuses targets by (a leg below its stroke, the platform
+/// tilted beyond its cone, the platform centre above the workspace), through the
+/// single-pose form of `ik` (the guards column) and `check` (the violations).
+#[test]
+fn the_cli_names_guard_value_and_limit_of_each_refusal() {
+    let cases = [
+        (
+            "20,20,146,0,24,0",
+            "stop: stroke of chain 1 is 132.519 mm, limit 144.000 mm",
+            "stroke:1:132.519:144.000",
+        ),
+        (
+            "0,0,160,26,0,0",
+            "stop: platform tilt is 26.000 deg, limit 25.000 deg",
+            "tilt_cone:-:26.000:25.000",
+        ),
+        (
+            "0,0,177,0,0,0",
+            "stop: workspace along z is 17.000 mm, limit 15.000 mm",
+            "workspace:z:17.000:15.000",
+        ),
+    ];
+    for (pose, words, violation) in cases {
+        let ik = Table::parse(&ok(&["ik", "--pose", pose], ""));
+        let col = ik.header.iter().position(|h| h == "guards").unwrap();
+        assert_eq!(ik.rows[0][col], words, "ik --pose {pose}");
+        let check = Table::parse(&ok(&["check", "--pose", pose], ""));
+        let col = check.header.iter().position(|h| h == "violations").unwrap();
+        assert_eq!(check.rows[0][col], violation, "check --pose {pose}");
+    }
+}

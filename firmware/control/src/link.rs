@@ -51,7 +51,10 @@ pub struct Request {
     /// The master's message (never a `StoreGeometry`: that is [`Inbound::Geometry`]).
     pub message: MasterToBoard,
     /// For a `Hello`: the session the link issued for it, the `HelloReply`'s if the
-    /// runtime accepts the `Hello`. Otherwise 0.
+    /// runtime accepts the `Hello`. For any other frame: the session it came in, so that
+    /// a frame the link took before another master's `Hello` was accepted is refused when
+    /// its turn comes ([`crate::service::TickService::request`]). 0: a request made on the
+    /// board (tests, the targets' own), not checked.
     pub session: u32,
 }
 
@@ -340,7 +343,11 @@ impl LinkRx {
             MasterToBoard::StoreGeometry(record) => return Inbound::Geometry { seq, record },
             _ => {}
         }
-        Inbound::Request(Request::new(seq, msg))
+        Inbound::Request(Request {
+            seq,
+            message: msg,
+            session: self.decoder.session().unwrap_or(0),
+        })
     }
 
     /// A session is open (a `Hello` was accepted).

@@ -277,7 +277,10 @@ const MOTOR_FILTER: f64 = 0.5;
 /// expects for the last tick's duty at the measured speed, `i = (V·d − Ke·ω)/R` (capped at
 /// the drivers' regulation limit), must flow.
 /// * **Open circuit** (a broken lead or connector: the joint is held by nothing but its
-///   brake): the current is below a fifth of the model's, while that is above the floor.
+///   brake): the current is below a fifth of the model's, while that is above the floor,
+///   and below the floor itself: a current of the floor or more flows through a closed
+///   circuit (a motor turning faster than a dead encoder says draws less than the model's
+///   current, not nothing: the back-EMF check names that).
 ///   The model is judged on the drive filtered over a few ticks
 ///   (`MOTOR_FILTER`, weight `a`), the current sample by sample (an open circuit shows
 ///   at once, before the back-EMF check takes the missing current for motion:
@@ -395,8 +398,12 @@ impl<S: Float> MotorCheck<S> {
                 // `filtered` wherever `filtered ≥ allowance / 0.8`: judging starts there
                 // or at the floor, whichever is higher (the defaults' floors are: 0.173 A
                 // against 0.169 A on a leg, 0.05 A against 0.021 A on a link).
+                // And a current of the floor or more (ten ADC counts) flows through a
+                // closed circuit, whatever the model expects: a motor turning faster than
+                // its encoder says (a dead encoder) draws less than the model's current,
+                // but not nothing (the back-EMF check names that).
                 let judged_from = floor.max(allowance * lit(1.25));
-                filtered > judged_from && i.abs() < filtered * lit(0.2)
+                filtered > judged_from && i.abs() < (filtered * lit(0.2)).min(*floor)
             } else {
                 // Without torque there is nothing to judge: the filters start over.
                 f.vd = S::zero();

@@ -15,7 +15,7 @@
 
 use hal::Hardware;
 use kinematics_core::Mechanism;
-use master_link::{BoardToMaster, FirmwareVersion, StatusReport, Warnings};
+use master_link::{BoardToMaster, FirmwareVersion, MasterToBoard, StatusReport, Warnings};
 
 use crate::estop::EStopTrip;
 use crate::link::Request;
@@ -133,6 +133,8 @@ pub struct TickService<S: Scalar, M: Mechanism<S> + Clone> {
     log_mark: (u32, usize, u16),
     /// The event log's changes at the last tick.
     events_mark: u32,
+    /// The session of the `Hello` the runtime accepted last (None: none yet).
+    session: Option<u32>,
 }
 
 impl<S: Scalar, M: Mechanism<S> + Clone> TickService<S, M> {
@@ -142,6 +144,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> TickService<S, M> {
             tick_start_state: runtime.state(),
             log_mark: log_mark(runtime.fault_log()),
             events_mark: runtime.events().changes(),
+            session: None,
             runtime,
             cfg,
             watchdog: WatchdogPolicy::new(cfg.watchdog),
@@ -251,8 +254,27 @@ impl<S: Scalar, M: Mechanism<S> + Clone> TickService<S, M> {
 
     /// One queued master request: its reply.
     pub fn request(&mut self, req: &Request, now_us: u64) -> BoardToMaster {
+        // A frame of a session that another master's `Hello` replaced after the link took
+        // it (both queued for the same tick): its master no longer owns the board. An
+        // emergency stop is taken from anyone.
+        let foreign = req.session != 0
+            && self.session != Some(req.session)
+            && !matches!(
+                req.message,
+                MasterToBoard::Hello { .. } | MasterToBoard::EmergencyStop
+            );
+        if foreign {
+            return req.reply(
+                Err(master_link::NackReason::NotOwner),
+                &self.runtime.status(),
+                self.cfg.firmware,
+            );
+        }
         let _ = self.runtime.take_refused_now();
         let result = self.runtime.command(&req.message, now_us);
+        if let (MasterToBoard::Hello { .. }, Ok(_)) = (&req.message, &result) {
+            self.session = Some(req.session);
+        }
         // A target the supervisor refused: the reply names the guard or rule, the value
         // and the limit.
         if let (Err(_), Some(refused)) = (result, self.runtime.take_refused_now()) {

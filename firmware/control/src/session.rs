@@ -6,7 +6,11 @@
 //!
 //! **One owner.** A `Hello` with the owner's nonce is the owner reconnecting: a fresh
 //! session, its holds kept (unless its clock is not newer than the owner's last: a
-//! recording replayed, refused). A `Hello` with another nonce is another master
+//! recording replayed, refused). The last [`FORMER_OWNERS`] owners that another master
+//! displaced are kept with their latest clock too: a `Hello` of one of them that is not
+//! newer than what it last sent is a replay as well, so that a recording of a former
+//! owner cannot take the board back from the master that took over. A `Hello` with
+//! another nonce is another master
 //! ([`HelloFrom::Other`]): the runtime's table ([`crate::modes::next`]) lets it take over
 //! only while the robot is disabled, and then it starts with the clutch released and the
 //! operator absent, so that it must say `OperatorPresent { present: true }` before an
@@ -50,6 +54,11 @@ pub struct Owner {
     pub clock_us: u64,
 }
 
+/// How many displaced owners the session remembers (nonce and latest clock), to refuse
+/// their `Hello`s replayed. A master's nonce is fresh per connection, so that only a
+/// replay repeats one; the oldest is forgotten first.
+pub const FORMER_OWNERS: usize = 8;
+
 /// The master session.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct MasterSession {
@@ -58,6 +67,8 @@ pub struct MasterSession {
     /// The holds the master's conditions call for ([`Hold::after`]).
     hold: Hold,
     owner: Option<Owner>,
+    /// Owners another master displaced, newest first, with the latest clock each sent.
+    former: [Option<Owner>; FORMER_OWNERS],
     owner_changes: u16,
     last_change: Option<OwnerChange>,
 }
@@ -75,6 +86,7 @@ impl MasterSession {
                 heartbeat: false,
             },
             owner: None,
+            former: [None; FORMER_OWNERS],
             owner_changes: 0,
             last_change: None,
         }
@@ -85,6 +97,14 @@ impl MasterSession {
         match self.owner {
             Some(o) if o.nonce == nonce && clock_us > self.owner_clock_us(o) => HelloFrom::Owner,
             Some(o) if o.nonce == nonce => HelloFrom::Replay,
+            _ if self
+                .former
+                .iter()
+                .flatten()
+                .any(|f| f.nonce == nonce && clock_us <= f.clock_us) =>
+            {
+                HelloFrom::Replay
+            }
             _ => HelloFrom::Other,
         }
     }
@@ -110,6 +130,18 @@ impl MasterSession {
     /// and kept.
     pub fn take_over(&mut self, nonce: u32, clock_us: u64, now_us: u64) {
         let from = self.owner.map(|o| o.nonce);
+        if let Some(o) = self.owner {
+            self.remember_former(Owner {
+                nonce: o.nonce,
+                clock_us: self.owner_clock_us(o),
+            });
+        }
+        // A former owner taking the board again is the owner now, not a former one.
+        for f in &mut self.former {
+            if f.is_some_and(|f| f.nonce == nonce) {
+                *f = None;
+            }
+        }
         self.owner = Some(Owner { nonce, clock_us });
         self.hold = Hold {
             clutch: false,
@@ -125,6 +157,23 @@ impl MasterSession {
             to: nonce,
             at_us: now_us,
         });
+    }
+
+    /// Keeps a displaced owner, newest first (the oldest forgotten; an entry of the same
+    /// nonce replaced).
+    fn remember_former(&mut self, o: Owner) {
+        let at = self
+            .former
+            .iter()
+            .position(|f| f.is_none_or(|f| f.nonce == o.nonce))
+            .unwrap_or(FORMER_OWNERS - 1);
+        // The newer entries move down by one over the slot taken; `o` goes first.
+        if let Some(newer) = self.former.get_mut(..=at) {
+            newer.rotate_right(1);
+            if let Some(first) = newer.first_mut() {
+                *first = Some(o);
+            }
+        }
     }
 
     /// The master that owns the board, if any.

@@ -574,11 +574,16 @@ fn bad_frames_are_counted_and_dropped() {
     big.push(0);
     assert!(feed(&mut rx, &big).is_empty());
     assert_eq!(rx.counters().oversized, 1);
-    // The good heartbeat goes through; replaying it is counted and ignored.
+    // The good heartbeat goes through, with the session it came in; replaying it is
+    // counted and ignored.
     let got = feed(&mut rx, &hb);
     assert_eq!(
         got,
-        vec![Inbound::Request(Request::new(2, MasterToBoard::Heartbeat))]
+        vec![Inbound::Request(Request {
+            seq: 2,
+            message: MasterToBoard::Heartbeat,
+            session: SESSION,
+        })]
     );
     assert!(feed(&mut rx, &hb).is_empty());
     let old = frame(&MasterToBoard::Enable, 1);

@@ -79,7 +79,7 @@ pub struct Options {
     pub loss: Loss,
     /// Smallest singular value of a determined combination (default 1).
     pub determined_threshold: f64,
-    /// Reweighting passes of a robust loss (default 8).
+    /// Most reweighting passes of a robust loss (default 8; fewer when the weights settle).
     pub reweighting_passes: usize,
 }
 
@@ -349,12 +349,16 @@ fn solve(
     opts: &Options,
 ) -> Result<(Vec<f64>, Vec<f64>, usize), CalibrationError> {
     let rows = model.rows();
-    let mut row_weights = vec![1.0; rows.len()];
     let passes = match opts.loss {
         Loss::Squared => 1,
         _ => opts.reweighting_passes.max(1),
     };
     let mut current = origin;
+    // A robust loss weighs the rows from the start by their residuals at the origin: a
+    // first pass at equal weights would let a gross outlier drag the fit away (a 100 mm
+    // reading is a thousand noise deviations), and the passes after it would start from
+    // there.
+    let mut row_weights = robust_weights(model, &current, opts.loss)?;
     let mut evaluations = 0;
     for _ in 0..passes {
         let expand = |w: &[f64]| {
@@ -399,17 +403,54 @@ fn solve(
             }));
         }
         current = problem.delta(problem.z.as_slice());
-        // Reweight from the new residuals.
-        let (res, _) = model.residuals(&current)?;
-        let mut at = 0;
-        for (m, w) in rows.iter().zip(row_weights.iter_mut()) {
-            let n = m.rows();
-            let norm = res.rows(at, n).norm() / (n as f64).sqrt();
-            *w = opts.loss.weight(norm);
-            at += n;
+        let next = robust_weights(model, &current, opts.loss)?;
+        let change = next
+            .iter()
+            .zip(&row_weights)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        row_weights = next;
+        if change < WEIGHTS_SETTLED {
+            break;
         }
     }
     Ok((current, row_weights, evaluations))
+}
+
+/// The reweighting stops when no row's weight changes by more than this.
+const WEIGHTS_SETTLED: f64 = 1e-3;
+
+/// Each row's IRLS weight at the deviations `delta`.
+///
+/// A row's normalised residual is its whitened residual's norm over the square root of its
+/// row count (about 1 for a row that only carries the tracker's noise), divided by the
+/// **scale**: the median row's normalised residual, but at least 1. Far from the solution
+/// (the nominal robot, or a fit an outlier has pulled) every row's residual is large and
+/// the scale follows them, so only the rows far beyond the bulk lose their weight; at the
+/// solution the scale is the noise and the loss's threshold is in noise deviations, as
+/// documented on [`Loss`].
+fn robust_weights(
+    model: &Model<'_>,
+    delta: &[f64],
+    loss: Loss,
+) -> Result<Vec<f64>, CalibrationError> {
+    let rows = model.rows();
+    if loss == Loss::Squared {
+        return Ok(vec![1.0; rows.len()]);
+    }
+    let (res, _) = model.residuals(delta)?;
+    let mut norms = Vec::with_capacity(rows.len());
+    let mut at = 0;
+    for m in rows {
+        let n = m.rows();
+        norms.push(res.rows(at, n).norm() / (n as f64).sqrt());
+        at += n;
+    }
+    let mut sorted = norms.clone();
+    sorted.sort_by(f64::total_cmp);
+    let median = sorted.get(sorted.len() / 2).copied().unwrap_or(1.0);
+    let scale = median.max(1.0);
+    Ok(norms.iter().map(|r| loss.weight(r / scale)).collect())
 }
 
 /// Identifies the robot and the transforms from `rows`, starting from `reference` and the

@@ -253,6 +253,8 @@ fn before_after_plot(
         let all = s.iter().flat_map(|x| x.points.iter().map(|p| p.1));
         let (lo, hi) = span(all.chain([0.0]));
         Panel {
+            levels: Vec::new(),
+            bands: Vec::new(),
             caption: None,
             x_desc: x_desc.to_string(),
             y_desc: desc.to_string(),

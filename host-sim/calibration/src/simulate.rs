@@ -63,8 +63,11 @@ pub struct Scenario {
     pub position_only: bool,
     /// The loss of the identification.
     pub loss: Loss,
-    /// Rows whose tracker reading is replaced by a gross error (5 mm, 2 deg).
+    /// Rows whose tracker reading is given a gross error: the position moved by
+    /// [`Scenario::outlier_m`] along (5, -3, 4), the rotation turned by 2 deg about y.
     pub outliers: usize,
+    /// How far an outlier's position is moved, m (default |(5, -3, 4)| mm = 7.07 mm).
+    pub outlier_m: f64,
     /// The true base pose in the tracker's frame.
     pub base_in_tracker: Rigid,
     /// The true marker pose on the platform.
@@ -86,6 +89,7 @@ impl Default for Scenario {
             position_only: false,
             loss: Loss::Squared,
             outliers: 0,
+            outlier_m: 50f64.sqrt() * 1e-3,
             // A tracker 1.2 m away, looking down at the robot.
             base_in_tracker: Rigid::new(
                 Vector3::new(0.15, -0.25, 1.2),
@@ -358,13 +362,14 @@ fn marker_drawing(s: &Scenario, rng: &mut XorShiftRng) -> Rigid {
     }
 }
 
-/// Spoils `count` of the rows (spread over them): the marker moved by (5, -3, 4) mm and
-/// turned by 2 deg about y.
-fn add_outliers(rows: &mut [Measurement], count: usize) {
+/// Spoils `count` of the rows (spread over them): the marker moved by `distance_m` along
+/// (5, -3, 4) and turned by 2 deg about y.
+fn add_outliers(rows: &mut [Measurement], count: usize, distance_m: f64) {
+    let shift = Vector3::new(5.0, -3.0, 4.0).normalize() * distance_m;
     for k in 0..count.min(rows.len()) {
         let i = (k * 7919 + 3) % rows.len();
         if let Some(row) = rows.get_mut(i) {
-            row.position += Vector3::new(5e-3, -3e-3, 4e-3);
+            row.position += shift;
             row.rotation = row
                 .rotation
                 .map(|r| r + Vector3::new(0.0, 2f64.to_radians(), 0.0));
@@ -401,7 +406,7 @@ pub fn run(s: &Scenario) -> Result<Outcome, CalibrationError> {
         s.position_only,
         &mut rng,
     )?;
-    add_outliers(&mut rows, s.outliers);
+    add_outliers(&mut rows, s.outliers, s.outlier_m);
     let opts = Options {
         tolerances: s.tolerances,
         noise: s.noise,

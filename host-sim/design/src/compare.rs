@@ -55,9 +55,14 @@ pub struct Pair {
 impl Pair {
     /// The zero-eccentricity RSPR and the RRPS with the given rb, rp and hc (m).
     pub fn new(rb: f64, rp: f64, hc: f64) -> Result<Self, PairError> {
+        Self::with_eccentricity(0.0, rb, rp, hc)
+    }
+
+    /// Both robots with eccentricity e (m) and the given rb, rp and hc (m).
+    pub fn with_eccentricity(e: f64, rb: f64, rp: f64, hc: f64) -> Result<Self, PairError> {
         Ok(Pair {
-            rspr: RsprGeometry::new(0.0, rb, rp, hc).map_err(PairError::Rspr)?,
-            rrps: RrpsGeometry::new(0.0, rb, rp, hc).map_err(PairError::Rrps)?,
+            rspr: RsprGeometry::new(e, rb, rp, hc).map_err(PairError::Rspr)?,
+            rrps: RrpsGeometry::new(e, rb, rp, hc).map_err(PairError::Rrps)?,
         })
     }
 
@@ -124,6 +129,92 @@ impl Comparison {
             .filter(|(a, b)| a.tau.is_err() || b.tau.is_err())
             .count()
     }
+}
+
+/// Three readings of a group of actuators' efforts along the path (N or N m), over the
+/// samples both robots computed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Readings {
+    /// The largest |τ_j| over the path and the group.
+    pub peak: f64,
+    /// The mean of |τ_j| over the path and the group.
+    pub mean: f64,
+    /// The largest range max τ_j - min τ_j along the path over the group.
+    pub peak_to_peak: f64,
+}
+
+/// The readings of joints `group` (0..3 the legs, 3..6 the rotary joints) over the
+/// samples where both robots have a result.
+pub fn readings<E, F>(
+    a: &[PathSample<E>],
+    b: &[PathSample<F>],
+    group: std::ops::Range<usize>,
+) -> (Readings, Readings) {
+    let both: Vec<([f64; 6], [f64; 6])> = a
+        .iter()
+        .zip(b)
+        .filter_map(|(x, y)| Some((*x.tau.as_ref().ok()?, *y.tau.as_ref().ok()?)))
+        .collect();
+    type Both = ([f64; 6], [f64; 6]);
+    let read = |pick: &dyn Fn(&Both) -> [f64; 6]| {
+        let (mut peak, mut sum, mut n, mut p2p) = (0.0f64, 0.0, 0usize, 0.0f64);
+        for j in group.clone() {
+            let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+            for s in &both {
+                let v = pick(s)[j];
+                peak = peak.max(v.abs());
+                sum += v.abs();
+                n += 1;
+                lo = lo.min(v);
+                hi = hi.max(v);
+            }
+            if hi >= lo {
+                p2p = p2p.max(hi - lo);
+            }
+        }
+        Readings {
+            peak,
+            mean: if n > 0 { sum / n as f64 } else { f64::NAN },
+            peak_to_peak: p2p,
+        }
+    };
+    (read(&|s| s.0), read(&|s| s.1))
+}
+
+/// 1 - RSPR / RRPS of each reading: the fraction the RSPR needs less.
+pub fn reductions(rspr: &Readings, rrps: &Readings) -> [f64; 3] {
+    [
+        1.0 - rspr.peak / rrps.peak,
+        1.0 - rspr.mean / rrps.mean,
+        1.0 - rspr.peak_to_peak / rrps.peak_to_peak,
+    ]
+}
+
+/// The reductions table of `compare`: rotary torque and leg force, peak, mean and
+/// peak-to-peak, for each pair (labelled by its eccentricities).
+pub fn readings_table(pairs: &[Pair], spec: &PathSpec) -> String {
+    let mut s = String::from(
+        "  reduction 1 - RSPR/RRPS    peak      mean   peak-to-peak   (e: RSPR/RRPS, mm)\n",
+    );
+    for pair in pairs {
+        let c = compare_along(pair, spec);
+        let label = if pair.rspr.e == pair.rrps.e {
+            format!("e={}", m_to_mm(pair.rspr.e))
+        } else {
+            format!("e={}/{}", m_to_mm(pair.rspr.e), m_to_mm(pair.rrps.e))
+        };
+        for (name, group) in [("rotary torque", 3..6), ("leg force", 0..3)] {
+            let (a, b) = readings(&c.rspr, &c.rrps, group);
+            let [p, m, q] = reductions(&a, &b);
+            s.push_str(&format!(
+                "  {name:<14} {label:<9} {:>7.1}% {:>8.1}% {:>10.1}%\n",
+                p * 100.0,
+                m * 100.0,
+                q * 100.0
+            ));
+        }
+    }
+    s
 }
 
 fn max3(v: &[f64]) -> f64 {
@@ -219,6 +310,8 @@ pub fn plot(c: &Comparison, title: &str, path: &Path) -> Result<(), PlotError> {
                 }
             }
             Panel {
+                levels: Vec::new(),
+                bands: Vec::new(),
                 caption: None,
                 x_desc: "path parameter s".into(),
                 y_desc: if p == 0 { "N" } else { "N m" }.into(),
@@ -268,10 +361,24 @@ pub fn summary(pair: &Pair, c: &Comparison) -> String {
     s
 }
 
+/// What the table says about the thesis's "about 37 % less" (Appendix A, Fig. 4.4).
+pub const THESIS_READING: &str = "  thesis: about 37% less rotary torque (Fig. 4.4); see \
+the design README for which reading gives it\n";
+
 /// Runs `compare`: both robots of `pair` along the path of `spec`, `compare.csv` and
 /// `compare.png` written to `out` (default `target/design/compare`). Returns the summary
 /// to print.
 pub fn run(pair: &Pair, spec: &PathSpec, out: Option<&Path>) -> Result<String, OutputError> {
+    run_with(pair, &[], spec, out)
+}
+
+/// [`run`], adding the reductions table for `pair` and each of `others`.
+pub fn run_with(
+    pair: &Pair,
+    others: &[Pair],
+    spec: &PathSpec,
+    out: Option<&Path>,
+) -> Result<String, OutputError> {
     let c = compare_along(pair, spec);
     let dir = out_dir(out, "compare")?;
     let csv_path = dir.join("compare.csv");
@@ -287,6 +394,10 @@ pub fn run(pair: &Pair, spec: &PathSpec, out: Option<&Path>) -> Result<String, O
     );
     plot(&c, &title, &png)?;
     let mut text = summary(pair, &c);
+    let mut all = vec![*pair];
+    all.extend_from_slice(others);
+    text.push_str(&readings_table(&all, spec));
+    text.push_str(THESIS_READING);
     text.push_str(&format!("  wrote {}\n", csv_path.display()));
     text.push_str(&format!("  wrote {}\n", png.display()));
     Ok(text)

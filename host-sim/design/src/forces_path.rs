@@ -193,6 +193,8 @@ pub fn plot(
             let joints = 3 * p..3 * p + 3;
             let computed = || samples.iter().filter_map(|s| s.tau.as_ref().ok());
             Panel {
+                levels: Vec::new(),
+                bands: Vec::new(),
                 caption: None,
                 x_desc: "path parameter s".into(),
                 y_desc: match kinds.get(3 * p) {

@@ -8,6 +8,8 @@
 //! - [`synth`]: the dimensional synthesis scan (`host-sim synth`) and its task file;
 //! - [`compare`]: the RSPR with zero eccentricity against the RRPS (`host-sim compare`),
 //!   with the RRPS kinematics in [`rrps`];
+//! - [`dct`]: the planar circle-triangle mechanism of the double circular-triangular robot
+//!   (Appendix A), its kinematics and Jacobian by virtual work;
 //! - [`report`]: the readable report of a robot over the task box (`host-sim report`);
 //! - [`files`]: the output directory and the CSV files.
 //!
@@ -16,6 +18,8 @@
 //! A tool's run returns the text to print; nothing here prints.
 
 pub mod compare;
+pub mod dct;
+pub mod dct_robot;
 pub mod files;
 pub mod forces_path;
 pub mod ranges;

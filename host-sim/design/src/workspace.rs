@@ -72,6 +72,11 @@ pub struct Section {
 }
 
 impl Section {
+    /// No admissible point at this height (not even on the axis).
+    pub fn is_empty(&self) -> bool {
+        self.rho_max_mm.iter().all(|r| *r <= 0.0)
+    }
+
     /// The footprint lies inside the section (rays and perimeter).
     pub fn footprint_inside(&self) -> bool {
         self.footprint_rays_inside && self.footprint_violation.is_none()
@@ -258,12 +263,20 @@ pub fn plot(
         .flat_map(|s| s.rho_max_mm.iter().copied())
         .fold(half[0].max(half[1]), f64::max)
         * 1.1;
-    let n = sections.len().max(2) as f64;
     let mut series: Vec<Series> = sections
         .iter()
         .enumerate()
         .map(|(k, s)| {
-            let color = HSLColor(0.75 * k as f64 / (n - 1.0), 0.8, 0.45);
+            let color = section_color(k);
+            if s.is_empty() {
+                // No admissible point at this height: no line, no legend entry (the title
+                // names the height).
+                return Series {
+                    label: None,
+                    points: Vec::new(),
+                    style: color.stroke_width(2),
+                };
+            }
             let mut pts: Vec<(f64, f64)> = s
                 .phi_deg
                 .iter()
@@ -296,6 +309,8 @@ pub fn plot(
         2,
     ));
     let panel = Panel {
+        levels: Vec::new(),
+        bands: Vec::new(),
         caption: None,
         x_desc: "x [mm]".into(),
         y_desc: "y [mm]".into(),
@@ -303,7 +318,27 @@ pub fn plot(
         y_range: (-r, r),
         series,
     };
-    line_charts(path, (900, 900), title, &[panel], Layout::Stacked)
+    let empty: Vec<String> = sections
+        .iter()
+        .filter(|s| s.is_empty())
+        .map(|s| format!("{:.0}", s.z_mm))
+        .collect();
+    let title = if empty.is_empty() {
+        title.to_string()
+    } else {
+        format!(
+            "{title}; no admissible point at z = {} mm",
+            empty.join(", ")
+        )
+    };
+    line_charts(path, (900, 900), &title, &[panel], Layout::Stacked)
+}
+
+/// The colour of the `k`-th section: the distinct palette without its red, which marks a
+/// task box that is not inside.
+fn section_color(k: usize) -> RGBColor {
+    const COLORS: [usize; 9] = [0, 1, 2, 4, 5, 6, 7, 8, 9];
+    plots::PALETTE[COLORS[k % COLORS.len()]]
 }
 
 /// The verdict on the whole task box.
@@ -424,10 +459,13 @@ pub fn plot_3d(
         .map_err(PlotError::new)?;
     draw_boundary(&mut chart, &sections)?;
     draw_task_box(&mut chart, [bx, by, bz], hc_mm, box_inside)?;
+    // The upper right of the view is behind the boundary's far walls: no data there.
     chart
         .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .label_font(("sans-serif", 15))
         .border_style(BLACK)
-        .background_style(WHITE.mix(0.8))
+        .background_style(WHITE.mix(0.85))
         .draw()
         .map_err(PlotError::new)?;
     root.present().map_err(PlotError::new)
@@ -443,9 +481,8 @@ fn point_3d(phi: f64, rho: f64, z: f64) -> (f64, f64, f64) {
 /// Each section's boundary at its height (one colour each, in the legend), and the
 /// meridians: the boundary along each scan direction across the heights.
 fn draw_boundary(chart: &mut Chart3d<'_>, sections: &[&Section]) -> Result<(), PlotError> {
-    let n = sections.len().max(2) as f64;
     for (k, s) in sections.iter().enumerate() {
-        let color = HSLColor(0.75 * k as f64 / (n - 1.0), 0.8, 0.45);
+        let color = section_color(k);
         let mut ring: Vec<(f64, f64, f64)> = s
             .phi_deg
             .iter()
@@ -454,6 +491,10 @@ fn draw_boundary(chart: &mut Chart3d<'_>, sections: &[&Section]) -> Result<(), P
             .collect();
         if let Some(first) = ring.first().copied() {
             ring.push(first);
+        }
+        if s.is_empty() {
+            // No boundary at this height: nothing to draw, no legend entry.
+            continue;
         }
         chart
             .draw_series(LineSeries::new(ring, color.stroke_width(2)))

@@ -146,3 +146,32 @@ fn torque_ratio_matches_an_independent_derivation() {
     // less rotary torque, not the thesis's "about 37%" (a ratio of about 0.63).
     assert!((independent - 0.8074).abs() < 5e-4, "{independent}");
 }
+
+/// The three readings of `compare` (design README, "The RSPR/RRPS comparison"): their
+/// bounds (mean ≤ peak, peak-to-peak ≤ 2 peak, by definition) and the figures the README
+/// states, at e = 0, both robots at the prototype's e = 20 mm, and the prototype RSPR
+/// against the RRPS at e = 0.
+#[test]
+fn readings_at_both_eccentricities() {
+    use design::compare::{readings, reductions};
+    let spec = PathSpec::thesis_diagonal();
+    let e0 = Pair::new(RB, RP, HC).unwrap();
+    let e20 = Pair::with_eccentricity(0.020, RB, RP, HC).unwrap();
+    let mixed = Pair {
+        rspr: e20.rspr,
+        rrps: e0.rrps,
+    };
+    let mut got = Vec::new();
+    for pair in [e0, e20, mixed] {
+        let c = compare_along(&pair, &spec);
+        assert_eq!(c.failed(), 0);
+        let (a, b) = readings(&c.rspr, &c.rrps, 3..6);
+        for r in [a, b] {
+            assert!(r.mean <= r.peak && r.peak_to_peak <= 2.0 * r.peak, "{r:?}");
+        }
+        got.push(reductions(&a, &b).map(|x| (x * 1000.0).round() / 10.0));
+    }
+    assert_eq!(got[0], [19.3, 4.5, 72.4], "e = 0");
+    assert_eq!(got[1], [89.7, 36.8, 96.9], "e = 20 mm on both");
+    assert_eq!(got[2], [32.1, 33.6, 71.0], "RSPR e = 20 mm, RRPS e = 0");
+}

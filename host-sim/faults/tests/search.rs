@@ -27,16 +27,6 @@ const SEARCH_CASES: u32 = 400;
 /// tolerates more requirements, to explore past a hole.
 const OPEN: &[OpenHole] = &[
     OpenHole {
-        requirements: &[Requirement::Detection],
-        involving: "after EncoderDead",
-        closed_by: "nobody yet (reported): a leg's encoder dying 129 ms into homing is named MotorOpen on that joint (start Homing: Wait(129), Fault(EncoderDead(0)))",
-    },
-    OpenHole {
-        requirements: &[Requirement::Authority],
-        involving: "a replayed Hello opened a session",
-        closed_by: "nobody yet (reported): the board keeps only its owner's last clock, so a former owner's Hello replayed while the robot is disabled takes the board back and resets that master's sequence to the replayed number, locking it out (Fresh: a second master's Hello, then the first's replayed); the generator leaves ReplayHelloEnable out until it is closed",
-    },
-    OpenHole {
         requirements: &[],
         involving: "EncoderLosesCounts",
         closed_by: "the second position channel: an encoder that loses counts is named MotorOpen (SR-5), and the joint runs faster and further than measured (SR-2, SR-7)",
@@ -113,9 +103,7 @@ fn foreign() -> impl Strategy<Value = Foreign> {
             .prop_map(Foreign::FarAhead),
         (0u16..5_000).prop_map(|ahead_ms| Foreign::FutureTarget { ahead_ms }),
         Just(Foreign::StampedMax),
-        // (Not the owner's Hello and Enable replayed: after a second master's takeover,
-        // the first's old Hello takes the board back and resets its sequence, the hole
-        // of `OPEN`; the named case replays them to the owner.)
+        Just(Foreign::ReplayHelloEnable),
     ]
 }
 
@@ -348,6 +336,37 @@ fn counterexamples_found_once_hold_now() {
                 A::Command(Cmd::Disable),
                 A::Wait(400),
                 A::Foreign(Foreign::ReplayHelloEnable),
+                A::Wait(300),
+            ],
+        ),
+        (
+            "SR-6: a former owner's Hello replayed after a second master took over took the \
+             board back",
+            Start::Fresh,
+            vec![
+                A::Foreign(Foreign::SecondHello),
+                A::Wait(10),
+                A::Foreign(Foreign::ReplayHelloEnable),
+                A::Wait(300),
+            ],
+        ),
+        (
+            "SR-5: a leg's encoder dying 129 ms into homing was named MotorOpen (the motor \
+             turning faster than its encoder said drew less than the model's current)",
+            Start::Homing,
+            vec![
+                A::Wait(129),
+                A::Fault(Injection::EncoderDead(0)),
+                A::Wait(2_000),
+            ],
+        ),
+        (
+            "SR-6: the owner's Home queued in the tick a second master's Hello took the \
+             board was taken from the displaced owner",
+            Start::Ready,
+            vec![
+                A::Foreign(Foreign::SecondHello),
+                A::Command(Cmd::Home { rehome: true }),
                 A::Wait(300),
             ],
         ),

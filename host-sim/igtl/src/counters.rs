@@ -35,6 +35,42 @@ pub struct Counters {
     pub connections_closed: u64,
 }
 
+/// `TYPE n, TYPE n` of a map, or `none`.
+fn by_name<'a>(entries: impl Iterator<Item = (&'a str, u64)>) -> String {
+    let parts: Vec<String> = entries.map(|(k, n)| format!("{k} {n}")).collect();
+    if parts.is_empty() {
+        "none".into()
+    } else {
+        parts.join(", ")
+    }
+}
+
+/// The counters in words on one line, for a person (the bridge's summary on quitting).
+impl std::fmt::Display for Counters {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "received {} ({}); sent {} ({}); malformed {} ({}); targets taken {}, refused on arrival {}; \
+             poses not streamed to a client not reading {}; send failures {}; bytes discarded {}; \
+             connections accepted {}, refused {}, closed {}",
+            self.received.values().sum::<u64>(),
+            by_name(self.received.iter().map(|(k, n)| (k.as_str(), *n))),
+            self.sent.values().sum::<u64>(),
+            by_name(self.sent.iter().map(|(k, n)| (k.as_str(), *n))),
+            self.malformed.values().sum::<u64>(),
+            by_name(self.malformed.iter().map(|(k, n)| (k.name(), *n))),
+            self.targets_accepted,
+            self.targets_refused,
+            self.stream_dropped,
+            self.send_failures,
+            self.discarded_bytes,
+            self.connections_accepted,
+            self.connections_refused,
+            self.connections_closed,
+        )
+    }
+}
+
 impl Counters {
     /// The key under which type names beyond [`MAX_TYPE_NAMES`] are counted.
     pub const OTHER_TYPES: &'static str = "(other)";
@@ -116,4 +152,33 @@ fn escape(s: &str) -> String {
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The summary a person reads on quitting names each count in words, with the type
+    /// names as received: no `Debug` text (no braces, no field or type names of Rust).
+    #[test]
+    fn the_summary_is_in_words() {
+        let mut c = Counters::default();
+        c.count_received("TRANSFORM");
+        c.count_received("TRANSFORM");
+        c.count_received("STRING");
+        c.count_sent("STATUS");
+        c.count_malformed(MalformedKind::BadCrc);
+        c.targets_accepted = 1;
+        c.targets_refused = 1;
+        c.connections_accepted = 1;
+        let text = c.to_string();
+        assert!(
+            text.starts_with("received 3 (STRING 1, TRANSFORM 2); sent 1 (STATUS 1); malformed 1 (bad_crc 1); targets taken 1, refused on arrival 1;"),
+            "{text}"
+        );
+        assert!(!text.contains('{') && !text.contains("Counters"), "{text}");
+        assert!(Counters::default()
+            .to_string()
+            .contains("received 0 (none)"));
+    }
 }

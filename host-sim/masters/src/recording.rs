@@ -95,7 +95,7 @@ pub enum RecordingError {
         source: NonFinite,
     },
     /// No session message.
-    #[error("{0}: no /session message")]
+    #[error("{0}: no /session message: not a session recording of `host-sim teleop --device` (a scene of `host-sim sim` or `view --record` opens in Foxglove)")]
     NoSession(PathBuf),
 }
 

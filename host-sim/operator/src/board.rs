@@ -102,6 +102,28 @@ pub enum Outcome {
     NoReply,
 }
 
+impl Outcome {
+    /// The answer in words, for a person.
+    pub fn words(&self) -> String {
+        match self {
+            Outcome::Ack => "accepted".into(),
+            Outcome::Refused(r) => format!("refused: {}", board_words::reason(*r)),
+            Outcome::TargetRefused(t) => format!("refused: {}", board_words::refusal(t)),
+            Outcome::HelloReply(h) => format!(
+                "hello: firmware {}.{}.{}, protocol {}",
+                h.firmware.major, h.firmware.minor, h.firmware.patch, h.protocol_version
+            ),
+            Outcome::FaultLog(p) => format!("a fault log page of {} entries", p.count),
+            Outcome::EventLog(p) => format!("an event log page of {} entries", p.count),
+            Outcome::GeometryStored(v) => format!("calibrated geometry version {v} stored"),
+            Outcome::GeometryRefused(r) => {
+                format!("geometry refused: {}", board_words::geometry_refusal(*r))
+            }
+            Outcome::NoReply => format!("no answer within {REPLY_TIMEOUT_S} s"),
+        }
+    }
+}
+
 /// The board's `HelloReply`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct HelloInfo {
@@ -157,6 +179,12 @@ pub struct Board {
     heartbeat: bool,
     last_beat_s: f64,
     last_stamp_us: u64,
+    /// How far this connection's clock ran past its `Hello`'s stamp before the board's
+    /// answer came, µs: the board takes the `Hello`'s clock as the master's when it reads
+    /// it, so a board that reads it late (still booting, an emulator stalled by its host)
+    /// would find every later target that much in its future. Target stamps are taken
+    /// back by it.
+    stamp_offset_us: u64,
     backlog: VecDeque<BoardEvent>,
     deferred: VecDeque<BoardEvent>,
     statuses: u64,
@@ -172,6 +200,8 @@ pub struct Board {
     /// The last Hello sent (sequence number, message, when): a HelloReply for this
     /// connection's nonce that comes after the request timed out answers it still.
     last_hello: Option<(Seq, MasterToBoard, f64)>,
+    /// Host times of the `StatusRequest`s sent and not answered yet.
+    status_requests: VecDeque<f64>,
 }
 
 impl Board {
@@ -198,6 +228,7 @@ impl Board {
             heartbeat: true,
             last_beat_s: f64::NEG_INFINITY,
             last_stamp_us: 0,
+            stamp_offset_us: 0,
             backlog: VecDeque::new(),
             deferred: VecDeque::new(),
             statuses: 0,
@@ -207,6 +238,7 @@ impl Board {
             interrupt: None,
             hello_refused: None,
             last_hello: None,
+            status_requests: VecDeque::new(),
         })
     }
 
@@ -307,7 +339,9 @@ impl Board {
     /// sequence number and stamp, µs.
     pub fn send_target(&mut self, pose: &CartesianPose) -> Result<(Seq, u64), BoardError> {
         let (position_m, rotation_vector_rad) = wire_pose(pose);
-        let stamp = ((self.now_s() * 1e6) as u64).max(self.last_stamp_us + 1);
+        let stamp = ((self.now_s() * 1e6) as u64)
+            .saturating_sub(self.stamp_offset_us)
+            .max(self.last_stamp_us + 1);
         self.last_stamp_us = stamp;
         let seq = self.send(MasterToBoard::PoseTarget {
             timestamp_us: stamp,
@@ -315,6 +349,35 @@ impl Board {
             rotation_vector_rad,
         })?;
         Ok((seq, stamp))
+    }
+
+    /// Asks the board for its status now (`StatusRequest`), untracked: the board answers
+    /// with a `Status` like its periodic ones (every 20 ms), so a front end that needs a
+    /// faster view of the robot (the ROS 2 node's 100 Hz) asks between them.
+    ///
+    /// The paced clock advances one status period per *periodic* status; a status that
+    /// answers a request does not advance it. A status carries no stamp, so the first
+    /// status after a request counts as its answer (the board answers every
+    /// `StatusRequest`, within a tick); a request not answered within [`REPLY_TIMEOUT_S`] of
+    /// host time (a frame lost on a serial line) is forgotten, at the cost of one periodic
+    /// status taken for its answer: the clock then lags one period (20 ms), once.
+    pub fn request_status(&mut self) -> Result<(), BoardError> {
+        self.link.send(&MasterToBoard::StatusRequest)?;
+        self.status_requests.push_back(self.link.now_s());
+        Ok(())
+    }
+
+    /// Whether a status arriving now answers a `StatusRequest` ([`Board::request_status`]).
+    fn answers_status_request(&mut self) -> bool {
+        let now = self.link.now_s();
+        while self
+            .status_requests
+            .front()
+            .is_some_and(|sent| now - sent > REPLY_TIMEOUT_S)
+        {
+            self.status_requests.pop_front();
+        }
+        self.status_requests.pop_front().is_some()
     }
 
     fn beat(&mut self) -> Result<(), BoardError> {
@@ -331,8 +394,8 @@ impl Board {
     }
 
     fn handle(&mut self, mut r: Received) {
-        self.clock
-            .received(r.t_s, matches!(r.msg, BoardToMaster::Status(_)));
+        let periodic = matches!(r.msg, BoardToMaster::Status(_)) && !self.answers_status_request();
+        self.clock.received(r.t_s, periodic);
         if self.paced {
             r.t_s = self.now_s();
         }
@@ -388,6 +451,9 @@ impl Board {
                 };
                 let late = self.hello.is_none();
                 self.hello = Some(info);
+                if let Some((_, MasterToBoard::Hello { clock_us, .. }, _)) = self.last_hello {
+                    self.stamp_offset_us = ((r.t_s * 1e6) as u64).saturating_sub(clock_us);
+                }
                 answer(
                     &mut self.pending,
                     &|p| matches!(p.1, MasterToBoard::Hello { .. }),
@@ -614,6 +680,12 @@ impl Board {
         Ok(None)
     }
 
+    /// The reason of a `HelloRefused` received since the last call (or since
+    /// [`Board::hello`] looked), taken.
+    pub fn take_hello_refused(&mut self) -> Option<NackReason> {
+        self.hello_refused.take()
+    }
+
     /// Hello until the board answers (it may still be booting), at most `timeout_s`.
     /// A Hello the board refuses (another master owns the robot) is an error.
     pub fn hello(&mut self, timeout_s: f64) -> Result<HelloInfo, BoardError> {
@@ -709,7 +781,8 @@ impl Board {
             };
             status = cleared.ok_or_else(|| {
                 BoardError::FaultLatched(format!(
-                    "{text}; Clear fault answered {outcome:?}: the fault stays"
+                    "{text}; Clear fault: {}: the fault stays",
+                    outcome.words()
                 ))
             })?;
             log("fault cleared");
@@ -730,12 +803,12 @@ impl Board {
     ) -> Result<(), BoardError> {
         let h = self.hello(timeout_s)?;
         log(&format!(
-            "hello: firmware {}.{}.{}, protocol {}, last reset {:?}{}",
+            "hello: firmware {}.{}.{}, protocol {}, last reset {}{}",
             h.firmware.major,
             h.firmware.minor,
             h.firmware.patch,
             h.protocol_version,
-            h.reset.cause,
+            board_words::reset_cause(h.reset.cause),
             if h.reset.acknowledged {
                 ""
             } else {
@@ -754,8 +827,8 @@ impl Board {
             }
             self.expect_ack(MasterToBoard::AcknowledgeReset)?;
             log(&format!(
-                "{:?} reset acknowledged (--acknowledge-reset)",
-                h.reset.cause
+                "{} reset acknowledged (--acknowledge-reset)",
+                board_words::reset_cause(h.reset.cause)
             ));
         }
         Ok(())
@@ -794,7 +867,10 @@ impl Board {
                 Ok(())
             }
             Some(s) => Err(BoardError::Faulted {
-                cause: format!("{:?} while homing", s.fault.cause),
+                cause: format!(
+                    "{} while homing",
+                    board_words::fault(&s.fault).unwrap_or_else(|| "no fault cause".into())
+                ),
             }),
             None => Err(BoardError::Timeout {
                 what: "homing",
@@ -835,7 +911,10 @@ impl Board {
                 Ok(s)
             }
             Some(s) => Err(BoardError::Faulted {
-                cause: format!("{:?} while enabling", s.fault.cause),
+                cause: format!(
+                    "{} while enabling",
+                    board_words::fault(&s.fault).unwrap_or_else(|| "no fault cause".into())
+                ),
             }),
             None => Err(BoardError::Timeout {
                 what: "enabling",

@@ -148,7 +148,11 @@ impl Console {
             if code == KeyCode::Char('y') {
                 return vec![Action::Send(MasterToBoard::AcknowledgeReset)];
             }
-            self.note(t_s, format!("{cause:?} reset not acknowledged"), false);
+            self.note(
+                t_s,
+                format!("{} reset not acknowledged", board_words::reset_cause(cause)),
+                false,
+            );
             return vec![];
         }
         if self.confirm_rehome {
@@ -556,7 +560,10 @@ impl Console {
     fn key_lines(&self) -> [Line<'static>; 3] {
         let heading = if let Some(cause) = self.confirm_reset {
             Line::styled(
-                format!("Acknowledge the board's {cause:?} reset? y = yes, other = no"),
+                format!(
+                    "Acknowledge the board's {} reset? y = yes, other = no",
+                    board_words::reset_cause(cause)
+                ),
                 red(),
             )
         } else if self.confirm_rehome {

@@ -11,6 +11,8 @@
 //! - [`replay`]: a recorded session's summary and plots (`host-sim replay`);
 //! - [`console`]: the terminal console (ratatui) a person drives the robot with;
 //! - [`navigation`]: the OpenIGTLink bridge for 3D Slicer, PLUS and trackers;
+//! - [`view`]: the live 3-D view for Foxglove (the robot description, its transforms, the
+//!   poses, joints, margins and the latched fault on the Foxglove SDK's WebSocket server);
 //! - [`shutdown`]: the one way out of every front end (SIGINT, SIGTERM, an error): the
 //!   robot disabled.
 //!
@@ -27,6 +29,7 @@ pub mod navigation;
 pub mod replay;
 pub mod shutdown;
 pub mod teleoperation;
+pub mod view;
 
 pub use board::{Board, BoardError, BoardEvent, BringUpTimeouts, Outcome, Reply};
 pub use error::OperatorError;

@@ -334,7 +334,18 @@ pub fn serve(
                 igtl::server::CloseReason::BadToken(what) => report(&format!(
                     "client {a} refused: no valid token (--token-file): it sent {what}"
                 )),
-                _ => report(&format!("client {a} closed: {why:?}")),
+                igtl::server::CloseReason::PeerClosed => {
+                    report(&format!("client {a} closed the connection"))
+                }
+                igtl::server::CloseReason::Io(e) => {
+                    report(&format!("client {a} closed: read or write failed: {e}"))
+                }
+                igtl::server::CloseReason::Backlog(n) => report(&format!(
+                    "client {a} closed: it did not read ({n} bytes queued)"
+                )),
+                igtl::server::CloseReason::ServerFull => {
+                    report(&format!("client {a} refused: the server is full"))
+                }
             }
         }
         if let Some(e) = &r.accept_error {

@@ -16,8 +16,10 @@ use crate::error::OperatorError;
 use masters::latency::{lag_at, LagConfig, Stamped};
 use masters::recording::{Recording, RecordingSummary};
 use masters::MasterInput;
-use plots::plotters::style::{RGBColor, BLACK, BLUE, GREEN, MAGENTA, RED};
-use plots::{line_charts, span, Layout, Panel, Series};
+use plots::plotters::style::{RGBColor, BLACK, BLUE, GREEN, RED};
+use plots::{
+    break_gaps, intervals, line_charts, span, Band, Layout, Level, Panel, Series, PALETTE,
+};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -58,11 +60,13 @@ pub fn replay(file: &Path, out: &Path) -> Result<Replay, OperatorError> {
             &title("lag behind the commanded path"),
             &[lag_panel(&rec, t0)],
         )?,
-        draw(
+        draw_sized(
             out,
             "margins.png",
-            &title("guard margins (1 far, 0 at the stop level)"),
+            &title("guard margins (100 % far, 0 % at the stop level)"),
             &[margins_panel(&rec, t0)],
+            // Room for the legend's thirteen rows above the data.
+            700,
         )?,
     ];
     Ok(Replay {
@@ -118,6 +122,8 @@ fn input_panels(rec: &Recording, t0: f64) -> Vec<Panel> {
     let clutch = buttons(&|r| r.clutch, 1.0);
     let present = buttons(&|r| r.operator_present, 0.9);
     panels.push(Panel {
+        levels: Vec::new(),
+        bands: Vec::new(),
         caption: Some("buttons (1 = pressed)".into()),
         x_desc: "t, s".into(),
         y_desc: "pressed".into(),
@@ -182,15 +188,44 @@ fn lag_panel(rec: &Recording, t0: f64) -> Panel {
                 })
                 .collect::<Vec<_>>()
         };
-    let lag_sp = lag_series(&|r| r.setpoint.map(|p| p.position_m));
-    let lag_m = lag_series(&|r| r.measured.map(|p| p.position_m));
-    panel(
+    let lag_sp = break_gaps(lag_series(&|r| r.setpoint.map(|p| p.position_m)), GAP_S);
+    let lag_m = break_gaps(lag_series(&|r| r.measured.map(|p| p.position_m)), GAP_S);
+    // The setpoint wide underneath, the measured pose thin on top: both show where they
+    // coincide.
+    let mut p = panel(
         "lag, ms",
         vec![
-            Series::new("setpoint", lag_sp, ORANGE, 2),
-            Series::new("measured", lag_m, RED, 2),
+            Series::new("setpoint", lag_sp, ORANGE, 4),
+            Series::new("measured", lag_m, BLUE, 1),
         ],
-    )
+    );
+    p.bands = activity_bands(rec, t0);
+    p
+}
+
+/// Statuses further apart than this are a gap (the board reports every 20 ms): no line
+/// is drawn across it, s.
+const GAP_S: f64 = 0.5;
+
+/// The clutch periods (clutch pressed: the master moves without moving the robot) and
+/// the holds (targets limited by the mapping's workspace edge), over the time since `t0`.
+fn activity_bands(rec: &Recording, t0: f64) -> Vec<Band> {
+    let clutch: Vec<(f64, bool)> = rec.inputs().map(|r| (r.t_s - t0, r.clutch)).collect();
+    let limited: Vec<(f64, bool)> = rec.targets().map(|r| (r.t_s - t0, r.limited)).collect();
+    let mut out: Vec<Band> = intervals(&clutch)
+        .into_iter()
+        .map(|x| Band {
+            label: "clutch pressed: the robot holds".into(),
+            x,
+            color: GREY,
+        })
+        .collect();
+    out.extend(intervals(&limited).into_iter().map(|x| Band {
+        label: "held at the workspace edge".into(),
+        x,
+        color: RED,
+    }));
+    out
 }
 
 /// The guard margins the board reported, the nearest drawn thicker, over the time since
@@ -202,16 +237,52 @@ fn margins_panel(rec: &Recording, t0: f64) -> Panel {
             by_name.entry(k.clone()).or_default().push((r.t_s - t0, *v));
         }
     }
-    let colours = [BLACK, RED, BLUE, GREEN, MAGENTA, ORANGE, GREY];
     let series: Vec<Series> = by_name
         .into_iter()
         .enumerate()
         .map(|(i, (k, v))| {
-            let c = colours.get(i).copied().unwrap_or(BLACK);
+            let c = if k == "nearest" {
+                BLACK
+            } else {
+                PALETTE[i % PALETTE.len()]
+            };
+            let v = break_gaps(v.into_iter().map(|(t, m)| (t, m * 100.0)).collect(), GAP_S);
             Series::new(k.clone(), v, c, if k == "nearest" { 3 } else { 1 })
         })
         .collect();
-    panel("margin", series)
+    let mut p = panel("margin, % of the guard's range left", series);
+    p.levels = margin_levels();
+    p.y_range = (-5.0, 105.0);
+    p.bands = activity_bands(rec, t0);
+    p
+}
+
+/// The levels of the margins: every guard stops at 0 %; the stroke and link ranges and
+/// the singularity measures warn where `board_words::margins` says.
+fn margin_levels() -> Vec<Level> {
+    let mut levels = vec![Level {
+        label: "stop level: 0 % (every guard)".into(),
+        y: 0.0,
+        color: RED,
+    }];
+    let mut warns: Vec<(f64, Vec<&str>)> = Vec::new();
+    for m in board_words::margins(&master_link::GuardMargins::default()) {
+        if let Some(w) = m.warn {
+            let w = (f64::from(w) * 1000.0).round() / 10.0;
+            match warns.iter_mut().find(|(v, _)| *v == w) {
+                Some((_, names)) => names.push(m.guard),
+                None => warns.push((w, vec![m.guard])),
+            }
+        }
+    }
+    for (k, (w, names)) in warns.into_iter().enumerate() {
+        levels.push(Level {
+            label: format!("warn level: {w:.1} % ({})", names.join(", ")),
+            y: w,
+            color: [ORANGE, PALETTE[4], PALETTE[5]][k % 3],
+        });
+    }
+    levels
 }
 
 fn first_time(rec: &Recording) -> f64 {
@@ -242,6 +313,8 @@ fn axes_panel(y_desc: &str, v: &[(f64, [f64; 6])], first: usize) -> Panel {
 fn panel(y_desc: &str, series: Vec<Series>) -> Panel {
     let pts = || series.iter().flat_map(|s| s.points.iter());
     Panel {
+        levels: Vec::new(),
+        bands: Vec::new(),
         caption: None,
         x_desc: "t, s".into(),
         y_desc: y_desc.into(),
@@ -252,8 +325,19 @@ fn panel(y_desc: &str, series: Vec<Series>) -> Panel {
 }
 
 fn draw(out: &Path, name: &str, title: &str, panels: &[Panel]) -> Result<PathBuf, OperatorError> {
+    draw_sized(out, name, title, panels, 260)
+}
+
+/// Draws `panels` stacked, each `panel_px` high.
+fn draw_sized(
+    out: &Path,
+    name: &str,
+    title: &str,
+    panels: &[Panel],
+    panel_px: u32,
+) -> Result<PathBuf, OperatorError> {
     let path = out.join(name);
-    let h = 260 * panels.len().max(1) as u32 + 60;
+    let h = panel_px * panels.len().max(1) as u32 + 60;
     line_charts(&path, (1100, h), title, panels, Layout::Stacked)?;
     Ok(path)
 }

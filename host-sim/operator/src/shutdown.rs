@@ -93,8 +93,11 @@ pub fn disable(board: &mut Board, log: &mut dyn FnMut(&str)) {
         return;
     }
     match board.disable_within(DISABLE_TIMEOUT_S) {
-        Ok(Outcome::Ack) => log(&format!("robot disabled on the way out (was {state:?})")),
-        Ok(o) => log(&format!("Disable on the way out: {o:?}")),
+        Ok(Outcome::Ack) => log(&format!(
+            "robot disabled on the way out (was {})",
+            state.map_or("?", board_words::state)
+        )),
+        Ok(o) => log(&format!("Disable on the way out: {}", o.words())),
         Err(e) => log(&format!("Disable on the way out: {e}")),
     }
 }

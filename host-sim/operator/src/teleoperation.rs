@@ -192,13 +192,13 @@ fn status_record(t_s: f64, s: &StatusReport) -> StatusRecord {
     let m = margins(s);
     StatusRecord {
         t_s,
-        state: format!("{:?}", s.state),
+        state: board_words::state_label(s.state).to_string(),
         measured: measured_cp(s),
         setpoint: setpoint_cp(s),
         nearest_margin: m.iter().find(|(k, _)| *k == "nearest").map(|(_, v)| *v),
         faults: s.faults.bits(),
         margins: m.into_iter().map(|(k, v)| (k.to_string(), v)).collect(),
-        stop: Some(format!("{:?}", s.stop)),
+        stop: board_words::stop(s.state, s.stop).map(str::to_string),
     }
 }
 
@@ -320,7 +320,7 @@ fn enabled_status(board: &mut Board) -> Result<StatusReport, OperatorError> {
     };
     if status.state != RobotState::Enabled {
         return Err(BoardError::NotEnabled {
-            state: format!("{:?}", status.state),
+            state: board_words::state(status.state).to_string(),
         }
         .into());
     }

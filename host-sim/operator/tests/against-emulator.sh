@@ -19,9 +19,13 @@
 #      enabled, and leaves it there, disabled (tests/common/mod.rs). After a test that
 #      failed, or left the board in any other state, the next test gets a fresh board,
 #      warmed up (see known_state): one failure cannot cascade into the tests after it;
-#   5. igtl-board.sh (the bridge enables it) on the board the Rust tests left Ready, or a
+#   5. the chain benchmark (tests/chain_on_board.rs, ignored by `cargo test`: about 28 s of
+#      the board's time): the synthetic operator through the scripted path, the canceller
+#      against the classic filter, the canceller's start, the tremor's stop and the
+#      clutch, on the board the tests left Ready, or a fresh one;
+#   6. igtl-board.sh (the bridge enables it) on the board the Rust tests left Ready, or a
 #      fresh one;
-#   6. a fresh emulated board, not homed: console-tmux.sh's steps on a board not homed
+#   7. a fresh emulated board, not homed: console-tmux.sh's steps on a board not homed
 #      (the screen, the Hello, Enable refused) through a serial device (a pseudo-terminal
 #      that socat bridges to the board's socket: the front ends' serial path), then the
 #      whole of console-tmux.sh (it homes, enables, jogs, stops) on the socket.
@@ -115,7 +119,8 @@ build_emulator() {
 }
 build_host() {
     cargo build --release -q -p host-sim &&
-        cargo test --workspace --no-run --test scripted_operator --test latency_recording
+        cargo test --workspace --no-run --test scripted_operator --test latency_recording \
+            --test chain_on_board
 }
 for s in "the board image (release, thumbv7em-none-eabihf):build_image" \
     "the board emulator (release, --locked, --ignore-rust-version):build_emulator" \
@@ -320,11 +325,28 @@ rust_tests() {
     [ "$status" -eq 0 ] || printf 'failed: %s\n' "${failures[@]}"
     return "$status"
 }
-# The Rust tests, then the OpenIGTLink bridge on the board they left Ready (homed,
-# centred, disabled; the bridge enables it), or a fresh one.
+# The chain benchmark on a board in a known state (Ready), its pacing as for the tests.
+chain_bench() {
+    local before status=0
+    known_state rust || return 1
+    before=$(grep -c 'master gone' "$log")
+    wait_on_time &&
+        cargo test -q --workspace --test chain_on_board -- --ignored --exact \
+            chain_on_the_served_board --nocapture || { status=1; dirty=1; }
+    for _ in $(seq 20); do
+        [ "$(grep -c 'master gone' "$log")" -gt "$before" ] && break
+        sleep 0.1
+    done
+    echo "pacing during the chain benchmark: $(grep 'master gone' "$log" | tail -1)"
+    return "$status"
+}
+# The Rust tests, the chain benchmark, then the OpenIGTLink bridge on the board they left
+# Ready (homed, centred, disabled; the bridge enables it), or a fresh one.
 rust_then_igtl() {
     local status=0
     step "Rust tests: latency_recording, scripted_operator" rust_tests || status=1
+    step "chain benchmark: chain_on_board (about 28 s of the board's time)" chain_bench ||
+        status=1
     step "igtl-board.sh, on the board the tests left Ready (or a fresh one)" \
         igtl_on_known_state || status=1
     return "$status"

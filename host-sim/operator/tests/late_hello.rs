@@ -122,6 +122,28 @@ fn a_late_hello_reply_still_opens_the_session() {
         assert!(*t >= REPLY_TIMEOUT_S);
     }
     assert!(board.hello_info().is_some(), "the session is not known");
+    // The board took the Hello's clock as the master's when it read it, 1.5 s late: a
+    // target sent now is stamped no later than that clock plus the time since the
+    // answer came (else the board would find it 1.5 s in its future).
+    let (clock_us, answered_s) = events
+        .iter()
+        .find_map(|e| match e {
+            BoardEvent::Reply(operator::board::Reply {
+                request: MasterToBoard::Hello { clock_us, .. },
+                outcome: Outcome::HelloReply(_),
+                t_s,
+                ..
+            }) => Some((*clock_us, *t_s)),
+            _ => None,
+        })
+        .unwrap();
+    let pose = masters::CartesianPose::identity();
+    let (_, stamp_us) = board.send_target(&pose).unwrap();
+    let since_us = ((board.now_s() - answered_s) * 1e6) as u64;
+    assert!(
+        stamp_us <= clock_us + since_us + 1,
+        "target stamped {stamp_us} µs; the Hello's clock {clock_us} µs, {since_us} µs since its answer"
+    );
     drop(board);
     board_thread.join().unwrap();
 }

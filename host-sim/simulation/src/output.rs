@@ -1,8 +1,10 @@
-//! The files a run writes: `summary.json`, `trace.csv`, `path.png`, `errors.png`.
+//! The files a run writes: `summary.json`, `trace.csv`, `path.png`, `errors.png`, and the
+//! run's 3-D scene for Foxglove, `scene.mcap` ([`write_scene`]).
 
+use crate::metrics::PhaseSummary;
 use crate::run::{Outcome, TraceRow};
 use plots::plotters::prelude::*;
-use plots::{line_charts, span, Layout, Panel, PlotError, Series};
+use plots::{line_charts, span, Band, Layout, Panel, PlotError, Series, PALETTE};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use thiserror::Error;
@@ -31,6 +33,9 @@ pub enum OutputError {
     TraceFlush(std::io::Error),
     #[error(transparent)]
     Plot(#[from] PlotError),
+    /// The scene's MCAP file.
+    #[error("{}: {error}", path.display())]
+    Scene { path: PathBuf, error: String },
 }
 
 const POSE_COLS: [&str; 6] = ["x_mm", "y_mm", "z_mm", "rx_deg", "ry_deg", "rz_deg"];
@@ -130,7 +135,12 @@ pub fn write_all(outcome: &Outcome, dir: &Path, plots: bool) -> Result<Written, 
         plot_path(&outcome.trace, &outcome.summary.scenario, &p)?;
         written.files.push(p);
         let p = dir.join("errors.png");
-        plot_errors(&outcome.trace, &outcome.summary.scenario, &p)?;
+        plot_errors(
+            &outcome.trace,
+            &outcome.summary.scenario,
+            &outcome.summary.phases,
+            &p,
+        )?;
         written.files.push(p);
     }
     Ok(written)
@@ -151,6 +161,8 @@ pub fn plot_path(rows: &[TraceRow], scenario: &str, path: &Path) -> Result<(), P
     let panels: Vec<Panel> = [((0, 1), "y [mm]"), ((0, 2), "z [mm]")]
         .into_iter()
         .map(|((ax, ay), ylabel)| Panel {
+            levels: Vec::new(),
+            bands: Vec::new(),
             caption: Some(
                 if ay == 1 {
                     "x-y (top view)"
@@ -181,8 +193,32 @@ pub fn plot_path(rows: &[TraceRow], scenario: &str, path: &Path) -> Result<(), P
     )
 }
 
-/// The errors over time: tip tracking error, tip error against the target, orientation.
-pub fn plot_errors(rows: &[TraceRow], scenario: &str, path: &Path) -> Result<(), PlotError> {
+/// The errors over time: tip tracking error, tip error against the target, orientation;
+/// the judged phases (the passes) shaded, and within them the intervals where the master's
+/// stream asks more than the tip acceleration limit (the report names both).
+pub fn plot_errors(
+    rows: &[TraceRow],
+    scenario: &str,
+    phases: &[PhaseSummary],
+    path: &Path,
+) -> Result<(), PlotError> {
+    let mut bands: Vec<Band> = Vec::new();
+    for (k, p) in phases.iter().enumerate() {
+        bands.push(Band {
+            label: format!("phase: {}", p.name),
+            x: (p.start_s, p.end_s),
+            color: PALETTE[[0, 2, 4, 9][k % 4]],
+        });
+    }
+    for p in phases {
+        for [a, b] in p.beyond_limits.iter().flat_map(|l| l.intervals_s.iter()) {
+            bands.push(Band {
+                label: "stream beyond the tip acceleration limit".into(),
+                x: (*a, *b),
+                color: PALETTE[3],
+            });
+        }
+    }
     let t_end = rows.last().map(|r| r.t_s).unwrap_or(1.0).max(1e-3);
     let specs: [(&str, &str, ValueOf, RGBColor); 3] = [
         (
@@ -207,6 +243,8 @@ pub fn plot_errors(rows: &[TraceRow], scenario: &str, path: &Path) -> Result<(),
     let panels: Vec<Panel> = specs
         .into_iter()
         .map(|(title, unit, get, color)| Panel {
+            levels: Vec::new(),
+            bands: bands.clone(),
             caption: Some(title.into()),
             x_desc: "t [s]".into(),
             y_desc: unit.into(),
@@ -229,4 +267,72 @@ pub fn plot_errors(rows: &[TraceRow], scenario: &str, path: &Path) -> Result<(),
         &panels,
         Layout::Stacked,
     )
+}
+
+/// A pose from its edge values (mm, deg).
+fn pose_of_edge(v: &[f64; 6]) -> Option<kinematics_core::Pose<f64>> {
+    kinematics_core::Pose::from_position_rotation_vector(
+        nalgebra::Vector3::new(v[0], v[1], v[2]) * 1e-3,
+        nalgebra::Vector3::new(v[3], v[4], v[5]).map(f64::to_radians),
+    )
+    .ok()
+}
+
+/// Writes the run's scene for Foxglove to `path` (MCAP, zstd chunks, through the Foxglove
+/// SDK): the channels of `host-sim view` (`scene::TOPICS`) at the trace's instants, in the
+/// run's virtual time: the robot description, its transforms and joint states at the
+/// controller's measured pose, the measured, setpoint and target (`/servo_cp`: the
+/// master's stream) poses, the measured and setpoint joints, the kinematic guard margins
+/// at the setpoint (as the board reports them) and the state (enabled throughout; the
+/// supervisor's stop, if any).
+pub fn write_scene(
+    outcome: &Outcome,
+    robot: &kinematics_core::Robot<f64>,
+    limits: &kinematics_core::guards::Limits<f64>,
+    path: &Path,
+) -> Result<PathBuf, OutputError> {
+    let err = |e: String| OutputError::Scene {
+        path: path.to_path_buf(),
+        error: e,
+    };
+    let branch = kinematics_core::Branch::OUTER;
+    let description = robot_description::Description::new(robot, limits, branch)
+        .map_err(|e| err(e.to_string()))?;
+    let urdf = robot_description::to_urdf(description.tree(), "the simulated robot");
+    let guards = kinematics_core::guards::Guards::new(*robot, branch, *limits)
+        .map_err(|e| err(format!("guards: {e:?}")))?;
+    let ctx = foxglove::Context::new();
+    // A run writes its scene afresh, as every other file of the run (the SDK's own
+    // `create_new_buffered_file` refuses an existing file: a second run would fail).
+    let file = std::fs::File::create(path).map_err(|e| err(e.to_string()))?;
+    let writer = ctx
+        .mcap_writer()
+        .create(std::io::BufWriter::new(file))
+        .map_err(|e| err(e.to_string()))?;
+    let mut scene = scene::Scene::new(&ctx, description, urdf);
+    scene.log_description(0);
+    for r in &outcome.trace {
+        let time_ns = (r.t_s * 1e9).round().max(0.0) as u64;
+        let setpoint = pose_of_edge(&r.setpoint);
+        scene.log(&scene::Snapshot {
+            time_ns,
+            measured: r.measured.as_ref().and_then(pose_of_edge),
+            setpoint,
+            target: pose_of_edge(&r.target),
+            measured_joints: Some(r.measured_q),
+            margins: setpoint.and_then(|p| scene::margins_at(&guards, &p)),
+            state: Some(scene::RobotState {
+                state: "Enabled".into(),
+                stop: if r.mode == "stopped" {
+                    "the supervisor's stop".into()
+                } else {
+                    String::new()
+                },
+                fault: String::new(),
+                fault_latched: false,
+            }),
+        });
+    }
+    writer.close().map_err(|e| err(e.to_string()))?;
+    Ok(path.to_path_buf())
 }

@@ -136,6 +136,11 @@ pub struct TraceRow {
     pub current_a: [f64; 6],
     /// Joint loads: N for legs, N m for links.
     pub load: [f64; 6],
+    /// The controller's measured pose (encoders -> FK; edge units), once it has one: the
+    /// scene's `/measured_cp` (not in `trace.csv`).
+    pub measured: Option<[f64; 6]>,
+    /// The controller's measured joints (SI, q order): the scene's `/measured_js`.
+    pub measured_q: [f64; 6],
 }
 
 /// A finished run.
@@ -384,6 +389,8 @@ fn trace_row(s: &TickSample, e: &TickErrors, master: &Pose<f64>) -> TraceRow {
         duty: s.duty,
         current_a: s.current_a,
         load: s.load,
+        measured: s.measured.pose.as_ref().map(edge_pose),
+        measured_q: s.measured.q,
     }
 }
 

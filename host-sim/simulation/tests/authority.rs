@@ -376,3 +376,65 @@ fn a_keyed_link_takes_only_tagged_frames() {
     assert!(lone.board.link_rx().counters().bad_tag >= 1);
     assert!(!lone.board.link_rx().connected());
 }
+
+/// Property: frames the link took in the owner's session before another master's `Hello`
+/// was accepted, but that the runtime reaches after it (both queued for the same tick),
+/// are refused (`NotOwner`): a `Home` or an `Enable` of the displaced owner starts no
+/// motion, and the new owner holds the board.
+#[test]
+fn the_displaced_owners_frames_queued_with_the_takeover_are_refused() {
+    let mut b = bench_with(None, OWNER);
+    b.bring_up().unwrap();
+    b.command(&MasterToBoard::Disable).unwrap();
+    b.run_ms(1_500).unwrap();
+    assert_eq!(b.board.runtime().status().state, RobotState::Ready);
+    b.others.push(SimMaster::new(INTRUDER));
+    let hello = MasterToBoard::Hello {
+        protocol_version: PROTOCOL_VERSION,
+        nonce: INTRUDER,
+        clock_us: b.now_us(),
+    };
+    let start = b.board.truth().pose.t;
+    let hello_seq = other_sends(&mut b, 0, &hello);
+    // The owner's frames on the line in the same period, after the Hello.
+    let home = b.send(&MasterToBoard::Home { rehome: true });
+    let enable = b.send(&MasterToBoard::Enable);
+    b.tick().unwrap();
+    assert!(
+        matches!(
+            b.others[0].hello,
+            Some(BoardToMaster::HelloReply {
+                nonce: INTRUDER,
+                ..
+            })
+        ),
+        "the second master's Hello {hello_seq}: {:?}",
+        b.others[0].hello
+    );
+    // The answers go out in the new session (the displaced owner's link no longer
+    // decodes them): read on the new owner's side.
+    for seq in [home, enable] {
+        let r = b.others[0].replies.get(&seq).map(|r| r.1);
+        assert_eq!(
+            r,
+            Some(BoardToMaster::Nack {
+                seq,
+                reason: NackReason::NotOwner
+            }),
+            "the displaced owner's frame {seq}"
+        );
+    }
+    let moved = motion_over(&mut b, 500);
+    let status = b.board.runtime().status();
+    println!(
+        "displaced owner's Home and Enable: refused (NotOwner); state {:?}, platform moved {:.4} mm",
+        status.state,
+        moved.max((b.board.truth().pose.t - start).norm()) * 1e3
+    );
+    assert_eq!(status.state, RobotState::Ready);
+    assert_eq!(
+        b.board.runtime().session().owner().map(|o| o.nonce),
+        Some(INTRUDER)
+    );
+    assert!(moved <= STILL_M, "moved {moved} m");
+}

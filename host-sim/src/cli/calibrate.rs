@@ -200,9 +200,13 @@ pub struct SimulateArgs {
     /// The tracker measures positions only.
     #[arg(long)]
     pub position_only: bool,
-    /// Rows given a gross error (5 mm, 2 deg), to try --robust.
+    /// Rows given a gross error (moved by --outlier-mm along (5, -3, 4), turned by 2 deg),
+    /// to try --robust.
     #[arg(long, default_value_t = 0)]
     pub outliers: usize,
+    /// How far an outlier row's position is moved, mm.
+    #[arg(long, default_value_t = 7.07)]
+    pub outlier_mm: f64,
     #[command(flatten)]
     pub noise: NoiseArgs,
     #[command(flatten)]
@@ -371,12 +375,20 @@ fn run_plan(
 }
 
 fn run_simulate(args: &SimulateArgs) -> Result<(), CliError> {
+    if !(args.outlier_mm.is_finite() && args.outlier_mm >= 0.0) {
+        return Err(FlagError::Invalid {
+            flag: "--outlier-mm",
+            reason: format!("expected a distance >= 0 mm, got {}", args.outlier_mm),
+        }
+        .into());
+    }
     let mut s = Scenario {
         seed: args.seed,
         poses: args.poses,
         validation: args.validation,
         position_only: args.position_only,
         outliers: args.outliers,
+        outlier_m: mm_to_m(args.outlier_mm),
         noise: args.noise.noise()?,
         loss: args.loss.loss()?,
         ..Scenario::default()
@@ -439,8 +451,14 @@ fn run_upload(args: &UploadArgs) -> Result<(), CliError> {
             println!("stored calibrated geometry version {v}");
             Ok(())
         }
-        GeometryAnswer::Refused(reason) => Err(CliError::Upload(format!("refused: {reason:?}"))),
-        GeometryAnswer::Nack(reason) => Err(CliError::Upload(format!("refused: {reason:?}"))),
+        GeometryAnswer::Refused(reason) => Err(CliError::Upload(format!(
+            "refused: {}",
+            board_words::geometry_refusal(reason)
+        ))),
+        GeometryAnswer::Nack(reason) => Err(CliError::Upload(format!(
+            "refused: {}",
+            board_words::reason(reason)
+        ))),
         GeometryAnswer::Unexpected(what) => {
             Err(CliError::Upload(format!("unexpected reply {what}")))
         }

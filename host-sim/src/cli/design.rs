@@ -440,9 +440,124 @@ pub fn compare(args: &CompareArgs, robot: &Robot<f64>) -> Result<(), CliError> {
         branch: parse_branch(&args.branch).map_err(FlagError::from)?,
         ..PathSpec::thesis_diagonal()
     };
+    // The same comparison with the selected RSPR's eccentricity (the prototype's 20 mm):
+    // on both robots, and on the RSPR only against the RRPS at e = 0.
+    let mut others = Vec::new();
+    if g.e > 0.0 {
+        let eccentric = Pair::with_eccentricity(g.e, g.rb, g.rp, g.hc)?;
+        others.push(eccentric);
+        others.push(Pair {
+            rspr: eccentric.rspr,
+            rrps: pair.rrps,
+        });
+    }
     print!(
         "{}",
-        design::compare::run(&pair, &spec, args.out.as_deref())?
+        design::compare::run_with(&pair, &others, &spec, args.out.as_deref())?
+    );
+    Ok(())
+}
+
+/// `host-sim dct`.
+#[derive(Debug, Args)]
+pub struct DctArgs {
+    /// Tool point pose x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg (the central configuration is
+    /// 0,0,110,0,0,0); without it, the appendix's evaluation.
+    #[arg(long, value_name = "X,Y,Z,RX,RY,RZ", allow_hyphen_values = true)]
+    pub pose: Option<String>,
+    /// Branch 0..=63: the lower mechanism's sliders in bits 0-2, the upper's in 3-5 (a set
+    /// bit takes the minus root).
+    #[arg(long, value_name = "0..63", default_value_t = 0)]
+    pub branch: u8,
+    /// Wrench fx_n,fy_n,fz_n,tx_nm,ty_nm,tz_nm the tool point exerts.
+    #[arg(
+        long,
+        value_name = "FX,FY,FZ,TX,TY,TZ",
+        default_value = "7,7,7,0.7,0.7,0.7",
+        allow_hyphen_values = true
+    )]
+    pub wrench: String,
+    /// Efficiency of the lead screw, 0 < eta <= 1.
+    #[arg(long, value_name = "ETA", default_value_t = 1.0)]
+    pub eta: f64,
+    /// Grid of the task box per orientation (the evaluation).
+    #[arg(long, value_name = "NX,NY,NZ", default_value = "9,9,5")]
+    pub grid: String,
+}
+
+/// Runs `dct`.
+pub fn dct(args: &DctArgs) -> Result<(), CliError> {
+    use design::dct_robot::{report, DctRobot};
+    use robot_config::edge::{pose_from_edge, POSE};
+    let robot = DctRobot::table_4_1();
+    if args.branch > 63 {
+        return Err(FlagError::Invalid {
+            flag: "--branch",
+            reason: format!("{} is out of range 0..=63", args.branch),
+        }
+        .into());
+    }
+    let Some(pose) = &args.pose else {
+        let grid = flags::grid("--grid", &args.grid)?;
+        print!("{}", report(&robot, grid, args.branch));
+        return Ok(());
+    };
+    if !(args.eta > 0.0 && args.eta <= 1.0) {
+        return Err(FlagError::Invalid {
+            flag: "--eta",
+            reason: format!("{} is not in (0, 1]", args.eta),
+        }
+        .into());
+    }
+    let p = pose_from_edge(&POSE, numbers("--pose", pose)?).map_err(|e| FlagError::Invalid {
+        flag: "--pose",
+        reason: e.to_string(),
+    })?;
+    let se = kinematics_core::Wrench::<f64>::from(numbers::<6>("--wrench", &args.wrench)?);
+    let sol = robot.inverse(&p, args.branch)?;
+    let j = robot.jacobian(&sol)?;
+    let tau = robot.efforts(&sol, &se, args.eta)?;
+    let q = sol.q(robot.planar.rc);
+    let list = |v: &mut dyn Iterator<Item = f64>, digits: usize| {
+        v.map(|x| format!("{x:.digits$}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    println!(
+        "joints q (arc length, mm; lower 1-3, upper 1-3): {}",
+        list(&mut q.iter().map(|x| x * 1e3), 6)
+    );
+    println!(
+        "slider angles phi (deg): {}",
+        list(
+            &mut sol
+                .phi_lower
+                .iter()
+                .chain(&sol.phi_upper)
+                .map(|x| design::dct_robot::wrap(*x).to_degrees()),
+            6
+        )
+    );
+    for (name, t) in [("lower", &sol.lower), ("upper", &sol.upper)] {
+        println!(
+            "{name} triangle: centre ({:.6}, {:.6}) mm, psi {:.6} deg",
+            t.p.x * 1e3,
+            t.p.y * 1e3,
+            t.psi.to_degrees()
+        );
+    }
+    println!(
+        "link: tool point {:.6} mm from the lower centre",
+        sol.s * 1e3
+    );
+    println!("J = dq/dx (rows q, columns [v; w], SI):");
+    for r in j.row_iter() {
+        println!("  {}", list(&mut r.iter().copied(), 9));
+    }
+    println!(
+        "slider forces tau (N, eta {}): {}",
+        args.eta,
+        list(&mut tau.iter().copied(), 6)
     );
     Ok(())
 }

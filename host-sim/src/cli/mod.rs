@@ -6,12 +6,16 @@
 //! library returns.
 
 pub mod board;
+pub mod board_session;
 pub mod calibrate;
 pub mod commission;
+pub mod describe;
 pub mod design;
 pub mod operator;
+pub mod ros2;
 pub mod sim;
 pub mod teleop;
+pub mod view;
 
 use crate::commands::{check, fk, ik, jacobian, singularity};
 use crate::error::CliError;
@@ -141,8 +145,22 @@ pub enum Command {
     /// In: x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg,branch. Out: the input, then RSPR
     /// serial1_mm..serial3_mm (|Cn2_i|) or USR serial1_mm2..serial3_mm2
     /// (|Cn1 Cr2 - Cr1 Cn2|), serial1_frac..serial3_frac (over rb, or l1^2),
-    /// parallel_inv_cond, det_sign, nearest (parallel or serial:N), error.
+    /// parallel_inv_cond, det_sign, nearest (parallel or serial:N), then the line
+    /// geometry of thesis chapter 10: rank (of the six Plücker lines of the tripod
+    /// Jacobian), circuits (every minimal dependent subset as variety:lines, e.g. 3D:1245),
+    /// configurations (the S1..S13 of Table 10.3 whose conditions hold), complex (5A or 5B
+    /// at rank 5), gained (the twists the platform gains: twist=(v; rp*w) unit,
+    /// pitch_mm, axis_mm relative to o_p), serial1_case..serial3_case (RSPR a..d of Eq.
+    /// 10.6, USR A..F of Eq. 10.11, joined by +), error.
     Singularity(singularity::SingularityArgs),
+    /// The pose nearest each singular configuration S1..S13 (thesis Table 10.3) over a
+    /// task box.
+    ///
+    /// Out: a comment line, then CSV configuration,residual,which,x_mm..rz_deg,pose: the
+    /// smallest residual of the configuration's condition over the grid (lengths over rp,
+    /// sines of angles, singular values; 0 at the configuration), the index set that gives
+    /// it (e.g. S9(1,2)) and the pose where it is smallest.
+    SingularityScan(singularity::SingularityScanArgs),
     /// A readable report of the robot over the thesis's task box.
     ///
     /// Dimensions, the inverse kinematics of the central pose on all 8 branches, the
@@ -167,8 +185,9 @@ pub enum Command {
     ///
     /// Runs a scenario (laparoscope, step, box-sweep, payload, backlash-off, or all) with
     /// the controller at control.rate_hz and the plant at least 10x faster, the tool's
-    /// weight mapped to the joints, and writes summary.json, trace.csv, path.png and
-    /// errors.png (default target/sim/<scenario>/). Settings:
+    /// weight mapped to the joints, and writes summary.json, trace.csv, path.png,
+    /// errors.png and scene.mcap (the run's 3-D scene for Foxglove, the channels of `view`)
+    /// (default target/sim/<scenario>/). Settings:
     /// host-sim/simulation/default.toml.
     Sim(sim::SimArgs),
     /// The columns of thesis Tables 8.2/8.3 over the task box: joint min, max and span,
@@ -213,6 +232,18 @@ pub enum Command {
     /// rspr_f1_n..rspr_t3_nm, rrps_f1_n..rrps_t3_nm, error) and compare.png to --out
     /// (default target/design/compare/).
     Compare(design::CompareArgs),
+    /// The double circular-triangular robot of thesis Appendix A (Table 4.1's "double
+    /// planar"): two planar circle-triangle mechanisms, U joints, a prismatic and a
+    /// helical joint on the output link.
+    ///
+    /// Without --pose: the appendix's evaluation (the task box about the central
+    /// configuration, the 200 mm envelope, the slider forces along the diagonal against
+    /// the reference RSPR's leg forces, and the thesis's conclusion checked). With --pose
+    /// (x_mm..rz_deg of the tool point): the joints (arc length along the circle, mm, and
+    /// the slider angle, deg; lower mechanism first), the triangles' poses, J = dq/dx (SI)
+    /// and the sliders' forces for --wrench at the screw's --eta. The geometry flags do not
+    /// apply (the robot is Table 4.1's).
+    Dct(design::DctArgs),
     /// The host master of the board: hello, home, enable, stream a path with heartbeats,
     /// record the status telemetry and print a summary (tracking, refusals, link counters).
     ///
@@ -246,6 +277,16 @@ pub enum Command {
     /// measured pose is streamed as TRANSFORM from device Robot, the state as STATUS and
     /// STRING; GET_ requests are answered.
     Igtl(operator::IgtlArgs),
+    /// ROS 2 with CRTK names (no ROS installation needed): measured_cp, setpoint_cp
+    /// (PoseStamped), measured_js, setpoint_js (JointState), /joint_states (every joint of
+    /// the URDF of `describe --urdf`, passive ones computed) and /tf (the URDF's tree) at
+    /// 100 Hz, operating_state (crtk_msgs/OperatingState), diagnostics (the latched fault,
+    /// the guard margins) and refusal (a refused command and its reason); servo_cp
+    /// (PoseStamped: a target through the board's supervisor), servo_jp (JointState: the
+    /// six actuated joints, their forward kinematics a target) and state_command (enable,
+    /// disable, home, pause, resume) subscribed. DDS stays on the loopback unless --network
+    /// says otherwise.
+    Ros2(ros2::Ros2Args),
     /// The simulated board (the board application on the plant) on a Unix socket, its
     /// virtual clock paced by the wall clock and by its masters (it pauses, never jumps,
     /// when the host falls behind), for `teleop`, the console, `igtl` and `faultlog`.
@@ -273,6 +314,20 @@ pub enum Command {
     /// target/calibration/). `calibrate plan`: the poses to measure. `calibrate
     /// simulate`: the proof on a simulated robot and tracker.
     Calibrate(calibrate::CalibrateArgs),
+    /// The robot description (URDF) of the geometry in use, and its joint states.
+    ///
+    /// --urdf: the base, the three rotating (USR: lower) links, the spherical joints, the
+    /// legs (cylinder and piston; USR: upper links), the platform pins and the platform as
+    /// primitives at the geometry's dimensions, for RViz, Foxglove and Slicer; the closed
+    /// chains as a tree (the platform hangs off chain 1; every passive joint follows
+    /// /joint_states). --out PATH writes it to a file, else to stdout. --joint-states:
+    /// every joint's value for actuated joints read as CSV (see its flag).
+    Describe(describe::DescribeArgs),
+    /// The live 3-D view of a board for Foxglove (read-only): the robot description, its
+    /// transforms, the measured and setpoint poses, the joints, the guard margins and the
+    /// latched fault from the board's status stream, on the Foxglove SDK's WebSocket
+    /// server (--listen, default 127.0.0.1:8765; --record FILE.mcap records the same).
+    View(view::ViewArgs),
 }
 
 impl Command {
@@ -285,6 +340,7 @@ impl Command {
             Command::Jacobian(args) => Ok(jacobian::run(args, robot, &limits.limits)?),
             Command::Forces(args) => design::forces(args, robot, &limits.limits),
             Command::Singularity(args) => Ok(singularity::run(args, robot)?),
+            Command::SingularityScan(args) => Ok(singularity::run_scan(args, robot)?),
             Command::Report(args) => design::report(args, selected),
             Command::Check(args) => Ok(check::run(args, selected, limits)?),
             Command::Sim(args) => sim::run(args, selected, limits),
@@ -292,15 +348,19 @@ impl Command {
             Command::Workspace(args) => design::workspace(args, robot, limits),
             Command::Synth(args) => design::synth(args, robot.kind()),
             Command::Compare(args) => design::compare(args, robot),
-            Command::Teleop(args) => teleop::run(args),
+            Command::Dct(args) => design::dct(args),
+            Command::Teleop(args) => teleop::run(args, selected, &limits.limits),
             Command::Faults(args) => board::faults(args),
             Command::Board(args) => board::board(args),
             Command::Replay(args) => operator::replay(args),
             Command::Console(args) => operator::console(args),
             Command::Igtl(args) => operator::igtl(args),
+            Command::Ros2(args) => ros2::run(args, selected, &limits.limits),
             Command::Faultlog(args) => board::faultlog(args),
             Command::Commission(args) => commission::commission(args),
             Command::Calibrate(args) => calibrate::run(args, selected, limits),
+            Command::Describe(args) => describe::run(args, selected, &limits.limits),
+            Command::View(args) => view::run(args, selected, &limits.limits),
         }
     }
 }

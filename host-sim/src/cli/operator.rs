@@ -1,13 +1,13 @@
 //! The operator's front ends on the command line (the `operator` crate): `teleop --device`
 //! (a hand controller), `replay`, `console` and `igtl`.
 
+use super::board_session::{shutdown_on_signals, with_board};
 use crate::error::CliError;
 use clap::{Args, ValueEnum};
 use masters::{MotionScale, TeleopConfig, TeleopState, TremorSuppression};
 use operator::board::{Board, BringUpTimeouts};
 use operator::devices::{self, DeviceSpec};
 use operator::navigation::{self, BoardRobot};
-use operator::shutdown::{self, Shutdown};
 use operator::teleoperation::{self, TeleoperationSettings, TickView};
 use robot_config::output;
 use std::io::Write;
@@ -43,6 +43,10 @@ pub struct HandControllerArgs {
     /// Stop after this many seconds [default: until Ctrl-C, or q on the keyboard].
     #[arg(long)]
     pub duration_s: Option<f64>,
+    /// Serve the live 3-D view on this WebSocket port (127.0.0.1) or ADDR:PORT: the
+    /// channels of `host-sim view`, with the targets this master streams as /servo_cp.
+    #[arg(long, value_name = "[ADDR:]PORT", requires = "device")]
+    pub view: Option<String>,
 }
 
 /// The tremor suppression chosen on the command line.
@@ -93,27 +97,6 @@ impl StartArgs {
     }
 }
 
-/// The SIGINT and SIGTERM flag of a front end (`operator::shutdown`).
-pub fn shutdown_on_signals() -> Result<Shutdown, CliError> {
-    Ok(Shutdown::on_signals()?)
-}
-
-/// Runs a front end's body on `board` through the one way out (`operator::shutdown`):
-/// the robot disabled whatever ended it; the stop a signal asked is no error.
-fn with_board<T: Default>(
-    board: &mut Board,
-    shutdown: &Shutdown,
-    body: impl FnOnce(&mut Board) -> Result<T, CliError>,
-) -> Result<T, CliError> {
-    shutdown::with_board(
-        board,
-        shutdown,
-        &mut |m| eprintln!("board: {m}"),
-        body,
-        |e| matches!(e, CliError::Operator(o) if o.is_interrupted()),
-    )
-}
-
 /// Where the board is: its socket or serial device, the baud rate, the link key.
 pub struct BoardLink<'a> {
     /// A Unix socket or a serial device.
@@ -125,7 +108,9 @@ pub struct BoardLink<'a> {
 }
 
 /// `host-sim teleop --device ...`: bring the board up from the state it is in,
-/// teleoperate, and, whatever ends it, disable (`operator::shutdown`); summarise.
+/// teleoperate, and, whatever ends it, disable (`operator::shutdown`); summarise. With
+/// `--view`, the live 3-D view of the selected robot (`robot`) is served meanwhile.
+#[allow(clippy::too_many_arguments)]
 pub fn hand_controller(
     board: BoardLink<'_>,
     connect_timeout_s: f64,
@@ -134,8 +119,23 @@ pub fn hand_controller(
     args: &HandControllerArgs,
     device: &str,
     start: StartOptions,
+    robot: (
+        &robot_config::selection::SelectedRobot,
+        &kinematics_core::guards::Limits<f64>,
+    ),
 ) -> Result<(), CliError> {
     let BoardLink { connect, baud, key } = board;
+    let mut live = match &args.view {
+        Some(listen) => {
+            let l = super::view::start_scene(listen, None, robot.0, robot.1)?;
+            println!(
+                "Foxglove WebSocket on {} (the channels of host-sim view, targets as /servo_cp)",
+                l.url
+            );
+            Some(l)
+        }
+        None => None,
+    };
     let spec: DeviceSpec = device.parse()?;
     let shutdown = shutdown_on_signals()?;
     let mut master = devices::open(&spec, shutdown.flag())?;
@@ -168,12 +168,26 @@ pub fn hand_controller(
         );
         let _ = std::io::stdout().flush();
         let mut last_print = f64::NEG_INFINITY;
+        let (mut last_scene, mut last_description) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
         let report = teleoperation::run(
             board,
             master.as_mut(),
             &settings,
             shutdown.flag(),
             &mut |v| {
+                if let (Some(l), Some(s)) = (live.as_mut(), v.status) {
+                    // The board's status period: every status once, with the last target.
+                    if v.t_s - last_scene >= 0.02 {
+                        last_scene = v.t_s;
+                        let mut snap = operator::view::snapshot(operator::view::now_ns(), s);
+                        snap.target = v.target.as_ref().map(operator::view::pose_of);
+                        l.scene.log(&snap);
+                    }
+                    if v.t_s - last_description >= operator::view::DESCRIPTION_PERIOD_S {
+                        last_description = v.t_s;
+                        l.scene.log_description(operator::view::now_ns());
+                    }
+                }
                 if v.t_s - last_print < 0.2 {
                     return;
                 }
@@ -186,6 +200,9 @@ pub fn hand_controller(
         Ok(Some(report?))
     });
     drop(master);
+    if let Some(l) = live {
+        l.close()?;
+    }
     if let Some(report) = report? {
         // The summary's final state is the one the board reports after the shutdown
         // path's Disable.
@@ -247,12 +264,16 @@ fn live_line(v: &TickView) -> String {
             let p = operator::conversions::measured_cp(s)
                 .map(|p| p.to_mm_deg())
                 .unwrap_or([f64::NAN; 6]);
-            (p, s.margins.nearest, format!("{:?}", s.state))
+            (
+                p,
+                board_words::nearest_margin_short(&s.margins),
+                board_words::state_label(s.state).to_string(),
+            )
         }
-        None => ([f64::NAN; 6], f32::NAN, "?".into()),
+        None => ([f64::NAN; 6], "--".to_string(), "?".into()),
     };
     format!(
-        "{board_state:<8} {state:<24} edge {:<10} margin {margin:5.2}  x {:7.2} y {:7.2} z {:7.2} mm   ",
+        "{board_state:<8} {state:<24} edge {:<10} margin {margin}  x {:7.2} y {:7.2} z {:7.2} mm   ",
         v.cue.as_str(),
         pose[0],
         pose[1],
@@ -425,13 +446,7 @@ pub fn igtl(args: &IgtlArgs) -> Result<(), CliError> {
     config.allow = args.allow.clone();
     config.token = args.token_file.as_deref().map(read_token).transpose()?;
     let shutdown = shutdown_on_signals()?;
-    if let Some(d) = args.duration_s {
-        let s = shutdown.clone();
-        std::thread::spawn(move || {
-            std::thread::sleep(Duration::from_secs_f64(d.max(0.0)));
-            s.request();
-        });
-    }
+    super::board_session::stop_after(&shutdown, args.duration_s);
     let mut board = Board::open_with_key(
         &args.connect,
         args.baud,
@@ -454,7 +469,7 @@ pub fn igtl(args: &IgtlArgs) -> Result<(), CliError> {
             server.local_addr(),
             args.connect.display(),
             args.rate_hz,
-            if args.allow.is_empty() { String::new() } else { format!("; clients allowed: {:?}", args.allow) },
+            if args.allow.is_empty() { String::new() } else { format!("; clients allowed: {}", args.allow.iter().map(ToString::to_string).collect::<Vec<_>>().join(", ")) },
             if args.token_file.is_some() { "; a token is required (STRING to device Token first)" } else { "" },
         );
         let _ = std::io::stdout().flush();
@@ -468,7 +483,7 @@ pub fn igtl(args: &IgtlArgs) -> Result<(), CliError> {
         )?;
         let c = server.counters();
         println!(
-            "igtl: targets accepted {}, refused {}; counters {c:?}",
+            "igtl: targets accepted {}, refused {}; messages: {c}",
             robot.accepted, robot.refused
         );
         Ok(())

@@ -106,7 +106,13 @@ pub fn run(
             (Some(o), false) => o.clone(),
             (None, _) => cfg.output_dir(None, name),
         };
-        let written = simulation::output::write_all(&outcome, &dir, cfg.output.plots)?;
+        let mut written = simulation::output::write_all(&outcome, &dir, cfg.output.plots)?;
+        written.files.push(simulation::output::write_scene(
+            &outcome,
+            &kinematics_core::Robot::Rspr(robot),
+            &limits.limits,
+            &dir.join("scene.mcap"),
+        )?);
         print!("{}", report_text(&outcome.summary));
         println!("  wrote {}", dir.display());
         for f in &written.files {

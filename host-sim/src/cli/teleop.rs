@@ -54,7 +54,11 @@ pub struct TeleopArgs {
 }
 
 /// Runs the master.
-pub fn run(args: &TeleopArgs) -> Result<(), CliError> {
+pub fn run(
+    args: &TeleopArgs,
+    selected: &robot_config::selection::SelectedRobot,
+    limits: &kinematics_core::guards::Limits<f64>,
+) -> Result<(), CliError> {
     if let Some(device) = &args.hand.device {
         return super::operator::hand_controller(
             super::operator::BoardLink {
@@ -68,6 +72,7 @@ pub fn run(args: &TeleopArgs) -> Result<(), CliError> {
             &args.hand,
             device,
             args.start.options(),
+            (selected, limits),
         );
     }
     let cfg = SimConfig::builtin()?;
@@ -92,6 +97,6 @@ pub fn run(args: &TeleopArgs) -> Result<(), CliError> {
         start: args.start.options(),
     };
     // SIGINT and SIGTERM end the run through its way out: the robot disabled.
-    let shutdown = super::operator::shutdown_on_signals()?;
+    let shutdown = super::board_session::shutdown_on_signals()?;
     Ok(teleop::run(&settings, shutdown.flag())?)
 }

@@ -139,10 +139,27 @@ pub fn reading_words(r: &Reading<f64>) -> String {
     let severity = r.severity.map(|s| s.to_string()).unwrap_or_default();
     format!(
         "{severity}: {}{subject} is {}{unit}, limit {}{unit}",
-        r.guard.name(),
+        guard_words(r.guard),
         edge_text(r.guard, r.value),
         edge_text(r.guard, r.limit),
     )
+}
+
+/// A guard in words (the board's words for the same guards, `board_words::guard_name`).
+pub fn guard_words(g: Guard) -> &'static str {
+    match g {
+        Guard::LinkAngle => "link angle",
+        Guard::TiltCone => "platform tilt",
+        Guard::SerialSingularity => "serial singularity",
+        Guard::ParallelSingularity => "parallel singularity",
+        Guard::TipSpeed => "tip speed",
+        Guard::AngularSpeed => "angular speed",
+        Guard::TipAccel => "tip acceleration",
+        Guard::AngularAccel => "angular acceleration",
+        Guard::JointSpeed => "joint speed",
+        Guard::JointAccel => "joint acceleration",
+        other => other.name(),
+    }
 }
 
 /// The guards prepared for a robot and limits on every branch.

@@ -135,9 +135,9 @@ pub fn prepare(
             "acknowledges the reset",
             nack.is_none(),
             format!(
-                "{:?} reset acknowledged on --acknowledge-reset: {}",
-                reset.cause,
-                nack.map_or("Ack".into(), |r| format!("Nack {r:?}"))
+                "{} reset acknowledged on --acknowledge-reset: {}",
+                board_words::reset_cause(reset.cause),
+                answer(nack)
             ),
         );
     }
@@ -160,16 +160,16 @@ pub fn prepare(
         let Some(cleared) = cleared else {
             return Err(TeleopError::Faulted(format!(
                 "{text}; ClearFault answered {}: the fault stays",
-                nack.map_or("Ack".into(), |r| format!("Nack {r:?} ({r:?})"))
+                answer(nack)
             )));
         };
         checks.check(
             "clears the fault",
             true,
             format!(
-                "{} cleared on --clear-fault; now {:?}",
+                "{} cleared on --clear-fault; now {}",
                 start::fault_text(&row.status.fault),
-                cleared.status.state
+                board_words::state(cleared.status.state)
             ),
         );
         row = cleared;
@@ -196,8 +196,11 @@ pub fn disable_on_exit(s: &mut Session) -> Option<String> {
     }
     s.phase("disable on exit");
     Some(match s.request(MasterToBoard::Disable, DISABLE_TIMEOUT_S) {
-        Ok(None) => format!("robot disabled on the way out (was {state:?})"),
-        Ok(Some(r)) => format!("Disable on the way out refused: {r:?}"),
+        Ok(None) => format!(
+            "robot disabled on the way out (was {})",
+            state.map_or("unknown", board_words::state)
+        ),
+        Ok(Some(r)) => format!("Disable on the way out refused: {}", board_words::reason(r)),
         Err(e) => format!("Disable on the way out: {e}"),
     })
 }
@@ -228,9 +231,10 @@ pub fn home(
             "homes",
             false,
             format!(
-                "reply {nack:?}; not Ready within {timeout_s} s (last state {:?}, faults {:?})",
-                last.map(|l| l.state),
-                last.map(|l| l.faults)
+                "reply {}; not Ready within {timeout_s} s (last state {}, fault {})",
+                answer(nack),
+                last.map_or("unknown", |l| board_words::state(l.state)),
+                last.map_or("unknown".into(), |l| faults_text(&l.fault))
             ),
         );
         return Ok(false);
@@ -266,14 +270,7 @@ pub fn enable(s: &mut Session, checks: &mut Checks) -> Result<bool, TeleopError>
     let nack = request_enable(s)?;
     let row = s.wait_for(since, 1.0, |st| st.state == RobotState::Enabled)?;
     let ok = nack.is_none() && row.is_some();
-    checks.check(
-        "enables",
-        ok,
-        format!(
-            "reply {:?}",
-            nack.map_or("Ack".into(), |r| format!("Nack {r:?}"))
-        ),
-    );
+    checks.check("enables", ok, format!("reply {}", answer(nack)));
     Ok(ok)
 }
 
@@ -358,7 +355,9 @@ pub fn stream(
             a_max.to_degrees(),
             tracking.lag_mean_s() * 1e3,
             nacks.len(),
-            nacks.first().map_or(String::new(), |r| format!(" (first: {r:?})")),
+            nacks
+                .first()
+                .map_or(String::new(), |r| format!(" (first: {})", board_words::reason(*r))),
             enabled_text(left, rows.last(), t0)
         ),
     );
@@ -420,10 +419,10 @@ impl Tracking {
 fn enabled_text(left: Option<&StatusRow>, last: Option<&StatusRow>, t0: f64) -> String {
     match left {
         Some(r) => format!(
-            "LEFT Enabled at {:.2} s: state {:?}, faults {:?}",
+            "LEFT Enabled at {:.2} s: state {}, fault {}",
             r.t_s - t0,
-            r.status.state,
-            r.status.faults
+            board_words::state(r.status.state),
+            faults_text(&r.status.fault)
         ),
         None => match last {
             Some(r) => format!(
@@ -507,7 +506,9 @@ pub fn refuse(s: &mut Session, checks: &mut Checks, centre: &Pose<f64>) -> Resul
         "follows again after the refusal",
         arrived.is_some() && back.is_some() && n1.is_none() && n2.is_none(),
         format!(
-            "1 mm step and back: replies {n1:?} / {n2:?}; within {} of the step after {}, of the centre after {}; final distance {}",
+            "1 mm step and back: replies {} / {}; within {} of the step after {}, of the centre after {}; final distance {}",
+            answer(n1),
+            answer(n2),
             mm(tol),
             arrived.map_or("never".into(), |r| format!("{:.2} s", r.t_s - t_step)),
             back.map_or("never".into(), |r| format!("{:.2} s", r.t_s - t_step)),
@@ -676,10 +677,11 @@ pub fn heartbeat_loss(s: &mut Session, checks: &mut Checks) -> Result<(), Teleop
         "when the heartbeat stops the firmware holds, then stops with brakes",
         ok,
         format!(
-            "after the last heartbeat: hold (HEARTBEAT_LATE) seen at {} ms, fault ({:?}, stop at the end {:?}) at {} ms (status every 20 ms; limits 100 / 500 ms); largest displacement {}; still homed {}",
+            "after the last heartbeat: hold (HEARTBEAT_LATE) seen at {} ms, fault ({}, stop at the end {}) at {} ms (status every 20 ms; limits 100 / 500 ms); largest displacement {}; still homed {}",
             th.map_or("never".into(), |x| format!("{:.0}", x * 1e3)),
-            off.map(|r| r.status.fault.cause),
-            end.map(|e| e.stop),
+            off.map_or("none", |r| r.status.fault.cause.name()),
+            end.map_or("unknown", |e| board_words::stop(RobotState::Fault, e.stop)
+                .unwrap_or("none")),
             toff.map_or("never".into(), |x| format!("{:.0}", x * 1e3)),
             mm(moved),
             end.is_some_and(|e| !e.warnings.contains(Warnings::NOT_HOMED))
@@ -702,7 +704,7 @@ pub fn heartbeat_loss(s: &mut Session, checks: &mut Checks) -> Result<(), Teleop
         nack.is_none() && row.is_some(),
         format!(
             "reply {}; Enabled without HEARTBEAT_LATE: {}",
-            nack.map_or("Ack".into(), |r| format!("Nack {r:?}")),
+            answer(nack),
             row.is_some()
         ),
     );
@@ -721,9 +723,23 @@ pub fn disable(s: &mut Session, checks: &mut Checks) -> Result<(), TeleopError> 
         nack.is_none() && row.is_some(),
         format!(
             "reply {}; drives off (Ready, still homed): {}",
-            nack.map_or("Ack".into(), |r| format!("Nack {r:?}")),
+            answer(nack),
             row.is_some()
         ),
     );
     Ok(())
+}
+
+/// A request's answer in words: accepted, or refused with the reason.
+fn answer(nack: Option<NackReason>) -> String {
+    match nack {
+        None => "accepted".into(),
+        Some(r) => format!("refused: {}", board_words::reason(r)),
+    }
+}
+
+/// The status's latched fault in words ("following error on leg 2: error 1.20 mm"), or
+/// "none".
+fn faults_text(f: &master_link::FaultRecord) -> String {
+    board_words::fault(f).unwrap_or_else(|| "none".into())
 }

@@ -56,8 +56,8 @@ pub fn table(reset: &ResetStatus, entries: &[FaultLogEntry]) -> String {
     let mut o = String::new();
     let _ = writeln!(
         o,
-        "last reset: {:?}{}",
-        reset.cause,
+        "last reset: {}{}",
+        board_words::reset_cause(reset.cause),
         if reset.acknowledged {
             ""
         } else {
@@ -67,7 +67,7 @@ pub fn table(reset: &ResetStatus, entries: &[FaultLogEntry]) -> String {
     let _ = writeln!(o, "{} entries, oldest first", entries.len());
     let _ = writeln!(
         o,
-        "{:>10}  {:<22} {:<7} {:>14} {:<10} {:<22} {:>5}",
+        "{:>10}  {:<22} {:<7} {:>14} {:<10} {:<26} {:>5}",
         "time ms", "cause", "joint", "value", "unit", "stop", "count"
     );
     for e in entries {
@@ -81,13 +81,14 @@ pub fn table(reset: &ResetStatus, entries: &[FaultLogEntry]) -> String {
         };
         let _ = writeln!(
             o,
-            "{:>10}  {:<22} {:<7} {:>14.6} {:<10} {:<22} {:>5}",
+            "{:>10}  {:<22} {:<7} {:>14.6} {:<10} {:<26} {:>5}",
             r.time_ms,
-            format!("{:?}", r.cause),
+            r.cause.name(),
             joint,
             r.value,
             value_unit(r.cause, r.joint),
-            format!("{:?}", e.stop),
+            // A fault's stop, reported whatever the state (as in `Fault`).
+            board_words::stop(master_link::RobotState::Fault, e.stop).unwrap_or("none"),
             e.count
         );
     }

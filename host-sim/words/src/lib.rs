@@ -10,8 +10,8 @@
 
 use kinematics_core::guards::Limits;
 use master_link::{
-    Breach, FaultCause, FaultRecord, GuardId, GuardMargins, NackReason, RefusedTarget, ResetCause,
-    RobotState, StopStatus, NO_JOINT,
+    Breach, FaultCause, FaultRecord, GeometryRefusal, GuardId, GuardMargins, NackReason,
+    RefusedTarget, ResetCause, RobotState, StopStatus, NO_JOINT,
 };
 
 /// Millimetres per metre.
@@ -189,6 +189,35 @@ pub fn reason(reason: NackReason) -> &'static str {
 /// else the rule ([`reason`]).
 pub fn refusal(r: &RefusedTarget) -> String {
     breach(&r.breach).unwrap_or_else(|| reason(r.reason).to_string())
+}
+
+/// Why the board refused to store a calibrated geometry, in words.
+pub fn geometry_refusal(r: GeometryRefusal) -> String {
+    match r {
+        GeometryRefusal::Crc => "the record's CRC does not match its contents".into(),
+        GeometryRefusal::Layout { found } => {
+            format!("record layout {found} is not one this firmware reads")
+        }
+        GeometryRefusal::Version => "version 0 is reserved for \"no stored geometry\"".into(),
+        GeometryRefusal::NonFinite { index } => format!("value {index} is not finite"),
+        GeometryRefusal::Nominal { index } => {
+            format!("nominal value {index} (e, rb, rp, hc) is not the board's robot")
+        }
+        GeometryRefusal::OutOfTolerance { index } => {
+            format!("value {index} is further from the nominal than a calibration can move it")
+        }
+        GeometryRefusal::NotAssemblable => {
+            "the geometry cannot be assembled in its central configuration".into()
+        }
+        GeometryRefusal::CentralPose => {
+            "the inverse kinematics of the central pose fails on the board's branch".into()
+        }
+        GeometryRefusal::InvalidState => {
+            "the drives are on: store only when disabled or ready".into()
+        }
+        GeometryRefusal::Flash => "writing or verifying the flash failed".into(),
+        GeometryRefusal::Unsupported => "this board cannot store a geometry".into(),
+    }
 }
 
 /// The OpenIGTLink STATUS code (OpenIGTLink's `STATUS` message, protocol version 2 and

@@ -10,7 +10,9 @@ Steps, each checked:
   3. the same in protocol version 3 (header version 2, message id, metadata): the pose
      stream must switch to version 3;
   4. send a target 500 mm above the pose: expect a STATUS on "Target" with an error code
-     (with --fake: code 8, "Unreachable");
+     (with --fake: code 8, "Unreachable"); against the board also one 2 mm above the
+     workspace, one with a leg below its stroke and one tilted beyond the cone, each
+     STATUS naming the guard, the value and the limit with its unit;
   5. send 4096 bytes of garbage on the same connection: the connection must survive (same
      socket, no reconnection, poses still arriving) and the server's counters (GET_STRING
      "Counters") must show the bad header;
@@ -78,6 +80,33 @@ def wait_for(client, device, timeout, predicate=lambda m: True):
         if m is not None and predicate(m):
             return m
     return None
+
+
+def pose_matrix(position_mm, rotation_vector_deg):
+    """A 4x4 transform (mm) from a position and a rotation vector (deg, Rodrigues)."""
+    r = np.radians(np.asarray(rotation_vector_deg, dtype=np.float64))
+    angle = np.linalg.norm(r)
+    m = np.eye(4)
+    if angle > 0:
+        k = r / angle
+        kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+        m[0:3, 0:3] = np.eye(3) + np.sin(angle) * kx + (1 - np.cos(angle)) * kx @ kx
+    m[0:3, 3] = position_mm
+    return m
+
+
+def refused(client, matrix, label, expected):
+    """Sends a target the board must refuse; its STATUS names the guard, value and limit."""
+    client.send_message(pyigtl.TransformMessage(matrix, device_name="Target"), wait=True)
+    status = wait_for(client, "Target", 5.0,
+                      lambda m: m.message_type == "STATUS" and m.code not in (0, 1))
+    if status is None:
+        fail(f"no STATUS for the target {label}")
+    if expected not in status.status_string:
+        fail(f"the refusal of the target {label} does not say {expected!r}: "
+             f"{status.status_string!r}")
+    print(f"pyigtl: target {label} answered: code {status.code} {status.error_name!r}: "
+          f"{status.status_string}", flush=True)
 
 
 def distance_mm(a, b):
@@ -178,6 +207,12 @@ def main():
             fail(f"the path check's refusal does not name the workspace: {later.status_string!r}")
         print(f"pyigtl: target 2 mm above the workspace answered: code {later.code} "
               f"{later.error_name!r}: {later.status_string}", flush=True)
+        # 4c. inside the workspace box, a leg below its stroke (l1 132.5 mm, `host-sim ik
+        # --pose 20,20,146,0,24,0`); 4d. the platform tilted beyond its 25 deg cone.
+        refused(client, pose_matrix([20.0, 20.0, 146.0], [0.0, 24.0, 0.0]),
+                "with leg 1 below its stroke", "stroke leg 1 132.5 mm < 144.0 mm")
+        refused(client, pose_matrix([0.0, 0.0, 160.0], [26.0, 0.0, 0.0]),
+                "tilted 26 deg", "platform tilt 26.0 deg > 25.0 deg")
 
     # 5. garbage on the same connection.
     before = counters(client)

@@ -8,6 +8,11 @@ use crate::scalar::{lit, sqrt, Real};
 use core::fmt;
 use nalgebra::Matrix6;
 
+pub mod configurations;
+mod dense;
+pub mod lines;
+pub mod serial_cases;
+
 /// Which singularity the configuration is nearest to, comparing the dimensionless measures.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Nearest {
