@@ -42,7 +42,7 @@ use master_link::{FaultCause, Faults, NackReason, RobotState};
 pub type State = RobotState;
 
 /// Every reported state, in order.
-pub const ALL_STATES: [State; 7] = [
+pub const ALL_STATES: [State; 8] = [
     State::Boot,
     State::Disabled,
     State::Homing,
@@ -50,6 +50,7 @@ pub const ALL_STATES: [State; 7] = [
     State::Enabling,
     State::Enabled,
     State::Fault,
+    State::Commissioning,
 ];
 
 /// The board's modes (the names of [`crate::runtime::Mode`]'s variants).
