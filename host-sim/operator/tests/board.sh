@@ -1,4 +1,4 @@
-# Sourced by the operator's test scripts: builds host-sim (release) and starts the board to
+# Sourced by the operator's test scripts: builds host-sim (tests/host-sim-bin.sh) and starts the board to
 # test against: the board at $RSPR_BOARD_SOCKET when set (the emulator of the real board
 # image, `serve --socket PATH`, or any board serving the link on a Unix socket), else the
 # simulated board, `host-sim board --socket`, in the background (through a serial device
@@ -20,9 +20,8 @@ cleanup() {
 }
 trap cleanup EXIT
 
-cargo build --release -q -p host-sim
-target_dir="$(cargo metadata --format-version 1 --no-deps | python3 -c 'import json,sys; print(json.load(sys.stdin)["target_directory"])')"
-bin="$target_dir/release/host-sim"
+source tests/host-sim-bin.sh
+bin="$(host_sim_bin)"
 
 if [ -n "${RSPR_BOARD_SOCKET:-}" ]; then
     sock="$RSPR_BOARD_SOCKET"
