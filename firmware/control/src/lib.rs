@@ -44,7 +44,6 @@
 
 pub mod absolute;
 pub mod brakes;
-pub mod commissioning;
 pub mod controller;
 pub mod current;
 pub mod drive;

@@ -451,10 +451,7 @@ impl Oracle {
         }
         let allowed = matches!(
             s.state,
-            RobotState::Homing
-                | RobotState::Enabling
-                | RobotState::Enabled
-                | RobotState::Commissioning
+            RobotState::Homing | RobotState::Enabling | RobotState::Enabled
         ) || matches!(
             s.stop,
             StopStatus::SafeStop1Decelerating
