@@ -89,7 +89,12 @@ pub fn parse_number(column: &str, text: &str) -> Result<f64, FieldError> {
         });
     }
     match text.parse::<f64>() {
-        Ok(v) => finite(column, v),
+        // The text as typed ("nan", "inf"), not the number's own spelling.
+        Ok(v) if !v.is_finite() => Err(FieldError::NotFinite {
+            column: column.into(),
+            text: text.into(),
+        }),
+        Ok(v) => Ok(v),
         Err(_) => Err(FieldError::NotANumber {
             column: column.into(),
             text: text.into(),
@@ -98,7 +103,7 @@ pub fn parse_number(column: &str, text: &str) -> Result<f64, FieldError> {
 }
 
 /// A value of a column that must be a finite number (NaN and infinities are refused; the
-/// message shows the value as the text `parse_number` would have read it from).
+/// message spells the value as Rust prints it: "NaN", "inf").
 pub fn finite(column: &str, v: f64) -> Result<f64, FieldError> {
     if v.is_finite() {
         Ok(v)
@@ -214,6 +219,11 @@ mod tests {
         }
         assert_eq!(finite("z_mm", 160.0), Ok(160.0));
         assert_eq!(parse_number("z_mm", " 160 "), Ok(160.0));
+        // The command line quotes what the user typed.
+        assert_eq!(
+            parse_number("z_mm", "nan").unwrap_err().to_string(),
+            "z_mm: \"nan\" is not a finite number"
+        );
     }
 
     /// Branches 0..=7 only, from text or from a number, with the same words.
