@@ -482,13 +482,7 @@ pub fn igtl(args: &IgtlArgs) -> Result<(), CliError> {
     )?;
     let start = args.start.options();
     with_board(&mut board, &shutdown, |board| {
-        if args.enable {
-            board.bring_up(&BringUpTimeouts::default(), start, &mut |m| {
-                println!("board: {m}")
-            })?;
-        } else {
-            board.connect(10.0, start, &mut |m| println!("board: {m}"))?;
-        }
+        super::board_session::bring_up_or_connect(board, args.enable, start)?;
         let mut server = igtl::Server::bind_with(addr.as_str(), config)
             .map_err(operator::OperatorError::from)?;
         println!(
