@@ -9,6 +9,7 @@
 //! commissioning checks), the efficiencies, the breakaway ratio, the driver's current
 //! regulation and protection (board settings), the supply, the encoders.
 
+use plant::config::DriveConfig;
 use plant::PlantConfig;
 
 use crate::error::IdentifyError;
@@ -52,32 +53,14 @@ pub fn perturbed(base: &PlantConfig, seed: u64, spread: f64) -> Result<PlantConf
     let mut f = move || 1.0 + spread * rng.symmetric();
     let mut cfg = base.clone();
     for p in cfg.prismatic.iter_mut() {
-        let d = &mut p.drive;
-        d.resistance_ohm *= f();
-        d.inductance_h *= f();
-        let kt = f();
-        d.torque_constant_nm_per_a *= kt;
-        d.back_emf_v_s_per_rad *= kt;
-        d.rotor_inertia_kg_m2 *= f();
-        d.transmission_inertia_kg_m2 *= f();
-        d.coulomb_friction_motor_side_nm *= f();
-        d.viscous_friction_motor_side_nm_s_per_rad *= f();
+        perturb_drive(&mut p.drive, &mut f);
         p.load_mass_kg *= f();
         p.load_coulomb_friction_n *= f();
         p.load_viscous_friction_n_s_per_m *= f();
         p.backlash_mm *= f();
     }
     for r in cfg.rotary.iter_mut() {
-        let d = &mut r.drive;
-        d.resistance_ohm *= f();
-        d.inductance_h *= f();
-        let kt = f();
-        d.torque_constant_nm_per_a *= kt;
-        d.back_emf_v_s_per_rad *= kt;
-        d.rotor_inertia_kg_m2 *= f();
-        d.transmission_inertia_kg_m2 *= f();
-        d.coulomb_friction_motor_side_nm *= f();
-        d.viscous_friction_motor_side_nm_s_per_rad *= f();
+        perturb_drive(&mut r.drive, &mut f);
         r.load_inertia_kg_m2 *= f();
         r.load_coulomb_friction_nm *= f();
         r.load_viscous_friction_nm_s_per_rad *= f();
@@ -86,4 +69,18 @@ pub fn perturbed(base: &PlantConfig, seed: u64, spread: f64) -> Result<PlantConf
     cfg.validate()
         .map_err(|e| IdentifyError::Plant(format!("the perturbed plant: {e}")))?;
     Ok(cfg)
+}
+
+/// A joint's motor and transmission, each factor drawn in turn from `f` (the torque
+/// constant and the back-EMF constant are one constant in SI units: one factor for both).
+fn perturb_drive(d: &mut DriveConfig, f: &mut impl FnMut() -> f64) {
+    d.resistance_ohm *= f();
+    d.inductance_h *= f();
+    let kt = f();
+    d.torque_constant_nm_per_a *= kt;
+    d.back_emf_v_s_per_rad *= kt;
+    d.rotor_inertia_kg_m2 *= f();
+    d.transmission_inertia_kg_m2 *= f();
+    d.coulomb_friction_motor_side_nm *= f();
+    d.viscous_friction_motor_side_nm_s_per_rad *= f();
 }
