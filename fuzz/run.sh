@@ -35,7 +35,6 @@ esac
 seed=${FUZZ_SEED:-1}
 read -r -a targets <<<"${FUZZ_TARGETS:-decoder commands}"
 sanitizer=${FUZZ_SANITIZER:-none}
-export CARGO_BUILD_JOBS=${CARGO_BUILD_JOBS:-1}
 target_dir=${CARGO_TARGET_DIR:-$FUZZ_DIR/target}
 triple=x86_64-unknown-linux-gnu
 bin_dir=$target_dir/$triple/release

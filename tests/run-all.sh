@@ -20,6 +20,12 @@
 #   heartbeat hold and stop, and the master's windows for them, are host time).
 # The masters of the Rust tests and the warm-up run on the board's clock
 # (teleop::pacing); wall-clock bounds are failure detectors only.
+#
+# The order: the builds and the board's own tests one after the other (each keeps both
+# cores busy), then two lanes side by side: the host's tests (cargo-nextest, six at a time)
+# with the fuzz and Python stages, and the front ends on boards; that is how the run fits
+# CI's 25 minutes on two cores. Each section prints the seconds since the start and the CPU
+# seconds used so far.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 source firmware/cortex-m/scripts.sh
@@ -27,11 +33,35 @@ source firmware/cortex-m/scripts.sh
 export CARGO_INCREMENTAL=${CARGO_INCREMENTAL:-0}
 started=$(date +%s)
 
-section() { printf '\n==> %s (%d s)\n' "$*" "$(( $(date +%s) - started ))"; }
+# Each section prints the wall-clock seconds since the start and the CPU seconds (user +
+# system) its shell's finished children used so far: the measure of what a stage costs.
+cpu_file="$(mktemp)"
+trap 'rm -f "$cpu_file"' EXIT
+cpu_seconds() {
+    # `times` in this shell, not in a subshell (a fork starts its children's count at 0).
+    local _u _s cu cs t m sec ms=0
+    times >"$cpu_file"
+    { read -r _u _s; read -r cu cs; } <"$cpu_file"
+    for t in "$cu" "$cs"; do # 1m2.345s
+        m=${t%%m*}
+        sec=${t#*m}
+        sec=${sec%s}
+        ms=$((ms + 10#$m * 60000 + 10#${sec%.*} * 1000 + 10#${sec#*.}))
+    done
+    cpu_now=$((ms / 1000))
+}
+section() {
+    cpu_seconds
+    printf '\n==> %s (%d s, CPU %d s)\n' "$*" "$(($(date +%s) - started))" "$cpu_now"
+}
 
 section "toolchain (rust-toolchain.toml: $(rustup show active-toolchain | cut -d' ' -f1), thumbv7em-none-eabihf)"
 rustup show active-toolchain
 ensure_target
+
+section "what the stages need from Debian and PyPI (tests/requirements.sh)"
+source tests/requirements.sh
+install_requirements
 
 section "format (every workspace: host, Cortex-M, board emulator, board scenarios, fuzz)"
 cargo fmt --all -- --check
@@ -80,28 +110,66 @@ section "the board's release image in the STM32F4 emulator (rigless), in closed 
 bash firmware/board-emulator/run.sh
 bash host-sim/board-scenarios/run.sh
 
-section "tests (unit, property, integration, CLI)"
-cargo test --workspace
+section "the host's tests and binaries (test profile): one build for the tests and the front ends' scripts"
+if ! cargo nextest --version >/dev/null 2>&1; then
+    echo "==> cargo-nextest is missing: installing it from crates.io"
+    cargo install cargo-nextest --locked
+fi
+cargo nextest --version
+cargo test --workspace --no-run
 
-section "the analysis from Python: the rspr wheel (maturin, PyO3) against the CLI, pytest"
-bash host-sim/python/tests/run.sh
+# Two lanes side by side from here. The builds above are done: the first lane is the
+# host's tests (nextest: tests of different binaries side by side) and the two stages that
+# still compile (the Python wheel, the fuzz targets); the second, the front ends on a
+# board (simulated or emulated), which run in the board's time and wait on sockets most of
+# the time. Each lane's output goes to its own log; the second lane's is printed after the
+# first's, whole. A lane stops at its first failing stage; both lanes always finish.
+lanes="$(mktemp -d)"
+lane_tests() {
+    section "tests (unit, property, integration, CLI): cargo nextest, then the doc tests"
+    cargo nextest run --workspace --profile ci
+    cargo test --workspace --doc
 
-section "the operator's front ends on the simulated board: OpenIGTLink clients (pyigtl, libopenigtlink), spacenavd"
-bash host-sim/operator/tests/igtl-board.sh
-bash host-sim/masters/tests/spacenavd-daemon.sh
+    # The two stages that still compile yield the cores to the boards' lane (nice +10): the
+    # emulated board stands for a processor of its own.
+    section "fuzzing: the link's frame decoder and the board's command handling (libFuzzer, fixed seed)"
+    (cd fuzz && nice -n 10 cargo test --release --quiet)
+    FUZZ_RUNS=${FUZZ_RUNS:-300000} FUZZ_PARALLEL=${FUZZ_PARALLEL:-1} nice -n 10 bash fuzz/run.sh ci
 
-section "the robot description and the live 3-D scene: check_urdf, yourdfpy, a Foxglove WebSocket client, mcap"
-bash host-sim/description/tests/urdf.sh
-bash host-sim/scene/tests/foxglove.sh
+    section "the analysis from Python: the rspr wheel (maturin, PyO3) against the CLI, pytest"
+    nice -n 10 bash host-sim/python/tests/run.sh
+}
+lane_boards() {
+    section "the operator's front ends on the emulated board (the release image): scripted operator, latency, OpenIGTLink; the console in tmux, through a serial device on a board not homed"
+    bash host-sim/operator/tests/against-emulator.sh
 
-section "ROS 2 on the simulated board: a CycloneDDS (Python) peer with the ROS 2 type names, on the loopback"
-bash host-sim/ros2/tests/ros2-board.sh
+    section "the operator's front ends on the simulated board: OpenIGTLink clients (pyigtl, libopenigtlink), spacenavd"
+    bash host-sim/operator/tests/igtl-board.sh
+    bash host-sim/masters/tests/spacenavd-daemon.sh
 
-section "the operator's front ends on the emulated board (the release image): scripted operator, latency, OpenIGTLink; the console in tmux, through a serial device on a board not homed"
-bash host-sim/operator/tests/against-emulator.sh
+    section "the robot description and the live 3-D scene: check_urdf, yourdfpy, a Foxglove WebSocket client, mcap"
+    bash host-sim/description/tests/urdf.sh
+    bash host-sim/scene/tests/foxglove.sh
 
-section "fuzzing: the link's frame decoder and the board's command handling (libFuzzer, fixed seed)"
-(cd fuzz && cargo test --release --quiet)
-FUZZ_RUNS=${FUZZ_RUNS:-300000} FUZZ_PARALLEL=${FUZZ_PARALLEL:-1} bash fuzz/run.sh ci
+    section "ROS 2 on the simulated board: a CycloneDDS (Python) peer with the ROS 2 type names, on the loopback"
+    bash host-sim/ros2/tests/ros2-board.sh
+}
+# Each lane in a subshell of its own with errexit on; neither is run where bash would test
+# its status (`|| ...`), which would turn errexit off inside it.
+(set -euo pipefail; lane_boards) >"$lanes/boards.log" 2>&1 &
+boards=$!
+set +e
+(set -euo pipefail; lane_tests)
+tests_status=$?
+wait "$boards"
+boards_status=$?
+set -e
+printf '\n==> the front ends on a board (the second lane), its output (%d s)\n' "$(( $(date +%s) - started ))"
+cat "$lanes/boards.log"
+rm -rf "$lanes"
+if [ "$tests_status" -ne 0 ] || [ "$boards_status" -ne 0 ]; then
+    section "FAILED: the tests' lane exit $tests_status, the front ends' lane exit $boards_status"
+    exit 1
+fi
 
 section "all passed in $(( $(date +%s) - started )) s"

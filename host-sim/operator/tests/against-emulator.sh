@@ -129,12 +129,15 @@ for s in "the board image (release, thumbv7em-none-eabihf):build_image" \
 done
 # raise_priority: the emulated board and its masters (the tests, the console in tmux, the
 # bridge, socat) stand for a board with a processor of its own and the operator's PC:
-# from here on they run before the other work of the machine (nice -10, where allowed;
-# inherited by every process this script starts). A master that another build holds up
+# from here on they run before the other work of the machine (ten steps of nice above the
+# caller's, where allowed; inherited by every process this script starts). A master that another build holds up
 # misses its heartbeats: the board holds after 100 ms without one and stops after 500 ms
 # (HeartbeatTimeout).
 raise_priority() {
-    if renice -n -10 -p $$ >/dev/null 2>&1; then
+    # renice -n sets the value (util-linux), so the step is added here.
+    local raised=$(($(nice) - 10))
+    [ "$raised" -ge -20 ] || raised=-20
+    if renice -n "$raised" -p $$ >/dev/null 2>&1; then
         echo "the emulated board and its masters at nice $(nice)"
     else
         echo "not allowed to raise the priority: the emulated board and its masters at nice $(nice)"
