@@ -133,7 +133,7 @@ fn heartbeat_monitor_escalates_once_at_the_configured_times() {
 /// targets, and at the fault time the fault `HeartbeatTimeout` stops it as SS1: the
 /// brakes applied while the drives still hold, torque off once they have engaged; the
 /// robot stays within 0.5 mm of where the hold stopped it, short of the target, and the
-/// homing is kept.
+/// homing is kept. The fault's value is the silence in ms.
 #[test]
 fn heartbeat_loss_holds_then_stops_with_brakes() {
     let (mut rt, mut hw, mut t) = enabled();
@@ -174,6 +174,8 @@ fn heartbeat_loss_holds_then_stops_with_brakes() {
         if faulted_at.is_none() && rt.state() == State::Fault {
             faulted_at = Some(since);
             assert_eq!(rt.status().fault.cause, FaultCause::HeartbeatTimeout);
+            // Its value is the silence that raised it, in ms (what the operator reads).
+            assert_eq!(rt.status().fault.value, (since / 1000) as f32);
             assert!(hw.enabled, "SS1: the drives hold while the brakes engage");
         }
         if braked_at.is_none() && faulted_at.is_some() && !hw.brakes_released {

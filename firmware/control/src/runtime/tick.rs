@@ -11,7 +11,7 @@ use super::monitoring::Inputs;
 use super::Runtime;
 use crate::absolute::ChannelInputs;
 use crate::current::CurrentFault;
-use crate::modes::ModeKind;
+use crate::modes::{Event, ModeKind};
 use crate::monitors::{check_ranges, DriveSample, Finding};
 use crate::scalar::Scalar;
 use crate::stops::{Outputs, StopPhase};
@@ -22,8 +22,19 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         self.sensing.read(hw);
         self.sensing.read_absolute(hw);
         self.inputs = Inputs::read(hw);
-        if let Some(ev) = self.session.poll(now_us) {
-            let _ = self.apply(ev, now_us);
+        match self.session.poll(now_us) {
+            // The heartbeat lost: the fault's value is the silence, in ms (the log and the
+            // operator's words show it).
+            Some(Event::Fault(FaultCause::HeartbeatTimeout)) => {
+                let silence_ms = self.session.heartbeat().silence_us(now_us) / 1000;
+                let finding =
+                    Finding::board::<f32>(FaultCause::HeartbeatTimeout, silence_ms as f32);
+                self.fault(finding, now_us);
+            }
+            Some(ev) => {
+                let _ = self.apply(ev, now_us);
+            }
+            None => {}
         }
         let findings = self.findings(now_us);
         // Every finding is acted on, not only the first: a later one may call for a
