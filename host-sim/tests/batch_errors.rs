@@ -2,7 +2,7 @@
 //! carry a message naming the field or the chain, and the run still exits 0.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 use common::{host_sim, Table, RSPR_JOINTS, USR_JOINTS};
 use kinematics_core::{inverse, Branch, Pose, Robot, RsprGeometry, UsrGeometry};
 use nalgebra::Vector3;

@@ -3,7 +3,7 @@
 //! the poses to visit; the errors name what is wrong.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 use common::{host_sim, ok};
 use std::path::PathBuf;
 

@@ -3,7 +3,7 @@
 //! limits files' errors.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 use common::{host_sim, ok, pose_csv, Table};
 use kinematics_core::guards::Limits;
 use kinematics_core::{inverse, tilt_angles, Branch, Pose, Robot, RsprGeometry, SocketAxes};

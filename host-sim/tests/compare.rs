@@ -3,7 +3,7 @@
 //! checked against an independent derivation in host-sim/design/tests/compare.rs).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 use common::{ok, Table};
 use std::path::PathBuf;
 

@@ -2,7 +2,7 @@
 //! chapter 8); their libraries' own tests are in host-sim/design/tests.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 use common::{host_sim, ok, Table};
 use design::ranges;
 use kinematics_core::{inverse, Branch, Chain, Pose, Robot, RobotKind, UsrGeometry};

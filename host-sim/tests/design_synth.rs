@@ -2,7 +2,7 @@
 //! requirements and the ranking: host-sim/design/tests/synth.rs).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 use common::{host_sim, ok, Table};
 use std::path::PathBuf;
 

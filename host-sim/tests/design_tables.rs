@@ -2,7 +2,7 @@
 //! table, its transcription and the explained differences: host-sim/design/tests/tables.rs).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 use common::{ok, Table};
 use std::path::PathBuf;
 

@@ -3,7 +3,7 @@
 //! with an unknown key or a negative length fails, naming the file and the key.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 use common::{geometry, host_sim, ok};
 use std::path::PathBuf;
 

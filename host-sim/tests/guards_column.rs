@@ -4,7 +4,7 @@
 //! an input without a `branch` column.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 use common::{ok, Table};
 
 const POSES: &str = "x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg\n0,0,160,0,0,0\n5,-5,165,3,0,0\n";

@@ -3,7 +3,7 @@
 //! predicted and measured; the errors name the flag that is wrong.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 use common::{host_sim, ok};
 
 /// Every estimate line carries its deviation and the plant's value, and the errors the

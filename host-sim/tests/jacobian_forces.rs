@@ -2,7 +2,7 @@
 //! `forces` satisfies virtual work with `jacobian`: tau . (J xdot) = wrench . xdot.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 use common::{ok, pose_csv, Table, POSE, RSPR_JOINTS, USR_JOINTS};
 use nalgebra::{Matrix6, Rotation3, Vector3, Vector6};
 

@@ -3,7 +3,7 @@
 //! that is not MCAP with that reason.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 use common::host_sim;
 use std::process::Command;
 

@@ -2,7 +2,7 @@
 //! with numbers that agree with the row-wise commands.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 use common::{geometry, ok, Table};
 
 const SECTIONS: [&str; 10] = [

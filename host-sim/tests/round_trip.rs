@@ -1,7 +1,7 @@
 //! `ik` then `fk` through the binary's CSV forms gives back the poses, on every branch.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 use common::{ok, pose_csv, Table, POSE};
 
 /// Pipes `poses` through `ik --csv` and then `fk --csv` and checks that every row solved

@@ -2,7 +2,7 @@
 //! configuration key (the simulation's properties: host-sim/simulation/tests/sim.rs).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 
 /// The command writes the summary, the trace and the plots, and prints a readable
 /// report; a bad configuration key is named in the error.

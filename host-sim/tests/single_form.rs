@@ -2,7 +2,7 @@
 //! one-line message on stderr that says what was wrong. Whole-run CSV errors are named.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 use common::{host_sim, ok};
 
 /// Asserts a failed run with exactly one stderr line containing every `needle`.

@@ -4,7 +4,7 @@
 //! smallest residual, which `singularity` at that pose confirms.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 use common::{ok, Table};
 
 #[test]

@@ -4,7 +4,7 @@
 //! tests try to violate the bounds: poses at the edge of the region, in random directions
 //! and in the direction in which the most constraining margin falls fastest.
 
-mod common;
+use crate::common;
 
 use common::*;
 use kinematics_core::guards::*;

@@ -14,7 +14,7 @@
 //!    on the encoder zeros) is self-consistent: IK then FK gives the pose back, and J equals
 //!    finite differences of its IK.
 
-mod common;
+use crate::common;
 
 use common::*;
 use kinematics_core::guards::{Guards, Limits, Reading};

@@ -3,7 +3,7 @@
 //! nalgebra's SVD (bidiagonalisation + implicit QR), from a cold start and along a path
 //! of nearby poses (warm), in f64 and in f32.
 
-mod common;
+use crate::common;
 
 use common::*;
 use kinematics_core::singularity::{parallel_inv_cond, ConditionEstimator};

@@ -3,7 +3,7 @@
 //! kinematics of the same joint readings, tick after tick, along random paths at the
 //! speed limits, in f64 and f32.
 
-mod common;
+use crate::common;
 
 use common::*;
 use kinematics_core::*;

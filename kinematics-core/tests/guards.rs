@@ -2,7 +2,7 @@
 //! Each guard at its boundary: just inside is fine, just outside is a violation with the
 //! right severity, naming the guard, the subject, the value and the limit.
 
-mod common;
+use crate::common;
 
 use common::*;
 use kinematics_core::guards::*;

@@ -7,8 +7,6 @@
 //! S13 holds, with the gained twist in the null space of Jtilde.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
-
 use kinematics_core::ik::inverse;
 use kinematics_core::jacobian::tripod_jacobian;
 use kinematics_core::mechanism::Mechanism;

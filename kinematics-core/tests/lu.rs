@@ -5,7 +5,7 @@
 //! against f64 within the conditioning times the f32 epsilon, and it refuses singular and
 //! non-finite matrices.
 
-mod common;
+use crate::common;
 
 use common::*;
 use kinematics_core::lu::Lu6;

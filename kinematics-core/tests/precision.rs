@@ -1,7 +1,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 //! Single precision (the MCU's f32) against the f64 reference.
 
-mod common;
+use crate::common;
 
 use common::*;
 use kinematics_core::*;

@@ -2,7 +2,7 @@
 //! Property tests of the kinematics core over random poses in and around the task box, on
 //! every branch, for both robots (f64, the host's reference precision).
 
-mod common;
+use crate::common;
 
 use common::*;
 use kinematics_core::*;

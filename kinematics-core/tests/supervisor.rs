@@ -2,7 +2,7 @@
 //! The setpoint supervisor: whatever the master sends, no output setpoint violates a
 //! stop-level guard or exceeds the speed and acceleration limits.
 
-mod common;
+use crate::common;
 
 use common::*;
 use kinematics_core::guards::*;

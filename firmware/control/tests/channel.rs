@@ -20,7 +20,7 @@ use kinematics_core::{Branch, RsprGeometry};
 use master_link::{FaultCause, MasterToBoard, ResetCause, StopStatus};
 use plant::Fault;
 
-mod common;
+use crate::common;
 use common::PlantHw;
 
 type Rt = Runtime<f64, RsprGeometry<f64>>;

@@ -8,7 +8,7 @@ use hal::{Brakes, MotorOutputs};
 use kinematics_core::{inverse, Branch, Pose, RsprGeometry};
 use nalgebra::{Rotation3, Vector3};
 
-mod common;
+use crate::common;
 
 type Sense = Sensing<f64, RsprGeometry<f64>>;
 

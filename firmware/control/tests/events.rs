@@ -11,7 +11,7 @@ use master_link::{
     EventKind, FaultCause, MasterToBoard, ResetCause, StopReason, StopStatus, NO_JOINT,
 };
 
-mod common;
+use crate::common;
 use common::PlantHw;
 
 type Rt = Runtime<f64, RsprGeometry<f64>>;

@@ -22,7 +22,7 @@ use kinematics_core::{Pose, RsprGeometry};
 use master_link::MasterToBoard;
 use master_link::{FaultCause, Faults, NackReason, ResetCause, StopStatus, Warnings};
 
-mod common;
+use crate::common;
 use common::PlantHw;
 
 /// The reference board (its period and clock).

@@ -14,7 +14,7 @@ use master_link::{
 };
 use nalgebra::Vector3;
 
-mod common;
+use crate::common;
 use common::PlantHw;
 
 type Rt = Runtime<f64, RsprGeometry<f64>>;

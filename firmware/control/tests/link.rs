@@ -28,7 +28,7 @@ use master_link::{
     MAX_FRAME_LEN, PROTOCOL_VERSION,
 };
 
-mod common;
+use crate::common;
 use common::PlantHw;
 
 // ---------------------------------------------------------------------------------------

@@ -21,7 +21,7 @@ use master_link::{
 };
 use proptest::prelude::*;
 
-mod common;
+use crate::common;
 use common::PlantHw;
 
 type Rt = Runtime<f64, RsprGeometry<f64>>;

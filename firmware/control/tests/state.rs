@@ -22,7 +22,7 @@ use nalgebra::{Rotation3, Vector3};
 use servo::encoder::EncoderConfig;
 use servo::ServoConfig;
 
-mod common;
+use crate::common;
 use common::PlantHw;
 
 // ---------------------------------------------------------------------------------------

@@ -19,7 +19,7 @@ use kinematics_core::RsprGeometry;
 use master_link::MasterToBoard;
 use master_link::{FaultCause, ResetCause, StopStatus};
 
-mod common;
+use crate::common;
 use common::PlantHw;
 
 type Rt = Runtime<f64, RsprGeometry<f64>>;

@@ -3,7 +3,7 @@
 //! receiver with the key drops frames with a wrong or missing tag (`bad_tag`), and the
 //! largest frames still fit.
 
-mod common;
+use crate::common;
 use common::*;
 use master_link::*;
 

@@ -2,7 +2,7 @@
 //! Rejected frames: each is dropped, counted once in the right counter, and
 //! the decoder keeps working afterwards.
 
-mod common;
+use crate::common;
 use common::*;
 use master_link::*;
 

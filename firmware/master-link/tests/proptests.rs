@@ -2,7 +2,7 @@
 //! Property tests: the decoder never panics and its counters add up on any
 //! byte stream; valid messages round-trip however the stream is chunked.
 
-mod common;
+use crate::common;
 use common::*;
 use master_link::*;
 use proptest::collection::vec;

@@ -1,7 +1,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 //! Round trips of every message variant, frame size limits, encoder errors.
 
-mod common;
+use crate::common;
 use common::*;
 use master_link::*;
 

@@ -2,7 +2,7 @@
 //! Backlash compensation: direction tracking with hysteresis, ramped offset, and the
 //! load-side error of a back-and-forth move on a simulated deadband plant.
 
-mod common;
+use crate::common;
 
 use common::{max_abs, rms, triangle, BacklashJoint, DcMotor};
 use servo::{

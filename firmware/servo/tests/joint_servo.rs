@@ -3,7 +3,7 @@
 //! faults, configuration handling, f32.
 #![allow(clippy::needless_range_loop)] // indexing the six joints reads best
 
-mod common;
+use crate::common;
 
 use common::{smooth, SixJoints};
 use servo::{

@@ -2,7 +2,7 @@
 //! PID: proportional action, integral, anti-windup, derivative on measurement, filter,
 //! deadband, saturation, robustness against any input.
 
-mod common;
+use crate::common;
 
 use common::DcMotor;
 use proptest::prelude::*;

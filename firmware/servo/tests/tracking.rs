@@ -3,7 +3,7 @@
 //! and no false trips during normal tracking.
 #![allow(clippy::needless_range_loop)] // indexing the six joints reads best
 
-mod common;
+use crate::common;
 
 use common::{smooth, SixJoints};
 use proptest::prelude::*;
