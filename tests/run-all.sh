@@ -63,6 +63,19 @@ section "what the stages need from Debian and PyPI (tests/requirements.sh)"
 source tests/requirements.sh
 install_requirements
 
+section "in the background, ten steps of nice below the rest: the fuzz targets' and the Python wheel's builds"
+# They use the cores the stages below leave idle (each waits on one crate at times, runs
+# QEMU on one core, links); their tests run in the first lane below, once both are built.
+# Their own target directories or profiles: no stage below waits on their cargo locks.
+# A session of their own (setsid), ended with the run if it stops early.
+soak_log="$(mktemp)"
+setsid -w nice -n 10 bash -c 'set -euo pipefail
+    (cd fuzz && cargo test --release --no-run --quiet)
+    bash fuzz/run.sh build
+    bash host-sim/python/tests/run.sh build' >"$soak_log" 2>&1 &
+soaker=$!
+trap 'rm -f "$cpu_file"; if [ -n "$soaker" ]; then kill -- -"$soaker" 2>/dev/null || true; fi' EXIT
+
 section "format (every workspace: host, Cortex-M, board emulator, board scenarios, fuzz)"
 cargo fmt --all -- --check
 (cd firmware/cortex-m && cargo fmt --all -- --check)
@@ -124,14 +137,25 @@ cargo test --workspace --no-run
 # board (simulated or emulated), which run in the board's time and wait on sockets most of
 # the time. Each lane's output goes to its own log; the second lane's is printed after the
 # first's, whole. A lane stops at its first failing stage; both lanes always finish.
+section "the background builds (fuzz targets, Python wheel): waiting for them, their output"
+soak_status=0
+wait "$soaker" || soak_status=$?
+soaker=""
+cat "$soak_log"
+rm -f "$soak_log"
+if [ "$soak_status" -ne 0 ]; then
+    echo "the background builds FAILED (exit $soak_status)"
+    exit 1
+fi
+
 lanes="$(mktemp -d)"
 lane_tests() {
     section "tests (unit, property, integration, CLI): cargo nextest, then the doc tests"
     cargo nextest run --workspace --profile ci
     cargo test --workspace --doc
 
-    # The two stages that still compile yield the cores to the boards' lane (nice +10): the
-    # emulated board stands for a processor of its own.
+    # Built in the background already; what is left yields the cores to the boards' lane
+    # (nice +10): the emulated board stands for a processor of its own.
     section "fuzzing: the link's frame decoder and the board's command handling (libFuzzer, fixed seed)"
     (cd fuzz && nice -n 10 cargo test --release --quiet)
     FUZZ_RUNS=${FUZZ_RUNS:-300000} FUZZ_PARALLEL=${FUZZ_PARALLEL:-1} nice -n 10 bash fuzz/run.sh ci

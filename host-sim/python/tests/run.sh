@@ -5,7 +5,7 @@
 # else the test profile's target/debug/host-sim, built here when missing: `cargo test
 # --workspace` has normally built it already). Installs what it needs when missing:
 # maturin, pytest, NumPy and matplotlib (into the venv). Fails loudly: any step that fails
-# stops it.
+# stops it. `run.sh build` only builds and installs the wheel.
 #
 # The build: the workspace's target directory (CARGO_TARGET_DIR, so a second run reuses
 # the wheel's compiled crates) and the `wheel` profile (Cargo.toml: release without
@@ -36,6 +36,8 @@ PATH="$venv/bin:$PATH" MATURIN_PEP517_ARGS="--profile wheel" \
     "$venv/bin/python" -m pip install --quiet --disable-pip-version-check \
     --no-build-isolation --force-reinstall --no-deps ./host-sim/python
 step "wheel built and installed"
+# `run.sh build` stops here (tests/run-all.sh builds the wheel early, in the background).
+if [ "${1:-}" = build ]; then exit 0; fi
 
 export RSPR_HOST_SIM=${RSPR_HOST_SIM:-$CARGO_TARGET_DIR/debug/host-sim}
 if [ ! -x "$RSPR_HOST_SIM" ]; then
