@@ -10,7 +10,8 @@ use std::process::{Command as Process, ExitCode, Stdio};
 use std::time::Instant;
 
 use board_emulator::image::default_path;
-use board_scenarios::scenarios::{run_all, Options};
+use board_emulator::pins::{BoardTarget, NUCLEO_F429ZI, REFERENCE};
+use board_scenarios::scenarios::{run_all, List, Options};
 use clap::{Parser, ValueEnum};
 use teleop::PathChoice;
 
@@ -19,10 +20,17 @@ use teleop::PathChoice;
     about = "Every closed-loop scenario of the board's release image on the emulated STM32F4, against the host's master; exit 1 when a check fails or two runs differ"
 )]
 struct Cli {
-    /// The release ELF [default: $RSPR_BOARD_ELF, else
-    /// firmware/cortex-m/target/thumbv7em-none-eabihf/release/rspr-board].
+    /// The release ELF [default: for the reference board $RSPR_BOARD_ELF, else
+    /// firmware/cortex-m/target/thumbv7em-none-eabihf/release/rspr-board; for the
+    /// NUCLEO-F429ZI $RSPR_NUCLEO_ELF, else rspr-nucleo-f429zi in the same directory].
     #[arg(long)]
     firmware: Option<PathBuf>,
+    /// The board the image is built for: its pin map and current sense around the MCU.
+    #[arg(long, value_enum, default_value = "reference")]
+    board: BoardArg,
+    /// Which scenarios: all, or the ones that drive or read every pin of the board.
+    #[arg(long, value_enum, default_value = "all")]
+    scenarios: ListArg,
     /// The path streamed.
     #[arg(long, value_enum, default_value = "fast")]
     path: PathArg,
@@ -33,6 +41,45 @@ struct Cli {
     /// [default: target/scenarios in this crate].
     #[arg(long)]
     out: Option<PathBuf>,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum BoardArg {
+    /// The reference board (STM32F405RG).
+    Reference,
+    /// ST's NUCLEO-F429ZI (firmware/cortex-m/nucleo-f429zi).
+    NucleoF429zi,
+}
+
+impl BoardArg {
+    fn target(self) -> BoardTarget {
+        match self {
+            BoardArg::Reference => REFERENCE,
+            BoardArg::NucleoF429zi => NUCLEO_F429ZI,
+        }
+    }
+
+    /// The image's default path.
+    fn default_firmware(self) -> PathBuf {
+        match self {
+            BoardArg::Reference => default_path(),
+            BoardArg::NucleoF429zi => match std::env::var_os("RSPR_NUCLEO_ELF") {
+                Some(p) if !p.is_empty() => PathBuf::from(p),
+                _ => Path::new(env!("CARGO_MANIFEST_DIR")).join(
+                    "../../firmware/cortex-m/target/thumbv7em-none-eabihf/release/rspr-nucleo-f429zi",
+                ),
+            },
+        }
+    }
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum ListArg {
+    /// Every scenario.
+    All,
+    /// The scenarios that drive or read every pin (no watchdog reset, refused target and
+    /// garbage, tool or heartbeat loss).
+    Wiring,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -47,11 +94,15 @@ enum PathArg {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    let firmware = cli.firmware.unwrap_or_else(default_path);
+    let firmware = cli
+        .firmware
+        .clone()
+        .unwrap_or_else(|| cli.board.default_firmware());
     let out = cli
         .out
+        .clone()
         .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("target/scenarios"));
-    match scenarios(&firmware, cli.path, cli.runs, &out) {
+    match scenarios(&firmware, &cli, &out) {
         Ok(true) => ExitCode::SUCCESS,
         Ok(false) => ExitCode::FAILURE,
         Err(e) => {
@@ -77,12 +128,18 @@ struct Second {
     wall_s: f64,
 }
 
-fn second_run(firmware: &Path, path: &str, out: &Path) -> Result<std::process::Child, String> {
+fn second_run(firmware: &Path, cli: &Cli, out: &Path) -> Result<std::process::Child, String> {
     let exe = std::env::current_exe().map_err(|e| format!("own executable: {e}"))?;
+    let name = |v: Option<clap::builder::PossibleValue>| {
+        v.map(|p| p.get_name().to_string()).unwrap_or_default()
+    };
     Process::new(exe)
         .arg("--firmware")
         .arg(firmware)
-        .args(["--runs", "1", "--path", path, "--out"])
+        .args(["--runs", "1", "--path", path_choice(cli.path).1])
+        .args(["--board", &name(cli.board.to_possible_value())])
+        .args(["--scenarios", &name(cli.scenarios.to_possible_value())])
+        .arg("--out")
         .arg(out.join("second"))
         .stdout(Stdio::piped())
         .stderr(Stdio::inherit())
@@ -115,17 +172,22 @@ fn collect_second(mut child: std::process::Child, started: Instant) -> Result<Se
     })
 }
 
-fn scenarios(firmware: &Path, path: PathArg, runs: u8, out: &Path) -> Result<bool, String> {
-    let (choice, name) = path_choice(path);
+fn scenarios(firmware: &Path, cli: &Cli, out: &Path) -> Result<bool, String> {
+    let (choice, _) = path_choice(cli.path);
     let started = Instant::now();
-    let child = if runs == 2 {
-        Some(second_run(firmware, name, out)?)
+    let child = if cli.runs == 2 {
+        Some(second_run(firmware, cli, out)?)
     } else {
         None
     };
     let options = Options {
         path: choice,
         out: Some(out.to_path_buf()),
+        board: cli.board.target(),
+        list: match cli.scenarios {
+            ListArg::All => List::All,
+            ListArg::Wiring => List::Wiring,
+        },
     };
     let o = run_all(firmware, options).map_err(|e| e.to_string())?;
     let passed = o.checks.iter().filter(|c| c.ok).count();

@@ -6,7 +6,9 @@ use master_link::{BoardToMaster, ResetCause, ResetStatus, PROTOCOL_VERSION};
 use super::{addr, ms, Run, ScenarioError};
 use crate::master::SESSION_NONCE;
 use board_emulator::bench::{Action, Recorded};
-use board_emulator::pins::{expected_configuration, PinConfig, BOARD};
+use board_emulator::pins::{expected_configuration, PinConfig};
+
+use super::wiring::{gpio_base, EXTI_IMR, EXTI_RTSR};
 
 /// Boot: the first control tick, then 1 kHz ticks with the IWDG fed every tick (0.1..0.3 s).
 pub fn tick(run: &mut Run) -> Result<(), ScenarioError> {
@@ -78,15 +80,17 @@ pub fn tick(run: &mut Run) -> Result<(), ScenarioError> {
     Ok(())
 }
 
-/// The pins: every one configured by the image as the emulator's map says (mode,
-/// alternate function, pull), and the e-stop line routed (SYSCFG, EXTI).
+/// The pins: every one configured by the image as the board's map says (mode, alternate
+/// function, pull), and the e-stop line routed (SYSCFG, EXTI).
 pub fn pins(run: &mut Run) -> Result<(), ScenarioError> {
     let mut addresses = Vec::new();
-    for base in addr::GPIO {
+    for port in &run.wiring.ports {
+        let base = gpio_base(*port);
         // MODER, PUPDR, AFRL, AFRH (RM0090 rev 19 section 8.4).
         addresses.extend([base, base + 0x0C, base + 0x20, base + 0x24]);
     }
-    addresses.extend([addr::SYSCFG_EXTICR4, addr::EXTI_IMR, addr::EXTI_RTSR]);
+    let (exticr, shift) = run.wiring.estop_exticr();
+    addresses.extend([exticr, EXTI_IMR, EXTI_RTSR]);
     run.act(Action::Peek(addresses));
     run.wait(0.001)?;
     let peeked = std::mem::take(&mut run.rig.lock().bench.peeked);
@@ -98,9 +102,9 @@ pub fn pins(run: &mut Run) -> Result<(), ScenarioError> {
             .unwrap_or(0)
     };
     let mut wrong = Vec::new();
-    let expected = expected_configuration(&BOARD);
+    let expected = expected_configuration(&run.wiring.target.map);
     for (pin, want, what) in &expected {
-        let base = addr::GPIO.get(pin.port.index()).copied().unwrap_or(0);
+        let base = gpio_base(pin.port);
         let n = u64::from(pin.number);
         let mode = (reg(base) >> (2 * n)) & 0b11;
         let pull = (reg(base + 0x0C) >> (2 * n)) & 0b11;
@@ -122,16 +126,20 @@ pub fn pins(run: &mut Run) -> Result<(), ScenarioError> {
             ));
         }
     }
-    // PC13 on EXTI13 (EXTICR4 field 1 = port C), rising edge, unmasked.
-    let routed = (reg(addr::SYSCFG_EXTICR4) >> 4) & 0xF == 2;
-    let rising = reg(addr::EXTI_RTSR) & (1 << 13) != 0;
-    let unmasked = reg(addr::EXTI_IMR) & (1 << 13) != 0;
+    // The e-stop pin on its EXTI line (its EXTICR field = its port), rising edge, unmasked.
+    let estop = run.wiring.estop;
+    let line = u32::from(run.wiring.estop_line());
+    let routed = (reg(exticr) >> shift) & 0xF == estop.port.index() as u64;
+    let rising = reg(EXTI_RTSR) & (1 << line) != 0;
+    let unmasked = reg(EXTI_IMR) & (1 << line) != 0;
     run.check(
-        "the image configures every pin as the emulator's pin map says",
+        "the image configures every pin as the board's pin map says",
         wrong.is_empty() && routed && rising && unmasked,
         format!(
-            "{} pins checked (GPIOx_MODER, PUPDR, AFRL/H): {}; e-stop PC13 routed to EXTI13 {routed}, rising edge {rising}, unmasked {unmasked}",
+            "{}: {} pins checked (GPIOx_MODER, PUPDR, AFRL/H of ports {}): {}; e-stop {estop} routed to EXTI{line} {routed}, rising edge {rising}, unmasked {unmasked}",
+            run.wiring.target.name,
             expected.len(),
+            run.wiring.ports.iter().map(|p| p.letter()).collect::<String>(),
             if wrong.is_empty() {
                 "all as mapped".to_string()
             } else {

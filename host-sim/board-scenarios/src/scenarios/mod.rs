@@ -1,8 +1,9 @@
 //! The closed-loop scenarios, in one run of the image (one JIT warm-up), in this order:
 //!
 //! 1. The image's fit on the STM32F405; [`boot`]: reset to the 1 kHz control tick with the
-//!    IWDG fed every tick; every pin configured as [`board_emulator::pins::BOARD`] says; Hello
-//!    (session, reset cause PowerOn).
+//!    IWDG fed every tick; every pin configured as the board's pin map
+//!    ([`board_emulator::pins::BoardTarget`], [`Options::board`]) says; Hello (session,
+//!    reset cause PowerOn); [`wiring::supply_step`]: the supply sense following a step.
 //! 2. [`watchdog::starved`]: the core stalled, the deadline missed and logged, the IWDG
 //!    reset; the reset cause and the fault log reported after it (before the homing, so
 //!    that one homing serves the whole run); nothing moves until the reset is acknowledged
@@ -18,13 +19,17 @@
 //!    interrupt); a driver's nFAULT (STO); enable and Disable ([`watchdog::disable`]);
 //!    last, the safety relay disagreeing with the button (the chain stays untrusted for the
 //!    rest of the power cycle).
+//! 5. Last, [`wiring::Coverage`]: every output of the board's pin map seen at both levels
+//!    and every input read by the firmware over the run.
 //!
+//! [`List::Wiring`] runs the ones that drive or read a pin, for a second board's image.
 //! Each check prints its figures; [`Outcome::all_ok`] says whether every one passed.
 
 pub mod boot;
 pub mod motion;
 pub mod stops;
 pub mod watchdog;
+pub mod wiring;
 
 use std::path::Path;
 use std::time::Instant;
@@ -41,6 +46,8 @@ use board_emulator::bench::{Action, Bench, BenchConfig, BenchError};
 use board_emulator::board::Outputs;
 use board_emulator::image::{Firmware, ImageError};
 use board_emulator::mechanics::{central_q, MechanicsError, Surroundings};
+use board_emulator::pins::{BoardTarget, REFERENCE};
+use wiring::Wiring;
 
 /// Why a scenario could not run (a failed check is not an error: it is in the outcome).
 #[derive(Debug, thiserror::Error)]
@@ -111,12 +118,31 @@ impl Outcome {
 }
 
 /// Options of a run.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Options {
     /// The path streamed.
     pub path: PathChoice,
     /// Where the master's telemetry goes (`status.csv`, as `host-sim teleop` writes it).
     pub out: Option<std::path::PathBuf>,
+    /// The board the image is built for: its pins, as the emulator drives and reads them
+    /// and as the checks watch them ([`wiring`]).
+    pub board: BoardTarget,
+    /// Which scenarios.
+    pub list: List,
+}
+
+/// Which scenarios a run does.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum List {
+    /// Every scenario (see the module's documentation).
+    All,
+    /// The ones that drive or read every pin of the board: boot and tick, the pins, Hello,
+    /// homing (every encoder, PWM, DIR, the currents, the home switches), enable (the
+    /// driver enable, the brakes), the path, Disable while moving (SS1 on the pins), the
+    /// e-stop edge, a driver's nFAULT, enable and Disable, the safety relay's feedback;
+    /// without the watchdog reset, the refused target and garbage, the tool and the
+    /// heartbeat loss, which exercise the firmware and the link, not the wiring.
+    Wiring,
 }
 
 impl Default for Options {
@@ -124,6 +150,8 @@ impl Default for Options {
         Options {
             path: PathChoice::Fast,
             out: None,
+            board: REFERENCE,
+            list: List::All,
         }
     }
 }
@@ -133,35 +161,17 @@ impl Default for Options {
 pub struct Symbols {
     /// The `UART4` handler: the interrupt executor that runs the control tick.
     pub uart4: u64,
-    /// The `EXTI15_10` handler: the e-stop edge.
-    pub exti15_10: u64,
+    /// The e-stop line's EXTI handler ([`Wiring::estop_handler`]): the e-stop edge.
+    pub estop_handler: u64,
 }
 
-/// Register addresses the checks look at (RM0090 rev 19 memory map).
+/// Register addresses the checks look at on every board (RM0090 rev 19 memory map; the
+/// board's pins: [`wiring`]).
 pub mod addr {
     /// `IWDG_KR`.
     pub const IWDG_KR: u64 = 0x4000_3000;
-    /// `GPIOA_BSRR`: the driver enable (PA10) and the brakes (PA11, PA12).
-    pub const GPIOA_BSRR: u64 = 0x4002_0018;
     /// `DWT_CYCCNT`.
     pub const DWT_CYCCNT: u64 = 0xE000_1004;
-    /// The GPIO ports A..D.
-    pub const GPIO: [u64; 4] = [0x4002_0000, 0x4002_0400, 0x4002_0800, 0x4002_0C00];
-    /// `SYSCFG_EXTICR4`.
-    pub const SYSCFG_EXTICR4: u64 = 0x4001_3814;
-    /// `EXTI_IMR`, `EXTI_RTSR`.
-    pub const EXTI_IMR: u64 = 0x4001_3C00;
-    /// `EXTI_RTSR`.
-    pub const EXTI_RTSR: u64 = 0x4001_3C08;
-    /// The PWM timers' `CCMR1` (TIM9, TIM10, TIM11, TIM13, TIM14) and whether it has two
-    /// channels.
-    pub const PWM_CCMR1: [(u64, bool); 5] = [
-        (0x4001_4018, true),
-        (0x4001_4418, false),
-        (0x4001_4818, false),
-        (0x4000_1C18, false),
-        (0x4000_2018, false),
-    ];
 }
 
 /// A run: the rig, teleop's session on it, the checks.
@@ -187,6 +197,10 @@ pub struct Run {
     pub centre: Pose<f64>,
     /// The run's options.
     pub options: Options,
+    /// The board's registers the checks watch.
+    pub wiring: Wiring,
+    /// The outputs' levels seen so far (every edge of the run).
+    pub coverage: wiring::Coverage,
 }
 
 fn mm(m: f64) -> String {
@@ -257,9 +271,13 @@ impl Run {
         Ok(self.s.wait(seconds)?)
     }
 
-    /// The output edges since the last take.
-    pub fn take_edges(&self) -> Vec<(VirtualNanos, Outputs)> {
-        std::mem::take(&mut self.rig.lock().bench.edges)
+    /// The output edges since the last take (added to the run's pin coverage).
+    pub fn take_edges(&mut self) -> Vec<(VirtualNanos, Outputs)> {
+        let edges = std::mem::take(&mut self.rig.lock().bench.edges);
+        for (_, o) in &edges {
+            self.coverage.add(o);
+        }
+        edges
     }
 
     /// The firmware's GPIO output writes since the last take.
@@ -344,11 +362,13 @@ pub fn run_all(firmware: &Path, options: Options) -> Result<Outcome, ScenarioErr
     let wall = Instant::now();
     let image = Firmware::read(firmware)?;
     let fit = image.fit();
+    let wiring = Wiring::of(options.board);
     let symbols = Symbols {
         uart4: image.function("UART4")?,
-        exti15_10: image.function("EXTI15_10")?,
+        estop_handler: image.function(wiring.estop_handler())?,
     };
     let mut config = BenchConfig::reference(firmware.to_path_buf())?;
+    config.board = options.board;
     // Every peripheral access of the first 0.3 s (the boot and 200 ticks).
     config.record_until_ns = 300_000_000;
     let bench = Bench::start(config)?;
@@ -370,9 +390,19 @@ pub fn run_all(firmware: &Path, options: Options) -> Result<Outcome, ScenarioErr
         central_q: central_q()?,
         centre: Pose::central(g.hc),
         options,
+        wiring,
+        coverage: wiring::Coverage::default(),
     };
+    println!(
+        "board {} ({} scenarios)",
+        run.options.board.name,
+        match run.options.list {
+            List::All => "all",
+            List::Wiring => "the wiring's",
+        }
+    );
     run.check(
-        "the image fits the STM32F405RG (1 MiB flash, 128 KiB SRAM, 64 KiB CCM)",
+        "the image fits the STM32F405RG (1 MiB flash, 128 KiB SRAM, 64 KiB CCM: every board target's budget)",
         fit.fits(),
         format!("{}: {fit}", firmware.display()),
     );
@@ -380,6 +410,7 @@ pub fn run_all(firmware: &Path, options: Options) -> Result<Outcome, ScenarioErr
     if let Err(e) = &result {
         run.check("the run", false, format!("stopped: {e}"));
     }
+    pins_exercised(&mut run);
     let virtual_s = run.now_s();
     let digest = run.rig.lock().bench.last.digest;
     if let Some(out) = &run.options.out {
@@ -402,9 +433,13 @@ pub fn run_all(firmware: &Path, options: Options) -> Result<Outcome, ScenarioErr
 
 /// The scenarios in their order.
 fn scenarios(run: &mut Run) -> Result<(), ScenarioError> {
+    if run.options.list == List::Wiring {
+        return wiring_scenarios(run);
+    }
     boot::tick(run)?;
     boot::pins(run)?;
     boot::hello(run)?;
+    wiring::supply_step(run)?;
     watchdog::starved(run)?;
     watchdog::acknowledge(run)?;
     if !motion::home(run)? {
@@ -420,6 +455,46 @@ fn scenarios(run: &mut Run) -> Result<(), ScenarioError> {
     stops::driver_fault(run)?;
     watchdog::disable(run)?;
     // Last: the safety chain stays untrusted for the rest of the power cycle.
+    stops::relay_mismatch(run)?;
+    Ok(())
+}
+
+/// The last check: every wired pin driven at both levels or read by the firmware
+/// ([`wiring::Coverage`]).
+fn pins_exercised(run: &mut Run) {
+    let _ = run.take_edges();
+    let statuses: Vec<StatusReport> = run.s.statuses.iter().map(|r| r.status).collect();
+    let (missing, seen) = run.coverage.judge(&run.wiring, &statuses);
+    run.check(
+        "every wired pin was driven at both levels or read by the firmware",
+        missing.is_empty(),
+        format!(
+            "{}: {}; {seen}",
+            run.wiring.target.name,
+            if missing.is_empty() {
+                "every PWM with DIR high and low, driver enable, both brake outputs, the LED; every encoder, current sense, the supply sense, the e-stop, relay feedback and nFAULT inputs".to_string()
+            } else {
+                format!("not exercised: {}", missing.join("; "))
+            }
+        ),
+    );
+}
+
+/// The scenarios of [`List::Wiring`], in the same order as in the full list.
+fn wiring_scenarios(run: &mut Run) -> Result<(), ScenarioError> {
+    boot::tick(run)?;
+    boot::pins(run)?;
+    boot::hello(run)?;
+    wiring::supply_step(run)?;
+    if !motion::home(run)? {
+        return Ok(());
+    }
+    motion::enable(run)?;
+    motion::path(run)?;
+    stops::disable_while_moving(run)?;
+    stops::estop(run)?;
+    stops::driver_fault(run)?;
+    watchdog::disable(run)?;
     stops::relay_mismatch(run)?;
     Ok(())
 }

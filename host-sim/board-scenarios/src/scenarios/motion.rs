@@ -94,17 +94,20 @@ pub fn enable(run: &mut Run) -> Result<(), ScenarioError> {
     teleop::ci::enable(&mut run.s, &mut run.ci)?;
     run.adopt_teleop_checks();
     let writes = run.take_pin_writes();
-    let set = |bit: u32, after: u64| {
+    let w = run.wiring.clone();
+    let set = |pin: super::wiring::OutputPin, after: u64| {
         writes
             .iter()
-            .find(|w| {
-                w.address == super::addr::GPIOA_BSRR && w.value & (1 << bit) != 0 && w.at.0 >= after
-            })
-            .map(|w| w.at.0)
+            .find(|r| pin.written(r.address, r.value, true) && r.at.0 >= after)
+            .map(|r| r.at.0)
     };
-    // BS10: the driver enable high; BS11 and BS12: the brakes released.
-    let enable_on = set(10, 0);
-    let brakes_off = enable_on.and_then(|e| set(11, e).zip(set(12, e)).map(|(a, b)| a.max(b)));
+    // The driver enable high, then both brakes released.
+    let enable_on = set(w.driver_enable, 0);
+    let brakes_off = enable_on.and_then(|e| {
+        set(w.brakes[0], e)
+            .zip(set(w.brakes[1], e))
+            .map(|(a, b)| a.max(b))
+    });
     let pushed = enable_on.zip(brakes_off).map(|(e, b)| b.saturating_sub(e));
     // Two pushes (+q, -q), counted by the firmware in control ticks (1 ms): at least two
     // push times less a tick.
@@ -114,8 +117,11 @@ pub fn enable(run: &mut Run) -> Result<(), ScenarioError> {
         "enable: the brakes stay applied through the brake check while the drivers push",
         ok,
         format!(
-            "driver enable high (GPIOA_BSRR BS10) {} after the request, brakes released (BS11, BS12) {} after the drivers came on (brake check 2 x {} ms, counted in 1 ms ticks)",
+            "driver enable high ({}) {} after the request, brakes released ({}, {}) {} after the drivers came on (brake check 2 x {} ms, counted in 1 ms ticks)",
+            w.driver_enable.name(true),
             enable_on.map_or("never".into(), |t| super::ms(t - t0)),
+            w.brakes[0].name(true),
+            w.brakes[1].name(true),
             pushed.map_or("never".into(), super::ms),
             push_ns / 1_000_000,
         ),

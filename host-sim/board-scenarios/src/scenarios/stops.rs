@@ -10,6 +10,8 @@ use super::{addr, mm, position, Run, ScenarioError};
 use board_emulator::bench::{Action, Recorded};
 use board_emulator::mechanics::Surroundings;
 
+use super::wiring::{OutputPin, Wiring};
+
 /// The firmware's brake engage time (`control::stops::StopConfig`, as the board's
 /// `reference_config_for` takes it): SS1 keeps the drives on this long after applying the
 /// brakes, ns.
@@ -17,18 +19,28 @@ pub fn brake_engage_ns() -> u64 {
     control::stops::StopConfig::default().brake_engage_us * 1_000
 }
 
-/// When the firmware applied the brakes (its first writes of BR11 and BR12 to
-/// `GPIOA_BSRR`, both done) and when it first took the driver enable low (BR10), ns: the
-/// pins' changes at their exact instants (RM0090 rev 19 section 8.4.7).
-fn brakes_then_drivers(writes: &[Recorded]) -> (Option<u64>, Option<u64>) {
-    let first = |bit: u32| {
+/// When the firmware applied the brakes (its first writes of the brake pins' `BRn` to their
+/// `GPIOx_BSRR`, both done) and when it first took the driver enable low, ns: the pins'
+/// changes at their exact instants (RM0090 rev 19 section 8.4.7).
+fn brakes_then_drivers(w: &Wiring, writes: &[Recorded]) -> (Option<u64>, Option<u64>) {
+    let first = |pin: OutputPin| {
         writes
             .iter()
-            .find(|w| w.address == addr::GPIOA_BSRR && w.value & (1 << bit) != 0)
-            .map(|w| w.at.0)
+            .find(|r| pin.written(r.address, r.value, false))
+            .map(|r| r.at.0)
     };
-    let brakes = first(27).zip(first(28)).map(|(a, b)| a.max(b));
-    (brakes, first(26))
+    let brakes = first(w.brakes[0])
+        .zip(first(w.brakes[1]))
+        .map(|(a, b)| a.max(b));
+    (brakes, first(w.driver_enable))
+}
+
+/// `BR11, BR12` / `BR10`-style names of the brakes' and the driver enable's resets.
+fn names(w: &Wiring) -> (String, String) {
+    (
+        format!("{}, {}", w.brakes[0].name(false), w.brakes[1].name(false)),
+        w.driver_enable.name(false),
+    )
 }
 
 fn ms(t: Option<u64>, from: u64) -> String {
@@ -39,15 +51,16 @@ fn ms(t: Option<u64>, from: u64) -> String {
 
 /// The SS1 ordering on the pins: brakes applied, then the drivers off at least the brake
 /// engage time later. (ok, figures)
-fn ss1_order(writes: &[Recorded], from: u64) -> (bool, String) {
-    let (b, d) = brakes_then_drivers(writes);
+fn ss1_order(w: &Wiring, writes: &[Recorded], from: u64) -> (bool, String) {
+    let (b, d) = brakes_then_drivers(w, writes);
+    let (brakes, enable) = names(w);
     let gap = b.zip(d).map(|(b, d)| d as i64 - b as i64);
     let engage = brake_engage_ns();
     let ok = gap.is_some_and(|g| g >= i64::try_from(engage).unwrap_or(i64::MAX));
     (
         ok,
         format!(
-            "brake pins low (GPIOA_BSRR BR11, BR12) at {}, driver enable low (BR10) at {}: {} later (the firmware's brake engage time: {} ms)",
+            "brake pins low ({brakes}) at {}, driver enable low ({enable}) at {}: {} later (the firmware's brake engage time: {} ms)",
             ms(b, from),
             ms(d, from),
             gap.map_or("-".into(), |g| format!("{:.3} ms", g as f64 / 1e6)),
@@ -91,7 +104,7 @@ pub fn heartbeat_loss(run: &mut Run) -> Result<(), ScenarioError> {
         // Still enabled at the hold's status: no edge took the enable low before it.
         !edges.iter().any(|(e, o)| e.0 <= t && !o.driver_enable)
     });
-    let (order_ok, order) = ss1_order(&writes, t0);
+    let (order_ok, order) = ss1_order(&run.wiring, &writes, t0);
     run.check(
         "heartbeat loss: SS2 hold with the drives on, then HeartbeatTimeout as SS1, brakes before the drivers",
         hold.is_some() && drives_on_in_hold && fault.is_some() && order_ok,
@@ -176,7 +189,7 @@ pub fn disable_while_moving(run: &mut Run) -> Result<(), ScenarioError> {
             .fold(0.0, f64::max)
     });
     let writes: Vec<Recorded> = writes.into_iter().filter(|w| w.at.0 >= from).collect();
-    let (order_ok, order) = ss1_order(&writes, from);
+    let (order_ok, order) = ss1_order(&run.wiring, &writes, from);
     let sequence_ok = stops.contains(&StopStatus::SafeStop1Decelerating)
         || stops.contains(&StopStatus::SafeStop1Braking);
     let homed = row.is_some_and(|r| !r.status.warnings.contains(Warnings::NOT_HOMED));
@@ -205,12 +218,13 @@ pub fn disable_while_moving(run: &mut Run) -> Result<(), ScenarioError> {
     Ok(())
 }
 
-/// The e-stop edge 20 µs into a control tick: the `EXTI15_10` interrupt forces every output
+/// The e-stop edge 20 µs into a control tick: its EXTI interrupt (`EXTI15_10` on both boards) forces every output
 /// safe (driver enable low, brakes applied, every PWM compare output forced inactive)
 /// within 10 µs, preempting the control interrupt, which resumes after; STO in the status.
 pub fn estop(run: &mut Run) -> Result<(), ScenarioError> {
     run.wait(0.05)?;
-    let (uart4, exti) = (run.symbols.uart4, run.symbols.exti15_10);
+    let (uart4, exti) = (run.symbols.uart4, run.symbols.estop_handler);
+    let w = run.wiring.clone();
     {
         let mut rig = run.rig.lock();
         rig.bench.hits.clear();
@@ -247,27 +261,30 @@ pub fn estop(run: &mut Run) -> Result<(), ScenarioError> {
         .find(|(t, a)| *a == exti && t.0 >= t_edge)
         .map(|(t, _)| t.0);
     let after: Vec<&Recorded> = recorded.iter().filter(|r| r.at.0 >= t_edge).collect();
-    let bsrr = |bits: u64| {
+    let reset = |pin: OutputPin| {
         after
             .iter()
-            .find(|r| r.write && r.address == addr::GPIOA_BSRR && r.value & bits == bits)
+            .find(|r| r.write && pin.written(r.address, r.value, false))
             .map(|r| r.at.0)
     };
-    // BR10 (driver enable), BR11 + BR12 (brakes): RM0090 rev 19 section 8.4.7.
-    let t_enable = bsrr(1 << 26);
-    let t_brakes = bsrr((1 << 27) | (1 << 28));
+    // BRn of the driver enable and of both brakes: RM0090 rev 19 section 8.4.7.
+    let t_enable = reset(w.driver_enable);
+    let t_brakes = reset(w.brakes[0])
+        .zip(reset(w.brakes[1]))
+        .map(|(a, b)| a.max(b));
     // OCxM = 100 (force inactive) in each PWM timer's CCMR1, RM0090 rev 19 section 19.4.7.
     let forced = |v: u64, two: bool| (v >> 4) & 7 == 0b100 && (!two || (v >> 12) & 7 == 0b100);
-    let kills: Vec<u64> = addr::PWM_CCMR1
+    let kills: Vec<u64> = w
+        .pwm_ccmr1
         .iter()
-        .filter_map(|(a, two)| {
+        .filter_map(|(_, a, two)| {
             after
                 .iter()
                 .find(|r| r.write && r.address == *a && forced(r.value, *two))
                 .map(|r| r.at.0)
         })
         .collect();
-    let t_safe = if kills.len() == addr::PWM_CCMR1.len() {
+    let t_safe = if kills.len() == w.pwm_ccmr1.len() {
         kills.iter().copied().chain(t_enable).chain(t_brakes).max()
     } else {
         None
@@ -310,12 +327,18 @@ pub fn estop(run: &mut Run) -> Result<(), ScenarioError> {
             && outputs_safe
             && sto,
         format!(
-            "edge {:.1} us into a control tick; EXTI15_10 entered after {}, driver enable low (GPIOA_BSRR BR10) after {}, brakes applied (BR11, BR12) after {}, every PWM compare output forced inactive (CCMR1 OCxM = 100 on TIM9/10/11/13/14: {} of 5) by {}: safe after {}; the interrupted tick read DWT_CYCCNT {cyc_before}x before the edge and {cyc_after}x after the kill (it resumed); pins 60 ms later: enable {}, brakes released {:?}, duties {:?}; status {:?} cause {:?}, stop {:?}",
+            "{} edge {:.1} us into a control tick; {} entered after {}, driver enable low ({}) after {}, brakes applied ({}) after {}, every PWM compare output forced inactive (CCMR1 OCxM = 100 on {}: {} of {}) by {}: safe after {}; the interrupted tick read DWT_CYCCNT {cyc_before}x before the edge and {cyc_after}x after the kill (it resumed); pins 60 ms later: enable {}, brakes released {:?}, duties {:?}; status {:?} cause {:?}, stop {:?}",
+            w.estop,
             (t_edge - t_tick) as f64 / 1e3,
+            w.estop_handler(),
             us(t_isr),
+            names(&w).1,
             us(t_enable),
+            names(&w).0,
             us(t_brakes),
+            w.pwm_ccmr1.iter().map(|(t, _, _)| t.name()).collect::<Vec<_>>().join("/"),
             kills.len(),
+            w.pwm_ccmr1.len(),
             us(kills.iter().copied().max()),
             us(t_safe),
             outputs.driver_enable,
@@ -406,7 +429,7 @@ pub fn driver_fault(run: &mut Run) -> Result<(), ScenarioError> {
     run.set_surroundings(failed);
     let row = run.wait_for(since, 0.2, |s| s.state == RobotState::Fault)?;
     let writes = run.take_pin_writes();
-    let (b, d) = brakes_then_drivers(&writes);
+    let (b, d) = brakes_then_drivers(&run.wiring, &writes);
     let together = b.zip(d).is_some_and(|(b, d)| b.abs_diff(d) <= 10_000);
     let prompt = d.is_some_and(|d| d - t0 <= 2_000_000);
     let st = row.map(|r| r.status);
@@ -419,8 +442,11 @@ pub fn driver_fault(run: &mut Run) -> Result<(), ScenarioError> {
             && together
             && prompt,
         format!(
-            "enable {nack:?}; driver l3 latched a fault at 0 ms (nFAULT low from the next plant step, 0.1 ms); driver enable low (BR10) at {}, brake pins low (BR11, BR12) at {}; status fault {:?} (joint {}), stop {:?}",
+            "enable {nack:?}; driver l3 latched a fault at 0 ms (nFAULT {} low from the next plant step, 0.1 ms); driver enable low ({}) at {}, brake pins low ({}) at {}; status fault {:?} (joint {}), stop {:?}",
+            run.wiring.target.map.driver_fault,
+            names(&run.wiring).1,
             ms(d, t0),
+            names(&run.wiring).0,
             ms(b, t0),
             st.map(|s| s.fault.cause),
             st.map_or("-".into(), |s| if s.fault.joint == NO_JOINT {
