@@ -31,9 +31,7 @@ use rigless::time::VirtualNanos;
 use sha2::{Digest, Sha256};
 
 use crate::board::{BoardError, Outputs, RsprBoard};
-use crate::flash::{
-    FlashOp, FlashShadow, Staged, EVENTS_BASE, EVENTS_LEN, FLASH_CR, MAILBOX_WORDS,
-};
+use crate::flash::{FlashOp, FlashShadow, Staged, EVENTS_BASE, FLASH_CR, KEPT_LEN, MAILBOX_WORDS};
 use crate::image::{Firmware, ImageError};
 use crate::mechanics::{Mechanics, MechanicsConfig, MechanicsError, Surroundings};
 
@@ -92,6 +90,10 @@ pub struct BenchConfig {
     /// How long each programmed word holds the core, ns (DS8626, "Flash memory
     /// programming", x32: 16 µs typical, 100 µs at most).
     pub flash_word_ns: u64,
+    /// The board has the second position channel (the image built with
+    /// `--features position-channel`): the plant's potentiometers on ADC3
+    /// ([`crate::position_channel`]).
+    pub position_channel: bool,
 }
 
 impl BenchConfig {
@@ -106,6 +108,7 @@ impl BenchConfig {
             record_until_ns: 0,
             flash: None,
             flash_word_ns: FLASH_WORD_MAX_NS,
+            position_channel: false,
         })
     }
 }
@@ -141,6 +144,14 @@ pub enum Action {
     WatchInstruction(u64),
     /// Stop reporting arrivals at `address`.
     UnwatchInstruction(u64),
+    /// Inject a fault of the plant into a joint (`plant::Fault`: an encoder that sticks or
+    /// miscounts, a position sensor that sticks, ...).
+    PlantFault {
+        /// The joint, 0..6.
+        joint: usize,
+        /// The fault.
+        fault: plant::Fault,
+    },
 }
 
 /// One peripheral access, as recorded.
@@ -282,6 +293,8 @@ struct Lockstep {
     /// The image's program mailbox, if it has one.
     mailbox: Option<u64>,
     flash_word_ns: u64,
+    /// The board has the second position channel.
+    position_channel: bool,
 }
 
 const MS: u64 = 1_000_000;
@@ -400,8 +413,14 @@ impl Lockstep {
             self.failed.get_or_insert(e.to_string());
         }
         let signals = self.mechanics.signals();
+        let positions = self
+            .position_channel
+            .then(|| self.mechanics.position_counts());
         let board = session.board_mut();
         board.sense(&signals);
+        if let Some(counts) = positions {
+            crate::position_channel::sense(&mut board.mcu, &counts);
+        }
         let out = board.drive();
         if edge_between(&out, &self.outputs) {
             self.edges.push((VirtualNanos(now), out));
@@ -417,6 +436,9 @@ impl Lockstep {
         }
         for i in signals.currents_a {
             self.hasher.update(i.to_bits().to_le_bytes());
+        }
+        for c in positions.iter().flatten() {
+            self.hasher.update(c.to_le_bytes());
         }
     }
 
@@ -485,6 +507,13 @@ impl Lockstep {
                 Action::UnwatchInstruction(a) => {
                     session.unwatch(Watch::Instruction(a));
                     self.watched.retain(|w| *w != a);
+                }
+                Action::PlantFault { joint, fault } => {
+                    self.hasher.update(now.to_le_bytes());
+                    self.hasher.update((joint as u64).to_le_bytes());
+                    if let Err(e) = self.mechanics.inject(joint, fault) {
+                        self.failed.get_or_insert(e.to_string());
+                    }
                 }
             }
         }
@@ -735,6 +764,7 @@ impl Bench {
             flash: Arc::clone(&flash),
             mailbox,
             flash_word_ns: config.flash_word_ns,
+            position_channel: config.position_channel,
         };
         let image = firmware
             .rigless_image()
@@ -755,7 +785,7 @@ impl Bench {
             .map_err(|e| BenchError::Emulator(e.to_string()))?;
         session.watch(Watch::Writes {
             address: EVENTS_BASE,
-            length: EVENTS_LEN as u64,
+            length: KEPT_LEN as u64,
         });
         let started = Instant::now();
         let thread = std::thread::Builder::new()

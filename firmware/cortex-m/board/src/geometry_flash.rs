@@ -11,16 +11,22 @@
 //! its maximum (about 32 s) and restored afterwards (its prescaler and reload can be
 //! rewritten at any time after the 0x5555 key; only stopping it is impossible).
 
+use control::event_log::record::RECORD_WORDS;
 use control::geometry_store::{self, FlashError, GeometryFlash, SLOT_LEN};
 use embassy_stm32::flash::{Blocking, Flash};
 use embassy_stm32::pac;
 use embassy_stm32::pac::iwdg::vals::{Key, Pr};
 use master_link::{GeometryRecord, GeometryRefusal};
 
+use crate::event_flash::{stage, FLASH_BASE};
+
 /// Offset of the reserved sector from the flash base (sector 11; `memory.x`'s GEOMETRY).
 pub const SECTOR_OFFSET: u32 = 0x000E_0000;
 /// Its size.
 pub const SECTOR_LEN: u32 = 128 * 1024;
+/// Bytes programmed per staged chunk: the program mailbox's words.
+const CHUNK: usize = 4 * RECORD_WORDS;
+const _: () = assert!(SLOT_LEN.is_multiple_of(CHUNK), "a slot is whole chunks");
 
 /// The reserved sector through embassy-stm32's blocking flash driver.
 pub struct GeometrySector<'a>(pub &'a mut Flash<'static, Blocking>);
@@ -34,10 +40,23 @@ impl GeometryFlash for GeometrySector<'_> {
             .blocking_read(SECTOR_OFFSET + (i * SLOT_LEN) as u32, out)
             .map_err(|_| FlashError::Driver)
     }
+    /// The slot in chunks of the program mailbox's size, each staged there before it is
+    /// programmed (`event_flash::stage`: what a probe or the emulator sees programmed).
     fn write_slot(&mut self, i: usize, bytes: &[u8; SLOT_LEN]) -> Result<(), FlashError> {
-        self.0
-            .blocking_write(SECTOR_OFFSET + (i * SLOT_LEN) as u32, bytes)
-            .map_err(|_| FlashError::Driver)
+        let slot = SECTOR_OFFSET + (i * SLOT_LEN) as u32;
+        for (k, chunk) in bytes.chunks(CHUNK).enumerate() {
+            let at = slot + (k * CHUNK) as u32;
+            let mut words = [0u32; RECORD_WORDS];
+            for (w, b) in words.iter_mut().zip(chunk.chunks_exact(4)) {
+                *w = <[u8; 4]>::try_from(b).map_or(0, u32::from_le_bytes);
+            }
+            let n = chunk.len() / 4;
+            stage(FLASH_BASE + at, words.get(..n).ok_or(FlashError::Driver)?);
+            self.0
+                .blocking_write(at, chunk)
+                .map_err(|_| FlashError::Driver)?;
+        }
+        Ok(())
     }
     fn erase(&mut self) -> Result<(), FlashError> {
         self.0
