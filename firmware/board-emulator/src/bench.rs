@@ -31,7 +31,10 @@ use rigless::time::VirtualNanos;
 use sha2::{Digest, Sha256};
 
 use crate::board::{BoardError, Outputs, RsprBoard};
-use crate::flash::{FlashOp, FlashShadow, Staged, EVENTS_BASE, FLASH_CR, KEPT_LEN, MAILBOX_WORDS};
+use crate::flash::{
+    FlashOp, FlashShadow, Staged, EVENTS_BASE, FLASH_CR, GEOMETRY_BASE, GEOMETRY_SLOT_LEN,
+    KEPT_LEN, MAILBOX_WORDS,
+};
 use crate::image::{Firmware, ImageError};
 use crate::mechanics::{Mechanics, MechanicsConfig, MechanicsError, Surroundings};
 
@@ -292,6 +295,8 @@ struct Lockstep {
     flash: Arc<Mutex<FlashShadow>>,
     /// The image's program mailbox, if it has one.
     mailbox: Option<u64>,
+    /// The image's geometry slot mailbox, if it has one.
+    geometry_mailbox: Option<u64>,
     flash_word_ns: u64,
     /// The board has the second position channel.
     position_channel: bool,
@@ -379,6 +384,25 @@ impl Lockstep {
         })
     }
 
+    /// The word the image's geometry mailbox holds for `address` (a store into the
+    /// geometry's sector), as a probe reads it.
+    fn geometry_staged(&self, host: &mut dyn Host, address: u64) -> Option<Staged> {
+        let at = self.geometry_mailbox?;
+        let base = host.read(at, Width::W32).ok()?;
+        let off = address.checked_sub(base)?;
+        if off >= GEOMETRY_SLOT_LEN || off % 4 != 0 {
+            return None;
+        }
+        let word = u32::try_from(host.read(at + 4 + off, Width::W32).ok()?).ok()?;
+        let mut words = [0u32; MAILBOX_WORDS];
+        words[0] = word;
+        Some(Staged {
+            address,
+            len: 1,
+            words,
+        })
+    }
+
     /// A store landed in the event log's sectors: programmed into the shadow, and the core
     /// held for the word's programming time, the run stopping when it ends.
     fn flash_store(
@@ -388,7 +412,11 @@ impl Lockstep {
         at: VirtualNanos,
         address: u64,
     ) {
-        let staged = self.staged(host);
+        let staged = if address >= GEOMETRY_BASE {
+            self.geometry_staged(host, address)
+        } else {
+            self.staged(host)
+        };
         let word = match self.flash.lock() {
             Ok(mut f) => f.stored(at, address, staged),
             Err(_) => None,
@@ -735,6 +763,7 @@ impl Bench {
         let board = RsprBoard::for_target(&config.board)?;
         let flash = Arc::new(Mutex::new(FlashShadow::new(config.flash.as_deref())));
         let mailbox = firmware.symbol(crate::flash::MAILBOX_SYMBOL).ok();
+        let geometry_mailbox = firmware.symbol(crate::flash::GEOMETRY_MAILBOX_SYMBOL).ok();
         let (to_master, from_driver) = sync_channel::<Report>(1);
         let (to_driver, from_master) = sync_channel::<Command>(1);
         let driver = Lockstep {
@@ -763,6 +792,7 @@ impl Bench {
             failed: None,
             flash: Arc::clone(&flash),
             mailbox,
+            geometry_mailbox,
             flash_word_ns: config.flash_word_ns,
             position_channel: config.position_channel,
         };

@@ -12,8 +12,8 @@
 //!   `FLASH_CR.PG` (the control register's writes, as every peripheral access, reach the
 //!   bench) says whether the flash interface programs; the word comes from the image's
 //!   program mailbox (`EVENT_FLASH_PROGRAM`: the address and the words its driver is
-//!   programming, which it fills before it programs, for the event log's records and the
-//!   geometry's slots alike). The shadow's word becomes the old one AND the new one
+//!   programming, which it fills before it programs; `GEOMETRY_FLASH_PROGRAM` likewise
+//!   holds the geometry's slot and its address). The shadow's word becomes the old one AND the new one
 //!   (programming clears bits only, RM0090 section 3.6.4). A store whose word the mailbox
 //!   does not hold is counted, never guessed.
 //! * **erase**: a `FLASH_CR` write with `SER` and `STRT` set erases sector `SNB` (every byte
@@ -52,6 +52,11 @@ pub const SECTOR_LEN: usize = 128 * 1024;
 pub const FLASH_CR: u64 = 0x4002_3C10;
 /// The image's program mailbox.
 pub const MAILBOX_SYMBOL: &str = "EVENT_FLASH_PROGRAM";
+/// The image's mailbox of the geometry slot it programs: the slot's absolute address (a
+/// word), then its [`GEOMETRY_SLOT_LEN`] bytes.
+pub const GEOMETRY_MAILBOX_SYMBOL: &str = "GEOMETRY_FLASH_PROGRAM";
+/// Bytes of a geometry slot (`control::geometry_store::SLOT_LEN`).
+pub const GEOMETRY_SLOT_LEN: u64 = 256;
 /// Words the mailbox holds.
 pub const MAILBOX_WORDS: usize = 8;
 

@@ -7,9 +7,9 @@
 # configuration sector), data + bss <= 32 KiB (a quarter of the 128 KiB: the stack, which
 # grows down from its top, and the DMA buffers keep the rest).
 #
-#   build-and-size.sh            every target: board (STM32F405RG), board-nucleo-f429zi
+#   build-and-size.sh            every target: board (STM32F405RG), board-position-channel,
+#                                board-nucleo-f429zi
 #   build-and-size.sh board      one target (the package)
-#   build-and-size.sh board-position-channel
 #
 # board-position-channel is the board package built for the board with the second position
 # channel (`--no-default-features --features position-channel`: the STM32F405ZG, a
@@ -40,7 +40,7 @@ declare -A ARGS=([board-position-channel]="-p board --no-default-features --feat
 declare -A COPY=([board-position-channel]=rspr-board-position-channel)
 targets=("$@")
 if [ ${#targets[@]} -eq 0 ]; then
-    targets=(board board-nucleo-f429zi)
+    targets=(board board-position-channel board-nucleo-f429zi)
 fi
 
 status=0

@@ -13,9 +13,8 @@
 //! **What a probe sees**: before it programs, the driver puts the address and the words in
 //! [`EVENT_FLASH_PROGRAM`] (RAM, a fixed symbol), so that a debugger or the board emulator
 //! (`firmware/board-emulator`, whose flash model drops the core's stores to the array) can
-//! tell which words the core is programming. The calibrated geometry's writes
-//! (`geometry_flash.rs`) go through the same mailbox, [`stage`]: it is the board's one
-//! record of what its flash interface programs.
+//! tell which words the core is programming. The calibrated geometry's slot writes have a
+//! mailbox of their own beside it (`geometry_flash::GEOMETRY_FLASH_PROGRAM`).
 
 use core::ptr::addr_of_mut;
 
@@ -59,9 +58,7 @@ pub static mut EVENT_FLASH_PROGRAM: ProgramMailbox = ProgramMailbox {
     words: [0; RECORD_WORDS],
 };
 
-/// Puts the absolute `address` and the `words` about to be programmed there (at most
-/// [`RECORD_WORDS`]) in the mailbox.
-pub(crate) fn stage(address: u32, words: &[u32]) {
+fn stage(address: u32, words: &[u32]) {
     let mut staged = ProgramMailbox {
         address,
         len: words.len().min(RECORD_WORDS) as u32,

@@ -11,22 +11,36 @@
 //! its maximum (about 32 s) and restored afterwards (its prescaler and reload can be
 //! rewritten at any time after the 0x5555 key; only stopping it is impossible).
 
-use control::event_log::record::RECORD_WORDS;
 use control::geometry_store::{self, FlashError, GeometryFlash, SLOT_LEN};
 use embassy_stm32::flash::{Blocking, Flash};
 use embassy_stm32::pac;
 use embassy_stm32::pac::iwdg::vals::{Key, Pr};
 use master_link::{GeometryRecord, GeometryRefusal};
 
-use crate::event_flash::{stage, FLASH_BASE};
+use crate::event_flash::FLASH_BASE;
 
 /// Offset of the reserved sector from the flash base (sector 11; `memory.x`'s GEOMETRY).
 pub const SECTOR_OFFSET: u32 = 0x000E_0000;
 /// Its size.
 pub const SECTOR_LEN: u32 = 128 * 1024;
-/// Bytes programmed per staged chunk: the program mailbox's words.
-const CHUNK: usize = 4 * RECORD_WORDS;
-const _: () = assert!(SLOT_LEN.is_multiple_of(CHUNK), "a slot is whole chunks");
+
+/// The slot being programmed: its absolute address and its bytes (a debugger's and the
+/// board emulator's view of a geometry write, as `event_flash::EVENT_FLASH_PROGRAM` is of
+/// the event log's; the emulator's flash model drops the core's stores to the array).
+#[repr(C)]
+pub struct SlotMailbox {
+    /// The absolute address of `bytes[0]`.
+    pub address: u32,
+    /// The slot's bytes.
+    pub bytes: [u8; SLOT_LEN],
+}
+
+/// The geometry write under way (see [`SlotMailbox`]).
+#[no_mangle]
+pub static mut GEOMETRY_FLASH_PROGRAM: SlotMailbox = SlotMailbox {
+    address: 0,
+    bytes: [0; SLOT_LEN],
+};
 
 /// The reserved sector through embassy-stm32's blocking flash driver.
 pub struct GeometrySector<'a>(pub &'a mut Flash<'static, Blocking>);
@@ -40,23 +54,22 @@ impl GeometryFlash for GeometrySector<'_> {
             .blocking_read(SECTOR_OFFSET + (i * SLOT_LEN) as u32, out)
             .map_err(|_| FlashError::Driver)
     }
-    /// The slot in chunks of the program mailbox's size, each staged there before it is
-    /// programmed (`event_flash::stage`: what a probe or the emulator sees programmed).
+    /// The slot, first staged in [`GEOMETRY_FLASH_PROGRAM`].
     fn write_slot(&mut self, i: usize, bytes: &[u8; SLOT_LEN]) -> Result<(), FlashError> {
-        let slot = SECTOR_OFFSET + (i * SLOT_LEN) as u32;
-        for (k, chunk) in bytes.chunks(CHUNK).enumerate() {
-            let at = slot + (k * CHUNK) as u32;
-            let mut words = [0u32; RECORD_WORDS];
-            for (w, b) in words.iter_mut().zip(chunk.chunks_exact(4)) {
-                *w = <[u8; 4]>::try_from(b).map_or(0, u32::from_le_bytes);
-            }
-            let n = chunk.len() / 4;
-            stage(FLASH_BASE + at, words.get(..n).ok_or(FlashError::Driver)?);
-            self.0
-                .blocking_write(at, chunk)
-                .map_err(|_| FlashError::Driver)?;
+        let at = SECTOR_OFFSET + (i * SLOT_LEN) as u32;
+        let staged = SlotMailbox {
+            address: FLASH_BASE + at,
+            bytes: *bytes,
+        };
+        // SAFETY: only the control task programs the flash, and this is the mailbox's one
+        // writer; the volatile write keeps the bytes in RAM for a probe though nothing
+        // reads them here.
+        unsafe {
+            core::ptr::write_volatile(core::ptr::addr_of_mut!(GEOMETRY_FLASH_PROGRAM), staged)
         }
-        Ok(())
+        self.0
+            .blocking_write(at, bytes)
+            .map_err(|_| FlashError::Driver)
     }
     fn erase(&mut self) -> Result<(), FlashError> {
         self.0
