@@ -6,7 +6,9 @@
 #   2. this crate (its own workspace and Cargo.lock), release profile, --locked;
 #   3. its tests: the added register models against RM0090, the pin maps against the
 #      board.rs tables, the image's fit on the STM32F405, the board and mechanics models,
-#      and the NUCLEO-F429ZI's image booting on its pins (tests/nucleo_boot.rs).
+#      the NUCLEO-F429ZI's image booting on its pins (tests/nucleo_boot.rs), the second
+#      position channel's image on ADC3 (tests/position_channel.rs) and StoreGeometry's
+#      flash write on the pins (tests/store_geometry.rs).
 #
 # The closed-loop scenarios with the host's master come after it, from
 # host-sim/board-scenarios/run.sh, which builds into this crate's target directory.
@@ -22,6 +24,7 @@ section "the board image (release, thumbv7em-none-eabihf)"
 bash "$HERE/../cortex-m/board/build-and-size.sh"
 export RSPR_BOARD_ELF="$(target_dir)/$TARGET/release/rspr-board"
 export RSPR_NUCLEO_ELF="$(target_dir)/$TARGET/release/rspr-nucleo-f429zi"
+export RSPR_BOARD_PC_ELF="$(target_dir)/$TARGET/release/rspr-board-position-channel"
 
 cd "$HERE"
 section "board-emulator: build (release)"

@@ -32,7 +32,8 @@ use sha2::{Digest, Sha256};
 
 use crate::board::{BoardError, Outputs, RsprBoard};
 use crate::flash::{
-    FlashOp, FlashShadow, Staged, EVENTS_BASE, EVENTS_LEN, FLASH_CR, MAILBOX_WORDS,
+    FlashOp, FlashShadow, Staged, EVENTS_BASE, FLASH_CR, GEOMETRY_BASE, GEOMETRY_SLOT_LEN,
+    KEPT_LEN, MAILBOX_WORDS,
 };
 use crate::image::{Firmware, ImageError};
 use crate::mechanics::{Mechanics, MechanicsConfig, MechanicsError, Surroundings};
@@ -92,6 +93,10 @@ pub struct BenchConfig {
     /// How long each programmed word holds the core, ns (DS8626, "Flash memory
     /// programming", x32: 16 µs typical, 100 µs at most).
     pub flash_word_ns: u64,
+    /// The board has the second position channel (the image built with
+    /// `--features position-channel`): the plant's potentiometers on ADC3
+    /// ([`crate::position_channel`]).
+    pub position_channel: bool,
 }
 
 impl BenchConfig {
@@ -106,6 +111,7 @@ impl BenchConfig {
             record_until_ns: 0,
             flash: None,
             flash_word_ns: FLASH_WORD_MAX_NS,
+            position_channel: false,
         })
     }
 }
@@ -141,6 +147,14 @@ pub enum Action {
     WatchInstruction(u64),
     /// Stop reporting arrivals at `address`.
     UnwatchInstruction(u64),
+    /// Inject a fault of the plant into a joint (`plant::Fault`: an encoder that sticks or
+    /// miscounts, a position sensor that sticks, ...).
+    PlantFault {
+        /// The joint, 0..6.
+        joint: usize,
+        /// The fault.
+        fault: plant::Fault,
+    },
 }
 
 /// One peripheral access, as recorded.
@@ -281,7 +295,11 @@ struct Lockstep {
     flash: Arc<Mutex<FlashShadow>>,
     /// The image's program mailbox, if it has one.
     mailbox: Option<u64>,
+    /// The image's geometry slot mailbox, if it has one.
+    geometry_mailbox: Option<u64>,
     flash_word_ns: u64,
+    /// The board has the second position channel.
+    position_channel: bool,
 }
 
 const MS: u64 = 1_000_000;
@@ -366,6 +384,25 @@ impl Lockstep {
         })
     }
 
+    /// The word the image's geometry mailbox holds for `address` (a store into the
+    /// geometry's sector), as a probe reads it.
+    fn geometry_staged(&self, host: &mut dyn Host, address: u64) -> Option<Staged> {
+        let at = self.geometry_mailbox?;
+        let base = host.read(at, Width::W32).ok()?;
+        let off = address.checked_sub(base)?;
+        if off >= GEOMETRY_SLOT_LEN || off % 4 != 0 {
+            return None;
+        }
+        let word = u32::try_from(host.read(at + 4 + off, Width::W32).ok()?).ok()?;
+        let mut words = [0u32; MAILBOX_WORDS];
+        words[0] = word;
+        Some(Staged {
+            address,
+            len: 1,
+            words,
+        })
+    }
+
     /// A store landed in the event log's sectors: programmed into the shadow, and the core
     /// held for the word's programming time, the run stopping when it ends.
     fn flash_store(
@@ -375,7 +412,11 @@ impl Lockstep {
         at: VirtualNanos,
         address: u64,
     ) {
-        let staged = self.staged(host);
+        let staged = if address >= GEOMETRY_BASE {
+            self.geometry_staged(host, address)
+        } else {
+            self.staged(host)
+        };
         let word = match self.flash.lock() {
             Ok(mut f) => f.stored(at, address, staged),
             Err(_) => None,
@@ -400,8 +441,14 @@ impl Lockstep {
             self.failed.get_or_insert(e.to_string());
         }
         let signals = self.mechanics.signals();
+        let positions = self
+            .position_channel
+            .then(|| self.mechanics.position_counts());
         let board = session.board_mut();
         board.sense(&signals);
+        if let Some(counts) = positions {
+            crate::position_channel::sense(&mut board.mcu, &counts);
+        }
         let out = board.drive();
         if edge_between(&out, &self.outputs) {
             self.edges.push((VirtualNanos(now), out));
@@ -417,6 +464,9 @@ impl Lockstep {
         }
         for i in signals.currents_a {
             self.hasher.update(i.to_bits().to_le_bytes());
+        }
+        for c in positions.iter().flatten() {
+            self.hasher.update(c.to_le_bytes());
         }
     }
 
@@ -485,6 +535,13 @@ impl Lockstep {
                 Action::UnwatchInstruction(a) => {
                     session.unwatch(Watch::Instruction(a));
                     self.watched.retain(|w| *w != a);
+                }
+                Action::PlantFault { joint, fault } => {
+                    self.hasher.update(now.to_le_bytes());
+                    self.hasher.update((joint as u64).to_le_bytes());
+                    if let Err(e) = self.mechanics.inject(joint, fault) {
+                        self.failed.get_or_insert(e.to_string());
+                    }
                 }
             }
         }
@@ -706,6 +763,7 @@ impl Bench {
         let board = RsprBoard::for_target(&config.board)?;
         let flash = Arc::new(Mutex::new(FlashShadow::new(config.flash.as_deref())));
         let mailbox = firmware.symbol(crate::flash::MAILBOX_SYMBOL).ok();
+        let geometry_mailbox = firmware.symbol(crate::flash::GEOMETRY_MAILBOX_SYMBOL).ok();
         let (to_master, from_driver) = sync_channel::<Report>(1);
         let (to_driver, from_master) = sync_channel::<Command>(1);
         let driver = Lockstep {
@@ -734,7 +792,9 @@ impl Bench {
             failed: None,
             flash: Arc::clone(&flash),
             mailbox,
+            geometry_mailbox,
             flash_word_ns: config.flash_word_ns,
+            position_channel: config.position_channel,
         };
         let image = firmware
             .rigless_image()
@@ -755,7 +815,7 @@ impl Bench {
             .map_err(|e| BenchError::Emulator(e.to_string()))?;
         session.watch(Watch::Writes {
             address: EVENTS_BASE,
-            length: EVENTS_LEN as u64,
+            length: KEPT_LEN as u64,
         });
         let started = Instant::now();
         let thread = std::thread::Builder::new()

@@ -6,7 +6,8 @@
 //! crystal, the master link on USART3, the pins of [`pins`]), stepped in lockstep with the
 //! robot of `sim/` ([`mechanics`]: the plant and the board's surroundings of
 //! `sim/board-on-plant` at pin level; [`bench`]) in virtual time, with the event log's
-//! flash kept across a power cycle ([`flash`]). A master drives it through the bench's
+//! flash kept across a power cycle ([`flash`]); on the board built with the second
+//! position channel, its potentiometers on ADC3 ([`position_channel`]). A master drives it through the bench's
 //! handle: `host-sim/board-scenarios` runs the host's master against it, `serve` a master
 //! on a socket. See README.md.
 
@@ -18,4 +19,5 @@ pub mod image;
 pub mod mcu;
 pub mod mechanics;
 pub mod pins;
+pub mod position_channel;
 pub mod timers;

@@ -241,6 +241,19 @@ impl Mechanics {
         Ok(())
     }
 
+    /// The second position channel's readings now (`plant::PositionSensor`: 65536 counts
+    /// over each potentiometer's travel, with its noise, offset and faults), joint order.
+    pub fn position_counts(&self) -> [u16; NUM_JOINTS] {
+        self.board.plant.position_sensor_counts()
+    }
+
+    /// Injects a fault of the plant into `joint` (an encoder that sticks or miscounts, a
+    /// position sensor that sticks, ...), from now on.
+    pub fn inject(&mut self, joint: usize, fault: plant::Fault) -> Result<(), MechanicsError> {
+        self.board.plant.inject(joint, fault)?;
+        Ok(())
+    }
+
     /// What the board's inputs see now.
     pub fn signals(&self) -> Signals {
         Signals {

@@ -175,11 +175,11 @@ fn the_emulator_nucleo_pin_map_is_its_documented_table() {
     assert!(NUCLEO_RS.contains("pub const SUPPLY_V_PER_COUNT: f32 = 3.3 / 4096.0 * 12.0;"));
 }
 
-/// Every pin of the board's documented table is the emulator's, row by row, and every row
-/// the emulator drives or reads is covered (only SWD, the crystal and the time driver,
-/// which have no board-side signal to model, and the second position channel's ADC inputs,
-/// which only the `position-channel` boards (F405ZG) fit and the emulated F405RG prototype
-/// does not, are left out).
+/// Every pin of the board's documented table is the emulator's, row by row (the second
+/// position channel's ADC3 inputs of the `position-channel` boards, F405ZG, against
+/// `position_channel::POTENTIOMETERS`, pins and channels), and every row the emulator
+/// drives or reads is covered (only SWD, the crystal and the time driver, which have no
+/// board-side signal to model, are left out).
 #[test]
 fn the_emulator_pin_map_is_the_boards_documented_table() {
     let doc = documented();
@@ -195,15 +195,29 @@ fn the_emulator_pin_map_is_the_boards_documented_table() {
         assert_eq!(&pin, doc_pin, "{function}");
         covered.push(function.to_string());
     }
+    let pots = "position sensor l1..theta3 (second channel, `position-channel` boards only)";
+    let p = &board_emulator::position_channel::POTENTIOMETERS;
+    let pot_channels = p
+        .iter()
+        .map(|a| format!("IN{}", a.channel))
+        .collect::<Vec<_>>()
+        .join(", ");
+    assert_eq!(
+        doc.get(pots),
+        Some(&(
+            format!("{}..{}", p[0].pin, p[5].pin),
+            format!("ADC3 {pot_channels}")
+        )),
+        "{pots}"
+    );
+    assert!(p
+        .windows(2)
+        .all(|w| w[1].pin.port == w[0].pin.port && w[1].pin.number == w[0].pin.number + 1));
+    covered.push(pots.to_string());
     let left: Vec<&String> = doc.keys().filter(|k| !covered.contains(k)).collect();
     assert_eq!(
         left,
-        vec![
-            "HSE 8 MHz crystal",
-            "SWD",
-            "position sensor l1..theta3 (second channel, `position-channel` boards only)",
-            "time driver"
-        ],
+        vec!["HSE 8 MHz crystal", "SWD", "time driver"],
         "rows of board.rs the emulator does not model"
     );
 }

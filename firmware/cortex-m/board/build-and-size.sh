@@ -7,8 +7,16 @@
 # configuration sector), data + bss <= 32 KiB (a quarter of the 128 KiB: the stack, which
 # grows down from its top, and the DMA buffers keep the rest).
 #
-#   build-and-size.sh            every target: board (STM32F405RG), board-nucleo-f429zi
+#   build-and-size.sh            every target: board (STM32F405RG), board-position-channel,
+#                                board-nucleo-f429zi
 #   build-and-size.sh board      one target (the package)
+#
+# board-position-channel is the board package built for the board with the second position
+# channel (`--no-default-features --features position-channel`: the STM32F405ZG, a
+# potentiometer per joint on ADC3), measured against the same budgets; its ELF is copied to
+# `rspr-board-position-channel` beside the others (the board emulator's tests run it), and
+# the default build then puts `rspr-board` back (cargo keeps both builds' artifacts: the
+# chip's feature gives them different hashes, so that is a link at most).
 #
 # One cargo invocation per target: embassy-stm32 selects the chip by a Cargo feature and
 # cargo unifies features over an invocation, so two chips cannot be built in one. They
@@ -24,11 +32,15 @@ RAM_BUDGET=$((32 * 1024))
 ensure_target
 ensure_apt arm-none-eabi-size binutils-arm-none-eabi
 
-# package -> binary
-declare -A BIN=([board]=rspr-board [board-nucleo-f429zi]=rspr-nucleo-f429zi)
+# target -> binary
+declare -A BIN=([board]=rspr-board [board-nucleo-f429zi]=rspr-nucleo-f429zi [board-position-channel]=rspr-board)
+# target -> cargo arguments (default: -p TARGET)
+declare -A ARGS=([board-position-channel]="-p board --no-default-features --features position-channel")
+# target -> the name its ELF is copied to (default: none, cargo's own)
+declare -A COPY=([board-position-channel]=rspr-board-position-channel)
 targets=("$@")
 if [ ${#targets[@]} -eq 0 ]; then
-    targets=(board board-nucleo-f429zi)
+    targets=(board board-position-channel board-nucleo-f429zi)
 fi
 
 status=0
@@ -39,8 +51,15 @@ for pkg in "${targets[@]}"; do
         exit 2
     fi
     t0=$(date +%s)
-    cargo build --release -p "$pkg"
+    # shellcheck disable=SC2086 # the arguments are words
+    cargo build --release ${ARGS[$pkg]:--p $pkg}
     ELF="$(target_dir)/$TARGET/release/$bin"
+    if [ -n "${COPY[$pkg]:-}" ]; then
+        cp "$ELF" "$(target_dir)/$TARGET/release/${COPY[$pkg]}"
+        ELF="$(target_dir)/$TARGET/release/${COPY[$pkg]}"
+        bin="${COPY[$pkg]}"
+        cargo build --release -p board
+    fi
     arm-none-eabi-size "$ELF"
     read -r text data bss _ < <(arm-none-eabi-size "$ELF" | awk 'NR == 2 { print $1, $2, $3 }')
     ram=$((data + bss))

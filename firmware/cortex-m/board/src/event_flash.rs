@@ -13,7 +13,8 @@
 //! **What a probe sees**: before it programs, the driver puts the address and the words in
 //! [`EVENT_FLASH_PROGRAM`] (RAM, a fixed symbol), so that a debugger or the board emulator
 //! (`firmware/board-emulator`, whose flash model drops the core's stores to the array) can
-//! tell which words the core is programming.
+//! tell which words the core is programming. The calibrated geometry's slot writes have a
+//! mailbox of their own beside it (`geometry_flash::GEOMETRY_FLASH_PROGRAM`).
 
 use core::ptr::addr_of_mut;
 
@@ -31,7 +32,7 @@ pub const SECTOR_LEN: u32 = 128 * 1024;
 /// Sectors in the ring.
 pub const SECTORS: usize = 2;
 /// The flash's base address.
-const FLASH_BASE: u32 = 0x0800_0000;
+pub(crate) const FLASH_BASE: u32 = 0x0800_0000;
 /// The tick must have finished within this part of the 1 000 µs period for words to be
 /// programmed in it: two words at their worst (200 µs) still end 200 µs before the next
 /// period begins.

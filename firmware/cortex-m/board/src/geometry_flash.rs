@@ -17,10 +17,30 @@ use embassy_stm32::pac;
 use embassy_stm32::pac::iwdg::vals::{Key, Pr};
 use master_link::{GeometryRecord, GeometryRefusal};
 
+use crate::event_flash::FLASH_BASE;
+
 /// Offset of the reserved sector from the flash base (sector 11; `memory.x`'s GEOMETRY).
 pub const SECTOR_OFFSET: u32 = 0x000E_0000;
 /// Its size.
 pub const SECTOR_LEN: u32 = 128 * 1024;
+
+/// The slot being programmed: its absolute address and its bytes (a debugger's and the
+/// board emulator's view of a geometry write, as `event_flash::EVENT_FLASH_PROGRAM` is of
+/// the event log's; the emulator's flash model drops the core's stores to the array).
+#[repr(C)]
+pub struct SlotMailbox {
+    /// The absolute address of `bytes[0]`.
+    pub address: u32,
+    /// The slot's bytes.
+    pub bytes: [u8; SLOT_LEN],
+}
+
+/// The geometry write under way (see [`SlotMailbox`]).
+#[no_mangle]
+pub static mut GEOMETRY_FLASH_PROGRAM: SlotMailbox = SlotMailbox {
+    address: 0,
+    bytes: [0; SLOT_LEN],
+};
 
 /// The reserved sector through embassy-stm32's blocking flash driver.
 pub struct GeometrySector<'a>(pub &'a mut Flash<'static, Blocking>);
@@ -34,9 +54,21 @@ impl GeometryFlash for GeometrySector<'_> {
             .blocking_read(SECTOR_OFFSET + (i * SLOT_LEN) as u32, out)
             .map_err(|_| FlashError::Driver)
     }
+    /// The slot, first staged in [`GEOMETRY_FLASH_PROGRAM`].
     fn write_slot(&mut self, i: usize, bytes: &[u8; SLOT_LEN]) -> Result<(), FlashError> {
+        let at = SECTOR_OFFSET + (i * SLOT_LEN) as u32;
+        let staged = SlotMailbox {
+            address: FLASH_BASE + at,
+            bytes: *bytes,
+        };
+        // SAFETY: only the control task programs the flash, and this is the mailbox's one
+        // writer; the volatile write keeps the bytes in RAM for a probe though nothing
+        // reads them here.
+        unsafe {
+            core::ptr::write_volatile(core::ptr::addr_of_mut!(GEOMETRY_FLASH_PROGRAM), staged)
+        }
         self.0
-            .blocking_write(SECTOR_OFFSET + (i * SLOT_LEN) as u32, bytes)
+            .blocking_write(at, bytes)
             .map_err(|_| FlashError::Driver)
     }
     fn erase(&mut self) -> Result<(), FlashError> {
