@@ -26,9 +26,12 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             // The heartbeat lost: the fault's value is the silence, in ms (the log and the
             // operator's words show it).
             Some(Event::Fault(FaultCause::HeartbeatTimeout)) => {
-                let silence_ms = self.session.heartbeat().silence_us(now_us) / 1000;
+                // In 32 bits (a hardware division on the MCU; a silence of 71 minutes
+                // saturates).
+                let silence_us =
+                    u32::try_from(self.session.heartbeat().silence_us(now_us)).unwrap_or(u32::MAX);
                 let finding =
-                    Finding::board::<f32>(FaultCause::HeartbeatTimeout, silence_ms as f32);
+                    Finding::board::<f32>(FaultCause::HeartbeatTimeout, (silence_us / 1000) as f32);
                 self.fault(finding, now_us);
             }
             Some(ev) => {
