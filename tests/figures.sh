@@ -77,12 +77,12 @@ the result. Every line in the blocks below is printed by the command named above
 
 ## The board image
 
-The release image for the STM32F405 and its budgets
+The release images (the STM32F405 board, the NUCLEO-F429ZI) and their budgets
 (\`bash firmware/cortex-m/board/build-and-size.sh\`):
 
 \`\`\`text
 EOF
-    lines '^rspr-board release:' "$WORK/size.log"
+    lines '^rspr-.* release:' "$WORK/size.log"
     cat <<EOF
 \`\`\`
 

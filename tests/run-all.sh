@@ -23,6 +23,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 source firmware/cortex-m/scripts.sh
+# One build from scratch: incremental compilation's caches would only cost time here.
+export CARGO_INCREMENTAL=${CARGO_INCREMENTAL:-0}
 started=$(date +%s)
 
 section() { printf '\n==> %s (%d s)\n' "$*" "$(( $(date +%s) - started ))"; }
@@ -39,16 +41,36 @@ cargo fmt --all -- --check
 (cd fuzz && cargo fmt --all -- --check)
 
 section "lint: clippy on every crate of every workspace, warnings are errors"
-cargo clippy --workspace --all-targets -- -D warnings
-(cd firmware/cortex-m && cargo clippy --workspace --release -- -D warnings)
-(cd fuzz && cargo clippy --all-targets -- -D warnings)
-(cd firmware/board-emulator && cargo clippy --release --locked --ignore-rust-version --all-targets -- -D warnings)
-(cd host-sim/board-scenarios && cargo clippy --release --locked --ignore-rust-version --all-targets -- -D warnings)
+# The host's workspace beside the four others (separate target directories, nothing
+# shared): the two keep both cores busy through each other's serial stretches. The others'
+# output follows the host's; either failing fails the stage.
+lint_others() {
+    # One chip per cargo invocation (embassy-stm32's chip feature): the NUCLEO-F429ZI apart.
+    (cd firmware/cortex-m && cargo clippy --workspace --exclude board-nucleo-f429zi --release -- -D warnings) &&
+        (cd firmware/cortex-m && cargo clippy --release -p board-nucleo-f429zi -- -D warnings) &&
+        (cd fuzz && cargo clippy --all-targets -- -D warnings) &&
+        (cd firmware/board-emulator && cargo clippy --release --locked --ignore-rust-version --all-targets -- -D warnings) &&
+        (cd host-sim/board-scenarios && cargo clippy --release --locked --ignore-rust-version --all-targets -- -D warnings)
+}
+others_log="$(mktemp)"
+lint_others >"$others_log" 2>&1 &
+others=$!
+host_lint=0
+cargo clippy --workspace --all-targets -- -D warnings || host_lint=$?
+others_lint=0
+wait "$others" || others_lint=$?
+echo "--- clippy on the Cortex-M, fuzz, board-emulator and board-scenarios workspaces:"
+cat "$others_log"
+rm -f "$others_log"
+if [ "$host_lint" -ne 0 ] || [ "$others_lint" -ne 0 ]; then
+    echo "lint FAILED (host workspace: exit $host_lint; the others: exit $others_lint)"
+    exit 1
+fi
 
 section "the no_std libraries build for the Cortex-M4F"
 cargo build --release --target "$TARGET" -p kinematics-core -p hal -p servo -p control -p master-link
 
-section "board image (STM32F405): release build and sizes against the budgets"
+section "board images (STM32F405 board, NUCLEO-F429ZI): release builds and sizes against the budgets"
 bash firmware/cortex-m/board/build-and-size.sh
 
 section "on-target tests and instructions per control tick (QEMU mps2-an386)"
@@ -80,6 +102,6 @@ bash host-sim/operator/tests/against-emulator.sh
 
 section "fuzzing: the link's frame decoder and the board's command handling (libFuzzer, fixed seed)"
 (cd fuzz && cargo test --release --quiet)
-FUZZ_RUNS=${FUZZ_RUNS:-300000} bash fuzz/run.sh ci
+FUZZ_RUNS=${FUZZ_RUNS:-300000} FUZZ_PARALLEL=${FUZZ_PARALLEL:-1} bash fuzz/run.sh ci
 
 section "all passed in $(( $(date +%s) - started )) s"

@@ -4,8 +4,9 @@
 #
 #   1. the image: firmware/cortex-m/board/build-and-size.sh (honours CARGO_TARGET_DIR);
 #   2. this crate (its own workspace and Cargo.lock), release profile, --locked;
-#   3. its tests: the added register models against RM0090, the pin map against
-#      board.rs's table, the image's fit on the STM32F405, the board and mechanics models.
+#   3. its tests: the added register models against RM0090, the pin maps against the
+#      board.rs tables, the image's fit on the STM32F405, the board and mechanics models,
+#      and the NUCLEO-F429ZI's image booting on its pins (tests/nucleo_boot.rs).
 #
 # The closed-loop scenarios with the host's master come after it, from
 # host-sim/board-scenarios/run.sh, which builds into this crate's target directory.
@@ -20,6 +21,7 @@ section() { printf '\n==> %s (%d s)\n' "$*" "$(( $(date +%s) - started ))"; }
 section "the board image (release, thumbv7em-none-eabihf)"
 bash "$HERE/../cortex-m/board/build-and-size.sh"
 export RSPR_BOARD_ELF="$(target_dir)/$TARGET/release/rspr-board"
+export RSPR_NUCLEO_ELF="$(target_dir)/$TARGET/release/rspr-nucleo-f429zi"
 
 cd "$HERE"
 section "board-emulator: build (release)"

@@ -861,6 +861,11 @@ impl Board {
             || matches!(reply, BoardToMaster::Nack { seq: s, .. } if *s == seq)
             || matches!(reply, BoardToMaster::TargetRefused(r) if r.reply_to == Some(seq)
                 && matches!(req.message, Command::PoseTarget { .. } | Command::Jog { .. }));
+        let not_owner = *reply
+            == BoardToMaster::Nack {
+                seq,
+                reason: NackReason::NotOwner,
+            };
         let fits = match req.message {
             // The session the link issued, the nonce echoed; or refused, echoed too.
             Command::Hello { nonce, .. } => match reply {
@@ -880,17 +885,27 @@ impl Board {
                 } => *s == seq && *n == nonce,
                 _ => false,
             },
-            Command::StatusRequest => matches!(reply, BoardToMaster::Status(_)),
-            Command::FaultLogRequest { .. } => matches!(reply, BoardToMaster::FaultLog(_)),
-            Command::EventLogRequest { .. } => matches!(reply, BoardToMaster::EventLog(_)),
-            Command::EmergencyStop | Command::Heartbeat => ack,
+            // Read only, yet a frame of a session a later Hello replaced is refused like any
+            // other (`NotOwner`, the tick's session check).
+            Command::StatusRequest => matches!(reply, BoardToMaster::Status(_)) || not_owner,
+            Command::FaultLogRequest { .. } => {
+                matches!(reply, BoardToMaster::FaultLog(_)) || not_owner
+            }
+            Command::EventLogRequest { .. } => {
+                matches!(reply, BoardToMaster::EventLog(_)) || not_owner
+            }
+            // An emergency stop is taken from anyone; a heartbeat of a replaced session is
+            // refused like its other frames.
+            Command::EmergencyStop => ack,
+            Command::Heartbeat => ack || not_owner,
             // Taken only with the drives off (the transition table); refused otherwise.
             Command::AcknowledgeReset => {
-                ack || *reply
-                    == BoardToMaster::Nack {
-                        seq,
-                        reason: NackReason::InvalidState,
-                    }
+                ack || not_owner
+                    || *reply
+                        == BoardToMaster::Nack {
+                            seq,
+                            reason: NackReason::InvalidState,
+                        }
             }
             _ => ack_or_nack,
         };

@@ -81,6 +81,9 @@ pub enum CliError {
     TooManyRobots(usize),
     #[error(transparent)]
     Calibration(#[from] calibration::CalibrationError),
+    /// `identify`: the identification, the tuning or a run on the joint.
+    #[error("identify: {0}")]
+    Identify(#[from] identify::IdentifyError),
     #[error("calibrate needs an RSPR geometry (the nominal robot or an earlier calibration)")]
     CalibrateNeedsRspr,
     #[error("cannot write {}: {error}", path.display())]

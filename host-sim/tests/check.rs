@@ -196,6 +196,39 @@ fn batch_keeps_one_row_per_input_row() {
     assert!(r.stderr.contains("z_mm"), "{}", r.stderr);
 }
 
+/// The batch form takes `--branch` (0 when not given) for rows without a `branch` column,
+/// as `ik --csv` does: the verdict is the one of the same rows with the branch written
+/// out, and a `branch` column in the input wins over the flag, row by row.
+#[test]
+fn batch_without_a_branch_column_takes_the_branch_flag() {
+    let plain = "x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg\n0,0,160,0,0,0\n0,0,120,0,0,0\n";
+    let with = |b: u32| {
+        format!(
+            "x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg,branch\n0,0,160,0,0,0,{b}\n0,0,120,0,0,0,{b}\n"
+        )
+    };
+    let implicit = Table::parse(&ok(&["check", "--csv"], plain));
+    let explicit = Table::parse(&ok(&["check", "--csv"], &with(0)));
+    assert_eq!(implicit.header, explicit.header);
+    assert_eq!(implicit.rows, explicit.rows);
+    assert_eq!(implicit.text(0, "ok"), "true");
+    assert_eq!(implicit.text(1, "ok"), "false");
+    // Branch 7 (every chain inner) at the central pose: a verdict of its own, the same as
+    // with the branch written out, and not the outer branch's.
+    let inner = Table::parse(&ok(&["check", "--csv", "--branch", "7"], plain));
+    let inner_explicit = Table::parse(&ok(&["check", "--csv"], &with(7)));
+    assert_eq!(inner.text(0, "branch"), "7");
+    assert_eq!(inner.rows, inner_explicit.rows);
+    assert_ne!(inner.text(0, "violations"), implicit.text(0, "violations"));
+    // A branch column wins over the flag.
+    let given = Table::parse(&ok(&["check", "--csv", "--branch", "7"], &with(0)));
+    assert_eq!(given.rows, explicit.rows);
+    // A bad --branch is refused before any row is read, naming the flag.
+    let r = host_sim(&["check", "--csv", "--branch", "9"], plain);
+    assert_ne!(r.code, Some(0));
+    assert!(r.stderr.contains("--branch"), "{}", r.stderr);
+}
+
 /// Checks a guard at its boundary: with `key` set `below` the measured value the guard is
 /// violated (with that value and limit), set `above` it is not. `lower` tells whether the
 /// limit is a lower bound (the value must stay above it).

@@ -307,3 +307,91 @@ fn teleop_starts_from_any_board_state() {
     assert_eq!(code, Some(0), "{log}");
     assert!(log.contains("clearing it (--clear-fault)"), "{log}");
 }
+
+/// A scripted operator (`teleop --device scripted:FILE`) whose hand goes, from the central
+/// pose, where the board's guards stop it, one guard at a time and back: z +17 mm (the
+/// workspace's face at 175 mm: hc 160 + 10 mm + its 5 mm margin), 28 deg about x (the
+/// 25 deg platform tilt cone), and x +20, y +20, z -12 mm with the rotation vector
+/// (0, 22, 17) deg, a pose inside the box and the cone whose leg 1 is 134.0 mm (the
+/// inverse kinematics: below the 144 mm stroke, while the platform tilt stays 21.9 deg
+/// and the link angles within 35 deg). Every move is slower than the master's caps
+/// (20 mm/s, 25 deg/s), so the board sees the operator's own path. The summary names, for
+/// each, the guard and the first refused target's value beyond the limit.
+#[test]
+fn teleop_refusals_name_guard_value_and_limit() {
+    let board = SimBoard::start();
+    let script = write(
+        board.dir.path(),
+        "guards.txt",
+        "# t_s  x y z [mm]  rx ry rz [deg]  buttons\n\
+         0   0 0 0      0 0 0    present\n\
+         1   0 0 0      0 0 0    present\n\
+         4   0 0 17     0 0 0    present\n\
+         5   0 0 17     0 0 0    present\n\
+         8   0 0 0      0 0 0    present\n\
+         9   0 0 0      0 0 0    present\n\
+         12  0 0 0      28 0 0   present\n\
+         13  0 0 0      28 0 0   present\n\
+         16  0 0 0      0 0 0    present\n\
+         17  0 0 0      0 0 0    present\n\
+         21  20 20 -12  0 22 17  present\n\
+         22  20 20 -12  0 22 17  present\n\
+         26  0 0 0      0 0 0    present\n",
+    );
+    let record = board.dir.path().join("s.mcap").display().to_string();
+    let device = format!("scripted:{script}");
+    let mut child = board.front_end(
+        "guards",
+        &[
+            "teleop",
+            "--device",
+            device.as_str(),
+            "--record",
+            record.as_str(),
+            "--duration-s",
+            "27",
+        ],
+    );
+    let code = wait_exit(&mut child, Duration::from_secs(240));
+    let log = board.read_log("guards");
+    assert_eq!(code, Some(0), "{log}");
+    // (guard, the words' start, the comparison, the limit, its unit)
+    let cases = [
+        ("workspace", "workspace z ", '>', 175.0, "mm"),
+        ("platform tilt", "platform tilt ", '>', 25.0, "deg"),
+        ("stroke", "stroke leg 1 ", '<', 144.0, "mm"),
+    ];
+    for (guard, start, op, limit, unit) in cases {
+        let head = format!("  {guard}: the first at ");
+        let line = log
+            .lines()
+            .find(|l| l.starts_with(&head))
+            .unwrap_or_else(|| panic!("no {guard} refusal in the summary:\n{log}"));
+        let words = line.split_once(" s: ").map_or("", |(_, w)| w);
+        let rest = words
+            .strip_prefix(start)
+            .unwrap_or_else(|| panic!("{guard}: {line}"));
+        // "<value> <unit> <op> <limit> <unit>"
+        let f: Vec<&str> = rest.split(' ').collect();
+        assert_eq!(f.len(), 5, "{line}");
+        let value: f64 = f[0].parse().unwrap_or_else(|_| panic!("{line}"));
+        assert_eq!(
+            (f[1], f[2], f[3], f[4]),
+            (
+                unit,
+                op.to_string().as_str(),
+                format!("{limit:.1}").as_str(),
+                unit
+            ),
+            "{line}"
+        );
+        // Beyond the limit (the words round to 0.1).
+        let beyond = if op == '>' {
+            value >= limit
+        } else {
+            value <= limit
+        };
+        assert!(beyond, "{line}");
+        eprintln!("{line}");
+    }
+}

@@ -78,6 +78,8 @@ pub enum BenchError {
 pub struct BenchConfig {
     /// The release ELF.
     pub firmware: PathBuf,
+    /// The board the image is built for (its pins and current sense).
+    pub board: crate::pins::BoardTarget,
     /// The plant step, ns.
     pub plant_step_ns: u64,
     /// Stops, switches, the tool and where the joints start.
@@ -98,6 +100,7 @@ impl BenchConfig {
     pub fn reference(firmware: PathBuf) -> Result<Self, BenchError> {
         Ok(BenchConfig {
             firmware,
+            board: crate::pins::REFERENCE,
             plant_step_ns: 100_000,
             mechanics: MechanicsConfig::reference(None)?,
             record_until_ns: 0,
@@ -283,9 +286,9 @@ struct Lockstep {
 
 const MS: u64 = 1_000_000;
 
-/// A GPIO port's `ODR` or `BSRR` (ports A..D, RM0090 rev 19 section 8.4).
+/// A GPIO port's `ODR` or `BSRR` (ports A..G, the boards' ports; RM0090 rev 19 section 8.4).
 fn is_pin_write(address: u64) -> bool {
-    (0x4002_0000..0x4002_1000).contains(&address) && matches!(address & 0x3FF, 0x14 | 0x18)
+    (0x4002_0000..0x4002_1C00).contains(&address) && matches!(address & 0x3FF, 0x14 | 0x18)
 }
 
 fn cause_name(cause: &ResetCause) -> String {
@@ -700,7 +703,7 @@ impl Bench {
         let firmware = Firmware::read(&config.firmware)?;
         let rtt_block = firmware.symbol("_SEGGER_RTT").ok();
         let mechanics = Mechanics::new(config.mechanics)?;
-        let board = RsprBoard::new()?;
+        let board = RsprBoard::for_target(&config.board)?;
         let flash = Arc::new(Mutex::new(FlashShadow::new(config.flash.as_deref())));
         let mailbox = firmware.symbol(crate::flash::MAILBOX_SYMBOL).ok();
         let (to_master, from_driver) = sync_channel::<Report>(1);

@@ -17,9 +17,7 @@ use rigless::snapshot::Store;
 use rigless::time::VirtualNanos;
 
 use crate::mcu::{BoardMcu, McuError};
-use crate::pins::{
-    PinMap, BOARD, CURRENT_SENSE_A_PER_V, CURRENT_SENSE_ZERO_V, SUPPLY_DIVIDER, VREF_V,
-};
+use crate::pins::{BoardTarget, PinMap, CURRENT_SENSE_ZERO_V, REFERENCE, SUPPLY_DIVIDER, VREF_V};
 
 /// The high-speed crystal on PH0/PH1.
 pub const HSE_HZ: u64 = 8_000_000;
@@ -181,6 +179,8 @@ pub struct RsprBoard {
     pub mcu: BoardMcu,
     /// The pin map.
     pub map: PinMap,
+    /// Current sense: amps per volt away from its zero.
+    pub current_a_per_v: f64,
     /// The HSE crystal.
     pub hse: Crystal,
     /// The rail.
@@ -191,11 +191,18 @@ pub struct RsprBoard {
 impl Store for RsprBoard {}
 
 impl RsprBoard {
-    /// The board out of reset, sensing [`Signals::REST`].
+    /// The reference board out of reset, sensing [`Signals::REST`].
     pub fn new() -> Result<Self, BoardError> {
+        Self::for_target(&REFERENCE)
+    }
+
+    /// The board `target` (its pins and current sense around the same MCU) out of reset,
+    /// sensing [`Signals::REST`].
+    pub fn for_target(target: &BoardTarget) -> Result<Self, BoardError> {
         let mut board = RsprBoard {
             mcu: BoardMcu::new()?,
-            map: BOARD,
+            map: target.map,
+            current_a_per_v: target.current_sense_a_per_v,
             hse: Crystal(HSE_HZ),
             rail: Supply(RAIL_MV),
             sensed: Signals::REST,
@@ -229,7 +236,7 @@ impl RsprBoard {
             self.mcu.set_encoder(wiring.timer, count);
         }
         for (input, current) in map.current_sense.iter().zip(s.currents_a) {
-            let volts = CURRENT_SENSE_ZERO_V + current / CURRENT_SENSE_A_PER_V;
+            let volts = CURRENT_SENSE_ZERO_V + current / self.current_a_per_v;
             self.mcu.set_analog(input.channel, volts.clamp(0.0, VREF_V));
         }
         // Normally-closed contacts to ground: closed drives the pin low; open leaves it to the
@@ -343,6 +350,7 @@ impl Board for RsprBoard {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::pins::BOARD;
     use rigless::mcu::{Mcu, Operate};
     use rigless::soc::Width;
 

@@ -1,14 +1,17 @@
-//! The board's pin map, in one place ([`BOARD`]): which pin of the STM32F405RG (LQFP64)
-//! carries what, as the board image drives it. The source of truth is the table at the top of
-//! `firmware/cortex-m/board/src/board.rs`; everything else in this crate reads pins from here.
-//! Two checks hold the two together: `tests/pin_map.rs` compares this map with that table,
-//! and the closed-loop run checks that the image configures every pin as this map says
-//! (GPIO mode, alternate function, pull; `host-sim/board-scenarios`, `scenarios::boot::pins`).
+//! The boards' pin maps, in one place: which pin carries what, as each board image drives
+//! it: [`BOARD`], the reference board (STM32F405RG, LQFP64), and [`NUCLEO_F429ZI_MAP`], the
+//! NUCLEO-F429ZI (STM32F429ZI, LQFP144, the emulated STM32F427's die); a [`BoardTarget`]
+//! adds the board's current sense. The sources of truth are the tables at the top of
+//! `firmware/cortex-m/board/src/board.rs` and `firmware/cortex-m/nucleo-f429zi/src/board.rs`;
+//! everything else in this crate reads pins from here. Two checks hold them together:
+//! `tests/pin_map.rs` compares each map with its table, and the closed-loop run checks that
+//! the image configures every pin as its map says (GPIO mode, alternate function, pull;
+//! `host-sim/board-scenarios`, `scenarios::boot::pins`).
 //!
 //! Joint order everywhere: `l1, l2, l3, theta1, theta2, theta3`.
 
-/// A GPIO port, A to I (the STM32F405 has A..I; the LQFP64 package brings out A, B, C, D2
-/// and H0/H1).
+/// A GPIO port the boards use (the STM32F405 has A..I, the LQFP64 package brings out A, B,
+/// C, D2 and H0/H1; the STM32F429ZI's LQFP144 brings out A..G).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Port {
     /// `GPIOA`.
@@ -19,6 +22,12 @@ pub enum Port {
     C,
     /// `GPIOD`.
     D,
+    /// `GPIOE`.
+    E,
+    /// `GPIOF`.
+    F,
+    /// `GPIOG`.
+    G,
 }
 
 impl Port {
@@ -30,6 +39,9 @@ impl Port {
             Port::B => 1,
             Port::C => 2,
             Port::D => 3,
+            Port::E => 4,
+            Port::F => 5,
+            Port::G => 6,
         }
     }
 
@@ -40,6 +52,9 @@ impl Port {
             Port::B => 'B',
             Port::C => 'C',
             Port::D => 'D',
+            Port::E => 'E',
+            Port::F => 'F',
+            Port::G => 'G',
         }
     }
 }
@@ -245,7 +260,7 @@ pub struct PinMap {
     pub led: PinId,
 }
 
-use Port::{A, B, C, D};
+use Port::{A, B, C, D, E, F, G};
 
 const fn p(port: Port, number: u8) -> PinId {
     PinId::new(port, number)
@@ -305,6 +320,82 @@ pub const BOARD: PinMap = PinMap {
     link_rx: p(B, 11),
     led: p(A, 5),
 };
+
+/// The NUCLEO-F429ZI (`firmware/cortex-m/nucleo-f429zi/src/board.rs`): the reference
+/// board's timers, USART3 and ADC1 on pins the NUCLEO-144 leaves free.
+pub const NUCLEO_F429ZI_MAP: PinMap = PinMap {
+    encoders: [
+        encoder(EncoderTimer::Tim1, p(E, 9), p(E, 11)),
+        encoder(EncoderTimer::Tim2, p(A, 15), p(B, 3)),
+        encoder(EncoderTimer::Tim3, p(B, 4), p(B, 5)),
+        encoder(EncoderTimer::Tim4, p(D, 12), p(D, 13)),
+        encoder(EncoderTimer::Tim5, p(A, 0), p(A, 1)),
+        encoder(EncoderTimer::Tim8, p(C, 6), p(C, 7)),
+    ],
+    pwm: [
+        pwm(SmallTimer::Tim9, 1, p(E, 5)),
+        pwm(SmallTimer::Tim9, 2, p(E, 6)),
+        pwm(SmallTimer::Tim10, 1, p(F, 6)),
+        pwm(SmallTimer::Tim11, 1, p(F, 7)),
+        pwm(SmallTimer::Tim13, 1, p(F, 8)),
+        pwm(SmallTimer::Tim14, 1, p(F, 9)),
+    ],
+    dir: [p(F, 12), p(F, 13), p(F, 14), p(F, 15), p(G, 0), p(G, 1)],
+    driver_enable: p(G, 2),
+    driver_fault: p(G, 5),
+    supply_sense: analog(p(B, 1), 9),
+    brakes: [p(G, 3), p(G, 4)],
+    estop: p(E, 15),
+    relay_feedback: p(E, 14),
+    home_switch: [p(D, 0), p(D, 1), p(D, 2), p(D, 3), p(D, 4), p(D, 5)],
+    current_sense: [
+        analog(p(A, 3), 3),
+        analog(p(C, 0), 10),
+        analog(p(C, 3), 13),
+        analog(p(C, 2), 12),
+        analog(p(A, 5), 5),
+        analog(p(A, 6), 6),
+    ],
+    link_tx: p(D, 8),
+    link_rx: p(D, 9),
+    led: p(B, 14),
+};
+
+/// A board the emulator runs: its pin map and its current sense's scale (the rest of the
+/// analog front end, the 12:1 supply divider and the 1.65 V zero of the current sense, is
+/// the same on every board).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BoardTarget {
+    /// The name (`--board`).
+    pub name: &'static str,
+    /// The pin map.
+    pub map: PinMap,
+    /// Current sense: amps per volt away from [`CURRENT_SENSE_ZERO_V`].
+    pub current_sense_a_per_v: f64,
+}
+
+/// The reference board (STM32F405RG).
+pub const REFERENCE: BoardTarget = BoardTarget {
+    name: "reference",
+    map: BOARD,
+    current_sense_a_per_v: CURRENT_SENSE_A_PER_V,
+};
+
+/// The NUCLEO-F429ZI with its Hall current sensors (ACS711, 90 mV/A at 3.3 V), as the
+/// image's `CURRENT_A_PER_COUNT` = 3.3 V / 4096 counts / 0.090 V/A.
+pub const NUCLEO_F429ZI: BoardTarget = BoardTarget {
+    name: "nucleo-f429zi",
+    map: NUCLEO_F429ZI_MAP,
+    current_sense_a_per_v: 1.0 / 0.090,
+};
+
+/// Every board the emulator runs.
+pub const TARGETS: [BoardTarget; 2] = [REFERENCE, NUCLEO_F429ZI];
+
+/// The board named `name`.
+pub fn target(name: &str) -> Option<BoardTarget> {
+    TARGETS.into_iter().find(|t| t.name == name)
+}
 
 /// Supply-voltage sense divider (PB0 / ADC12_IN8): the pin sees the supply divided by this
 /// (110 kΩ over 10 kΩ: 24 V -> 2.0 V; 39.6 V full scale at 3.3 V), as the board's
@@ -378,7 +469,7 @@ pub fn expected_configuration(map: &PinMap) -> Vec<(PinId, PinConfig, String)> {
         PinConfig::Analog,
         "supply sense".into(),
     ));
-    // USART3 on PB10/PB11: AF7 (DS8626 table 9).
+    // USART3 (PB10/PB11, PD8/PD9): AF7 (DS8626 table 9, DS9405 table 12).
     v.push((map.link_tx, PinConfig::Alternate(7), "link TX".into()));
     v.push((map.link_rx, PinConfig::Alternate(7), "link RX".into()));
     v
@@ -389,16 +480,25 @@ mod tests {
     use super::*;
     use std::collections::BTreeSet;
 
-    /// No pin has two jobs.
+    /// No pin has two jobs, on either board.
     #[test]
     fn every_pin_has_one_job() {
-        let all: Vec<PinId> = expected_configuration(&BOARD)
-            .iter()
-            .map(|(p, _, _)| *p)
-            .collect();
-        let set: BTreeSet<PinId> = all.iter().copied().collect();
-        assert_eq!(set.len(), all.len(), "a pin used twice");
-        assert_eq!(all.len(), 46, "every board pin listed once");
+        for t in TARGETS {
+            let all: Vec<PinId> = expected_configuration(&t.map)
+                .iter()
+                .map(|(p, _, _)| *p)
+                .collect();
+            let set: BTreeSet<PinId> = all.iter().copied().collect();
+            assert_eq!(set.len(), all.len(), "{}: a pin used twice", t.name);
+            assert_eq!(all.len(), 46, "{}: every board pin listed once", t.name);
+        }
+    }
+
+    /// The NUCLEO's current scale is its firmware's: 3.3 V / 4096 counts / 0.090 V/A.
+    #[test]
+    fn nucleo_current_scale_matches_its_firmware() {
+        let a_per_count = VREF_V / 4096.0 * NUCLEO_F429ZI.current_sense_a_per_v;
+        assert!((a_per_count - 3.3 / 4096.0 / 0.090).abs() < 1e-15);
     }
 
     /// The divider puts 24 V at 2.0 V, and the monitored range (20..28 V) inside VREF.

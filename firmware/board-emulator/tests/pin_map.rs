@@ -1,5 +1,7 @@
-//! The emulator's pin map (`pins::BOARD`) against the board's own: the table at the top of
-//! `firmware/cortex-m/board/src/board.rs` (the source of truth) and the constants next to it.
+//! The emulator's pin maps (`pins::BOARD`, `pins::NUCLEO_F429ZI_MAP`) against the boards'
+//! own: the tables at the top of `firmware/cortex-m/board/src/board.rs` and
+//! `firmware/cortex-m/nucleo-f429zi/src/board.rs` (the sources of truth) and the constants
+//! next to them.
 //! A pin moved on the board and not here (or the other way round) fails this test; the
 //! closed-loop run checks the registers the image configures (`host-sim/board-scenarios`,
 //! `scenarios::boot::pins`).
@@ -7,15 +9,23 @@
 
 use std::collections::BTreeMap;
 
-use board_emulator::pins::{PinId, BOARD, SUPPLY_DIVIDER};
+use board_emulator::pins::{
+    PinId, PinMap, BOARD, NUCLEO_F429ZI, NUCLEO_F429ZI_MAP, SUPPLY_DIVIDER,
+};
 
 const BOARD_RS: &str = include_str!("../../cortex-m/board/src/board.rs");
 const BOARD_CARGO: &str = include_str!("../../cortex-m/board/Cargo.toml");
+const NUCLEO_RS: &str = include_str!("../../cortex-m/nucleo-f429zi/src/board.rs");
 
 /// The documented table: function -> (pin column, peripheral column).
 fn documented() -> BTreeMap<String, (String, String)> {
+    documented_in(BOARD_RS)
+}
+
+/// The documented table of a `board.rs`.
+fn documented_in(board_rs: &str) -> BTreeMap<String, (String, String)> {
     let mut rows = BTreeMap::new();
-    for line in BOARD_RS.lines() {
+    for line in board_rs.lines() {
         let Some(row) = line.strip_prefix("//! |") else {
             continue;
         };
@@ -43,7 +53,19 @@ fn pins(p: &[PinId], sep: &str) -> String {
 /// What the emulator's map says for each documented row (the board's wording of the pin
 /// column).
 fn ours() -> Vec<(&'static str, String)> {
-    let b = &BOARD;
+    ours_for(&BOARD, false)
+}
+
+/// The rows of `b`; `split_currents`: the currents in two rows of three (the NUCLEO's
+/// inputs are not one range).
+fn ours_for(b: &PinMap, split_currents: bool) -> Vec<(&'static str, String)> {
+    let cur = |r: std::ops::Range<usize>| {
+        b.current_sense[r]
+            .iter()
+            .map(|a| a.pin.to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
     let enc = |j: usize| pins(&[b.encoders[j].a, b.encoders[j].b], " / ");
     let mut v: Vec<(&'static str, String)> = vec![
         ("encoder l1 A / B", enc(0)),
@@ -73,14 +95,84 @@ fn ours() -> Vec<(&'static str, String)> {
         ("safety relay feedback", b.relay_feedback.to_string()),
         ("home switch l1, l2, l3", pins(&b.home_switch[..3], ", ")),
         ("home switch theta1, 2, 3", pins(&b.home_switch[3..], ", ")),
-        (
-            "motor current l1..theta3",
-            format!("{}..{}", b.current_sense[0].pin, b.current_sense[5].pin),
-        ),
         ("master link TX / RX", pins(&[b.link_tx, b.link_rx], " / ")),
         ("status LED", b.led.to_string()),
     ]);
+    if split_currents {
+        v.push(("motor current l1, l2, l3", cur(0..3)));
+        v.push(("motor current theta1, 2, 3", cur(3..6)));
+    } else {
+        v.push((
+            "motor current l1..theta3",
+            format!("{}..{}", b.current_sense[0].pin, b.current_sense[5].pin),
+        ));
+    }
     v
+}
+
+/// The NUCLEO-F429ZI's documented table is the emulator's map, row by row (only SWD, the
+/// HSE input and the time driver left out), with the firmware's current scale and the
+/// peripherals the map's channels name.
+#[test]
+fn the_emulator_nucleo_pin_map_is_its_documented_table() {
+    let doc = documented_in(NUCLEO_RS);
+    assert!(doc.len() >= 25, "the table was not found: {doc:?}");
+    let mut covered = Vec::new();
+    for (function, pin) in ours_for(&NUCLEO_F429ZI_MAP, true) {
+        let Some((doc_pin, _)) = doc.get(function) else {
+            panic!("the NUCLEO's board.rs documents no row {function:?}");
+        };
+        assert_eq!(&pin, doc_pin, "{function}");
+        covered.push(function.to_string());
+    }
+    let left: Vec<&String> = doc.keys().filter(|k| !covered.contains(k)).collect();
+    assert_eq!(left, vec!["HSE 8 MHz", "SWD", "time driver"]);
+    let per = |f: &str| doc.get(f).map(|(_, p)| p.clone()).unwrap_or_default();
+    let b = &NUCLEO_F429ZI_MAP;
+    for (j, f) in [
+        "encoder l1 A / B",
+        "encoder l2 A / B",
+        "encoder l3 A / B",
+        "encoder theta1 A / B",
+        "encoder theta2 A / B",
+        "encoder theta3 A / B",
+    ]
+    .iter()
+    .enumerate()
+    {
+        assert!(per(f).starts_with(b.encoders[j].timer.name()), "{f}");
+    }
+    for (j, f) in [
+        (2, "PWM l3"),
+        (3, "PWM theta1"),
+        (4, "PWM theta2"),
+        (5, "PWM theta3"),
+    ] {
+        assert_eq!(
+            per(f),
+            format!("{} CH{}", b.pwm[j].timer.name(), b.pwm[j].channel)
+        );
+    }
+    let chans = |r: std::ops::Range<usize>| {
+        b.current_sense[r]
+            .iter()
+            .map(|a| format!("IN{}", a.channel))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    assert_eq!(
+        per("motor current l1, l2, l3"),
+        format!("ADC1 {}", chans(0..3))
+    );
+    assert_eq!(
+        per("motor current theta1, 2, 3"),
+        format!("ADC1 {}", chans(3..6))
+    );
+    assert!(per("supply voltage sense").starts_with(&format!("ADC1 IN{}", b.supply_sense.channel)));
+    assert!(per("emergency stop").contains(&format!("EXTI{}", b.estop.number)));
+    assert!(NUCLEO_RS.contains("pub const CURRENT_A_PER_COUNT: f32 = 3.3 / 4096.0 / 0.090;"));
+    assert!((NUCLEO_F429ZI.current_sense_a_per_v - 1.0 / 0.090).abs() < 1e-12);
+    assert!(NUCLEO_RS.contains("pub const SUPPLY_V_PER_COUNT: f32 = 3.3 / 4096.0 * 12.0;"));
 }
 
 /// Every pin of the board's documented table is the emulator's, row by row, and every row

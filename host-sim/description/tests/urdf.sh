@@ -10,8 +10,8 @@ set -euo pipefail
 cd "$(dirname "$0")/../../.."
 bin="${1:-}"
 if [ -z "$bin" ]; then
-    cargo build --release -q -p host-sim
-    bin="$(cargo metadata --format-version 1 --no-deps | python3 -c 'import json,sys; print(json.load(sys.stdin)["target_directory"])')/release/host-sim"
+    source tests/host-sim-bin.sh
+    bin="$(host_sim_bin)"
 fi
 work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT

@@ -556,7 +556,65 @@ fn draw_task_box(
     Ok(())
 }
 
+/// A scan setting out of its range; `setting` is its name (`z_mm`, `phi_step_deg`,
+/// `step_mm`, `tol_mm`, `max_radius_mm`, `box_mm`).
+#[derive(Clone, Debug, PartialEq, Error)]
+#[error("{setting}: {reason}")]
+pub struct ScanSettingError {
+    pub setting: &'static str,
+    pub reason: String,
+}
+
 impl Scan {
+    /// [`Scan::new`] after checking the settings: `z_mm` = [from, to, step] with from <=
+    /// to, 0 < step and at most 1000 sections; the other steps, the tolerance and the
+    /// radius finite and > 0; the task box's edges finite and >= 0.
+    pub fn checked(
+        hc_mm: f64,
+        z_mm: [f64; 3],
+        phi_step_deg: f64,
+        step_mm: f64,
+        tol_mm: f64,
+        max_radius_mm: f64,
+        task: &TaskBox,
+    ) -> Result<Self, ScanSettingError> {
+        let [from, to, step] = z_mm;
+        if !(step > 0.0 && to >= from && (to - from) / step <= 1000.0) {
+            return Err(ScanSettingError {
+                setting: "z_mm",
+                reason: "need FROM <= TO and 0 < STEP, at most 1000 sections".into(),
+            });
+        }
+        for (setting, v) in [
+            ("phi_step_deg", phi_step_deg),
+            ("step_mm", step_mm),
+            ("tol_mm", tol_mm),
+            ("max_radius_mm", max_radius_mm),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(ScanSettingError {
+                    setting,
+                    reason: format!("{v} is not a number > 0"),
+                });
+            }
+        }
+        if !task.box_mm.iter().all(|b| b.is_finite() && *b >= 0.0) {
+            return Err(ScanSettingError {
+                setting: "box_mm",
+                reason: "edge lengths must be >= 0 mm".into(),
+            });
+        }
+        Ok(Scan::new(
+            hc_mm,
+            z_mm,
+            phi_step_deg,
+            step_mm,
+            tol_mm,
+            max_radius_mm,
+            task,
+        ))
+    }
+
     /// The scan of the sections at `hc_mm + from, from + step, ... <= to` (mm, `z_mm` =
     /// [from, to, step]) with the footprint of `task`'s box; the other settings as given.
     pub fn new(

@@ -21,7 +21,13 @@
 //! | `k` | clutch engaged / released (engaged: the robot holds) |
 //! | `p` | operator present / absent (the dead-man: absent, the robot holds) |
 //! | `a` | acknowledge the board's last reset: the console names the cause and asks; `y` sends `AcknowledgeReset` (no front end acknowledges a reset by itself) |
+//! | `t` | type a pose target: a line `x y z rx ry rz` (mm, and the rotation vector in deg, `CONVENTIONS.md`), Enter sends it as a `PoseTarget`, Esc cancels; a line that is not six numbers is refused on the spot, naming what is wrong |
 //! | `q`, Esc | quit |
+//!
+//! A typed target goes through the board's supervisor like any other: the board answers it
+//! (`Ack`, or refused with the guard, the value and the limit: "workspace z 177.0 mm >
+//! 175.0 mm", "stroke leg 2 212.4 mm > 210.0 mm", "not homed: home the robot first"), and
+//! a refusal of its path check after the `Ack` is shown too.
 //!
 //! Whatever ends the console (`q`, Ctrl-C, SIGINT, SIGTERM, an error), the robot is
 //! disabled on the way out (`crate::shutdown`).
@@ -61,6 +67,8 @@ pub enum Action {
     Send(MasterToBoard),
     /// Start or extend a jog stream of the selected joint in this direction (+1 / -1).
     Jog(f64),
+    /// Send this pose target (`PoseTarget`, stamped with the link's clock).
+    Target(masters::CartesianPose),
     /// Leave (the loop disables an enabled board first).
     Quit,
 }
@@ -102,6 +110,8 @@ pub struct Console {
     pub confirm_rehome: bool,
     /// Waiting for `y` to acknowledge the reset of this cause.
     pub confirm_reset: Option<master_link::ResetCause>,
+    /// The pose target being typed (`t` opened it).
+    pub target_input: Option<String>,
     jog: Option<JogStream>,
     enable_retry_until: Option<f64>,
     enable_retry_at: Option<f64>,
@@ -123,6 +133,7 @@ impl Console {
             present: false,
             confirm_rehome: false,
             confirm_reset: None,
+            target_input: None,
             jog: None,
             enable_retry_until: None,
             enable_retry_at: None,
@@ -144,6 +155,9 @@ impl Console {
 
     /// What a key does.
     pub fn key(&mut self, code: KeyCode, modifiers: KeyModifiers, t_s: f64) -> Vec<Action> {
+        if self.target_input.is_some() {
+            return self.target_key(code, modifiers, t_s);
+        }
         if let Some(cause) = self.confirm_reset.take() {
             if code == KeyCode::Char('y') {
                 return vec![Action::Send(MasterToBoard::AcknowledgeReset)];
@@ -229,9 +243,48 @@ impl Console {
                     }
                 }
             }
+            KeyCode::Char('t') => {
+                self.target_input = Some(String::new());
+                vec![]
+            }
             KeyCode::Char('q') | KeyCode::Esc => vec![Action::Quit],
             _ => vec![],
         }
+    }
+
+    /// A key while a pose target is being typed: characters, Backspace, Enter (checks the
+    /// line and sends it, or notes what is wrong and keeps it open), Esc (cancels);
+    /// Ctrl-C still quits.
+    fn target_key(&mut self, code: KeyCode, modifiers: KeyModifiers, t_s: f64) -> Vec<Action> {
+        if modifiers.contains(KeyModifiers::CONTROL) && code == KeyCode::Char('c') {
+            return vec![Action::Quit];
+        }
+        let Some(line) = self.target_input.as_mut() else {
+            return vec![];
+        };
+        match code {
+            KeyCode::Char(c) if line.chars().count() < TARGET_INPUT_MAX => line.push(c),
+            KeyCode::Backspace => {
+                line.pop();
+            }
+            KeyCode::Esc => {
+                self.target_input = None;
+                self.note(t_s, "target cancelled".into(), false);
+            }
+            KeyCode::Enter => match parse_target(line) {
+                Ok(mm_deg) => match masters::CartesianPose::from_mm_deg(mm_deg) {
+                    Ok(pose) => {
+                        self.target_input = None;
+                        self.note(t_s, format!("Target {} sent", mm_deg_text(&mm_deg)), false);
+                        return vec![Action::Target(pose)];
+                    }
+                    Err(_) => self.note(t_s, "target: a number is not finite".into(), true),
+                },
+                Err(e) => self.note(t_s, format!("target not sent: {e}"), true),
+            },
+            _ => {}
+        }
+        vec![]
     }
 
     /// The jog velocity of the selected joint in direction `dir`: m/s or rad/s.
@@ -291,10 +344,7 @@ impl Console {
             BoardEvent::TargetRefused(t, r) => {
                 self.note(
                     *t,
-                    format!(
-                        "target refused by the board's path check: {}",
-                        board_words::refusal(r)
-                    ),
+                    format!("Target REFUSED (path): {}", board_words::refusal(r)),
                     true,
                 );
                 None
@@ -309,6 +359,10 @@ impl Console {
         let name = request_name(&r.request);
         match (r.request, r.outcome) {
             (MasterToBoard::Heartbeat, _) => return None,
+            (MasterToBoard::PoseTarget { .. }, o) => {
+                self.outcome_note(r.t_s, "Target", o);
+                return None;
+            }
             (MasterToBoard::Jog { joint, velocity }, o) => {
                 let first = self.jog.as_mut().is_none_or(|j| !j.answered);
                 if let Some(j) = self.jog.as_mut() {
@@ -566,6 +620,8 @@ impl Console {
                 ),
                 red(),
             )
+        } else if let Some(line) = &self.target_input {
+            Line::styled(format!("Target x y z [mm] rx ry rz [deg]: {line}_"), bold())
         } else if self.confirm_rehome {
             Line::styled(
                 "Robot is homed. Re-home (every joint to its switch)? y = yes, other = no",
@@ -577,9 +633,72 @@ impl Console {
         [
             heading,
             Line::from("h hello o home e enable d disable c clear fault s/SPACE stop q quit"),
-            Line::from("1-6 joint +/- jog [ ] speed k clutch p dead-man a ack reset"),
+            Line::from(if self.target_input.is_some() {
+                "Enter send the target  Esc cancel  Backspace erase"
+            } else {
+                "1-6 joint +/- jog [ ] speed k clutch p dead-man a ack reset t target"
+            }),
         ]
     }
+}
+
+/// The longest pose target line, characters.
+const TARGET_INPUT_MAX: usize = 60;
+
+/// Why a typed pose target is not one.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum TargetInputError {
+    /// Not six fields.
+    #[error("{found} number(s), need 6: x y z [mm] rx ry rz [deg]")]
+    Count {
+        /// How many fields the line has.
+        found: usize,
+    },
+    /// A field that is not a finite number.
+    #[error("{field} is {text:?}, not a number")]
+    NotANumber {
+        /// The field's name and unit ("z mm").
+        field: &'static str,
+        /// What was typed.
+        text: String,
+    },
+}
+
+/// The fields of a pose target, with their units.
+const TARGET_FIELDS: [&str; 6] = ["x mm", "y mm", "z mm", "rx deg", "ry deg", "rz deg"];
+
+/// A typed pose target: six numbers separated by spaces or commas, x y z in mm and the
+/// rotation vector rx ry rz in deg (`CONVENTIONS.md`, Pose and twist).
+pub fn parse_target(line: &str) -> Result<[f64; 6], TargetInputError> {
+    let fields: Vec<&str> = line
+        .split(|c: char| c.is_whitespace() || c == ',')
+        .filter(|f| !f.is_empty())
+        .collect();
+    if fields.len() != 6 {
+        return Err(TargetInputError::Count {
+            found: fields.len(),
+        });
+    }
+    let mut v = [0.0; 6];
+    for ((x, text), field) in v.iter_mut().zip(&fields).zip(TARGET_FIELDS) {
+        *x = text
+            .parse::<f64>()
+            .ok()
+            .filter(|x| x.is_finite())
+            .ok_or_else(|| TargetInputError::NotANumber {
+                field,
+                text: (*text).to_string(),
+            })?;
+    }
+    Ok(v)
+}
+
+/// A pose in mm and deg, compact: "x 0.0 y 0.0 z 177.0 mm r 0.0 0.0 0.0 deg".
+fn mm_deg_text(v: &[f64; 6]) -> String {
+    format!(
+        "x {:.1} y {:.1} z {:.1} mm r {:.1} {:.1} {:.1} deg",
+        v[0], v[1], v[2], v[3], v[4], v[5]
+    )
 }
 
 fn bold() -> Style {
@@ -735,6 +854,9 @@ fn event_loop(
                     Action::Send(m) => {
                         board.send(m)?;
                     }
+                    Action::Target(pose) => {
+                        board.send_target(&pose)?;
+                    }
                     Action::Jog(dir) => {
                         c.start_jog(dir, now);
                         if let Some(m) = c.jog_due(now) {
@@ -822,6 +944,108 @@ mod tests {
         );
         assert!(screen.contains("s/SPACE stop"), "{screen}");
         assert!(screen.contains("k clutch p dead-man"), "{screen}");
+    }
+
+    /// `t` opens the target line; what is typed (a `q` too) goes into it; Enter sends six
+    /// numbers as a pose target in mm and deg, and refuses anything else naming what is
+    /// wrong, keeping the line open; Esc cancels.
+    #[test]
+    fn a_typed_target_is_checked_then_sent() {
+        let mut c = Console::new("b");
+        let typed = |c: &mut Console, text: &str| {
+            for ch in text.chars() {
+                assert!(c.key(KeyCode::Char(ch), KeyModifiers::NONE, 0.0).is_empty());
+            }
+        };
+        assert!(c
+            .key(KeyCode::Char('t'), KeyModifiers::NONE, 0.0)
+            .is_empty());
+        typed(&mut c, "0 0 q");
+        assert_eq!(c.target_input.as_deref(), Some("0 0 q"));
+        assert!(c.key(KeyCode::Enter, KeyModifiers::NONE, 0.0).is_empty());
+        assert_eq!(
+            c.replies.back().unwrap().1,
+            "target not sent: 3 number(s), need 6: x y z [mm] rx ry rz [deg]"
+        );
+        typed(&mut c, " 0 0 0");
+        assert!(c.key(KeyCode::Enter, KeyModifiers::NONE, 0.0).is_empty());
+        assert_eq!(
+            c.replies.back().unwrap().1,
+            "target not sent: z mm is \"q\", not a number"
+        );
+        // "0 0 q 0 0 0" back to "0 0 ".
+        for _ in 0..7 {
+            c.key(KeyCode::Backspace, KeyModifiers::NONE, 0.0);
+        }
+        typed(&mut c, "177,1.5 -2 3");
+        let a = c.key(KeyCode::Enter, KeyModifiers::NONE, 0.0);
+        let [Action::Target(p)] = a.as_slice() else {
+            panic!("{a:?}");
+        };
+        let v = p.to_mm_deg();
+        for (x, want) in v.iter().zip([0.0, 0.0, 177.0, 1.5, -2.0, 3.0]) {
+            assert!((x - want).abs() < 1e-9, "{v:?}");
+        }
+        assert!(c.target_input.is_none());
+        // Esc cancels without sending; then keys are commands again.
+        c.key(KeyCode::Char('t'), KeyModifiers::NONE, 0.0);
+        assert!(c.key(KeyCode::Esc, KeyModifiers::NONE, 0.0).is_empty());
+        assert_eq!(
+            c.key(KeyCode::Char('q'), KeyModifiers::NONE, 0.0),
+            vec![Action::Quit]
+        );
+        assert!(parse_target("0 0 160 0 0 inf").is_err());
+    }
+
+    /// The board's answers to a typed target: a refusal at once and one of the path check
+    /// after the Ack, each with the guard, the value and the limit, on a line that fits.
+    #[test]
+    fn target_refusals_name_guard_value_and_limit() {
+        let mut c = Console::new("b");
+        let request = MasterToBoard::PoseTarget {
+            timestamp_us: 1,
+            position_m: [0.0, 0.0, 0.4],
+            rotation_vector_rad: [0.0; 3],
+        };
+        let breach = |guard, subject, value, limit| master_link::RefusedTarget {
+            reply_to: Some(3),
+            timestamp_us: 1,
+            reason: NackReason::OutOfWorkspace,
+            breach: master_link::Breach {
+                guard,
+                subject,
+                value,
+                limit,
+            },
+        };
+        c.board_event(&BoardEvent::Reply(Reply {
+            request,
+            seq: 3,
+            sent_s: 1.0,
+            t_s: 1.0,
+            outcome: Outcome::TargetRefused(breach(master_link::GuardId::Workspace, 2, 0.4, 0.175)),
+        }));
+        let later = master_link::RefusedTarget {
+            reply_to: None,
+            ..breach(
+                master_link::GuardId::Tilt,
+                0,
+                31.2f32.to_radians(),
+                30f32.to_radians(),
+            )
+        };
+        c.board_event(&BoardEvent::TargetRefused(2.0, later));
+        let texts: Vec<&str> = c.replies.iter().map(|r| r.1.as_str()).collect();
+        assert_eq!(
+            texts,
+            [
+                "Target REFUSED: workspace z 400.0 mm > 175.0 mm",
+                "Target REFUSED (path): tilt spherical joint 1 31.2 deg > 30.0 deg"
+            ]
+        );
+        for l in c.reply_lines(2) {
+            assert!(l.width() <= 78 && !l.to_string().ends_with('~'), "{l}");
+        }
     }
 
     /// Re-homing a homed robot asks first; `y` sends `Home { rehome: true }`, another key

@@ -82,6 +82,9 @@ pub struct TickView<'a> {
     pub target: Option<CartesianPose>,
     /// The master's buttons.
     pub buttons: OperatorButtons,
+    /// The board's latest refusal of a target: when (the link's clock, s) and why, in
+    /// words with the guard, the value and the limit.
+    pub refusal: Option<(f64, &'a str)>,
 }
 
 /// The figures of a run.
@@ -95,8 +98,12 @@ pub struct RunReport {
     pub stats: masters::teleop::TeleopStats,
     /// Targets sent.
     pub targets_sent: u64,
-    /// Targets the board refused at once (Nack), by reason.
+    /// Targets the board refused (at once, or by its path check after the `Ack`), by the
+    /// guard or rule that refused them.
     pub targets_refused: BTreeMap<String, u64>,
+    /// The first refusal of each guard or rule (keys as in `targets_refused`): when (the
+    /// link's clock, s) and its words, with the value and the limit.
+    pub first_refusals: BTreeMap<String, (f64, String)>,
     /// Other requests refused: (time, request, reason).
     pub refused: Vec<(f64, &'static str, NackReason)>,
     /// Device read errors.
@@ -150,7 +157,7 @@ impl RunReport {
             .collect();
         let _ = writeln!(
             o,
-            "targets sent {}, refused at once {}{}",
+            "targets sent {}, refused {}{}",
             self.targets_sent,
             self.targets_refused.values().sum::<u64>(),
             if refused.is_empty() {
@@ -159,6 +166,9 @@ impl RunReport {
                 format!(" ({})", refused.join(", "))
             }
         );
+        for (kind, (t, words)) in &self.first_refusals {
+            let _ = writeln!(o, "  {kind}: the first at {t:.2} s: {words}");
+        }
         for (t, what, reason) in &self.refused {
             let _ = writeln!(
                 o,
@@ -381,6 +391,8 @@ struct RunState {
     last_sample_t: Option<f64>,
     last_target: Option<CartesianPose>,
     latest_status: StatusReport,
+    /// The latest refusal of a target: when and its words.
+    last_refusal: Option<(f64, String)>,
 }
 
 impl RunState {
@@ -397,6 +409,7 @@ impl RunState {
             stats: teleop.stats(),
             targets_sent: 0,
             targets_refused: BTreeMap::new(),
+            first_refusals: BTreeMap::new(),
             refused: Vec::new(),
             device_errors: 0,
             filter_delay_s: teleop.filter().map(|f| f.dc_group_delay_s()),
@@ -417,6 +430,7 @@ impl RunState {
             last_sample_t: None,
             last_target: None,
             latest_status: status,
+            last_refusal: None,
         }
     }
 
@@ -449,19 +463,12 @@ impl RunState {
     fn reply(&mut self, r: &Reply) -> Result<(), OperatorError> {
         match (r.request, r.outcome) {
             (MasterToBoard::PoseTarget { .. }, Outcome::Refused(reason)) => {
-                *self
-                    .report
-                    .targets_refused
-                    .entry(board_words::reason(reason).to_string())
-                    .or_default() += 1;
+                let words = board_words::reason(reason).to_string();
+                self.count_refusal(r.t_s, words.clone(), words);
             }
             (MasterToBoard::PoseTarget { .. }, Outcome::TargetRefused(refused)) => {
                 let words = board_words::refusal(&refused);
-                *self
-                    .report
-                    .targets_refused
-                    .entry(refusal_kind(&refused))
-                    .or_default() += 1;
+                self.count_refusal(r.t_s, refusal_kind(&refused), words.clone());
                 self.rec
                     .note(r.t_s, format!("target refused at once: {words}"))?;
             }
@@ -490,11 +497,7 @@ impl RunState {
         t: f64,
         refused: &master_link::RefusedTarget,
     ) -> Result<(), OperatorError> {
-        *self
-            .report
-            .targets_refused
-            .entry(refusal_kind(refused))
-            .or_default() += 1;
+        self.count_refusal(t, refusal_kind(refused), board_words::refusal(refused));
         self.rec.note(
             t,
             format!(
@@ -502,6 +505,17 @@ impl RunState {
                 board_words::refusal(refused)
             ),
         )
+    }
+
+    /// A refused target of `kind` (the guard or rule) at `t`, in `words`: counted, the
+    /// first of its kind kept for the summary, the latest for the live view.
+    fn count_refusal(&mut self, t: f64, kind: String, words: String) {
+        self.report
+            .first_refusals
+            .entry(kind.clone())
+            .or_insert_with(|| (t, words.clone()));
+        *self.report.targets_refused.entry(kind).or_default() += 1;
+        self.last_refusal = Some((t, words));
     }
 
     /// One tick at `t`: the master's sample, its buttons told to the board when they
@@ -584,6 +598,10 @@ impl RunState {
             status: Some(&self.latest_status),
             target: self.last_target,
             buttons: self.buttons,
+            refusal: self
+                .last_refusal
+                .as_ref()
+                .map(|(t, words)| (*t, words.as_str())),
         }
     }
 

@@ -8,9 +8,9 @@
 #
 #   1. the board image (build-and-size.sh: release, sizes against the budgets);
 #   2. the board emulator (its own workspace: release, --locked, --ignore-rust-version);
-#   3. the host side: host-sim (release, as board.sh builds it) and the two Rust test
-#      binaries, built as tests/run-all.sh builds them (`cargo test --workspace`: the test
-#      profile, the workspace's features), so that nothing is built twice;
+#   3. the host side: host-sim and the Rust test binaries, built as tests/run-all.sh
+#      builds them (`cargo test --workspace`: the test profile, the workspace's features;
+#      tests/host-sim-bin.sh), so that nothing is built twice;
 #   4. a fresh emulated board, warmed up (see warm_up): the tests of
 #      tests/latency_recording.rs and tests/scripted_operator.rs, one at a time (a board
 #      serves one master at a time), each in a process of its own, so that the board's log
@@ -121,17 +121,17 @@ summary() {
 # Builds: a failed build ends the run (there is nothing to test).
 build_image() { bash firmware/cortex-m/board/build-and-size.sh; }
 build_emulator() {
+    # --all-targets as firmware/board-emulator/run.sh builds it: the same features of
+    # rigless, so that nothing is compiled again after that stage.
     (cd firmware/board-emulator &&
-        cargo build --release --locked --ignore-rust-version --bin board-emulator)
+        cargo build --release --locked --ignore-rust-version --all-targets)
 }
 build_host() {
-    cargo build --release -q -p host-sim &&
-        cargo test --workspace --no-run --test scripted_operator --test latency_recording \
-            --test chain_on_board
+    cargo test --workspace --no-run -q
 }
 for s in "the board image (release, thumbv7em-none-eabihf):build_image" \
     "the board emulator (release, --locked, --ignore-rust-version):build_emulator" \
-    "host-sim (release) and the test binaries (test profile):build_host"; do
+    "host-sim and the test binaries (test profile):build_host"; do
     step "${s%%:*}" "${s##*:}" || { summary; exit 1; }
 done
 # raise_priority: the emulated board and its masters (the tests, the console in tmux, the
@@ -156,7 +156,7 @@ target_of() {
         python3 -c 'import json, sys; print(json.load(sys.stdin)["target_directory"])'
 }
 emulator="$(cd firmware/board-emulator && target_of)/release/board-emulator"
-host_sim="$(target_of)/release/host-sim"
+host_sim="$(target_of)/debug/host-sim"
 echo "image $RSPR_BOARD_ELF"
 echo "emulator $emulator"
 

@@ -1,8 +1,8 @@
-# Sourced by the operator's test scripts: builds host-sim (release) and starts the board to
+# Sourced by the operator's test scripts: builds host-sim (tests/host-sim-bin.sh) and starts the board to
 # test against: the board at $RSPR_BOARD_SOCKET when set (the emulator of the real board
 # image, `serve --socket PATH`, or any board serving the link on a Unix socket), else the
 # simulated board, `host-sim board --socket`, in the background (through a serial device
-# with RSPR_BOARD_VIA_PTY=1, below). Sets: bin (host-sim),
+# with RSPR_BOARD_VIA_PTY=1, below). Sets: bin (host-sim, or $RSPR_HOST_SIM),
 # work (a temporary directory), sock (the board's socket); `started PID` registers a
 # process to stop at exit.
 set -euo pipefail
@@ -20,9 +20,15 @@ cleanup() {
 }
 trap cleanup EXIT
 
-cargo build --release -q -p host-sim
-target_dir="$(cargo metadata --format-version 1 --no-deps | python3 -c 'import json,sys; print(json.load(sys.stdin)["target_directory"])')"
-bin="$target_dir/release/host-sim"
+# RSPR_HOST_SIM=PATH: test that host-sim binary (one built elsewhere) instead of the one
+# the test stage builds.
+if [ -n "${RSPR_HOST_SIM:-}" ]; then
+    bin="$RSPR_HOST_SIM"
+    [ -x "$bin" ] || { echo "RSPR_HOST_SIM=$bin is not an executable"; exit 1; }
+else
+    source tests/host-sim-bin.sh
+    bin="$(host_sim_bin)"
+fi
 
 if [ -n "${RSPR_BOARD_SOCKET:-}" ]; then
     sock="$RSPR_BOARD_SOCKET"

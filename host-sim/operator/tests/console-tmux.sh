@@ -2,8 +2,10 @@
 # The console as a person uses it: `host-sim console` in an 80x24 tmux window
 # against the board (the simulated board, or $RSPR_BOARD_SOCKET: see board.sh), driven
 # with send-keys and read with capture-pane. It homes, enables, jogs joint l1, triggers
-# refused commands (Enable before homing; re-homing, confirmed, while enabled), stops and
-# clears the fault, and reads each on the screen. Installs tmux when missing.
+# refused commands (Enable and a typed pose target before homing; re-homing, confirmed,
+# while enabled), types pose targets that the board's guards refuse (the workspace, the
+# platform tilt, the stroke: each named on the screen with its value and limit), stops
+# and clears the fault, and reads each on the screen. Installs tmux when missing.
 #
 #   bash host-sim/operator/tests/console-tmux.sh
 #
@@ -66,7 +68,7 @@ quit_console() {
 
 echo "==> the console at 80x24: keys on screen, the board's state"
 wait_for "h hello o home e enable d disable c clear fault s/SPACE stop q quit" 5
-wait_for "1-6 joint +/- jog [ ] speed k clutch p dead-man a ack reset" 5
+wait_for "1-6 joint +/- jog [ ] speed k clutch p dead-man a ack reset t target" 5
 wait_for "Hello -> firmware" 10
 wait_for "Homed no" 5
 # Characters, not bytes (the frame's box-drawing characters are 3 bytes each in UTF-8, and
@@ -79,6 +81,25 @@ echo "  screen: $lines lines, widest $cols columns"
 echo "==> a refused command: Enable before homing"
 keys e
 wait_for "Enable REFUSED: not homed: home the robot first" 5
+
+# target LINE: types a pose target (t, the line, Enter) and waits for the console to
+# echo it as sent.
+target() {
+    keys t
+    wait_for "Target x y z [mm] rx ry rz [deg]: _" 5
+    keys -l "$1"
+    keys Enter
+}
+echo "==> a typed target: a line that is not six numbers is refused on the spot, then Esc"
+keys t
+keys -l "0 0 abc 0 0 0"
+keys Enter
+wait_for 'target not sent: z mm is "abc", not a number' 5
+keys Escape
+wait_for "target cancelled" 5
+echo "==> a refused target: before homing"
+target "0 0 160 0 0 0"
+wait_for "Target REFUSED: not homed: home the robot first" 5
 if [ "${RSPR_CONSOLE_NOT_HOMED_ONLY:-0}" = 1 ]; then
     quit_console
     exit 0
@@ -146,6 +167,22 @@ assert 1.0 <= d[0] <= 2.0, "l1 did not move between 1 and 2 mm"
 assert abs(later - b[0]) <= 0.004 + 1e-9, "l1 did not stop after the jog"
 assert max(abs(x) for x in d[1:3]) <= 0.01 and max(abs(x) for x in d[3:]) <= 0.02 + 1e-9, "another joint moved"
 PY
+
+# Targets the guards refuse, each named with its value and limit (the board checks a
+# target's end first, so the value is the target's): z 177 mm against the workspace box
+# (hc 160 mm + 10 mm + its 5 mm margin); 28 deg about x against the 25 deg platform tilt;
+# and a pose inside the box and the tilt cone (x 20, y 20, z 148 mm, rotation vector
+# (0, 22, 17) deg: platform tilt 21.9 deg, link angles within 35 deg) whose leg 1 is
+# 134.0 mm, below the 144 mm stroke (the inverse kinematics, Eq. 6.22; `host-sim check
+# --pose 20,20,148,0,22,17` lists it as the first stop).
+echo "==> targets the guards refuse: the workspace, the platform tilt, the stroke"
+target "0 0 177 0 0 0"
+wait_for "workspace z 177.0 mm > 175.0 mm" 5
+target "0 0 160 28 0 0"
+wait_for "platform tilt 28.0 deg > 25.0 deg" 5
+target "20 20 148 0 22 17"
+wait_for "stroke leg 1 134.0 mm < 144.0 mm" 5
+wait_for "State Enabled" 5
 
 echo "==> a refused command: re-homing (confirmed) while enabled"
 keys o

@@ -11,8 +11,9 @@
 //! one where the samples stop for longer than a bound); a panel's warn and stop levels
 //! ([`Level`]) are dashed lines with their value and unit in the legend; intervals (passes,
 //! holds, clutch periods: [`Band`]) are shaded behind the lines (at least 3 pixels wide); a series without data gets
-//! no legend entry ([`legend_entries`]); the legend sits in the corner with the fewest
-//! points ([`legend_corner`]); [`PALETTE`] gives distinct colours.
+//! no legend entry ([`legend_entries`]); the legend sits in a strip of its own right of
+//! the plot ([`legend_strip_px`]), never on the data or the shading; [`PALETTE`] gives
+//! distinct colours.
 //!
 //! The tools that need more (the workspace's 3-D boundary view) draw with `plotters`
 //! directly and use [`register_font`], [`span`] and [`PlotError`].
@@ -136,102 +137,74 @@ pub fn intervals(samples: &[(f64, bool)]) -> Vec<(f64, f64)> {
     out
 }
 
-/// The legend's entries of a panel, in drawing order: each band label once, each series
-/// with a label and at least one finite point, each level.
-pub fn legend_entries(panel: &Panel) -> Vec<String> {
-    let mut out: Vec<String> = Vec::new();
+/// What a legend entry shows beside its label.
+#[derive(Clone, Copy, Debug)]
+enum Swatch {
+    /// A band's shading.
+    Band(RGBColor),
+    /// A series' line.
+    Line(ShapeStyle),
+    /// A level's dashed line.
+    Dashed(ShapeStyle),
+}
+
+/// The legend's entries with their swatches, in drawing order (see [`legend_entries`]).
+fn legend_items(panel: &Panel) -> Vec<(String, Swatch)> {
+    let mut out: Vec<(String, Swatch)> = Vec::new();
     for b in &panel.bands {
-        if !out.contains(&b.label) {
-            out.push(b.label.clone());
+        if !out.iter().any(|(l, _)| *l == b.label) {
+            out.push((b.label.clone(), Swatch::Band(b.color)));
         }
     }
     for s in &panel.series {
         if let Some(l) = &s.label {
             if !segments(&s.points).is_empty() {
-                out.push(l.clone());
+                out.push((l.clone(), Swatch::Line(s.style)));
             }
         }
     }
-    out.extend(panel.levels.iter().map(|l| l.label.clone()));
+    out.extend(
+        panel
+            .levels
+            .iter()
+            .map(|l| (l.label.clone(), Swatch::Dashed(l.color.stroke_width(2)))),
+    );
     out
 }
 
-/// A corner of a panel.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Corner {
-    UpperRight,
-    UpperLeft,
-    LowerRight,
-    LowerLeft,
+/// The legend's entries of a panel, in drawing order: each band label once, each series
+/// with a label and at least one finite point, each level.
+pub fn legend_entries(panel: &Panel) -> Vec<String> {
+    legend_items(panel).into_iter().map(|(l, _)| l).collect()
 }
 
-/// The corner whose quarter of the panel (40 % of each range from that corner) holds the
-/// fewest points of the series and levels, and how many it holds: where the legend hides
-/// the least data. Ties go to the first in [`Corner`]'s order.
-pub fn legend_corner(panel: &Panel) -> (Corner, usize) {
-    let (x0, x1) = panel.x_range;
-    let (y0, y1) = panel.y_range;
-    let (wx, wy) = ((x1 - x0) * 0.4, (y1 - y0) * 0.4);
-    let inside = |c: Corner, (x, y): (f64, f64)| {
-        let right = x >= x1 - wx;
-        let left = x <= x0 + wx;
-        let upper = y >= y1 - wy;
-        let lower = y <= y0 + wy;
-        match c {
-            Corner::UpperRight => right && upper,
-            Corner::UpperLeft => left && upper,
-            Corner::LowerRight => right && lower,
-            Corner::LowerLeft => left && lower,
-        }
-    };
-    let points: Vec<(f64, f64)> = panel
-        .series
+/// Height of one legend row, pixels.
+const LEGEND_ROW_PX: i32 = 20;
+/// The legend's font size, pixels.
+const LEGEND_FONT_PX: u32 = 15;
+/// The swatch's width and the gaps around it and the text, pixels.
+const LEGEND_SWATCH_PX: i32 = 22;
+const LEGEND_PAD_PX: i32 = 8;
+
+/// The widest of the legend's labels in `font`, pixels (0 without labels).
+fn legend_label_px(items: &[(String, Swatch)], font: &FontDesc<'_>) -> u32 {
+    items
         .iter()
-        .flat_map(|s| s.points.iter().copied())
-        .chain(panel.levels.iter().flat_map(|l| {
-            // A level crosses the whole panel: sample it across.
-            (0..=20).map(move |k| (x0 + (x1 - x0) * f64::from(k) / 20.0, l.y))
-        }))
-        .filter(|(x, y)| x.is_finite() && y.is_finite())
-        .collect();
-    let corners = [
-        Corner::UpperRight,
-        Corner::UpperLeft,
-        Corner::LowerRight,
-        Corner::LowerLeft,
-    ];
-    let count = |c: Corner| points.iter().filter(|p| inside(c, **p)).count();
-    corners
-        .into_iter()
-        .map(|c| (c, count(c)))
-        .min_by_key(|(_, n)| *n)
-        .unwrap_or((Corner::UpperRight, 0))
+        .map(|(l, _)| font.box_size(l).map_or(0, |(w, _)| w))
+        .max()
+        .unwrap_or(0)
 }
 
-/// Height of one legend row and the legend's frame, pixels.
-const LEGEND_ROW_PX: f64 = 20.0;
-const LEGEND_FRAME_PX: f64 = 16.0;
-
-/// Where the legend goes and the y range that leaves it room: the corner with the fewest
-/// points ([`legend_corner`]); when every corner holds data, the y range is raised so that
-/// the legend (its rows of [`LEGEND_ROW_PX`]) fits above the data on a plot
-/// `plot_height_px` high, upper right.
-pub fn legend_placement(panel: &Panel, plot_height_px: f64) -> (Corner, (f64, f64)) {
-    let (corner, points) = legend_corner(panel);
-    let rows = legend_entries(panel).len() as f64;
-    if points == 0 || rows == 0.0 {
-        return (corner, panel.y_range);
+/// The width of the legend strip right of a panel whose legend labels are at most
+/// `label_px` wide (0: no legend, no strip), within a panel `area_px` wide: the swatch,
+/// the label and their padding, at most 45 % of the panel (a longer label is cut by
+/// the picture's edge, the data never covered).
+pub fn legend_strip_px(label_px: u32, area_px: u32) -> u32 {
+    if label_px == 0 {
+        return 0;
     }
-    let (y0, y1) = panel.y_range;
-    let frac = (rows * LEGEND_ROW_PX + LEGEND_FRAME_PX + 10.0) / plot_height_px.max(1.0);
-    if frac >= 0.6 {
-        // Too many rows to make room for: the least-covered corner.
-        return (corner, panel.y_range);
-    }
-    (
-        Corner::UpperRight,
-        (y0, y1 + (y1 - y0) * frac / (1.0 - frac)),
-    )
+    let want = label_px + (LEGEND_SWATCH_PX + 4 * LEGEND_PAD_PX) as u32;
+    want.min(area_px * 45 / 100)
 }
 
 /// Registers the embedded DejaVu Sans as "sans-serif" (once per process).
@@ -336,7 +309,14 @@ pub fn line_charts(
         Layout::Stacked => root.split_evenly((n, 1)),
         Layout::SideBySide => root.split_evenly((1, n)),
     };
-    for (area, panel) in areas.iter().zip(panels) {
+    for (whole, panel) in areas.iter().zip(panels) {
+        // The legend's strip, right of the chart: the chart never lies under it.
+        let items = legend_items(panel);
+        let font = ("sans-serif", LEGEND_FONT_PX).into_font();
+        let (width, _) = whole.dim_in_pixel();
+        let strip_px = legend_strip_px(legend_label_px(&items, &font), width);
+        let (area, strip) = whole.split_horizontally(width - strip_px);
+        let area = &area;
         let mut builder = ChartBuilder::on(area);
         builder
             .margin(12)
@@ -346,12 +326,7 @@ pub fn line_charts(
             builder.caption(caption, ("sans-serif", 18));
         }
         let (x0, x1) = panel.x_range;
-        // The plot's height: the area less the x labels, the caption and the margins.
-        let plot_px = f64::from(area.dim_in_pixel().1)
-            - 40.0
-            - 24.0
-            - if panel.caption.is_some() { 30.0 } else { 0.0 };
-        let (corner, (y0, y1)) = legend_placement(panel, plot_px);
+        let (y0, y1) = panel.y_range;
         let mut chart = builder
             .build_cartesian_2d(x0..x1, y0..y1)
             .map_err(PlotError::new)?;
@@ -361,7 +336,6 @@ pub fn line_charts(
             .y_desc(panel.y_desc.as_str())
             .draw()
             .map_err(PlotError::new)?;
-        let mut banded: Vec<&str> = Vec::new();
         // A band narrower than 3 pixels is drawn 3 pixels wide about its middle, so that
         // a short interval shows.
         let (px, _) = area.dim_in_pixel();
@@ -376,62 +350,88 @@ pub fn line_charts(
             if a.partial_cmp(&z) != Some(std::cmp::Ordering::Less) {
                 continue;
             }
-            let drawn = chart
+            chart
                 .draw_series(std::iter::once(Rectangle::new(
                     [(a, y0), (z, y1)],
                     b.color.mix(0.18).filled(),
                 )))
                 .map_err(PlotError::new)?;
-            if !banded.contains(&b.label.as_str()) {
-                banded.push(b.label.as_str());
-                let c = b.color.mix(0.35).filled();
-                drawn
-                    .label(b.label.as_str())
-                    .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 20, y + 5)], c));
-            }
         }
         for s in &panel.series {
-            let runs = segments(&s.points);
-            let mut first = true;
-            for run in &runs {
-                let drawn = chart
+            for run in &segments(&s.points) {
+                chart
                     .draw_series(LineSeries::new(run.iter().copied(), s.style))
                     .map_err(PlotError::new)?;
-                if let (true, Some(label)) = (first, &s.label) {
-                    let style = s.style;
-                    drawn
-                        .label(label.as_str())
-                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], style));
-                }
-                first = false;
             }
         }
         for l in &panel.levels {
             let style = l.color.stroke_width(2);
             chart
                 .draw_series(DashedLineSeries::new([(x0, l.y), (x1, l.y)], 8, 5, style))
-                .map_err(PlotError::new)?
-                .label(l.label.as_str())
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], style));
-        }
-        if !legend_entries(panel).is_empty() {
-            let position = match corner {
-                Corner::UpperRight => SeriesLabelPosition::UpperRight,
-                Corner::UpperLeft => SeriesLabelPosition::UpperLeft,
-                Corner::LowerRight => SeriesLabelPosition::LowerRight,
-                Corner::LowerLeft => SeriesLabelPosition::LowerLeft,
-            };
-            chart
-                .configure_series_labels()
-                .position(position)
-                .label_font(("sans-serif", 15))
-                .border_style(BLACK)
-                .background_style(WHITE.mix(0.85))
-                .draw()
                 .map_err(PlotError::new)?;
         }
+        // The legend's top at the plot's top.
+        let top = chart.plotting_area().get_base_pixel().1 - whole.get_base_pixel().1;
+        draw_legend(&strip, &items, &font, top)?;
     }
     root.present().map_err(PlotError::new)
+}
+
+/// Draws the legend's `items` in `strip` (nothing when there are none), framed, its first
+/// row `top` pixels down.
+fn draw_legend<DB: DrawingBackend>(
+    strip: &DrawingArea<DB, plotters::coord::Shift>,
+    items: &[(String, Swatch)],
+    font: &FontDesc<'_>,
+    top: i32,
+) -> Result<(), PlotError> {
+    if items.is_empty() {
+        return Ok(());
+    }
+    let (w, _) = strip.dim_in_pixel();
+    let (w, n) = (w as i32, items.len() as i32);
+    let left = LEGEND_PAD_PX;
+    strip
+        .draw(&Rectangle::new(
+            [
+                (left, top),
+                (w - 2, top + n * LEGEND_ROW_PX + LEGEND_PAD_PX),
+            ],
+            BLACK.stroke_width(1),
+        ))
+        .map_err(PlotError::new)?;
+    let style = font
+        .color(&BLACK)
+        .pos(plotters::style::text_anchor::Pos::new(
+            plotters::style::text_anchor::HPos::Left,
+            plotters::style::text_anchor::VPos::Center,
+        ));
+    for (k, (label, swatch)) in items.iter().enumerate() {
+        let y = top + LEGEND_PAD_PX / 2 + LEGEND_ROW_PX / 2 + k as i32 * LEGEND_ROW_PX;
+        let (a, z) = (
+            left + LEGEND_PAD_PX,
+            left + LEGEND_PAD_PX + LEGEND_SWATCH_PX,
+        );
+        match *swatch {
+            Swatch::Band(c) => strip.draw(&Rectangle::new(
+                [(a, y - 6), (z, y + 6)],
+                c.mix(0.35).filled(),
+            )),
+            Swatch::Line(st) => strip.draw(&PathElement::new(vec![(a, y), (z, y)], st)),
+            Swatch::Dashed(st) => strip
+                .draw(&PathElement::new(vec![(a, y), (a + 8, y)], st))
+                .and_then(|()| strip.draw(&PathElement::new(vec![(a + 13, y), (z, y)], st))),
+        }
+        .map_err(PlotError::new)?;
+        strip
+            .draw(&Text::new(
+                label.as_str(),
+                (z + LEGEND_PAD_PX, y),
+                style.clone(),
+            ))
+            .map_err(PlotError::new)?;
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -516,44 +516,77 @@ mod tests {
         assert_eq!(legend_entries(&p), vec!["hold", "data", "warn 10 %"]);
     }
 
-    /// The legend goes where the data is not: a line along the top puts it low, one
-    /// rising to the upper right puts it upper left.
+    /// The legend changes no pixel of the chart: two legends of the same width but other
+    /// words (the same letters in another order), over a panel shaded from end to end
+    /// and crossed by its lines, leave every pixel left of the legend's strip the same,
+    /// and differ inside the strip.
     #[test]
-    fn the_legend_avoids_the_data() {
-        let top: Vec<(f64, f64)> = (0..=10).map(|i| (f64::from(i), 9.5)).collect();
-        assert_eq!(
-            legend_corner(&bare(vec![Series::new("a", top, RED, 1)])),
-            (Corner::LowerRight, 0)
-        );
-        let rising: Vec<(f64, f64)> = (0..=10).map(|i| (f64::from(i), f64::from(i))).collect();
-        let p = bare(vec![Series::new("a", rising, RED, 1)]);
-        assert_eq!(legend_corner(&p), (Corner::UpperLeft, 0));
-        assert_eq!(
-            legend_placement(&p, 400.0),
-            (Corner::UpperLeft, (0.0, 10.0))
-        );
+    fn the_legend_sits_off_the_data() {
+        let panel = |word: &str| Panel {
+            caption: Some("caption".into()),
+            x_desc: "t [s]".into(),
+            y_desc: "mm".into(),
+            x_range: (0.0, 10.0),
+            y_range: (0.0, 10.0),
+            series: vec![Series::new(
+                format!("{word} line"),
+                (0..=10).map(|i| (f64::from(i), 9.5)).collect(),
+                RED,
+                2,
+            )],
+            levels: vec![Level {
+                label: format!("{word} level"),
+                y: 0.5,
+                color: BLUE,
+            }],
+            bands: vec![Band {
+                label: format!("{word} band"),
+                x: (0.0, 10.0),
+                color: PALETTE[2],
+            }],
+        };
+        let (w, h) = (600u32, 300u32);
+        let render = |word: &str| {
+            let dir =
+                std::env::temp_dir().join(format!("plots-legend-{}-{word}", std::process::id()));
+            std::fs::create_dir_all(&dir).unwrap();
+            let path = dir.join("chart.bmp");
+            line_charts(&path, (w, h), "t", &[panel(word)], Layout::Stacked).unwrap();
+            let bytes = std::fs::read(&path).unwrap();
+            let _ = std::fs::remove_dir_all(&dir);
+            bytes
+        };
+        let (a, b) = (render("ab"), render("ba"));
+        assert_eq!(a.len(), b.len());
+        // A BMP: rows bottom up, 4-byte aligned, after the header; its pixel size from the
+        // header's bits per pixel.
+        let offset = u32::from_le_bytes(a[10..14].try_into().unwrap()) as usize;
+        let px = usize::from(u16::from_le_bytes(a[28..30].try_into().unwrap()) / 8);
+        let row = (w as usize * px).div_ceil(4) * 4;
+        let register = root_legend_width(&panel("ab"), w);
+        assert_eq!(register, root_legend_width(&panel("ba"), w));
+        assert!(register > 0 && register < w / 2, "{register}");
+        let chart_px = (w - register) as usize;
+        let mut strip_differs = false;
+        for y in 0..h as usize {
+            let r = offset + y * row;
+            let differs = (0..chart_px)
+                .find(|x| a[r + x * px..r + (x + 1) * px] != b[r + x * px..r + (x + 1) * px]);
+            assert_eq!(
+                differs, None,
+                "the legend's words changed the chart's row {y} (from the bottom), column {differs:?} of {chart_px}, {px} bytes a pixel"
+            );
+            strip_differs |= a[r + chart_px * px..r + w as usize * px]
+                != b[r + chart_px * px..r + w as usize * px];
+        }
+        assert!(strip_differs, "no legend in the strip");
     }
 
-    /// Data in every corner: the y range grows so that the legend's rows fit above the
-    /// data.
-    #[test]
-    fn a_crowded_panel_makes_room_for_the_legend() {
-        let top: Vec<(f64, f64)> = (0..=10).map(|i| (f64::from(i), 9.5)).collect();
-        let bottom: Vec<(f64, f64)> = (0..=10).map(|i| (f64::from(i), 0.5)).collect();
-        let p = bare(vec![
-            Series::new("top", top, RED, 1),
-            Series::new("bottom", bottom, BLUE, 1),
-        ]);
-        assert_eq!(legend_corner(&p).1, 11 - 6);
-        let (corner, (y0, y1)) = legend_placement(&p, 300.0);
-        assert_eq!(corner, Corner::UpperRight);
-        assert_eq!(y0, 0.0);
-        // Two rows of 20 px, the 16 px frame and 10 px apart: 66 px of 300 above the data.
-        let room = (y1 - 10.0) / (y1 - y0) * 300.0;
-        assert!((room - 66.0).abs() < 1e-9, "{room}");
-        // Every point lies below the legend's band.
-        let highest = p.series.iter().flat_map(|s| s.points.iter()).map(|q| q.1);
-        assert!(highest.fold(f64::MIN, f64::max) <= y1 - (y1 - y0) * 66.0 / 300.0);
+    /// The strip's width for a panel `w` pixels wide, as `line_charts` lays it out.
+    fn root_legend_width(panel: &Panel, w: u32) -> u32 {
+        register_font();
+        let font = ("sans-serif", LEGEND_FONT_PX).into_font();
+        legend_strip_px(legend_label_px(&legend_items(panel), &font), w)
     }
 
     #[test]

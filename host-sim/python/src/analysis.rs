@@ -6,6 +6,7 @@
 //! The same functions serve the bindings (`bindings`, feature `python`) and this crate's
 //! Rust tests, so the values Python sees are the ones tested here without Python.
 
+use kinematics_core::guards::Limits;
 use kinematics_core::singularity::configurations::residuals;
 use kinematics_core::singularity::lines::{analyse, Tolerances};
 use kinematics_core::singularity::serial_cases::cases;
@@ -15,22 +16,19 @@ use kinematics_core::{
     FkError, ForceError, IkError, JacobianError, Mechanism, Pose, Robot, RobotKind, Solution,
     Wrench,
 };
-use robot_config::edge::EdgeError;
 use robot_config::edge::{joints_from_edge, joints_to_edge, pose_from_edge, pose_to_edge, POSE};
+use robot_config::fields::{branch_from_bits, finite_values, FieldError, INITIAL_POSE, WRENCH};
+use robot_config::verdict::{self, Check, VerdictError};
 use thiserror::Error;
 
 /// Why an analysis has no result: the input, or the step that failed with the core's
 /// reason (the texts of the command line's `error` column).
-#[derive(Clone, Debug, PartialEq, Error)]
+#[derive(Debug, Error)]
 pub enum AnalysisError {
-    /// A pose component is NaN or infinite.
+    /// A value that is not finite, a branch out of range: the command line's parser's
+    /// words (`robot_config::fields`).
     #[error(transparent)]
-    Pose(#[from] EdgeError),
-    /// A joint value is NaN or infinite.
-    #[error("{name}: not finite")]
-    Joint { name: &'static str },
-    #[error("branch: {0} is out of range 0..=7")]
-    Branch(i64),
+    Input(#[from] FieldError),
     #[error("ik: {0}")]
     Ik(IkError),
     #[error("fk: {0}")]
@@ -43,6 +41,12 @@ pub enum AnalysisError {
     Forces(ForceError),
     #[error("singularity: {0}")]
     Singularity(SvdDidNotConverge),
+    /// The guards of the branch cannot be set up for the robot and limits.
+    #[error(transparent)]
+    Guards(#[from] VerdictError),
+    /// A design tool's settings or robot (workspace, synthesis, comparison).
+    #[error(transparent)]
+    Design(#[from] crate::design_tools::DesignToolError),
 }
 
 /// The smallest inverse condition number `forces` accepts by default (as `host-sim forces
@@ -51,10 +55,18 @@ pub const MIN_INV_COND: f64 = 1e-6;
 
 /// A branch from its number 0..=7.
 pub fn branch(bits: i64) -> Result<Branch, AnalysisError> {
-    u32::try_from(bits)
-        .ok()
-        .and_then(|b| Branch::new(b).ok())
-        .ok_or(AnalysisError::Branch(bits))
+    Ok(branch_from_bits(bits)?)
+}
+
+/// A pose from its edge values (mm, deg), each component checked as the command line's
+/// parser checks it.
+pub fn pose(values: [f64; 6]) -> Result<Pose<f64>, AnalysisError> {
+    pose_named(&POSE, values)
+}
+
+fn pose_named(names: &[&'static str; 6], values: [f64; 6]) -> Result<Pose<f64>, AnalysisError> {
+    let v = finite_values(names, values)?;
+    pose_from_edge(names, v).map_err(|e| AnalysisError::Input(e.into()))
 }
 
 /// The inverse kinematics of a pose (mm, deg) on a branch.
@@ -63,8 +75,7 @@ pub fn solve(
     pose: [f64; 6],
     b: Branch,
 ) -> Result<Solution<f64>, AnalysisError> {
-    let pose = pose_from_edge(&POSE, pose)?;
-    inverse(robot, &pose, b).map_err(AnalysisError::Ik)
+    inverse(robot, &self::pose(pose)?, b).map_err(AnalysisError::Ik)
 }
 
 /// The joints (mm, deg, q order) of a pose (mm, deg) on a branch.
@@ -95,14 +106,9 @@ pub fn fk(
     initial: Option<[f64; 6]>,
 ) -> Result<Fk, AnalysisError> {
     let names = robot_config::edge::joint_columns(robot.kind());
-    for (name, v) in names.iter().zip(joints) {
-        if !v.is_finite() {
-            return Err(AnalysisError::Joint { name });
-        }
-    }
-    let q = joints_from_edge(robot, joints);
+    let q = joints_from_edge(robot, finite_values(&names, joints)?);
     let guess = match initial {
-        Some(p) => pose_from_edge(&INITIAL, p)?,
+        Some(p) => pose_named(&INITIAL_POSE, p)?,
         None => Pose::central(robot.hc()),
     };
     let s = forward(robot, &q, b, &guess, &FkConfig::default()).map_err(AnalysisError::Fk)?;
@@ -111,9 +117,6 @@ pub fn fk(
         iterations: s.iterations,
     })
 }
-
-/// The names of the initial pose's components in messages (as `host-sim fk`'s columns).
-const INITIAL: [&str; 6] = ["x0_mm", "y0_mm", "z0_mm", "rx0_deg", "ry0_deg", "rz0_deg"];
 
 /// The Jacobians at a pose, SI, row-major.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -158,9 +161,70 @@ pub fn forces(
 ) -> Result<[f64; 6], AnalysisError> {
     let sol = solve(robot, pose, b)?;
     let jac = core_jacobian(robot, &sol).map_err(AnalysisError::Jacobian)?;
-    let se = Wrench::from_row_slice(&wrench);
+    let se = Wrench::from(finite_values(&WRENCH, wrench)?);
     let s = actuator_forces(&jac, robot.rp(), &se, min_inv_cond).map_err(AnalysisError::Forces)?;
     Ok(s.tau.into())
+}
+
+/// One guard violated at a pose, in the guard's edge unit (mm, deg, N, N m; dimensionless
+/// measures as is).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ViolationValue {
+    /// The guard's name (`stroke`, `workspace`, `tilt_cone`, ...).
+    pub guard: &'static str,
+    /// What it is about: empty for the robot, `chain1`, `q4`, `x`, ...
+    pub subject: String,
+    pub value: f64,
+    /// The level the value violates.
+    pub limit: f64,
+    /// The guard's edge unit (`mm`, `deg`, `N`, `N m`, or empty).
+    pub unit: &'static str,
+    /// `warn` or `stop`.
+    pub severity: String,
+    /// As `host-sim check` lists it: `guard:subject:value:limit`.
+    pub text: String,
+}
+
+/// The guards' verdict at a pose, as `host-sim check` reports it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CheckValues {
+    /// No stop-level violation: the supervisor would accept the pose as a setpoint.
+    pub ok: bool,
+    /// The worst severity: empty, `warn` or `stop`.
+    pub severity: String,
+    /// Every violation, in evaluation order.
+    pub violations: Vec<ViolationValue>,
+    /// The verdict in words (the `guards` column of `ik`, `fk`, `jacobian`, `forces`).
+    pub verdict: String,
+}
+
+/// The guards' verdict at a pose (mm, deg) on a branch, with the guards `check` prepared
+/// for the robot and its limits.
+pub fn check(check: &Check, pose: [f64; 6], b: Branch) -> Result<CheckValues, AnalysisError> {
+    let readings = check.violations(&self::pose(pose)?, b)?;
+    let worst = verdict::worst(&readings);
+    Ok(CheckValues {
+        ok: worst != Some(kinematics_core::guards::Severity::Stop),
+        severity: worst.map(|s| s.to_string()).unwrap_or_default(),
+        violations: readings
+            .iter()
+            .map(|r| ViolationValue {
+                guard: r.guard.name(),
+                subject: r.subject.to_string(),
+                value: verdict::to_edge(r.guard, r.value),
+                limit: verdict::to_edge(r.guard, r.limit),
+                unit: r.guard.edge_unit().1,
+                severity: r.severity.map(|s| s.to_string()).unwrap_or_default(),
+                text: verdict::violation_text(r),
+            })
+            .collect(),
+        verdict: verdict::verdict_words(&readings),
+    })
+}
+
+/// The guards of `robot` with `limits` on every branch (as `host-sim check` prepares them).
+pub fn guards(robot: &Robot<f64>, limits: &Limits<f64>) -> Check {
+    Check::new(robot, limits)
 }
 
 /// A minimal dependent set of lines and its variety (thesis 10.2).
@@ -325,7 +389,7 @@ mod tests {
     fn errors_read_like_the_cli() {
         let r = reference();
         let e = ik(&r, [0.0, 0.0, f64::NAN, 0.0, 0.0, 0.0], Branch::OUTER).unwrap_err();
-        assert_eq!(e.to_string(), "z_mm: not finite");
+        assert_eq!(e.to_string(), "z_mm: \"NaN\" is not a finite number");
         assert_eq!(
             branch(9).unwrap_err().to_string(),
             "branch: 9 is out of range 0..=7"
@@ -335,6 +399,29 @@ mod tests {
             e.to_string(),
             "ik: chain 2: no real root (pose out of reach)"
         );
+    }
+
+    /// The guards accept the central pose and stop a pose typed in metres, with the
+    /// `guards` column's words and `check`'s texts.
+    #[test]
+    fn check_accepts_the_centre_and_stops_metres() {
+        use kinematics_core::guards::Limits;
+        let r = reference();
+        let g = guards(&r, &Limits::reference());
+        let c = check(&g, [0.0, 0.0, 160.0, 0.0, 0.0, 0.0], Branch::OUTER).unwrap();
+        assert!(c.ok && c.severity.is_empty() && c.violations.is_empty());
+        assert_eq!(c.verdict, "ok");
+        let c = check(&g, [0.0, 0.0, 0.16, 0.0, 0.0, 0.0], Branch::OUTER).unwrap();
+        assert!(!c.ok);
+        assert_eq!(c.severity, "stop");
+        assert!(c.verdict.starts_with("stop: "), "{}", c.verdict);
+        let w = c
+            .violations
+            .iter()
+            .find(|v| v.guard == "workspace")
+            .unwrap();
+        assert_eq!(w.unit, "mm");
+        assert!(w.text.starts_with("workspace:z:159.840:"), "{}", w.text);
     }
 
     /// The platform in the base plane: rank 3 and S1 holds (kinematics-core's tests

@@ -243,8 +243,12 @@ def test_errors_are_exceptions_with_the_cli_text():
     assert isinstance(e.value, rspr.RsprError) and isinstance(e.value, ValueError)
     with pytest.raises(rspr.InputError, match="branch: 8 is out of range 0..=7"):
         robot.ik([0, 0, 160, 0, 0, 0], branch=8)
-    with pytest.raises(rspr.InputError, match="z_mm: not finite"):
+    # A NaN is refused with the command line's parser's words for the text "NaN".
+    rows = cli("jacobian", robot, POSE, [["0", "0", "NaN", "0", "0", "0", "0"]])
+    with pytest.raises(rspr.InputError) as e:
         robot.jacobian([0, 0, float("nan"), 0, 0, 0])
+    assert rows[0]["error"] == f"row 1: {e.value}" == 'row 1: z_mm: "NaN" is not a finite number'
+
     with pytest.raises(rspr.InputError, match="expected 6 numbers, got 5"):
         robot.singularity([0, 0, 160, 0, 0])
     with pytest.raises(rspr.ForcesError, match="parallel singularity"):

@@ -11,9 +11,12 @@
 //! - [`toml_error`]: a TOML error located in its text (line and key);
 //! - [`units`]: mm/deg <-> SI and the number formats of the CSV and report output;
 //! - [`edge`]: poses and joints in their edge form (unit-suffixed names, mm and deg);
+//! - [`fields`]: the parser of input values (CSV fields by column name, numbers, branches);
+//! - [`verdict`]: the guards' verdict on a pose and its texts in edge units;
 //! - [`task_box`]: the thesis's task box and its grid.
 
 pub mod edge;
+pub mod fields;
 pub mod geometry_file;
 pub mod limits_file;
 pub mod output;
@@ -24,6 +27,7 @@ pub mod selection;
 pub mod task_box;
 pub mod toml_error;
 pub mod units;
+pub mod verdict;
 
 pub use geometry_file::{GeometryFileError, GeometryTextError};
 pub use limits_file::{LimitsFileError, LimitsTextError};

@@ -3,8 +3,9 @@
 //! front end that holds a board: `teleop --device`, `console`, `igtl`, `view`, `ros2`.
 
 use crate::error::CliError;
-use operator::board::Board;
+use operator::board::{Board, BringUpTimeouts};
 use operator::shutdown::{self, Shutdown};
+use teleop::start::StartOptions;
 
 /// The SIGINT and SIGTERM flag of a front end (`operator::shutdown`).
 pub(crate) fn shutdown_on_signals() -> Result<Shutdown, CliError> {
@@ -36,4 +37,21 @@ pub(crate) fn stop_after(shutdown: &Shutdown, duration_s: Option<f64>) {
             s.request();
         });
     }
+}
+
+/// Brings the board where a serving front end (`igtl`, `ros2`) starts from: homed and
+/// enabled with `enable`, else only connected, its state taken as `start` allows; each
+/// step printed.
+pub(crate) fn bring_up_or_connect(
+    board: &mut Board,
+    enable: bool,
+    start: StartOptions,
+) -> Result<(), CliError> {
+    let log = &mut |m: &str| println!("board: {m}");
+    if enable {
+        board.bring_up(&BringUpTimeouts::default(), start, log)?;
+    } else {
+        board.connect(10.0, start, log)?;
+    }
+    Ok(())
 }

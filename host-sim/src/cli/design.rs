@@ -249,36 +249,28 @@ pub struct WorkspaceArgs {
 
 /// The scan and the task box of the flags.
 fn scan(args: &WorkspaceArgs, hc_mm: f64) -> Result<(Scan, TaskBox), FlagError> {
-    let [from, to, step]: [f64; 3] = numbers("--z-mm", &args.z_mm)?;
-    if !(step > 0.0 && to >= from && (to - from) / step <= 1000.0) {
-        return Err(FlagError::Invalid {
-            flag: "--z-mm",
-            reason: "need FROM <= TO and 0 < STEP, at most 1000 sections".into(),
-        });
-    }
-    for (flag, v) in [
-        ("--phi-step-deg", args.phi_step_deg),
-        ("--step-mm", args.step_mm),
-        ("--tol-mm", args.tol_mm),
-        ("--max-radius-mm", args.max_radius_mm),
-    ] {
-        if !(v.is_finite() && v > 0.0) {
-            return Err(FlagError::Invalid {
-                flag,
-                reason: format!("{v} is not a number > 0"),
-            });
-        }
-    }
+    let z_mm: [f64; 3] = numbers("--z-mm", &args.z_mm)?;
     let task = args.task.task_box("1,1,1")?;
-    let scan = Scan::new(
+    let scan = Scan::checked(
         hc_mm,
-        [from, to, step],
+        z_mm,
         args.phi_step_deg,
         args.step_mm,
         args.tol_mm,
         args.max_radius_mm,
         &task,
-    );
+    )
+    .map_err(|e| FlagError::Invalid {
+        flag: match e.setting {
+            "z_mm" => "--z-mm",
+            "phi_step_deg" => "--phi-step-deg",
+            "step_mm" => "--step-mm",
+            "tol_mm" => "--tol-mm",
+            "max_radius_mm" => "--max-radius-mm",
+            _ => "--box",
+        },
+        reason: e.reason,
+    })?;
     Ok((scan, task))
 }
 

@@ -10,6 +10,7 @@ pub mod board_session;
 pub mod calibrate;
 pub mod describe;
 pub mod design;
+pub mod identify;
 pub mod operator;
 pub mod ros2;
 pub mod sim;
@@ -306,6 +307,19 @@ pub enum Command {
     /// target/calibration/). `calibrate plan`: the poses to measure. `calibrate
     /// simulate`: the proof on a simulated robot and tracker.
     Calibrate(calibrate::CalibrateArgs),
+    /// Per-joint identification and servo tuning on the simulated plant.
+    ///
+    /// One joint (--joint), the others braked: a duty staircase within the test's travel
+    /// (3 mm, 5 deg) and effort (110 N, 0.25 N m), designed on the nominal parameters;
+    /// from the recorded duty, current and encoder (and the second position channel) the
+    /// least-squares estimates of the reflected inertia, viscous and Coulomb friction,
+    /// torque constant times gear, circuit resistance and inductance and backlash, each
+    /// with one sigma and beside the plant's true value; the PID and feed-forward gains
+    /// for --crossover-hz and --phase-margin-deg (loop shaping on the sampled identified
+    /// model); the step response predicted on the identified model and measured on the
+    /// plant, both through the board's servo. --seed N: a plant whose parameters are drawn
+    /// within --spread-pct of nominal.
+    Identify(identify::IdentifyArgs),
     /// The robot description (URDF) of the geometry in use, and its joint states.
     ///
     /// --urdf: the base, the three rotating (USR: lower) links, the spherical joints, the
@@ -350,6 +364,7 @@ impl Command {
             Command::Ros2(args) => ros2::run(args, selected, &limits.limits),
             Command::Faultlog(args) => board::faultlog(args),
             Command::Calibrate(args) => calibrate::run(args, selected, limits),
+            Command::Identify(args) => identify::run(args),
             Command::Describe(args) => describe::run(args, selected, &limits.limits),
             Command::View(args) => view::run(args, selected, &limits.limits),
         }

@@ -252,33 +252,60 @@ fn teleoperation_settings(
     })
 }
 
-/// The line shown in place while teleoperating: the board's state, the mapping's, the
-/// workspace-edge cue, the nearest margin and the measured position.
+/// The widest live line, columns: one less than an 80-column terminal, so that the
+/// cursor never wraps to a new line.
+pub const LIVE_LINE_COLUMNS: usize = 79;
+
+/// How long a refusal stays on the live line after the board's latest one, s.
+const REFUSAL_SHOWN_S: f64 = 2.0;
+
+/// The line shown in place while teleoperating, at most [`LIVE_LINE_COLUMNS`] wide, in
+/// the order of what matters: the board's state, the measured position, then the latest
+/// refusal of a target (its guard, value and limit) for [`REFUSAL_SHOWN_S`] after it,
+/// else why the mapping holds, else the workspace-edge cue and the nearest margin. What
+/// does not fit is cut, marked `~`.
 fn live_line(v: &TickView) -> String {
-    let state = match v.state {
-        TeleopState::Following => "following".to_string(),
-        TeleopState::Holding(r) => format!("holding: {}", r.as_str()),
-    };
-    let (pose, margin, board_state) = match v.status {
-        Some(s) => {
-            let p = operator::conversions::measured_cp(s)
+    let (p, board_state) = match v.status {
+        Some(s) => (
+            operator::conversions::measured_cp(s)
                 .map(|p| p.to_mm_deg())
-                .unwrap_or([f64::NAN; 6]);
-            (
-                p,
-                board_words::nearest_margin_short(&s.margins),
-                board_words::state_label(s.state).to_string(),
-            )
-        }
-        None => ([f64::NAN; 6], "--".to_string(), "?".into()),
+                .unwrap_or([f64::NAN; 6]),
+            board_words::state_label(s.state),
+        ),
+        None => ([f64::NAN; 6], "?"),
     };
-    format!(
-        "{board_state:<8} {state:<24} edge {:<10} margin {margin}  x {:7.2} y {:7.2} z {:7.2} mm   ",
-        v.cue.as_str(),
-        pose[0],
-        pose[1],
-        pose[2]
-    )
+    let detail = match (v.refusal, v.state) {
+        (Some((t, words)), _) if v.t_s - t <= REFUSAL_SHOWN_S => format!("refused: {words}"),
+        (_, TeleopState::Holding(r)) => format!("holding: {}", r.as_str().replace('_', " ")),
+        (_, TeleopState::Following) => {
+            let margin = v.status.map_or("--".to_string(), |s| {
+                board_words::nearest_margin_short(&s.margins)
+            });
+            format!("edge {} {margin}", v.cue.as_str().replace('_', " "))
+        }
+    };
+    // Compact: the platform stays within a few tens of mm of the centre, so the position
+    // takes at most 25 columns and a refusal (up to 33 characters but the spherical
+    // joints' 42) fits whole.
+    let line = format!(
+        "{board_state} x{:.1} y{:.1} z{:.1} mm  {detail}",
+        p[0], p[1], p[2]
+    );
+    fit(&line, LIVE_LINE_COLUMNS)
+}
+
+/// `text` cut to `columns` characters, the last one `~` when cut, else padded with spaces
+/// (so that a shorter line overwrites a longer one in place).
+fn fit(text: &str, columns: usize) -> String {
+    let n = text.chars().count();
+    if n > columns {
+        text.chars()
+            .take(columns.saturating_sub(1))
+            .collect::<String>()
+            + "~"
+    } else {
+        format!("{text}{}", " ".repeat(columns - n))
+    }
 }
 
 /// `host-sim replay` options.
@@ -455,13 +482,7 @@ pub fn igtl(args: &IgtlArgs) -> Result<(), CliError> {
     )?;
     let start = args.start.options();
     with_board(&mut board, &shutdown, |board| {
-        if args.enable {
-            board.bring_up(&BringUpTimeouts::default(), start, &mut |m| {
-                println!("board: {m}")
-            })?;
-        } else {
-            board.connect(10.0, start, &mut |m| println!("board: {m}"))?;
-        }
+        super::board_session::bring_up_or_connect(board, args.enable, start)?;
         let mut server = igtl::Server::bind_with(addr.as_str(), config)
             .map_err(operator::OperatorError::from)?;
         println!(
@@ -511,6 +532,70 @@ mod tests {
             Command::Teleop(t) => Ok(t.hand),
             other => panic!("parsed as {other:?}"),
         }
+    }
+
+    /// The live line fits an 80-column terminal whatever it shows, and keeps the state,
+    /// the position and a refusal's guard, value and limit in it.
+    #[test]
+    fn the_live_line_fits_80_columns() {
+        use master_link::{FaultCause, RobotState, StatusReport};
+        use masters::{CueLevel, HoldReason, OperatorButtons};
+        let mut s = StatusReport {
+            state: RobotState::Enabled,
+            ..StatusReport::default()
+        };
+        s.fault.cause = FaultCause::None;
+        // The measured pose at the workspace's corner, the widest numbers it shows.
+        s.position_m = [-0.0201, -0.0201, 0.1751];
+        let words = "platform tilt 25.1 deg > 25.0 deg";
+        let view = |state, refusal, t_s| TickView {
+            t_s,
+            state,
+            cue: CueLevel::Approaching,
+            status: Some(&s),
+            target: None,
+            buttons: OperatorButtons::default(),
+            refusal,
+        };
+        let lines = [
+            live_line(&view(TeleopState::Following, Some((1.0, words)), 1.5)),
+            live_line(&view(TeleopState::Following, Some((1.0, words)), 9.0)),
+            live_line(&view(
+                TeleopState::Holding(HoldReason::OperatorAbsent),
+                None,
+                1.0,
+            )),
+            live_line(&view(TeleopState::Following, None, 1.0)),
+            live_line(&view(
+                TeleopState::Following,
+                Some((1.0, "tilt spherical joint 1 30.1 deg > 30.0 deg")),
+                1.0,
+            )),
+        ];
+        for l in &lines {
+            assert!(
+                l.chars().count() <= 79,
+                "{} columns: {l}",
+                l.chars().count()
+            );
+        }
+        assert!(lines[0].starts_with("Enabled "), "{}", lines[0]);
+        assert!(
+            lines[0]
+                .contains("x-20.1 y-20.1 z175.1 mm  refused: platform tilt 25.1 deg > 25.0 deg"),
+            "{}",
+            lines[0]
+        );
+        assert!(!lines[1].contains("refused"), "{}", lines[1]);
+        assert!(
+            lines[2].contains("holding: operator absent"),
+            "{}",
+            lines[2]
+        );
+        assert!(lines[3].contains("edge approaching"), "{}", lines[3]);
+        // Cut, not wrapped.
+        assert_eq!(fit("abcdef", 4), "abc~");
+        assert_eq!(fit("ab", 4), "ab  ");
     }
 
     /// `--tremor` chooses the mapping's suppression (the canceller when not given); a

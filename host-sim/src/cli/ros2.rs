@@ -8,7 +8,7 @@ use crate::error::CliError;
 use clap::Args;
 use kinematics_core::guards::Limits;
 use kinematics_core::Branch;
-use operator::board::{Board, BringUpTimeouts};
+use operator::board::Board;
 use robot_config::selection::SelectedRobot;
 use robot_description::Description;
 use ros2::{Bridge, Network, NodeConfig, RosNode};
@@ -108,13 +108,7 @@ pub fn run(
     )?;
     let start = args.start.options();
     with_board(&mut board, &shutdown, |board| {
-        if args.enable {
-            board.bring_up(&BringUpTimeouts::default(), start, &mut |m| {
-                println!("board: {m}")
-            })?;
-        } else {
-            board.connect(10.0, start, &mut |m| println!("board: {m}"))?;
-        }
+        super::board_session::bring_up_or_connect(board, args.enable, start)?;
         println!(
             "ROS 2 node {}/{} on domain {} ({}) for the board {}: publishing {} {} {} {} /joint_states /tf (100 Hz), {} {} (10 Hz), {}; subscribing {} {} {}",
             config.namespace.trim_end_matches('/'),

@@ -7,18 +7,23 @@
 //! - `--task-box`: every static guard's worst margin over the thesis's task box, where it
 //!   occurs, the number of grid points with stop and warn violations, and a conclusion.
 //!
-//! A computed verdict or report exits 0 whatever it says; only bad input fails.
+//! A computed verdict or report exits 0 whatever it says; only bad input fails. The guards
+//! prepared on every branch and the texts of their readings are `robot-config`'s
+//! ([`robot_config::verdict`]), shared with the Python module.
 
 use super::{execute, pose_columns, pose_flags, RowError};
-use crate::batch::{BatchError, Calculation};
-use crate::columns::{parse_branch, pose_from_edge, read_branch, read_pose, EdgeError, Row, POSE};
+use crate::batch::{BatchError, Calculation, ColumnDefault};
+use crate::columns::{
+    parse_branch, pose_from_edge, read_branch, read_pose, EdgeError, Row, BRANCH, POSE,
+};
 use crate::flags::{self, FlagError};
 use clap::Args;
 use kinematics_core::guards::{Guard, GuardSetupError, Guards, Limits, Reading, Severity, Subject};
-use kinematics_core::{Branch, Mechanism, Pose, Robot, RobotKind, RsprGeometry, UsrGeometry};
+use kinematics_core::{Branch, Mechanism, Robot, RobotKind, RsprGeometry, UsrGeometry};
 use robot_config::selection::{kind_name, SelectedLimits, SelectedRobot};
 use robot_config::task_box::{TaskBox, TaskPose};
 use robot_config::units::{fixed, m_to_mm};
+pub use robot_config::verdict::{edge_text, violation_text, worst, Check};
 use std::fmt::Write as _;
 use std::io::Write as _;
 use thiserror::Error;
@@ -65,8 +70,8 @@ pub const TASK_COLUMNS: [&str; 11] = [
 /// violations and `error`. Or `--task-box`: the worst margins over the task.
 #[derive(Debug, Args)]
 pub struct CheckArgs {
-    /// Batch form: CSV on stdin (columns x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg,branch, found
-    /// by name, extra columns echoed), CSV on stdout, one row per input row; bad rows are
+    /// Batch form: CSV on stdin (columns x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg and optionally
+    /// branch, found by name, extra columns echoed), CSV on stdout, one row per input row; bad rows are
     /// reported in the `error` column and do not stop the run. With --task-box: the task
     /// table as CSV (the conclusion goes to stderr).
     #[arg(long, conflicts_with = "pose")]
@@ -82,8 +87,8 @@ pub struct CheckArgs {
     )]
     pub pose: Option<String>,
     /// Inverse-kinematics branch 0..=7, one bit per chain, chain 1 in bit 0 (0 = the
-    /// prototype's all-outer branch) [default: 0]. Not with the row-wise --csv (there the
-    /// branch is a column).
+    /// prototype's all-outer branch) [default: 0]; with the row-wise --csv, the branch of
+    /// rows without a `branch` column.
     #[arg(long, value_name = "0..7")]
     pub branch: Option<String>,
     /// Check the thesis's task: the 40 x 40 x 20 mm box centred at [0, 0, hc], platform
@@ -96,134 +101,8 @@ pub struct CheckArgs {
     pub grid: Option<String>,
 }
 
-/// A guard's SI value in its edge unit (mm, deg, N, N m; dimensionless measures as is).
-pub fn to_edge(guard: Guard, si: f64) -> f64 {
-    si * guard.edge_unit().0
-}
-
-/// A guard's SI value as edge text: 3 decimals in mm, deg, N, N m; 4 when dimensionless.
-pub fn edge_text(guard: Guard, si: f64) -> String {
-    let decimals = if guard.edge_unit().1.is_empty() { 4 } else { 3 };
-    fixed(to_edge(guard, si), decimals)
-}
-
-/// One violation as `guard:subject:value:limit`, in the guard's edge unit.
-pub fn violation_text(r: &Reading<f64>) -> String {
-    format!(
-        "{}:{}:{}:{}",
-        r.guard.name(),
-        r.subject,
-        edge_text(r.guard, r.value),
-        edge_text(r.guard, r.limit)
-    )
-}
-
 /// The column of `ik`, `fk`, `jacobian` and `forces` that carries the guards' verdict.
 pub const GUARDS_COLUMN: &str = "guards";
-
-/// A reading in words: severity, guard, subject, value and the limit it broke, in the
-/// guard's edge unit, e.g. `stop: stroke of chain 1 is 404.100 mm, limit 210.000 mm`.
-pub fn reading_words(r: &Reading<f64>) -> String {
-    let unit = r.guard.edge_unit().1;
-    let unit = if unit.is_empty() {
-        String::new()
-    } else {
-        format!(" {unit}")
-    };
-    let subject = match r.subject {
-        Subject::Robot => String::new(),
-        Subject::Chain(c) => format!(" of chain {}", c.number()),
-        Subject::Joint(j) => format!(" of q{j}"),
-        Subject::Axis(_) => format!(" along {}", r.subject),
-    };
-    let severity = r.severity.map(|s| s.to_string()).unwrap_or_default();
-    format!(
-        "{severity}: {}{subject} is {}{unit}, limit {}{unit}",
-        guard_words(r.guard),
-        edge_text(r.guard, r.value),
-        edge_text(r.guard, r.limit),
-    )
-}
-
-/// A guard in words (the board's words for the same guards, `board_words::guard_name`).
-pub fn guard_words(g: Guard) -> &'static str {
-    match g {
-        Guard::LinkAngle => "link angle",
-        Guard::TiltCone => "platform tilt",
-        Guard::SerialSingularity => "serial singularity",
-        Guard::ParallelSingularity => "parallel singularity",
-        Guard::TipSpeed => "tip speed",
-        Guard::AngularSpeed => "angular speed",
-        Guard::TipAccel => "tip acceleration",
-        Guard::AngularAccel => "angular acceleration",
-        Guard::JointSpeed => "joint speed",
-        Guard::JointAccel => "joint acceleration",
-        other => other.name(),
-    }
-}
-
-/// The guards prepared for a robot and limits on every branch.
-pub struct Check {
-    /// Index = branch bits; a branch whose guards cannot be set up keeps the reason.
-    guards: Vec<Result<Guards<f64, Robot<f64>>, GuardSetupError>>,
-}
-
-impl Check {
-    /// Prepares the guards of `robot` with `limits` on the 8 branches.
-    pub fn new(robot: &Robot<f64>, limits: &Limits<f64>) -> Check {
-        let guards = Branch::ALL
-            .iter()
-            .map(|&b| Guards::new(*robot, b, *limits))
-            .collect();
-        Check { guards }
-    }
-
-    /// The guards of a branch.
-    fn guards(&self, branch: Branch) -> Result<&Guards<f64, Robot<f64>>, RowError> {
-        match self.guards.get(usize::from(branch.bits())) {
-            Some(Ok(g)) => Ok(g),
-            Some(Err(e)) => Err(RowError::Guards {
-                branch: branch.bits(),
-                error: *e,
-            }),
-            None => Err(RowError::NoGuards(branch.bits())),
-        }
-    }
-
-    /// Every violation at a pose on a branch, in evaluation order.
-    pub fn violations(
-        &self,
-        pose: &Pose<f64>,
-        branch: Branch,
-    ) -> Result<Vec<Reading<f64>>, RowError> {
-        let guards = self.guards(branch)?;
-        let mut out = Vec::new();
-        guards.evaluate_pose(pose, &mut |r| {
-            if r.severity.is_some() {
-                out.push(*r);
-            }
-        });
-        Ok(out)
-    }
-}
-
-impl Check {
-    /// The guards' verdict at a pose on a branch, for the `guards` column: `ok` when no
-    /// guard is violated, else the first violation of the worst severity in words
-    /// ([`reading_words`]), followed by the count of the other violations.
-    pub fn verdict(&self, pose: &Pose<f64>, branch: Branch) -> Result<String, RowError> {
-        let violations = self.violations(pose, branch)?;
-        let worst = violations.iter().filter_map(|r| r.severity).max();
-        let Some(first) = violations.iter().find(|r| r.severity == worst) else {
-            return Ok("ok".to_string());
-        };
-        let more = violations.len() - 1;
-        Ok(match more {
-            0 => reading_words(first),
-            n => format!("{} (and {n} more: see check)", reading_words(first)),
-        })
-    }
-}
 
 impl Calculation for Check {
     type Error = RowError;
@@ -240,7 +119,7 @@ impl Calculation for Check {
         let pose = read_pose(row)?;
         let branch = read_branch(row)?;
         let violations = self.violations(&pose, branch)?;
-        let worst = violations.iter().filter_map(|r| r.severity).max();
+        let worst = worst(&violations);
         let list: Vec<String> = violations.iter().map(violation_text).collect();
         Ok(vec![
             (worst != Some(Severity::Stop)).to_string(),
@@ -266,19 +145,19 @@ pub fn run(
         }
         .into());
     }
-    if args.csv && args.branch.is_some() {
-        return Err(FlagError::Invalid {
-            flag: "--branch",
-            reason: "not with --csv (the branch is a column of the input)".into(),
-        }
-        .into());
-    }
-    let flags = pose_flags(args.pose.as_deref(), args.branch.as_deref().unwrap_or("0"));
+    let branch = args.branch.as_deref().unwrap_or("0");
+    let flags = pose_flags(args.pose.as_deref(), branch);
+    // Rows without a `branch` column take --branch (0 when not given), as in `ik --csv`.
+    let defaults = [ColumnDefault {
+        flag: "--branch",
+        column: BRANCH,
+        value: branch.to_string(),
+    }];
     Ok(execute(
         &Check::new(&selected.robot, &limits.limits),
         args.csv,
         &flags,
-        &[],
+        &defaults,
     )?)
 }
 

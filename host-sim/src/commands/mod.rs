@@ -11,9 +11,9 @@ pub mod singularity;
 use crate::batch::{self, BatchError, Calculation, ColumnDefault, FlagValue, FlagValueError};
 use crate::columns::{self, check_field, FieldError, Row, BRANCH, POSE};
 use clap::Args;
-use kinematics_core::guards::GuardSetupError;
 use kinematics_core::singularity::SvdDidNotConverge;
 use kinematics_core::{inverse, FkError, ForceError, IkError, JacobianError, Robot, Solution};
+use robot_config::verdict::VerdictError;
 use std::io::Write;
 use thiserror::Error;
 
@@ -36,12 +36,9 @@ pub enum RowError {
     Forces(ForceError),
     #[error("singularity: {0}")]
     Singularity(SvdDidNotConverge),
-    /// The guards of a branch cannot be set up for the robot and limits.
-    #[error("guards on branch {branch}: {error}")]
-    Guards { branch: u8, error: GuardSetupError },
-    /// A branch without guards (there are eight, one per branch).
-    #[error("branch {0}: no guards")]
-    NoGuards(u8),
+    /// The guards of the row's branch.
+    #[error(transparent)]
+    Verdict(#[from] VerdictError),
 }
 
 /// Input of the commands that work on a pose and a branch.

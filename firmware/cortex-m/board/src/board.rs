@@ -85,6 +85,8 @@ use embassy_stm32::wdg::IndependentWatchdog;
 use embassy_stm32::{bind_interrupts, dma, pac, peripherals, Peripherals};
 use master_link::ResetCause;
 
+use crate::stm32f4;
+
 bind_interrupts!(pub struct Irqs {
     USART3 => usart::InterruptHandler<peripherals::USART3>;
     DMA1_STREAM1 => dma::InterruptHandler<peripherals::DMA1_CH1>;
@@ -134,40 +136,9 @@ const DRV_EN_PIN: usize = 10;
 const BRAKE_PORT: pac::gpio::Gpio = pac::GPIOA;
 const BRAKE_PINS: [usize; 2] = [11, 12];
 
-/// The crystal, Hz.
-const HSE_HZ: u32 = 8_000_000;
-/// The PLL: divide the crystal to 1 MHz, multiply to 336 MHz, SYSCLK its half (P), USB its
-/// seventh (Q: 48 MHz).
-const PLL_PREDIV: u32 = 8;
-const PLL_MUL: u32 = 336;
-const PLL_DIVP: u32 = 2;
-// The clock tree gives the profile's core clock.
-const _: () = assert!(HSE_HZ / PLL_PREDIV * PLL_MUL / PLL_DIVP == CPU_HZ);
-
-/// The clock tree: 8 MHz HSE -> PLL 168 MHz SYSCLK, APB1 42 MHz (timers 84 MHz), APB2
-/// 84 MHz (timers 168 MHz), 48 MHz for USB.
+/// The clock tree: the 8 MHz crystal (HSE oscillator) -> 168 MHz (`stm32f4::clock_config`).
 pub fn clock_config() -> embassy_stm32::Config {
-    use embassy_stm32::rcc::*;
-    let mut config = embassy_stm32::Config::default();
-    config.rcc.hse = Some(Hse {
-        freq: Hertz(HSE_HZ),
-        mode: HseMode::Oscillator,
-    });
-    config.rcc.pll_src = PllSource::HSE;
-    config.rcc.pll = Some(Pll {
-        prediv: PllPreDiv::DIV8,
-        mul: PllMul::MUL336,
-        divp: Some(PllPDiv::DIV2),
-        divq: Some(PllQDiv::DIV7),
-        divr: None,
-    });
-    config.rcc.ahb_pre = AHBPrescaler::DIV1;
-    config.rcc.apb1_pre = APBPrescaler::DIV4;
-    config.rcc.apb2_pre = APBPrescaler::DIV2;
-    config.rcc.sys = Sysclk::PLL1_P;
-    // The link's DMA interrupts below the control executor and the e-stop.
-    config.dma_interrupt_priority = embassy_stm32::interrupt::Priority::P4;
-    config
+    stm32f4::clock_config(embassy_stm32::rcc::HseMode::Oscillator)
 }
 
 /// The six quadrature decoders.
@@ -315,7 +286,7 @@ impl Board {
         };
         // PWM outputs: forced inactive until enabled, channel outputs on.
         force_outputs_safe();
-        enable_pwm_channels();
+        stm32f4::pwm_enable_channels();
 
         let sw_pull = if SWITCH_ACTIVE_HIGH {
             Pull::Up
@@ -391,21 +362,13 @@ impl Board {
 /// Routes PC13 to EXTI13 (rising edge when the e-stop is asserted, falling when active
 /// low) and unmasks it; the caller sets the NVIC priority and enables `EXTI15_10`.
 pub fn configure_estop_exti() {
-    pac::RCC.apb2enr().modify(|w| w.set_syscfgen(true));
-    // EXTICR4 holds lines 12..15; line 13 is its field 1; port C is 2.
-    pac::SYSCFG.exticr(3).modify(|w| w.set_exti(1, 2));
-    if ESTOP_ACTIVE_HIGH {
-        pac::EXTI.rtsr(0).modify(|w| w.set_line(13, true));
-    } else {
-        pac::EXTI.ftsr(0).modify(|w| w.set_line(13, true));
-    }
-    pac::EXTI.pr(0).write(|w| w.set_line(13, true));
-    pac::EXTI.imr(0).modify(|w| w.set_line(13, true));
+    // Port C is 2.
+    stm32f4::exti_configure(2, 13, ESTOP_ACTIVE_HIGH);
 }
 
 /// Clears the e-stop's EXTI pending bit (in its interrupt).
 pub fn clear_estop_pending() {
-    pac::EXTI.pr(0).write(|w| w.set_line(13, true));
+    stm32f4::exti_clear(13);
 }
 
 /// Whether the e-stop input is asserted at register level.
@@ -418,75 +381,22 @@ pub fn estop_asserted_raw() -> bool {
 /// plain register writes, callable from any context (interrupt, panic and fault handlers,
 /// before the drivers exist).
 pub fn force_outputs_safe() {
-    use pac::timer::vals::Ocm;
     DRV_EN_PORT.bsrr().write(|w| w.set_br(DRV_EN_PIN, true));
     BRAKE_PORT.bsrr().write(|w| {
         for pin in BRAKE_PINS {
             w.set_br(pin, true);
         }
     });
-    pac::TIM9.ccmr_output(0).modify(|w| {
-        w.set_ocm(0, Ocm::FORCE_INACTIVE);
-        w.set_ocm(1, Ocm::FORCE_INACTIVE);
-    });
-    pac::TIM9.ccr(0).write(|w| w.set_ccr(0));
-    pac::TIM9.ccr(1).write(|w| w.set_ccr(0));
-    for t in [pac::TIM10, pac::TIM11, pac::TIM13, pac::TIM14] {
-        t.ccmr_output(0)
-            .modify(|w| w.set_ocm(0, Ocm::FORCE_INACTIVE));
-        t.ccr(0).write(|w| w.set_ccr(0));
-    }
+    stm32f4::pwm_force_inactive();
 }
 
 /// PWM mode back on every channel (duty 0) and the driver enable high.
 pub fn restore_outputs() {
-    use pac::timer::vals::Ocm;
-    pac::TIM9.ccr(0).write(|w| w.set_ccr(0));
-    pac::TIM9.ccr(1).write(|w| w.set_ccr(0));
-    pac::TIM9.ccmr_output(0).modify(|w| {
-        w.set_ocm(0, Ocm::PWM_MODE1);
-        w.set_ocm(1, Ocm::PWM_MODE1);
-    });
-    for t in [pac::TIM10, pac::TIM11, pac::TIM13, pac::TIM14] {
-        t.ccr(0).write(|w| w.set_ccr(0));
-        t.ccmr_output(0).modify(|w| w.set_ocm(0, Ocm::PWM_MODE1));
-    }
+    stm32f4::pwm_restore();
     DRV_EN_PORT.bsrr().write(|w| w.set_bs(DRV_EN_PIN, true));
 }
 
-fn enable_pwm_channels() {
-    pac::TIM9.ccer().modify(|w| {
-        w.set_cce(0, true);
-        w.set_cce(1, true);
-    });
-    for t in [pac::TIM10, pac::TIM11, pac::TIM13, pac::TIM14] {
-        t.ccer().modify(|w| w.set_cce(0, true));
-    }
-}
-
-/// Why the chip last reset, from the RCC's reset flags (RM0090 7.3.21, `RCC_CSR`), which
-/// are then cleared so that the next reset reads its own. Order matters: an internal reset
-/// also pulls NRST low (the pin flag is set with it), and a power-on sets the brown-out
-/// flag too.
+/// Why the chip last reset (`RCC_CSR`), the flags then cleared.
 pub fn take_reset_cause() -> ResetCause {
-    let csr = pac::RCC.csr().read();
-    let cause = if csr.wdgrstf() {
-        ResetCause::Watchdog
-    } else if csr.wwdgrstf() {
-        ResetCause::WindowWatchdog
-    } else if csr.lpwrrstf() {
-        ResetCause::LowPower
-    } else if csr.sftrstf() {
-        ResetCause::Software
-    } else if csr.porrstf() {
-        ResetCause::PowerOn
-    } else if csr.borrstf() {
-        ResetCause::BrownOut
-    } else if csr.padrstf() {
-        ResetCause::Pin
-    } else {
-        ResetCause::PowerOn
-    };
-    pac::RCC.csr().modify(|w| w.set_rmvf(true));
-    cause
+    stm32f4::take_reset_cause()
 }
