@@ -690,3 +690,84 @@ impl Pacing {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, clippy::expect_used)]
+    use super::*;
+
+    /// A wait for the master that no test reaches (the let-go is host time).
+    const FOREVER: Duration = Duration::from_secs(3600);
+
+    /// A master that does not use the shared clock (a real master, or one on a serial
+    /// device): without `--master-lead-ms` and `--clock-lead-ms` the board never waits for
+    /// it (the wall clock alone, as before the shared clock); with `--master-lead-ms` alone
+    /// it waits exactly from `lead` beyond the master's last bytes, whatever a clock file
+    /// may say (without `--clock-lead-ms` a reading is not looked at).
+    #[test]
+    fn without_the_shared_clock_the_board_runs_on_the_wall_clock_or_the_masters_bytes() {
+        assert!(MasterLead::new(None, None, 2000.0).unwrap().is_none());
+        let mut l = MasterLead::new(Some(50.0), None, 2000.0).unwrap().unwrap();
+        l.wait = FOREVER;
+        for reading in [None, Some(1.0), Some(1.049)] {
+            assert!(!l.hold(1.0499, 1.0, reading), "{reading:?}");
+            assert!(l.hold(1.0501, 1.0, reading), "{reading:?}");
+        }
+        // New bytes move the bound.
+        l.received();
+        assert!(!l.hold(1.0501, 1.03, None));
+    }
+
+    /// With `--clock-lead-ms`, a master that writes back its readings is paced by them
+    /// (not by its bytes): the board waits from `clock_lead` beyond the last reading, even
+    /// right after the master's bytes, and not before, even long after them. One that
+    /// writes none (None: a real master, the console, the bridge) is paced by its bytes
+    /// as without the shared clock, or not at all without `--master-lead-ms`.
+    #[test]
+    fn with_the_shared_clock_readings_pace_and_masters_without_readings_are_paced_by_bytes() {
+        let mut l = MasterLead::fresh(Some(0.05), Some(0.002), FOREVER);
+        assert!(!l.hold(1.0019, 1.0019, Some(1.0)));
+        assert!(l.hold(1.0021, 1.0021, Some(1.0)), "bytes just now");
+        assert!(!l.hold(1.0999, 1.0, Some(1.098)), "bytes 100 ms ago");
+        assert!(!l.hold(1.0499, 1.0, None));
+        assert!(l.hold(1.0501, 1.0, None));
+        let mut l = MasterLead::fresh(None, Some(0.002), FOREVER);
+        assert!(!l.hold(100.0, 1.0, None), "no reading, no --master-lead-ms");
+        assert!(l.hold(100.0, 1.0, Some(99.0)));
+    }
+
+    /// A master silent for `--master-wait-ms` of host time is let go: the board runs on.
+    #[test]
+    fn a_master_silent_beyond_the_wait_is_let_go() {
+        let mut l = MasterLead::fresh(Some(0.05), Some(0.002), Duration::ZERO);
+        assert!(!l.hold(2.0, 1.0, None));
+        assert!(!l.hold(2.0, 1.0, Some(1.0)));
+    }
+
+    /// The clock file: created at the board's socket's path with the suffix, the board's
+    /// time written where a master reads it, the master's reading read back (none when
+    /// nothing or 0 is written: a new master's slate is clean), removed with the board.
+    #[test]
+    fn the_shared_clock_file_carries_both_times_and_goes_with_the_board() {
+        let socket = std::env::temp_dir().join(format!("rspr-emu-{}.sock", std::process::id()));
+        let clock = SharedClock::create(&socket).unwrap();
+        let mut path = socket.as_os_str().to_owned();
+        path.push(shared_clock::SUFFIX);
+        let path = PathBuf::from(path);
+        let file = File::options().read(true).write(true).open(&path).unwrap();
+        assert_eq!(file.metadata().unwrap().len(), shared_clock::LEN);
+        clock.publish(1.234_567).unwrap();
+        let mut b = [0u8; 8];
+        file.read_exact_at(&mut b, shared_clock::BOARD_US).unwrap();
+        assert_eq!(shared_clock::decode(b), 1_234_567);
+        assert_eq!(clock.master_reading_s(), None);
+        file.write_all_at(&shared_clock::encode(1_230_000), shared_clock::MASTER_US)
+            .unwrap();
+        let r = clock.master_reading_s().unwrap();
+        assert!((r - 1.23).abs() < 1e-9, "{r}");
+        clock.forget_master().unwrap();
+        assert_eq!(clock.master_reading_s(), None);
+        drop(clock);
+        assert!(!path.exists());
+    }
+}
