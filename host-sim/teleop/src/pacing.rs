@@ -221,6 +221,7 @@ impl BoardClock {
 
 #[cfg(test)]
 mod tests {
+    #![allow(clippy::unwrap_used, clippy::expect_used)]
     use super::*;
 
     /// Paced, the clock advances one status period per status, however late the statuses
