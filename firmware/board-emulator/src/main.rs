@@ -546,7 +546,7 @@ impl SharedClock {
         for _ in 0..4 {
             let again = read()?;
             if again == last {
-                return (again != 0).then(|| again as f64 * 1e-6);
+                return (again != 0).then_some(again as f64 * 1e-6);
             }
             last = again;
         }
