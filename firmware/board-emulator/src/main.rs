@@ -6,10 +6,15 @@
 //!   `host-sim teleop --connect PATH` talks to it as to a board on a desk. With
 //!   `--master-lead-ms`, virtual time is also paced by the master (see [`MasterLead`]):
 //!   the board never runs further than that beyond the master's last message, so that a
-//!   master its host holds up is not taken for a lost one; tests run it so.
+//!   master its host holds up is not taken for a lost one; tests run it so. With
+//!   `--clock-lead-ms`, the board shares its clock with the master in a file beside the
+//!   socket (`master_link::shared_clock`, see [`SharedClock`]) and runs at most that far
+//!   beyond the board time the master last read there: the two in lockstep.
 //! * `fit`: whether the image fits the real STM32F405 (flash, SRAM, CCM).
 
+use std::fs::File;
 use std::io::{ErrorKind, Read, Write};
+use std::os::unix::fs::FileExt;
 use std::os::unix::net::{UnixListener, UnixStream};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -18,7 +23,7 @@ use std::time::{Duration, Instant};
 use board_emulator::bench::{Action, Bench, BenchConfig};
 use board_emulator::image::{default_path, Firmware};
 use clap::{Parser, Subcommand};
-use master_link::{BoardToMaster, MasterDecoder};
+use master_link::{shared_clock, BoardToMaster, MasterDecoder};
 
 /// `serve` reports a master that sent nothing for longer than this by the board's clock,
 /// s: its heartbeats are due every 20 ms, and the board holds after 100 ms without one.
@@ -85,6 +90,16 @@ enum Command {
         /// deadline of the board's.
         #[arg(long, value_name = "MS", default_value_t = 2000.0)]
         master_wait_ms: f64,
+        /// Share the board's clock with the master in the file SOCKET.clock
+        /// (`master_link::shared_clock`) and, while the connected master writes back the
+        /// board time it read there, run at most this many ms beyond its last reading (a
+        /// master that reads the clock every millisecond or so: the operator's `Board`).
+        /// Such a master's clock is the board's, and the board never runs on while its host
+        /// holds the master up: the two in lockstep, so that what the master measures does
+        /// not depend on the host's load. A master that does not write readings is paced by
+        /// its bytes (`--master-lead-ms`), or not at all. Default: no shared clock.
+        #[arg(long, value_name = "MS")]
+        clock_lead_ms: Option<f64>,
     },
     /// Check that the image fits the STM32F405; exit 1 when it does not.
     Fit,
@@ -103,6 +118,7 @@ fn main() -> ExitCode {
             report_lag_ms,
             master_lead_ms,
             master_wait_ms,
+            clock_lead_ms,
         } => serve(
             firmware,
             &socket,
@@ -110,7 +126,7 @@ fn main() -> ExitCode {
             seconds,
             !without_tool,
             Pacing::new(speed, catch_up_ms, report_lag_ms),
-            MasterLead::new(master_lead_ms, master_wait_ms),
+            MasterLead::new(master_lead_ms, clock_lead_ms, master_wait_ms),
         ),
         Command::Fit => fit(&firmware),
     };
@@ -149,6 +165,11 @@ fn serve(
     if socket.exists() {
         std::fs::remove_file(socket).map_err(|e| format!("{}: {e}", socket.display()))?;
     }
+    // The shared clock before the socket: a master that connects finds it there.
+    let clock = match lead.as_ref().and_then(|l| l.clock_lead_s) {
+        Some(_) => Some(SharedClock::create(socket)?),
+        None => None,
+    };
     let listener = UnixListener::bind(socket).map_err(|e| format!("{}: {e}", socket.display()))?;
     listener
         .set_nonblocking(true)
@@ -158,14 +179,14 @@ fn serve(
     println!(
         "board on {} (virtual time paced to {speed}x the wall clock{}); connect with: host-sim teleop --connect {}",
         socket.display(),
-        lead.as_ref().map_or(String::new(), |l| format!(
-            " and to at most {:.0} ms beyond the master's last message",
-            l.lead_s * 1e3
-        )),
+        lead.as_ref().map_or(String::new(), MasterLead::describe),
         socket.display()
     );
     pacing.start();
     let virtual0 = bench.now_s();
+    if let Some(c) = &clock {
+        c.publish(bench.now_s())?;
+    }
     let mut stream: Option<UnixStream> = None;
     let mut decoder = MasterDecoder::new();
     let mut state = None;
@@ -182,6 +203,9 @@ fn serve(
                 pacing.master_connected();
                 if let Some(l) = lead.as_mut() {
                     l.master_connected();
+                }
+                if let Some(c) = &clock {
+                    c.forget_master()?;
                 }
             }
         }
@@ -224,7 +248,8 @@ fn serve(
             }
         }
         if let Some(l) = lead.as_mut() {
-            if stream.is_some() && l.hold(bench.now_s() - last_rx_s) {
+            let reading = clock.as_ref().and_then(SharedClock::master_reading_s);
+            if stream.is_some() && l.hold(bench.now_s(), last_rx_s, reading) {
                 // The board waits for its master: its clock stands, and the wall time
                 // this takes is not a lag of the board's.
                 let t0 = Instant::now();
@@ -278,6 +303,11 @@ fn serve(
                 }
             }
         }
+        // The board's time once what it sent until then is on its way: a master that reads
+        // it has what the board said before it.
+        if let Some(c) = &clock {
+            c.publish(bench.now_s())?;
+        }
         let virtual_s = bench.now_s() - virtual0;
         if seconds.is_some_and(|limit| virtual_s >= limit) {
             break;
@@ -302,8 +332,21 @@ fn serve(
 /// No deadlock: the master's heartbeats are due every 20 ms of its clock, which the
 /// board's statuses (every 20 ms of board time) advance, so the master's next heartbeat is
 /// due before the board reaches `lead_s` (50 ms) beyond the last one.
+///
+/// With the shared clock (`--clock-lead-ms`, [`SharedClock`]) a master that writes back
+/// its readings is paced by them instead: the board runs at most `clock_lead_s` beyond the
+/// board time the master last read. Such a master reads the clock whenever it runs (the
+/// operator's `Board` waits at most a millisecond at a time) and waits for the board's
+/// time itself, so the board stands only while the master's host holds it up: no deadlock,
+/// and neither side runs ahead of the other by more than its lead.
 struct MasterLead {
-    lead_s: f64,
+    /// The lead beyond the master's last bytes, s (`--master-lead-ms`).
+    lead_s: Option<f64>,
+    /// The lead beyond the master's last reading of the shared clock, s
+    /// (`--clock-lead-ms`): for a master that writes readings, instead of `lead_s`.
+    clock_lead_s: Option<f64>,
+    /// The master's last reading of the shared clock, board s.
+    last_reading_s: Option<f64>,
     wait: Duration,
     /// Host time of the master's last bytes.
     last_rx: Instant,
@@ -319,29 +362,39 @@ struct MasterLead {
 }
 
 impl MasterLead {
-    fn new(lead_ms: Option<f64>, wait_ms: f64) -> Result<Option<Self>, String> {
-        let Some(lead_ms) = lead_ms else {
+    fn new(
+        lead_ms: Option<f64>,
+        clock_lead_ms: Option<f64>,
+        wait_ms: f64,
+    ) -> Result<Option<Self>, String> {
+        if lead_ms.is_none() && clock_lead_ms.is_none() {
             return Ok(None);
-        };
-        if !(lead_ms.is_finite() && lead_ms > 0.0) {
-            return Err(format!(
-                "--master-lead-ms must be a number of ms > 0, got {lead_ms}"
-            ));
         }
+        let positive = |name: &str, v: Option<f64>| match v {
+            Some(ms) if !(ms.is_finite() && ms > 0.0) => {
+                Err(format!("{name} must be a number of ms > 0, got {ms}"))
+            }
+            v => Ok(v.map(|ms| ms * 1e-3)),
+        };
+        let lead_s = positive("--master-lead-ms", lead_ms)?;
+        let clock_lead_s = positive("--clock-lead-ms", clock_lead_ms)?;
         if !(wait_ms.is_finite() && wait_ms >= 0.0) {
             return Err(format!(
                 "--master-wait-ms must be a number of ms >= 0, got {wait_ms}"
             ));
         }
         Ok(Some(MasterLead::fresh(
-            lead_ms * 1e-3,
+            lead_s,
+            clock_lead_s,
             Duration::from_secs_f64(wait_ms * 1e-3),
         )))
     }
 
-    fn fresh(lead_s: f64, wait: Duration) -> Self {
+    fn fresh(lead_s: Option<f64>, clock_lead_s: Option<f64>, wait: Duration) -> Self {
         MasterLead {
             lead_s,
+            clock_lead_s,
+            last_reading_s: None,
             wait,
             last_rx: Instant::now(),
             spells: 0,
@@ -354,7 +407,29 @@ impl MasterLead {
     }
 
     fn master_connected(&mut self) {
-        *self = MasterLead::fresh(self.lead_s, self.wait);
+        *self = MasterLead::fresh(self.lead_s, self.clock_lead_s, self.wait);
+    }
+
+    /// The pacing by the master, for the start-up line.
+    fn describe(&self) -> String {
+        let mut s = String::new();
+        if let Some(l) = self.lead_s {
+            s += &format!(
+                " and to at most {:.0} ms beyond the master's last message",
+                l * 1e3
+            );
+        }
+        if let Some(l) = self.clock_lead_s {
+            s +=
+                &format!(
+                "{} to at most {:.0} ms beyond a master's last reading of the clock shared in {}{}",
+                if self.lead_s.is_some() { ", or" } else { " and" },
+                l * 1e3,
+                "SOCKET",
+                shared_clock::SUFFIX
+            );
+        }
+        s
     }
 
     /// Bytes from the master arrived.
@@ -363,9 +438,25 @@ impl MasterLead {
         self.waiting = false;
     }
 
-    /// Whether the board waits, `quiet_s` of board time after the master's last bytes.
-    fn hold(&mut self, quiet_s: f64) -> bool {
-        if quiet_s < self.lead_s {
+    /// Whether the board waits at board time `now_s`: the master's last bytes came at
+    /// `last_rx_s`, and `reading_s` is its last reading of the shared clock (None: it
+    /// writes none). A master that writes readings is paced by them, others by their bytes.
+    fn hold(&mut self, now_s: f64, last_rx_s: f64, reading_s: Option<f64>) -> bool {
+        let (quiet_s, lead_s) = match (self.clock_lead_s, reading_s) {
+            (Some(lead), Some(r)) => {
+                if self.last_reading_s != Some(r) {
+                    // A new reading: the master runs (the wait below counts from here).
+                    self.last_reading_s = Some(r);
+                    self.received();
+                }
+                (now_s - r, lead)
+            }
+            _ => match self.lead_s {
+                Some(lead) => (now_s - last_rx_s, lead),
+                None => return false,
+            },
+        };
+        if quiet_s < lead_s {
             return false;
         }
         if self.last_rx.elapsed() >= self.wait {
@@ -399,6 +490,73 @@ impl MasterLead {
             self.longest_s * 1e3,
             self.let_go
         )
+    }
+}
+
+/// The board's clock shared with its master (`master_link::shared_clock`): the file
+/// SOCKET.clock, created afresh by `serve` and removed when it ends.
+struct SharedClock {
+    file: File,
+    path: PathBuf,
+}
+
+impl SharedClock {
+    fn create(socket: &Path) -> Result<Self, String> {
+        let mut name = socket.as_os_str().to_owned();
+        name.push(shared_clock::SUFFIX);
+        let path = PathBuf::from(name);
+        let err = |e: std::io::Error| format!("the shared clock {}: {e}", path.display());
+        let file = File::options()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(true)
+            .open(&path)
+            .map_err(err)?;
+        file.set_len(shared_clock::LEN).map_err(err)?;
+        Ok(SharedClock { file, path })
+    }
+
+    /// Writes the board's time, s.
+    fn publish(&self, now_s: f64) -> Result<(), String> {
+        let us = (now_s * 1e6).round() as u64;
+        self.file
+            .write_all_at(&shared_clock::encode(us), shared_clock::BOARD_US)
+            .map_err(|e| format!("the shared clock {}: {e}", self.path.display()))
+    }
+
+    /// Forgets the last master's readings (a new master connected).
+    fn forget_master(&self) -> Result<(), String> {
+        self.file
+            .write_all_at(&shared_clock::encode(0), shared_clock::MASTER_US)
+            .map_err(|e| format!("the shared clock {}: {e}", self.path.display()))
+    }
+
+    /// The board time the master last read, s (None: none written, or unreadable now).
+    fn master_reading_s(&self) -> Option<f64> {
+        let read = || {
+            let mut b = [0u8; 8];
+            self.file
+                .read_exact_at(&mut b, shared_clock::MASTER_US)
+                .ok()?;
+            Some(shared_clock::decode(b))
+        };
+        // Two reads in a row that agree (a write may race a read).
+        let mut last = read()?;
+        for _ in 0..4 {
+            let again = read()?;
+            if again == last {
+                return (again != 0).then_some(again as f64 * 1e-6);
+            }
+            last = again;
+        }
+        None
+    }
+}
+
+impl Drop for SharedClock {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.path);
     }
 }
 
@@ -530,5 +688,86 @@ impl Pacing {
             Some((t, worst, _)) => self.spell = Some((t, worst.max(behind), slipped)),
             None => {}
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, clippy::expect_used)]
+    use super::*;
+
+    /// A wait for the master that no test reaches (the let-go is host time).
+    const FOREVER: Duration = Duration::from_secs(3600);
+
+    /// A master that does not use the shared clock (a real master, or one on a serial
+    /// device): without `--master-lead-ms` and `--clock-lead-ms` the board never waits for
+    /// it (the wall clock alone, as before the shared clock); with `--master-lead-ms` alone
+    /// it waits exactly from `lead` beyond the master's last bytes, whatever a clock file
+    /// may say (without `--clock-lead-ms` a reading is not looked at).
+    #[test]
+    fn without_the_shared_clock_the_board_runs_on_the_wall_clock_or_the_masters_bytes() {
+        assert!(MasterLead::new(None, None, 2000.0).unwrap().is_none());
+        let mut l = MasterLead::new(Some(50.0), None, 2000.0).unwrap().unwrap();
+        l.wait = FOREVER;
+        for reading in [None, Some(1.0), Some(1.049)] {
+            assert!(!l.hold(1.0499, 1.0, reading), "{reading:?}");
+            assert!(l.hold(1.0501, 1.0, reading), "{reading:?}");
+        }
+        // New bytes move the bound.
+        l.received();
+        assert!(!l.hold(1.0501, 1.03, None));
+    }
+
+    /// With `--clock-lead-ms`, a master that writes back its readings is paced by them
+    /// (not by its bytes): the board waits from `clock_lead` beyond the last reading, even
+    /// right after the master's bytes, and not before, even long after them. One that
+    /// writes none (None: a real master, the console, the bridge) is paced by its bytes
+    /// as without the shared clock, or not at all without `--master-lead-ms`.
+    #[test]
+    fn with_the_shared_clock_readings_pace_and_masters_without_readings_are_paced_by_bytes() {
+        let mut l = MasterLead::fresh(Some(0.05), Some(0.002), FOREVER);
+        assert!(!l.hold(1.0019, 1.0019, Some(1.0)));
+        assert!(l.hold(1.0021, 1.0021, Some(1.0)), "bytes just now");
+        assert!(!l.hold(1.0999, 1.0, Some(1.098)), "bytes 100 ms ago");
+        assert!(!l.hold(1.0499, 1.0, None));
+        assert!(l.hold(1.0501, 1.0, None));
+        let mut l = MasterLead::fresh(None, Some(0.002), FOREVER);
+        assert!(!l.hold(100.0, 1.0, None), "no reading, no --master-lead-ms");
+        assert!(l.hold(100.0, 1.0, Some(99.0)));
+    }
+
+    /// A master silent for `--master-wait-ms` of host time is let go: the board runs on.
+    #[test]
+    fn a_master_silent_beyond_the_wait_is_let_go() {
+        let mut l = MasterLead::fresh(Some(0.05), Some(0.002), Duration::ZERO);
+        assert!(!l.hold(2.0, 1.0, None));
+        assert!(!l.hold(2.0, 1.0, Some(1.0)));
+    }
+
+    /// The clock file: created at the board's socket's path with the suffix, the board's
+    /// time written where a master reads it, the master's reading read back (none when
+    /// nothing or 0 is written: a new master's slate is clean), removed with the board.
+    #[test]
+    fn the_shared_clock_file_carries_both_times_and_goes_with_the_board() {
+        let socket = std::env::temp_dir().join(format!("rspr-emu-{}.sock", std::process::id()));
+        let clock = SharedClock::create(&socket).unwrap();
+        let mut path = socket.as_os_str().to_owned();
+        path.push(shared_clock::SUFFIX);
+        let path = PathBuf::from(path);
+        let file = File::options().read(true).write(true).open(&path).unwrap();
+        assert_eq!(file.metadata().unwrap().len(), shared_clock::LEN);
+        clock.publish(1.234_567).unwrap();
+        let mut b = [0u8; 8];
+        file.read_exact_at(&mut b, shared_clock::BOARD_US).unwrap();
+        assert_eq!(shared_clock::decode(b), 1_234_567);
+        assert_eq!(clock.master_reading_s(), None);
+        file.write_all_at(&shared_clock::encode(1_230_000), shared_clock::MASTER_US)
+            .unwrap();
+        let r = clock.master_reading_s().unwrap();
+        assert!((r - 1.23).abs() < 1e-9, "{r}");
+        clock.forget_master().unwrap();
+        assert_eq!(clock.master_reading_s(), None);
+        drop(clock);
+        assert!(!path.exists());
     }
 }

@@ -99,6 +99,7 @@ mod decoder;
 mod flags;
 mod frame;
 mod messages;
+pub mod shared_clock;
 
 pub use auth::{KeyError, LinkKey, KEY_LEN, TAG_LEN};
 pub use decoder::{

@@ -13,7 +13,10 @@
 //! timeouts and the arrival times recorded follow the board's own time, so that an
 //! emulated board that its host stalls never sees this master's targets as coming from
 //! its future (its bound is 50 ms), nor its heartbeats late. On a real board the two
-//! clocks agree.
+//! clocks agree. An emulated board that shares its clock beside its socket
+//! (`board-emulator serve --clock-lead-ms`) gives this connection the board's own time,
+//! and with [`Board::set_lockstep`] the board waits for this master as this master waits
+//! for it (`teleop::pacing`).
 
 use crate::conversions::wire_pose;
 use master_link::{
@@ -27,7 +30,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
 use teleop::link::{self, Link, Received};
-use teleop::pacing::{BoardClock, SILENCE_LIMIT_S};
+use teleop::pacing::{BoardClock, SharedClock, SILENCE_LIMIT_S};
 use teleop::start::{self, StartOptions};
 use thiserror::Error;
 
@@ -35,6 +38,10 @@ use thiserror::Error;
 pub const REPLY_TIMEOUT_S: f64 = 1.0;
 /// Heartbeat period, s (the board holds after 100 ms without one while enabled).
 pub const HEARTBEAT_PERIOD_S: f64 = 0.02;
+/// In lockstep with a board that shares its clock, the longest a wait for the board's
+/// messages lasts before this connection reads the clock again (and so tells the board it
+/// runs), s: well under the board's lead over its master (2 ms in the tests).
+pub const LOCKSTEP_WAIT_S: f64 = 0.0005;
 /// How long the board refuses `Enable` with `Busy` after homing or a disable while its
 /// brakes engage, with margin, s: [`Board::enable`] sends `Enable` again within it.
 pub const ENABLE_BUSY_WINDOW_S: f64 = 1.0;
@@ -233,7 +240,10 @@ impl Board {
             deferred: VecDeque::new(),
             statuses: 0,
             paced: true,
-            clock: BoardClock::default(),
+            // An emulated board may share its clock beside its socket; a serial device or
+            // another board has none.
+            clock: SharedClock::beside(path)
+                .map_or_else(BoardClock::default, BoardClock::with_shared),
             beat_gap_max_s: 0.0,
             interrupt: None,
             hello_refused: None,
@@ -259,6 +269,21 @@ impl Board {
     /// ends every wait with an error. Off: the host's clock.
     pub fn set_paced(&mut self, on: bool) {
         self.paced = on;
+    }
+
+    /// Lockstep with a board that shares its clock (`teleop::pacing`; off by default): this
+    /// connection writes back every reading of the board's clock, and the board runs at
+    /// most its lead beyond the last one, so that the board stands while this master's
+    /// host holds it up. Every wait of this connection then lasts at most
+    /// [`LOCKSTEP_WAIT_S`] at a time; a front end must keep polling (it does anyway, for
+    /// the heartbeats). Without a shared clock (a real board, the simulated one), nothing.
+    pub fn set_lockstep(&mut self, on: bool) {
+        self.clock.set_lockstep(on);
+    }
+
+    /// The connection's clock is the board's own (a shared clock, paced).
+    pub fn on_board_time(&self) -> bool {
+        self.paced && self.clock.shares_board_time()
     }
 
     /// Ends every wait with [`BoardError::Interrupted`] once `flag` is set (None: never);
@@ -563,7 +588,12 @@ impl Board {
         }
         self.beat()?;
         if self.backlog.is_empty() {
-            let wait = wait.min(Duration::from_secs_f64(HEARTBEAT_PERIOD_S / 2.0));
+            let most = if self.paced && self.clock.in_lockstep() {
+                LOCKSTEP_WAIT_S
+            } else {
+                HEARTBEAT_PERIOD_S / 2.0
+            };
+            let wait = wait.min(Duration::from_secs_f64(most));
             if let Some(r) = self.link.recv(wait)? {
                 self.handle(r);
             }

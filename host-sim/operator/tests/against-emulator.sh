@@ -22,7 +22,9 @@
 #   5. the chain benchmark (tests/chain_on_board.rs, ignored by `cargo test`: about 28 s of
 #      the board's time): the synthetic operator through the scripted path, the canceller
 #      against the classic filter, the canceller's start, the tremor's stop and the
-#      clutch, on the board the tests left Ready, or a fresh one;
+#      clutch, on the board the tests left Ready, or a fresh one; in lockstep with the
+#      board's shared clock (--clock-lead-ms), so its figures are the board's time and
+#      judged on every run, whatever the machine's load;
 #   6. igtl-board.sh (the bridge enables it) on the board the Rust tests left Ready, or a
 #      fresh one;
 #   7. a fresh emulated board, not homed: console-tmux.sh's steps on a board not homed
@@ -47,7 +49,12 @@
 # 50 ms beyond its master's last message (--master-lead-ms): a master that a loaded
 # machine holds up holds the board with it, so the board never takes a loaded host for a
 # lost master (HeartbeatTimeout). The Rust tests' masters and the warm-up run on the
-# board's clock (teleop::pacing): their replies are awaited in the board's time. The
+# board's clock (teleop::pacing): their replies are awaited in the board's time. The board
+# also shares its clock in $RSPR_BOARD_SOCKET.clock (--clock-lead-ms 2): the Rust tests'
+# masters read their clock there and write back each reading, and the board runs at most
+# 2 ms beyond their last reading (lockstep: each waits for the other, so what they measure
+# is the board's time); masters that only read it, or not at all (the console, the bridge,
+# the warm-up), are paced by their bytes (--master-lead-ms). The
 # host's clock bounds only failure detectors (a board silent for 5 s, a socket that does
 # not appear within 30 s), never what a test checks. --report-lag-ms: when the board's
 # clock falls behind the wall clock, the log says by how much and for how long, and for
@@ -177,8 +184,11 @@ start_emulator() {
     # the board's time beyond the master's last message; a master silent for 2 s of host
     # time is let go: the board's own heartbeat watch judges it).
     # --report-lag-ms says when and by how much the board's clock slipped.
+    # --clock-lead-ms: the board's clock shared beside the socket, the Rust tests' masters
+    # in lockstep with it (see the top of this file).
     "$emulator" --firmware "$RSPR_BOARD_ELF" serve --socket "$RSPR_BOARD_SOCKET" \
-        --catch-up-ms 10 --report-lag-ms 20 --master-lead-ms 50 "$@" >"$log" 2>&1 &
+        --catch-up-ms 10 --report-lag-ms 20 --master-lead-ms 50 --clock-lead-ms 2 "$@" \
+        >"$log" 2>&1 &
     emu_pid=$!
     local end=$(($(date +%s) + 30))
     while [ ! -S "$RSPR_BOARD_SOCKET" ]; do

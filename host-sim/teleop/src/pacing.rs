@@ -14,8 +14,27 @@
 //! front ends (`operator::Board`). A paced master cannot tell a stalled board from a dead
 //! one by its own clock, which stops with the board: [`BoardClock::silent_for_s`] gives the
 //! host time since the board last sent anything, for the master's silence limit.
+//!
+//! **The board's own clock.** An emulated board served with a shared clock
+//! (`board-emulator serve --clock-lead-ms`, [`SharedClock`]) publishes its time beside its
+//! socket; a master that finds it there ([`BoardClock::with_shared`]) reads its clock from
+//! it instead of counting statuses: its clock *is* the board's, to the emulator's step
+//! (1 ms), never ahead of it. A tick due beyond the board's time waits for the board (the
+//! master's lead over the board is nil) rather than running on the host's time and
+//! reaching the board early, several at once. In lockstep ([`BoardClock::set_lockstep`])
+//! the master also writes back each reading, and the board runs at most its lead (2 ms in
+//! the tests) beyond the master's last reading: a master its host holds up holds the board,
+//! so the board never runs on while the master's input waits to be sent. Together, what
+//! the master measures (input → target → setpoint) is in the board's time and does not move
+//! with the host's load.
 
+use master_link::shared_clock;
 use std::cell::Cell;
+use std::fs::File;
+use std::os::unix::fs::FileExt;
+use std::path::Path;
+use std::sync::Arc;
+use std::time::{Duration, SystemTime};
 
 /// The board's telemetry period, s (`Status` every 20 ms once connected).
 pub const STATUS_PERIOD_S: f64 = 0.02;
@@ -34,7 +53,66 @@ pub const CLOCK_LEAD_S: f64 = STATUS_PERIOD_S;
 /// s (a paced clock stops with the board, so its own timeouts never fall due).
 pub const SILENCE_LIMIT_S: f64 = 5.0;
 
-/// The clock of a master: the host's, or paced by the board's telemetry.
+/// A shared clock older than this (its file not written for so long, by the host's
+/// clock) is a board that no longer runs: a master ignores it, s.
+pub const SHARED_CLOCK_STALE_S: f64 = 2.0;
+
+/// The board's clock shared beside its socket (`master_link::shared_clock`).
+#[derive(Debug)]
+pub struct SharedClock {
+    file: File,
+}
+
+impl SharedClock {
+    /// The shared clock beside the board's socket `socket` (its path with
+    /// `shared_clock::SUFFIX`), when there is one that a running board keeps (written
+    /// within [`SHARED_CLOCK_STALE_S`]; a file left by a board that was killed is not).
+    pub fn beside(socket: &Path) -> Option<SharedClock> {
+        let mut name = socket.as_os_str().to_owned();
+        name.push(shared_clock::SUFFIX);
+        let file = File::options().read(true).write(true).open(name).ok()?;
+        let meta = file.metadata().ok()?;
+        if meta.len() < shared_clock::LEN {
+            return None;
+        }
+        let age = SystemTime::now()
+            .duration_since(meta.modified().ok()?)
+            .unwrap_or(Duration::ZERO);
+        (age.as_secs_f64() <= SHARED_CLOCK_STALE_S).then_some(SharedClock { file })
+    }
+
+    /// The board's time, µs since its boot (None: not written yet, or not readable now).
+    pub fn board_us(&self) -> Option<u64> {
+        let read = || {
+            let mut b = [0u8; 8];
+            self.file
+                .read_exact_at(&mut b, shared_clock::BOARD_US)
+                .ok()?;
+            Some(shared_clock::decode(b))
+        };
+        // Two reads in a row that agree (the board's write may race a read).
+        let mut last = read()?;
+        for _ in 0..4 {
+            let again = read()?;
+            if again == last {
+                return (again != 0).then_some(again);
+            }
+            last = again;
+        }
+        None
+    }
+
+    /// Tells the board this master has read its clock at `board_us` (lockstep).
+    pub fn seen(&self, board_us: u64) {
+        // Best effort: a reading that does not reach the board only holds it a little.
+        let _ = self
+            .file
+            .write_all_at(&shared_clock::encode(board_us), shared_clock::MASTER_US);
+    }
+}
+
+/// The clock of a master: the host's, paced by the board's telemetry, or the board's own
+/// when it shares it.
 #[derive(Clone, Debug, Default)]
 pub struct BoardClock {
     /// The paced clock at the last status and the host time that status arrived, s.
@@ -43,9 +121,60 @@ pub struct BoardClock {
     last_rx_host_s: Option<f64>,
     /// The clock's last reading (it never goes back).
     last_read_s: Cell<Option<f64>>,
+    /// The board's shared clock, when it shares one.
+    shared: Option<Arc<SharedClock>>,
+    /// The clock's reading and the board's time at the first reading of the shared clock
+    /// (s, µs): the shared clock runs on from where this clock was.
+    shared_origin: Cell<Option<(f64, u64)>>,
+    /// Readings written back to the board (lockstep).
+    lockstep: bool,
 }
 
 impl BoardClock {
+    /// A clock that reads the board's own time from `shared` when paced.
+    pub fn with_shared(shared: SharedClock) -> Self {
+        BoardClock {
+            shared: Some(Arc::new(shared)),
+            ..BoardClock::default()
+        }
+    }
+
+    /// The board shares its clock: paced, this clock is the board's own.
+    pub fn shares_board_time(&self) -> bool {
+        self.shared.is_some()
+    }
+
+    /// Lockstep on: each reading of the shared clock is written back, and the board runs
+    /// at most its lead beyond this master's last reading. Without a shared clock, nothing.
+    pub fn set_lockstep(&mut self, on: bool) {
+        self.lockstep = on;
+    }
+
+    /// In lockstep with a board that shares its clock: the master must read the clock
+    /// often (every millisecond or so), or the board waits for it.
+    pub fn in_lockstep(&self) -> bool {
+        self.lockstep && self.shared.is_some()
+    }
+
+    /// The shared clock's reading in this clock's terms, s (None: no shared clock, or no
+    /// reading now); written back in lockstep.
+    fn shared_now_s(&self, host_s: f64) -> Option<f64> {
+        let shared = self.shared.as_ref()?;
+        let us = shared.board_us()?;
+        if self.lockstep {
+            shared.seen(us);
+        }
+        let (t0, us0) = match self.shared_origin.get() {
+            Some(o) => o,
+            None => {
+                let o = (self.last_read_s.get().map_or(host_s, |l| l.max(host_s)), us);
+                self.shared_origin.set(Some(o));
+                o
+            }
+        };
+        Some(t0 + us.saturating_sub(us0) as f64 * 1e-6)
+    }
+
     /// A message arrived at host time `host_s`; `status`: it is a status report.
     pub fn received(&mut self, host_s: f64, status: bool) {
         self.last_rx_host_s = Some(host_s);
@@ -58,10 +187,17 @@ impl BoardClock {
     }
 
     /// The clock at host time `host_s`: paced by the board (`paced`) or the host's, never
-    /// less than an earlier reading. Before the first status the paced clock is the host's.
+    /// less than an earlier reading. Paced, it is the board's shared clock when there is
+    /// one; else the statuses' count, and before the first status the host's.
     pub fn now_s(&self, host_s: f64, paced: bool) -> f64 {
-        let t = match (paced, self.at_status) {
-            (true, Some((board, at))) => board + (host_s - at).clamp(0.0, CLOCK_LEAD_S),
+        let shared = if paced {
+            self.shared_now_s(host_s)
+        } else {
+            None
+        };
+        let t = match (paced, shared, self.at_status) {
+            (true, Some(t), _) => t,
+            (true, None, Some((board, at))) => board + (host_s - at).clamp(0.0, CLOCK_LEAD_S),
             _ => host_s,
         };
         let t = self.last_read_s.get().map_or(t, |last| t.max(last));
@@ -85,6 +221,7 @@ impl BoardClock {
 
 #[cfg(test)]
 mod tests {
+    #![allow(clippy::unwrap_used, clippy::expect_used)]
     use super::*;
 
     /// Paced, the clock advances one status period per status, however late the statuses
@@ -190,6 +327,86 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// A board's shared clock in a fresh temporary file: (the socket's path, the file).
+    fn shared_file(name: &str, board_us: u64) -> (std::path::PathBuf, File) {
+        let socket =
+            std::env::temp_dir().join(format!("rspr-pacing-{}-{name}.sock", std::process::id()));
+        let mut path = socket.as_os_str().to_owned();
+        path.push(shared_clock::SUFFIX);
+        let f = File::options()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(true)
+            .open(path)
+            .unwrap();
+        f.set_len(shared_clock::LEN).unwrap();
+        f.write_all_at(&shared_clock::encode(board_us), shared_clock::BOARD_US)
+            .unwrap();
+        (socket, f)
+    }
+
+    fn master_slot(f: &File) -> u64 {
+        let mut b = [0u8; 8];
+        f.read_exact_at(&mut b, shared_clock::MASTER_US).unwrap();
+        shared_clock::decode(b)
+    }
+
+    /// With the board's shared clock the paced clock is the board's time from where the
+    /// clock was: however much host time passes while the board stands, it does not move
+    /// (a tick due then waits for the board), and statuses do not move it either; in
+    /// lockstep each reading is written back for the board, otherwise nothing is.
+    #[test]
+    fn the_shared_clock_is_the_boards_time_and_never_runs_ahead() {
+        for lockstep in [false, true] {
+            let (socket, f) = shared_file(&format!("shared-{lockstep}"), 5_000_000);
+            let mut c = BoardClock::with_shared(SharedClock::beside(&socket).unwrap());
+            c.set_lockstep(lockstep);
+            assert!(c.shares_board_time());
+            assert_eq!(c.in_lockstep(), lockstep);
+            assert_eq!(c.now_s(1.0, true), 1.0, "starts where the host's clock was");
+            // The board stands for 2 s of host time, statuses or not.
+            assert_eq!(c.now_s(3.0, true), 1.0);
+            c.received(3.0, true);
+            assert_eq!(c.now_s(3.5, true), 1.0);
+            // The board runs 10 ms.
+            f.write_all_at(&shared_clock::encode(5_010_000), shared_clock::BOARD_US)
+                .unwrap();
+            assert!((c.now_s(3.5, true) - 1.01).abs() < 1e-12);
+            assert_eq!(master_slot(&f), if lockstep { 5_010_000 } else { 0 });
+            // Not paced: the host's clock (ahead here), and never back after it.
+            assert_eq!(c.now_s(4.0, false), 4.0);
+            assert_eq!(c.now_s(4.0, true), 4.0);
+            let _ = std::fs::remove_file(socket.with_extension("sock.clock"));
+        }
+    }
+
+    /// A shared clock is taken only from a file its board keeps: one not written for
+    /// longer than `SHARED_CLOCK_STALE_S` (a board killed without removing it), a short
+    /// one, or none at all are not (the master then counts statuses).
+    #[test]
+    fn a_stale_or_missing_shared_clock_is_not_taken() {
+        let (socket, f) = shared_file("stale", 1_000);
+        assert!(SharedClock::beside(&socket).is_some(), "fresh: taken");
+        let old = SystemTime::now() - Duration::from_secs_f64(SHARED_CLOCK_STALE_S + 1.0);
+        f.set_times(std::fs::FileTimes::new().set_modified(old))
+            .unwrap();
+        assert!(SharedClock::beside(&socket).is_none(), "stale: not taken");
+        f.set_len(8).unwrap();
+        f.set_times(std::fs::FileTimes::new().set_modified(SystemTime::now()))
+            .unwrap();
+        assert!(SharedClock::beside(&socket).is_none(), "short: not taken");
+        let _ = std::fs::remove_file(socket.with_extension("sock.clock"));
+        assert!(SharedClock::beside(&socket).is_none(), "none: not taken");
+        // A board that has not written its time yet gives no reading: statuses pace.
+        let (socket, f) = shared_file("unwritten", 0);
+        let mut c = BoardClock::with_shared(SharedClock::beside(&socket).unwrap());
+        c.received(2.0, true);
+        assert_eq!(c.now_s(2.005, true), 2.005);
+        drop(f);
+        let _ = std::fs::remove_file(socket.with_extension("sock.clock"));
     }
 
     /// The silence is measured on the host's clock, from any message.

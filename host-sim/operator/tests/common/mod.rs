@@ -9,7 +9,10 @@
 //! The tests' masters run on the board's clock (`Board::set_paced`, `teleop::pacing`): an
 //! emulated board whose host stalls it (a loaded machine) pauses its virtual time, and
 //! the master pauses with it, so that its stream is not stale by the board's clock and the
-//! latencies it measures are the board's, not the host's pauses.
+//! latencies it measures are the board's, not the host's pauses. A board that shares its
+//! clock beside its socket (the simulated board here, the emulated one with
+//! `--clock-lead-ms`) runs in lockstep with the test's master (`Board::set_lockstep`):
+//! each waits for the other, within 2 ms.
 //!
 //! A board at `RSPR_BOARD_SOCKET` outlives each test and keeps its state between masters
 //! (homed, where the robot stands). Each test starts as on a freshly homed board: once
@@ -62,8 +65,14 @@ impl TestBoard {
         cfg.service.watchdog.max_lateness_us = 1_000_000;
         cfg.service.overruns_to_fault = u32::MAX;
         let (s, flag) = (socket.clone(), Arc::clone(&stop));
+        // The board shares its clock, as the emulated board of `against-emulator.sh` does
+        // (a lead of 2 ms over the master's last reading).
+        let pacing = simulation::serve::ServePacing {
+            clock_lead_us: Some(2_000),
+            ..Default::default()
+        };
         let thread = std::thread::spawn(move || {
-            simulation::serve::serve(&s, cfg, &flag, &|| {}).unwrap();
+            simulation::serve::serve_paced(&s, cfg, pacing, &flag, &|| {}).unwrap();
         });
         TestBoard {
             socket,
@@ -73,10 +82,13 @@ impl TestBoard {
         }
     }
 
-    /// Connects, the master on the board's clock.
+    /// Connects, the master on the board's clock: the board's own, shared beside its
+    /// socket, in lockstep (`Board::set_lockstep`) where the board shares it, else paced by
+    /// its statuses.
     pub fn connect(&self) -> Board {
         let mut b = Board::open(&self.socket, 1_000_000, Duration::from_secs(10)).unwrap();
         b.set_paced(true);
+        b.set_lockstep(true);
         b
     }
 
