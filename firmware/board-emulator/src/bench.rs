@@ -36,6 +36,7 @@ use crate::flash::{
 };
 use crate::image::{Firmware, ImageError};
 use crate::mechanics::{Mechanics, MechanicsConfig, MechanicsError, Surroundings};
+use crate::stack::{StackRegion, StackUse};
 
 /// Nanoseconds in a second.
 pub const NANOS_PER_SECOND: u64 = 1_000_000_000;
@@ -141,6 +142,9 @@ pub enum Action {
     WatchInstruction(u64),
     /// Stop reporting arrivals at `address`.
     UnwatchInstruction(u64),
+    /// Measure the stack's low-water mark now (`crate::stack`; nothing in the run
+    /// changes): the next report's `stack`.
+    MeasureStack,
 }
 
 /// One peripheral access, as recorded.
@@ -207,6 +211,9 @@ pub struct Report {
     pub digest: [u8; 32],
     /// Bytes still queued for the link.
     pub queued: usize,
+    /// The stack's use as last measured (`Action::MeasureStack`; `None` before, or when
+    /// the image has no stack symbols).
+    pub stack: Option<StackUse>,
 }
 
 impl Report {
@@ -230,6 +237,7 @@ impl Report {
             rtt_bytes: 0,
             digest: [0; 32],
             queued: 0,
+            stack: None,
         }
     }
 }
@@ -282,6 +290,10 @@ struct Lockstep {
     /// The image's program mailbox, if it has one.
     mailbox: Option<u64>,
     flash_word_ns: u64,
+    /// The image's stack region (painted before the first instruction), if it names one.
+    stack_region: Option<StackRegion>,
+    /// The stack's use as last measured.
+    stack: Option<StackUse>,
 }
 
 const MS: u64 = 1_000_000;
@@ -486,6 +498,16 @@ impl Lockstep {
                     session.unwatch(Watch::Instruction(a));
                     self.watched.retain(|w| *w != a);
                 }
+                Action::MeasureStack => {
+                    self.stack = self.stack_region.map(|region| StackUse {
+                        region,
+                        lowest: region.low_water(|a| {
+                            host.read(a, Width::W32)
+                                .ok()
+                                .and_then(|v| u32::try_from(v).ok())
+                        }),
+                    });
+                }
             }
         }
     }
@@ -536,6 +558,7 @@ impl Lockstep {
             rtt_bytes: self.rtt_bytes,
             digest: self.hasher.clone().finalize().into(),
             queued,
+            stack: self.stack,
         }
     }
 }
@@ -706,6 +729,7 @@ impl Bench {
         let board = RsprBoard::for_target(&config.board)?;
         let flash = Arc::new(Mutex::new(FlashShadow::new(config.flash.as_deref())));
         let mailbox = firmware.symbol(crate::flash::MAILBOX_SYMBOL).ok();
+        let stack_region = StackRegion::of(&firmware).ok();
         let (to_master, from_driver) = sync_channel::<Report>(1);
         let (to_driver, from_master) = sync_channel::<Command>(1);
         let driver = Lockstep {
@@ -735,6 +759,8 @@ impl Bench {
             flash: Arc::clone(&flash),
             mailbox,
             flash_word_ns: config.flash_word_ns,
+            stack_region,
+            stack: None,
         };
         let image = firmware
             .rigless_image()
@@ -751,6 +777,18 @@ impl Bench {
             ),
             None => None,
         };
+        // The stack's region painted before the first instruction (`crate::stack`).
+        let paint = match stack_region {
+            Some(region) => Some(
+                rigless::image::Image::new(
+                    std::path::Path::new("stack-paint"),
+                    region.paint(),
+                    Some(region.floor),
+                )
+                .map_err(|e| BenchError::Emulator(e.to_string()))?,
+            ),
+            None => None,
+        };
         let mut session = Session::new(Box::new(board), 0, VirtualNanos(config.plant_step_ns))
             .map_err(|e| BenchError::Emulator(e.to_string()))?;
         session.watch(Watch::Writes {
@@ -762,7 +800,7 @@ impl Bench {
             .name("board-emulator".into())
             .spawn(move || {
                 let images: Vec<rigless::image::Image> =
-                    std::iter::once(image).chain(kept).collect();
+                    std::iter::once(image).chain(kept).chain(paint).collect();
                 let start = Start::new(&images);
                 match emulator::run(session, &start, driver) {
                     Ok(finished) => {
@@ -886,6 +924,14 @@ impl Bench {
     /// Runs for `ns` of virtual time.
     pub fn run_for(&mut self, ns: u64) -> Result<(), BenchError> {
         self.run_until(VirtualNanos(self.now.0 + ns))
+    }
+
+    /// The stack's use so far (`crate::stack`): measured at the next instant, a
+    /// microsecond on (`None` when the image names no stack region).
+    pub fn stack_use(&mut self) -> Result<Option<StackUse>, BenchError> {
+        self.act(Action::MeasureStack);
+        self.run_for(1_000)?;
+        Ok(self.last.stack)
     }
 
     /// Ends the run; returns the emulator's gaps (unmapped, unimplemented, unrouted).

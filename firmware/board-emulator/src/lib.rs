@@ -18,4 +18,5 @@ pub mod image;
 pub mod mcu;
 pub mod mechanics;
 pub mod pins;
+pub mod stack;
 pub mod timers;
