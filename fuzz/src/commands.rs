@@ -730,7 +730,9 @@ impl Board {
                 2
             }
             BoardToMaster::Status(_) => 3,
-            BoardToMaster::FaultLog(_) | BoardToMaster::EventLog(_) => 4,
+            BoardToMaster::FaultLog(_)
+            | BoardToMaster::EventLog(_)
+            | BoardToMaster::Commissioning(_) => 4,
             BoardToMaster::GeometryStored { .. } | BoardToMaster::GeometryRefused { .. } => 5,
             BoardToMaster::HelloRefused { reason, .. } => {
                 if !self.outcome.nacks.contains(&reason) {
@@ -894,6 +896,11 @@ impl Board {
             Command::EventLogRequest { .. } => {
                 matches!(reply, BoardToMaster::EventLog(_)) || not_owner
             }
+            // The record of the joint asked for, or refused (a replaced session's frame too).
+            Command::Commission { joint, .. } => {
+                matches!(reply, BoardToMaster::Commissioning(r) if r.joint == joint)
+                    || matches!(reply, BoardToMaster::Nack { seq: s, .. } if *s == seq)
+            }
             // An emergency stop is taken from anyone; a heartbeat of a replaced session is
             // refused like its other frames.
             Command::EmergencyStop => ack,
@@ -975,16 +982,44 @@ impl Board {
         );
         if hw.enabled {
             assert!(
-                matches!(state, State::Homing | State::Enabling | State::Enabled) || under_power,
+                matches!(
+                    state,
+                    State::Homing | State::Enabling | State::Enabled | State::Commissioning
+                ) || under_power,
                 "bridges on: {}",
                 ctx()
             );
+        }
+        let commissioning = state == State::Commissioning;
+        if commissioning {
+            // One joint's open-loop test: only that joint driven, no more than the test's
+            // duty against the applied brake, or its ramp's last duty with the brakes
+            // released (or what the current limit made of it).
+            let test = &rt.config().commission;
+            let driven = hw.duty.iter().filter(|d| **d != 0.0).count();
+            assert!(
+                driven <= 1,
+                "commissioning drives {driven} joints: {}",
+                ctx()
+            );
+            let most = if hw.brakes_released {
+                test.max_duty
+            } else {
+                test.applied_duty
+            };
+            for ((d, m), lim) in hw.duty.iter().zip(most.iter()).zip(limited.iter()) {
+                assert!(
+                    d.abs() <= m.abs() * (1.0 + 1e-12) || *lim,
+                    "commissioning's duty above the test's {most:?}: {}",
+                    ctx()
+                );
+            }
         }
         let driving = hw.enabled && hw.duty.iter().any(|d| *d != 0.0);
         if driving && !hw.brakes_released {
             let brake_check = state == State::Enabling && phase == StopPhase::Running;
             assert!(
-                brake_check || matches!(phase, StopPhase::Braking { .. }),
+                brake_check || commissioning || matches!(phase, StopPhase::Braking { .. }),
                 "driving against the applied brakes: {}",
                 ctx()
             );
@@ -1020,7 +1055,10 @@ impl Board {
             let limit = ec.top_speed[j] * ec.jump_margin * dt * ec.counts_per_unit[j] + 2.0;
             f64::from(hw.read_delta[j]).abs() > limit
         });
-        let switch = before.0 != State::Homing && hw.inputs.switches.iter().any(|s| *s);
+        // Homing drives onto its switches; commissioning tests their sense.
+        let switches_tested = matches!(before.0, State::Homing | State::Commissioning)
+            || state == State::Commissioning;
+        let switch = !switches_tested && hw.inputs.switches.iter().any(|s| *s);
         let q = rt.measured().q;
         let outside = before.1
             && q.iter()
@@ -1253,6 +1291,58 @@ mod tests {
                 "{name}: {o:?}"
             );
         }
+    }
+
+    /// Commissioning on the fake hardware: from `Ready`, a person confirming, joint 3's test
+    /// runs to its end with heartbeats every 10 ms (the fake's encoders follow the duty once
+    /// the brakes are released), then `Disable` ends the mode. Property: every check of the
+    /// harness holds through the test (the bridges on in `Commissioning`, one joint driven,
+    /// within the test's duties, against the applied brake only at its push's duty), and
+    /// the record says the test ended with joint 3 moved by its own encoder, within the
+    /// travel limit and with no finding (the fake is wired straight).
+    #[test]
+    fn a_joint_is_commissioned_within_the_checks() {
+        use control::runtime::Mode;
+        use master_link::CommissionFindings;
+        let mut b = Board::new(Start::Ready, Strict::ALL);
+        // `ticks(n)` runs n + 1 ticks.
+        let per_10ms = u8::try_from(10_000 / PERIOD_US - 1).unwrap_or(u8::MAX);
+        let commission = frame(Msg::Any(MasterToBoard::Commission {
+            joint: 3,
+            confirm: true,
+        }));
+        let record = |b: &Board| match b.service.runtime().mode() {
+            Mode::Commissioning(test) => test.record(),
+            other => panic!("not commissioning: {other:?} ({:?})", b.outcome),
+        };
+        b.act(&commission);
+        b.act(&ticks(0));
+        // Within the harness's ticks (`MAX_TICKS`), with room for the stop after it.
+        while !record(&b).done && b.outcome.ticks < MAX_TICKS / 2 {
+            b.act(&frame(Msg::Any(MasterToBoard::Heartbeat)));
+            b.act(&ticks(per_10ms));
+        }
+        let record = record(&b);
+        assert!(record.done, "{record:?} after {} ticks", b.outcome.ticks);
+        assert_eq!(record.findings, CommissionFindings::NONE, "{record:?}");
+        assert_eq!(record.moved_encoder, 3, "{record:?}");
+        assert!(record.encoder_motion > 0.0, "{record:?}");
+        assert!(record.peak_travel <= 1.0, "{record:?}");
+        // The record read back is the one asked for; then the mode ends.
+        b.act(&commission);
+        b.act(&frame(Msg::Any(MasterToBoard::Disable)));
+        for _ in 0..20 {
+            b.act(&frame(Msg::Any(MasterToBoard::Heartbeat)));
+            b.act(&ticks(per_10ms));
+        }
+        assert_eq!(
+            b.service.runtime().state(),
+            State::Disabled,
+            "{:?}",
+            b.outcome
+        );
+        assert!(b.outcome.states.contains(&State::Commissioning));
+        assert!(b.outcome.nacks.is_empty(), "{:?}", b.outcome);
     }
 
     /// A master's frames sent after its `Hello` but before the board's reply carry the

@@ -105,6 +105,9 @@ pub enum CliError {
     )]
     OutOfRange { count: usize, first: String },
     /// Measurements that determine too few combinations (written, not trusted).
+    /// `commission`: a refusal, a fault or a bad flag, in words.
+    #[error("commission: {0}")]
+    Commission(String),
     #[error("calibrate: {0}; --force accepts the result anyway")]
     Underdetermined(String),
     /// `replay` of a file that does not start with MCAP's magic bytes.

@@ -6,6 +6,7 @@
 mod batch_errors;
 mod calibrate;
 mod check;
+mod commission;
 mod common;
 mod compare;
 mod dct;

@@ -112,11 +112,19 @@ struct Derived<T: Real> {
 /// An RSPR robot with per-chain dimensions and encoder zero offsets; implements
 /// [`Mechanism`]. Built validated ([`PerChainGeometry::new`]) or from the symmetric robot
 /// (`From<RsprGeometry>`).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Copy, Debug, PartialEq)]
 pub struct PerChainGeometry<T: Real> {
     nominal: RsprGeometry<T>,
     chains: PerChain<ChainDimensions<T>>,
     derived: PerChain<Derived<T>>,
+}
+
+// A copy of the whole value (the derived `Clone` of a generic type clones field by
+// field, element by element: some 800 bytes of code wherever a mechanism is cloned).
+impl<T: Real> Clone for PerChainGeometry<T> {
+    fn clone(&self) -> Self {
+        *self
+    }
 }
 
 /// The names of the fields of each chain, for errors.

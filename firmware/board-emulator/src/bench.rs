@@ -37,6 +37,7 @@ use crate::flash::{
 };
 use crate::image::{Firmware, ImageError};
 use crate::mechanics::{Mechanics, MechanicsConfig, MechanicsError, Surroundings};
+use crate::stack::{StackRegion, StackUse};
 
 /// Nanoseconds in a second.
 pub const NANOS_PER_SECOND: u64 = 1_000_000_000;
@@ -155,6 +156,9 @@ pub enum Action {
         /// The fault.
         fault: plant::Fault,
     },
+    /// Measure the stack's low-water mark now (`crate::stack`; nothing in the run
+    /// changes): the next report's `stack`.
+    MeasureStack,
 }
 
 /// One peripheral access, as recorded.
@@ -221,6 +225,9 @@ pub struct Report {
     pub digest: [u8; 32],
     /// Bytes still queued for the link.
     pub queued: usize,
+    /// The stack's use as last measured (`Action::MeasureStack`; `None` before, or when
+    /// the image has no stack symbols).
+    pub stack: Option<StackUse>,
 }
 
 impl Report {
@@ -244,6 +251,7 @@ impl Report {
             rtt_bytes: 0,
             digest: [0; 32],
             queued: 0,
+            stack: None,
         }
     }
 }
@@ -300,6 +308,10 @@ struct Lockstep {
     flash_word_ns: u64,
     /// The board has the second position channel.
     position_channel: bool,
+    /// The image's stack region (painted before the first instruction), if it names one.
+    stack_region: Option<StackRegion>,
+    /// The stack's use as last measured.
+    stack: Option<StackUse>,
 }
 
 const MS: u64 = 1_000_000;
@@ -543,6 +555,16 @@ impl Lockstep {
                         self.failed.get_or_insert(e.to_string());
                     }
                 }
+                Action::MeasureStack => {
+                    self.stack = self.stack_region.map(|region| StackUse {
+                        region,
+                        lowest: region.low_water(|a| {
+                            host.read(a, Width::W32)
+                                .ok()
+                                .and_then(|v| u32::try_from(v).ok())
+                        }),
+                    });
+                }
             }
         }
     }
@@ -593,6 +615,7 @@ impl Lockstep {
             rtt_bytes: self.rtt_bytes,
             digest: self.hasher.clone().finalize().into(),
             queued,
+            stack: self.stack,
         }
     }
 }
@@ -764,6 +787,7 @@ impl Bench {
         let flash = Arc::new(Mutex::new(FlashShadow::new(config.flash.as_deref())));
         let mailbox = firmware.symbol(crate::flash::MAILBOX_SYMBOL).ok();
         let geometry_mailbox = firmware.symbol(crate::flash::GEOMETRY_MAILBOX_SYMBOL).ok();
+        let stack_region = StackRegion::of(&firmware).ok();
         let (to_master, from_driver) = sync_channel::<Report>(1);
         let (to_driver, from_master) = sync_channel::<Command>(1);
         let driver = Lockstep {
@@ -795,6 +819,8 @@ impl Bench {
             geometry_mailbox,
             flash_word_ns: config.flash_word_ns,
             position_channel: config.position_channel,
+            stack_region,
+            stack: None,
         };
         let image = firmware
             .rigless_image()
@@ -811,6 +837,18 @@ impl Bench {
             ),
             None => None,
         };
+        // The stack's region painted before the first instruction (`crate::stack`).
+        let paint = match stack_region {
+            Some(region) => Some(
+                rigless::image::Image::new(
+                    std::path::Path::new("stack-paint"),
+                    region.paint(),
+                    Some(region.floor),
+                )
+                .map_err(|e| BenchError::Emulator(e.to_string()))?,
+            ),
+            None => None,
+        };
         let mut session = Session::new(Box::new(board), 0, VirtualNanos(config.plant_step_ns))
             .map_err(|e| BenchError::Emulator(e.to_string()))?;
         session.watch(Watch::Writes {
@@ -822,7 +860,7 @@ impl Bench {
             .name("board-emulator".into())
             .spawn(move || {
                 let images: Vec<rigless::image::Image> =
-                    std::iter::once(image).chain(kept).collect();
+                    std::iter::once(image).chain(kept).chain(paint).collect();
                 let start = Start::new(&images);
                 match emulator::run(session, &start, driver) {
                     Ok(finished) => {
@@ -946,6 +984,14 @@ impl Bench {
     /// Runs for `ns` of virtual time.
     pub fn run_for(&mut self, ns: u64) -> Result<(), BenchError> {
         self.run_until(VirtualNanos(self.now.0 + ns))
+    }
+
+    /// The stack's use so far (`crate::stack`): measured at the next instant, a
+    /// microsecond on (`None` when the image names no stack region).
+    pub fn stack_use(&mut self) -> Result<Option<StackUse>, BenchError> {
+        self.act(Action::MeasureStack);
+        self.run_for(1_000)?;
+        Ok(self.last.stack)
     }
 
     /// Ends the run; returns the emulator's gaps (unmapped, unimplemented, unrouted).

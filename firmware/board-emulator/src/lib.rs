@@ -20,4 +20,5 @@ pub mod mcu;
 pub mod mechanics;
 pub mod pins;
 pub mod position_channel;
+pub mod stack;
 pub mod timers;

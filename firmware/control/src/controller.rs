@@ -116,6 +116,8 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Controller<S, M> {
     /// the measurements stand within their resolution of: the caller's to check), its
     /// servos where the tick's measurements say the joints are (they pull the joints the
     /// few counts onto the supervisor's setpoint).
+    // Cold (at enable, a stop, the park move; never in a tick): compiled for size.
+    #[cold]
     pub fn starting_at(
         robot: M,
         mut cfg: ControllerConfig<S>,

@@ -44,6 +44,7 @@
 
 pub mod absolute;
 pub mod brakes;
+pub mod commissioning;
 pub mod controller;
 pub mod current;
 pub mod drive;

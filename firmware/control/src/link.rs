@@ -90,6 +90,8 @@ pub enum Answer {
     FaultLog(FaultLogPage),
     /// A page of the event log.
     EventLog(EventLogPage),
+    /// A joint's commissioning record.
+    Commission(master_link::CommissionRecord),
 }
 
 impl Request {
@@ -117,6 +119,7 @@ impl Request {
             },
             Ok(Answer::FaultLog(page)) => BoardToMaster::FaultLog(page),
             Ok(Answer::EventLog(page)) => BoardToMaster::EventLog(page),
+            Ok(Answer::Commission(record)) => BoardToMaster::Commissioning(record),
             Err(reason) => match self.message {
                 MasterToBoard::Hello { nonce, .. } => BoardToMaster::HelloRefused {
                     seq: self.seq,

@@ -21,6 +21,7 @@
 //! | `Holding` | on (SS2: decelerate, hold) | released | `Enabled` (clutch, dead-man, heartbeat late) |
 //! | `Stopping` | on until the stop ends (SS1) | applied at rest | `Ready` or `Disabled` |
 //! | `Fault` | as the fault's stop says | as the stop says | `Fault` |
+//! | `Commissioning` | on while a joint's test pushes | as the test says | `Commissioning` |
 //!
 //! **A stop in force is never weakened.** `Stopping` and `Fault` carry a stop: no command
 //! ends it early (`Home`, `Enable` and `StoreGeometry` are refused until it has ended,
@@ -41,7 +42,7 @@ use master_link::{FaultCause, Faults, NackReason, RobotState};
 pub type State = RobotState;
 
 /// Every reported state, in order.
-pub const ALL_STATES: [State; 7] = [
+pub const ALL_STATES: [State; 8] = [
     State::Boot,
     State::Disabled,
     State::Homing,
@@ -49,6 +50,7 @@ pub const ALL_STATES: [State; 7] = [
     State::Enabling,
     State::Enabled,
     State::Fault,
+    State::Commissioning,
 ];
 
 /// The board's modes (the names of [`crate::runtime::Mode`]'s variants).
@@ -76,11 +78,15 @@ pub enum ModeKind {
     Stopping,
     /// A fault is latched; its stop is carried out, then torque stays off.
     Fault,
+    /// One joint's wiring test at a time (`crate::commissioning`), or its record waiting
+    /// to be read; entered unhomed, or homed or from a fault with torque off when a person
+    /// confirms; it always ends unhomed.
+    Commissioning,
 }
 
 impl ModeKind {
     /// Every mode, in the table's order.
-    pub const ALL: [ModeKind; 10] = [
+    pub const ALL: [ModeKind; 11] = [
         ModeKind::Boot,
         ModeKind::Disabled,
         ModeKind::Homing,
@@ -91,6 +97,7 @@ impl ModeKind {
         ModeKind::Holding,
         ModeKind::Stopping,
         ModeKind::Fault,
+        ModeKind::Commissioning,
     ];
 
     /// The name in the table.
@@ -106,6 +113,7 @@ impl ModeKind {
             ModeKind::Holding => "Holding",
             ModeKind::Stopping => "Stopping",
             ModeKind::Fault => "Fault",
+            ModeKind::Commissioning => "Commissioning",
         }
     }
 
@@ -121,6 +129,7 @@ impl ModeKind {
             ModeKind::Stopping if homed => State::Ready,
             ModeKind::Stopping => State::Disabled,
             ModeKind::Fault => State::Fault,
+            ModeKind::Commissioning => State::Commissioning,
         }
     }
 
@@ -134,6 +143,7 @@ impl ModeKind {
                 | ModeKind::Enabling
                 | ModeKind::Following
                 | ModeKind::Holding
+                | ModeKind::Commissioning
         )
     }
 
@@ -236,6 +246,12 @@ pub enum Event {
     FaultLogRequest,
     /// Master: store a calibrated geometry (drives off only).
     StoreGeometry,
+    /// Master: commission a joint (`confirm`: a person confirms commissioning a homed or
+    /// faulted robot).
+    Commission {
+        /// The confirmation.
+        confirm: bool,
+    },
     /// The heartbeat is later than the hold time.
     HeartbeatLate,
     /// A heartbeat arrived after a late or lost one.
@@ -255,7 +271,7 @@ pub enum Event {
 impl Event {
     /// The master's commands, one of each (both values of their flags), in the table's
     /// order.
-    pub const COMMANDS: [Event; 19] = [
+    pub const COMMANDS: [Event; 21] = [
         Event::Hello { owner: true },
         Event::Hello { owner: false },
         Event::Enable,
@@ -274,6 +290,8 @@ impl Event {
         Event::AcknowledgeReset,
         Event::FaultLogRequest,
         Event::StoreGeometry,
+        Event::Commission { confirm: false },
+        Event::Commission { confirm: true },
         Event::BootDone,
     ];
 
@@ -310,6 +328,8 @@ impl Event {
             Event::AcknowledgeReset => "`AcknowledgeReset`",
             Event::FaultLogRequest => "`FaultLogRequest`, `EventLogRequest`",
             Event::StoreGeometry => "`StoreGeometry`",
+            Event::Commission { confirm: false } => "`Commission`",
+            Event::Commission { confirm: true } => "`Commission { confirm }`",
             Event::HeartbeatLate => "heartbeat late (100 ms)",
             Event::HeartbeatRestored => "heartbeat back",
             Event::Referenced => "every joint referenced",
@@ -462,6 +482,18 @@ pub const fn next(mode: ModeKind, event: Event, cx: Context) -> Result<ModeKind,
         }),
         (E::Heartbeat | E::StatusRequest | E::FaultLogRequest, m) => Ok(m),
 
+        // Commissioning owns the drives while it runs; it ends only by `Disable` (a stop to
+        // torque off) or a fault, and always unhomed.
+        (E::Enable | E::Home { .. } | E::Target, M::Commissioning) => Err(Refusal::Busy),
+        (E::Disable, M::Commissioning) => Ok(M::Stopping),
+        (E::ClearFault | E::Commission { .. }, M::Commissioning) => Ok(mode),
+        (E::AcknowledgeReset | E::StoreGeometry | E::BootDone, M::Commissioning) => {
+            Err(Refusal::NotAllowed)
+        }
+        (E::Referenced | E::Parked | E::BrakesReleased | E::StopComplete, M::Commissioning) => {
+            Err(Refusal::NotAllowed)
+        }
+
         (E::BootDone, M::Boot) => Ok(M::Disabled),
         (E::BootDone, _) => Err(Refusal::NotAllowed),
         (_, M::Boot) => Err(Refusal::Booting),
@@ -473,12 +505,26 @@ pub const fn next(mode: ModeKind, event: Event, cx: Context) -> Result<ModeKind,
 
         // Nothing moves before a person acknowledged a watchdog or brown-out reset, nor
         // while the safety chain awaits its relay test.
-        (E::Enable, M::Ready) | (E::Home { .. }, M::Disabled | M::Ready) if cx.reset_pending => {
+        (E::Enable, M::Ready) | (E::Home { .. } | E::Commission { .. }, M::Disabled | M::Ready)
+            if cx.reset_pending =>
+        {
             Err(Refusal::ResetNotAcknowledged)
         }
-        (E::Enable, M::Ready) | (E::Home { .. }, M::Disabled | M::Ready) if cx.chain_untrusted => {
+        (E::Enable, M::Ready) | (E::Home { .. } | E::Commission { .. }, M::Disabled | M::Ready)
+            if cx.chain_untrusted =>
+        {
             Err(Refusal::SafetyRelayMismatch)
         }
+
+        // Commissioning: unhomed and drives off; a homed robot, or one with a fault whose
+        // stop has ended, only when a person at the robot confirms.
+        (E::Commission { .. }, M::Disabled) => Ok(M::Commissioning),
+        (E::Commission { confirm: true }, M::Ready) => Ok(M::Commissioning),
+        (E::Commission { confirm: false }, M::Ready) => Err(Refusal::AlreadyHomed),
+        (E::Commission { confirm: true }, M::Fault) if !cx.powered => Ok(M::Commissioning),
+        (E::Commission { .. }, M::Fault) => Err(Refusal::Faulted),
+        (E::Commission { .. }, M::Homing | M::Parking | M::Stopping) => Err(Refusal::Busy),
+        (E::Commission { .. }, M::Enabling | M::Following | M::Holding) => Err(Refusal::NotAllowed),
 
         // A new owner must say its operator is present before the robot moves.
         (E::Enable, M::Ready) if cx.hold.operator_absent => Err(Refusal::OperatorAbsent),
@@ -622,6 +668,21 @@ fn contexts(mode: ModeKind, event: Event) -> &'static [(Context, &'static str)] 
             (BASE, "torque off"),
         ],
         (ModeKind::Disabled | ModeKind::Ready, Event::Home { .. }) => &[
+            (RESET, "reset not acknowledged"),
+            (CHAIN, "relay test pending"),
+            (BASE, "otherwise"),
+        ],
+        (ModeKind::Fault, Event::Commission { .. }) => &[
+            (
+                Context {
+                    powered: true,
+                    ..BASE
+                },
+                "stop under power",
+            ),
+            (BASE, "torque off"),
+        ],
+        (ModeKind::Disabled | ModeKind::Ready, Event::Commission { .. }) => &[
             (RESET, "reset not acknowledged"),
             (CHAIN, "relay test pending"),
             (BASE, "otherwise"),

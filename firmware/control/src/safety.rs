@@ -100,7 +100,7 @@ impl Requirement {
             }
             Requirement::Torque => {
                 "The drives are on only in the modes that allow torque (homing, parking, \
-                 enabling, enabled, a stop under power), the brakes released only with them, \
+                 enabling, enabled, commissioning, a stop under power), the brakes released only with them, \
                  never after an STO until a fresh Enable or Home, and never with a welded \
                  safety relay found and not repaired"
             }

@@ -492,7 +492,7 @@ fn commands_before_hello_are_refused_except_the_emergency_stop() {
         &mut m,
         &mut b,
         &MasterToBoard::Hello {
-            protocol_version: 9,
+            protocol_version: 10,
             nonce: SESSION,
             clock_us: 0,
         },

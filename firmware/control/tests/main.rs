@@ -5,6 +5,7 @@
 
 mod channel;
 mod closed_loop;
+mod commissioning;
 mod common;
 mod event_log;
 mod events;

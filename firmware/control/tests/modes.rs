@@ -31,7 +31,7 @@ type Rt = Runtime<f64, RsprGeometry<f64>>;
 // ---------------------------------------------------------------------------------------
 
 /// The columns: a mode and the context it is in.
-const COLUMNS: [(ModeKind, &str); 14] = [
+const COLUMNS: [(ModeKind, &str); 15] = [
     (ModeKind::Boot, "Boot"),
     (ModeKind::Disabled, "Disabled"),
     (ModeKind::Homing, "Homing"),
@@ -46,6 +46,7 @@ const COLUMNS: [(ModeKind, &str); 14] = [
     (ModeKind::Fault, "Fault (not homed, off)"),
     (ModeKind::Fault, "Fault (under power)"),
     (ModeKind::Fault, "Fault (cause present)"),
+    (ModeKind::Commissioning, "Commissioning"),
 ];
 
 /// The context of a column before the event.
@@ -89,13 +90,13 @@ fn after(mut cx: Context, mode: ModeKind, event: Event) -> Context {
 
 /// The expected table, one row per event, one cell per column. `=` keeps the mode, `!X`
 /// refuses with X.
-const TABLE: [(Event, [&str; 14]); 28] = {
+const TABLE: [(Event, [&str; 15]); 30] = {
     use Event as E;
-    const R: [&str; 14] = ["="; 14];
-    const FLT: [&str; 14] = ["Flt"; 14];
-    const NA: [&str; 14] = [
+    const R: [&str; 15] = ["="; 15];
+    const FLT: [&str; 15] = ["Flt"; 15];
+    const NA: [&str; 15] = [
         "!Boot", "!NA", "!NA", "!NA", "!NA", "!NA", "!NA", "!NA", "!NA", "!NA", "!NA", "!NA",
-        "!NA", "!NA",
+        "!NA", "!NA", "!NA",
     ];
     const FAULTED: &str = "!Faulted";
     [
@@ -103,7 +104,7 @@ const TABLE: [(Event, [&str; 14]); 28] = {
             E::BootDone,
             [
                 "Dis", "!NA", "!NA", "!NA", "!NA", "!NA", "!NA", "!NA", "!NA", "!NA", "!NA", "!NA",
-                "!NA", "!NA",
+                "!NA", "!NA", "!NA",
             ],
         ),
         (E::Hello { owner: true }, R),
@@ -124,6 +125,7 @@ const TABLE: [(Event, [&str; 14]); 28] = {
                 "=",
                 "!NotOwner",
                 "=",
+                "!NotOwner",
             ],
         ),
         (
@@ -143,27 +145,28 @@ const TABLE: [(Event, [&str; 14]); 28] = {
                 FAULTED,
                 FAULTED,
                 FAULTED,
+                "!Busy",
             ],
         ),
         (
             E::Disable,
             [
                 "!Boot", "=", "Stp", "Stp", "=", "Stp", "Stp", "Stp", "=", "=", FAULTED, FAULTED,
-                FAULTED, FAULTED,
+                FAULTED, FAULTED, "Stp",
             ],
         ),
         (
             E::Home { rehome: false },
             [
                 "!Boot", "Hom", "!Busy", "!Busy", "!Homed", "!NA", "!NA", "!NA", "!Busy", "!Busy",
-                FAULTED, FAULTED, FAULTED, FAULTED,
+                FAULTED, FAULTED, FAULTED, FAULTED, "!Busy",
             ],
         ),
         (
             E::Home { rehome: true },
             [
                 "!Boot", "Hom", "!Busy", "!Busy", "Hom", "!NA", "!NA", "!NA", "!Busy", "!Busy",
-                FAULTED, FAULTED, FAULTED, FAULTED,
+                FAULTED, FAULTED, FAULTED, FAULTED, "!Busy",
             ],
         ),
         (
@@ -183,24 +186,25 @@ const TABLE: [(Event, [&str; 14]); 28] = {
                 FAULTED,
                 FAULTED,
                 FAULTED,
+                "!Busy",
             ],
         ),
         (
             E::Clutch { engaged: true },
             [
-                "=", "=", "=", "=", "=", "=", "Hol", "=", "=", "=", "=", "=", "=", "=",
+                "=", "=", "=", "=", "=", "=", "Hol", "=", "=", "=", "=", "=", "=", "=", "=",
             ],
         ),
         (
             E::Clutch { engaged: false },
             [
-                "=", "=", "=", "=", "=", "=", "=", "Fol", "=", "=", "=", "=", "=", "=",
+                "=", "=", "=", "=", "=", "=", "=", "Fol", "=", "=", "=", "=", "=", "=", "=",
             ],
         ),
         (
             E::OperatorPresent { present: false },
             [
-                "=", "=", "=", "=", "=", "=", "Hol", "=", "=", "=", "=", "=", "=", "=",
+                "=", "=", "=", "=", "=", "=", "Hol", "=", "=", "=", "=", "=", "=", "=", "=",
             ],
         ),
         (E::OperatorPresent { present: true }, R),
@@ -223,6 +227,7 @@ const TABLE: [(Event, [&str; 14]); 28] = {
                 "Dis",
                 "Stp",
                 "!StillActive",
+                "=",
             ],
         ),
         (E::StatusRequest, R),
@@ -230,7 +235,7 @@ const TABLE: [(Event, [&str; 14]); 28] = {
             E::AcknowledgeReset,
             [
                 "!Boot", "=", "!NA", "!NA", "=", "!NA", "!NA", "!NA", "!NA", "!NA", "=", "=",
-                "!NA", "=",
+                "!NA", "=", "!NA",
             ],
         ),
         (E::FaultLogRequest, R),
@@ -238,13 +243,27 @@ const TABLE: [(Event, [&str; 14]); 28] = {
             E::StoreGeometry,
             [
                 "!Boot", "=", "!NA", "!NA", "=", "!NA", "!NA", "!NA", "!NA", "!NA", "!NA", "!NA",
-                "!NA", "!NA",
+                "!NA", "!NA", "!NA",
+            ],
+        ),
+        (
+            E::Commission { confirm: false },
+            [
+                "!Boot", "Com", "!Busy", "!Busy", "!Homed", "!NA", "!NA", "!NA", "!Busy", "!Busy",
+                FAULTED, FAULTED, FAULTED, FAULTED, "=",
+            ],
+        ),
+        (
+            E::Commission { confirm: true },
+            [
+                "!Boot", "Com", "!Busy", "!Busy", "Com", "!NA", "!NA", "!NA", "!Busy", "!Busy",
+                "Com", "Com", FAULTED, "Com", "=",
             ],
         ),
         (
             E::HeartbeatLate,
             [
-                "=", "=", "=", "=", "=", "=", "Hol", "=", "=", "=", "=", "=", "=", "=",
+                "=", "=", "=", "=", "=", "=", "Hol", "=", "=", "=", "=", "=", "=", "=", "=",
             ],
         ),
         (E::HeartbeatRestored, R),
@@ -278,6 +297,7 @@ const TABLE: [(Event, [&str; 14]); 28] = {
             E::Fault(FaultCause::HeartbeatTimeout),
             [
                 "=", "=", "Flt", "Flt", "=", "Flt", "Flt", "Flt", "=", "=", "=", "=", "=", "=",
+                "Flt",
             ],
         ),
         (E::Fault(FaultCause::Overcurrent), FLT),
@@ -297,6 +317,7 @@ fn parse(code: &str, mode: ModeKind) -> Result<ModeKind, Refusal> {
         "Hol" => ModeKind::Holding,
         "Stp" => ModeKind::Stopping,
         "Flt" => ModeKind::Fault,
+        "Com" => ModeKind::Commissioning,
         "!NA" => return Err(Refusal::NotAllowed),
         "!Boot" => return Err(Refusal::Booting),
         "!NotHomed" => return Err(Refusal::NotHomed),
@@ -330,7 +351,7 @@ fn every_mode_times_every_event_is_the_written_table() {
             checked += 1;
         }
     }
-    assert_eq!(checked, 28 * 14);
+    assert_eq!(checked, 30 * 15);
     for e in Event::COMMANDS.iter().chain(Event::CONDITIONS.iter()) {
         assert!(TABLE.iter().any(|(t, _)| t == e), "{e:?} not in the table");
     }

@@ -18,7 +18,7 @@ use crate::messages::{Seq, WireMessage};
 /// the fault flag `POSITION_SENSOR`); 8 refused targets with the guard or rule, subject,
 /// value and limit (`TargetRefused`: the reply to a target refused at submission, and a
 /// message of its own for every target the path check refuses).
-pub const PROTOCOL_VERSION: u8 = 8;
+pub const PROTOCOL_VERSION: u8 = 9;
 
 /// Header length: version (1 byte) + session (4 bytes, little endian) + sequence number
 /// (2 bytes, little endian).

@@ -112,10 +112,11 @@ pub use frame::{
     PROTOCOL_VERSION,
 };
 pub use messages::{
-    BoardToMaster, Breach, EventEntry, EventKind, EventLogPage, FaultCause, FaultLogEntry,
-    FaultLogPage, FaultRecord, FirmwareVersion, GeometryRecord, GeometryRefusal, GuardId,
-    GuardMargins, LinkCounters, MasterToBoard, NackReason, RefusedTarget, ResetCause, ResetStatus,
-    RobotState, Seq, StatusReport, StopReason, StopStatus, WireMessage, EVENT_LOG_PAGE,
-    FAULT_LOG_PAGE, GEOMETRY_CHAIN_VALUES, GEOMETRY_LAYOUT, JOINT_COUNT, JOINT_L1, JOINT_L2,
-    JOINT_L3, JOINT_THETA1, JOINT_THETA2, JOINT_THETA3, NO_JOINT,
+    BoardToMaster, Breach, CommissionFindings, CommissionRecord, EventEntry, EventKind,
+    EventLogPage, FaultCause, FaultLogEntry, FaultLogPage, FaultRecord, FirmwareVersion,
+    GeometryRecord, GeometryRefusal, GuardId, GuardMargins, LinkCounters, MasterToBoard,
+    NackReason, RefusedTarget, ResetCause, ResetStatus, RobotState, Seq, StatusReport, StopReason,
+    StopStatus, WireMessage, EVENT_LOG_PAGE, FAULT_LOG_PAGE, GEOMETRY_CHAIN_VALUES,
+    GEOMETRY_LAYOUT, JOINT_COUNT, JOINT_L1, JOINT_L2, JOINT_L3, JOINT_THETA1, JOINT_THETA2,
+    JOINT_THETA3, NO_JOINT,
 };

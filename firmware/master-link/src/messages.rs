@@ -124,6 +124,18 @@ pub enum MasterToBoard {
         /// First entry wanted.
         first: u16,
     },
+    /// Commissioning (protocol version 9): test the wiring of joint `joint` (0..=5) in
+    /// the board's commissioning mode. Taken from `Disabled` (not homed); from `Ready` or
+    /// from a fault whose stop has ended only with `confirm` (the robot was homed, or a
+    /// fault is latched: a person at the robot confirms). Answered `Commissioning` with the
+    /// joint's record: sent again for the same joint, it reads the record (`done` once the
+    /// test has ended); for another joint once the test has ended, it tests that joint.
+    Commission {
+        /// The joint to test (l1, l2, l3, theta1, theta2, theta3).
+        joint: u8,
+        /// A person at the robot confirms commissioning a homed or faulted robot.
+        confirm: bool,
+    },
 }
 
 /// The record layout [`GeometryRecord::layout`] this crate writes.
@@ -407,6 +419,125 @@ pub struct RefusedTarget {
     pub breach: Breach,
 }
 
+/// What commissioning found on one joint ([`CommissionRecord::findings`]): one bit per
+/// finding, each implying its fix (`host-sim commission` words them).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct CommissionFindings(pub u16);
+
+impl CommissionFindings {
+    /// Nothing wrong.
+    pub const NONE: Self = Self(0);
+    /// A positive duty moved the joint towards -q (by the reference): the motor's leads are
+    /// reversed.
+    pub const MOTOR_REVERSED: Self = Self(1 << 0);
+    /// The encoder counts against the joint's motion (by the reference).
+    pub const ENCODER_REVERSED: Self = Self(1 << 1);
+    /// The encoder counted down under a positive duty and there is no reference to say
+    /// whether the motor or the encoder is reversed (the person at the robot tells).
+    pub const DIRECTION_MISMATCH: Self = Self(1 << 2);
+    /// Another joint's encoder counted this joint's motion (`moved_encoder`): the
+    /// encoders' cables are swapped.
+    pub const ENCODER_SWAPPED: Self = Self(1 << 3);
+    /// The encoder's counts per unit differ from the profile's by more than the tolerance
+    /// (`scale`): the gear ratio or the encoder's resolution is not the profile's.
+    pub const SCALE: Self = Self(1 << 4);
+    /// The home switch reads actuated where the joint is away from it: a normally open
+    /// switch (or a cut wire) where a normally closed one is expected.
+    pub const SWITCH_INVERTED: Self = Self(1 << 5);
+    /// The joint moved with its brake applied and stood with it released: the brake's
+    /// coil or output is inverted.
+    pub const BRAKE_INVERTED: Self = Self(1 << 6);
+    /// The joint moved with its brake applied and with it released: the brake does not
+    /// hold.
+    pub const BRAKE_NOT_HOLDING: Self = Self(1 << 7);
+    /// Nothing moved at the test's torque with the brake released: a brake that does not
+    /// release, a motor not connected, or a dead encoder.
+    pub const NO_MOTION: Self = Self(1 << 8);
+    /// The current sense reads more than its tolerance at zero current (`current_offset_a`).
+    pub const CURRENT_OFFSET: Self = Self(1 << 9);
+    /// The current sense reads against the duty while the joint moves: its sign is
+    /// inverted.
+    pub const CURRENT_SIGN: Self = Self(1 << 10);
+    /// The drivers' fault line reads a fault with the drives off: the driver failed or the
+    /// line is miswired (no pull-up); the test did not drive.
+    pub const DRIVER_FAULT_LINE: Self = Self(1 << 11);
+    /// A joint moved beyond the test's travel limit: the test stopped at once.
+    pub const TRAVEL_EXCEEDED: Self = Self(1 << 12);
+    /// The home switch reads actuated at rest and there is no reference to say whether the
+    /// joint is at its switch (the person at the robot tells).
+    pub const SWITCH_ACTUATED: Self = Self(1 << 13);
+    /// Every finding, in bit order.
+    pub const ALL: [Self; 14] = [
+        Self::MOTOR_REVERSED,
+        Self::ENCODER_REVERSED,
+        Self::DIRECTION_MISMATCH,
+        Self::ENCODER_SWAPPED,
+        Self::SCALE,
+        Self::SWITCH_INVERTED,
+        Self::BRAKE_INVERTED,
+        Self::BRAKE_NOT_HOLDING,
+        Self::NO_MOTION,
+        Self::CURRENT_OFFSET,
+        Self::CURRENT_SIGN,
+        Self::DRIVER_FAULT_LINE,
+        Self::TRAVEL_EXCEEDED,
+        Self::SWITCH_ACTUATED,
+    ];
+    /// Every bit of `other` is set.
+    pub const fn contains(self, other: Self) -> bool {
+        self.0 & other.0 == other.0
+    }
+    /// Sets the bits of `other`.
+    pub fn insert(&mut self, other: Self) {
+        self.0 |= other.0;
+    }
+    /// No bit set.
+    pub const fn is_empty(self) -> bool {
+        self.0 == 0
+    }
+}
+
+/// One joint's commissioning record: what the board measured and what it found
+/// (`BoardToMaster::Commissioning`, protocol version 9). Motions are in joint units (m,
+/// rad) of the profile's scale; NaN where nothing was measured.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct CommissionRecord {
+    /// The joint tested.
+    pub joint: u8,
+    /// The test has ended (the drives are off, the brakes applied).
+    pub done: bool,
+    /// The board read its second position channel as the reference.
+    pub reference: bool,
+    /// What it found.
+    pub findings: CommissionFindings,
+    /// The encoder that counted the joint's motion (0..=5; 255: none).
+    pub moved_encoder: u8,
+    /// Its motion under the positive push (its own joint's units).
+    pub encoder_motion: f32,
+    /// The joint's motion by the second channel (NaN without it).
+    pub reference_motion: f32,
+    /// The encoder's counts per unit over the profile's, by the reference (NaN without).
+    pub scale: f32,
+    /// The current sense's reading at zero current, A.
+    pub current_offset_a: f32,
+    /// The mean current while the joint moved under the positive push, offset removed, A.
+    pub current_a: f32,
+    /// The largest motion with the brake applied (any sensor, the joint's units).
+    pub applied_motion: f32,
+    /// The largest motion of any joint during the test, by any sensor, as a fraction of
+    /// that joint's travel limit (1: at the limit).
+    pub peak_travel: f32,
+    /// The duty at which the joint moved (0: it did not).
+    pub breakaway_duty: f32,
+    /// The home switch at the start and at the end of the test (bit 0, bit 1: actuated).
+    pub switch: u8,
+    /// The channel's position where the home switch changed during the test (NaN: it did
+    /// not, or no reference).
+    pub switch_position: f32,
+}
+
 /// Controller state machine state.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -427,6 +558,9 @@ pub enum RobotState {
     /// Enabling: the drives hold the robot while the holding brakes are checked and
     /// released (protocol version 4); `Enabled` follows.
     Enabling,
+    /// Commissioning: one joint's wiring test, or its record waiting to be read (protocol
+    /// version 9).
+    Commissioning,
 }
 
 /// Link statistics of one receiving direction (see `FrameDecoder`).
@@ -1069,6 +1203,8 @@ pub enum BoardToMaster {
     /// sent on its own when the supervisor's path check refuses a target it had
     /// acknowledged (protocol version 7).
     TargetRefused(RefusedTarget),
+    /// The answer to `Commission`: the joint's commissioning record (protocol version 9).
+    Commissioning(CommissionRecord),
 }
 
 impl WireMessage for BoardToMaster {

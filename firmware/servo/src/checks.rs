@@ -38,6 +38,10 @@ impl fmt::Display for ConfigError {
 impl core::error::Error for ConfigError {}
 
 /// The field checks shared by the `validate()` functions.
+///
+/// Each check is out of line: a configuration is validated once, off the control tick,
+/// and a check inlined at each of its call sites (every field of every joint, the loops
+/// unrolled) is some 200 bytes of a firmware image's text where a call is a dozen.
 pub(crate) struct Check {
     pub section: &'static str,
     pub joint: usize,
@@ -54,6 +58,7 @@ impl Check {
     }
 
     /// Finite and >= 0.
+    #[inline(never)]
     pub fn non_negative<S: Float>(&self, field: &'static str, v: S) -> Result<(), ConfigError> {
         if v.is_finite() && v >= S::zero() {
             Ok(())
@@ -63,6 +68,7 @@ impl Check {
     }
 
     /// Finite and > 0.
+    #[inline(never)]
     pub fn positive<S: Float>(&self, field: &'static str, v: S) -> Result<(), ConfigError> {
         if v.is_finite() && v > S::zero() {
             Ok(())
@@ -72,6 +78,7 @@ impl Check {
     }
 
     /// In `(0, 1]`.
+    #[inline(never)]
     pub fn unit_fraction<S: Float>(&self, field: &'static str, v: S) -> Result<(), ConfigError> {
         if v > S::zero() && v <= S::one() {
             Ok(())

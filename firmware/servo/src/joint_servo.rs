@@ -110,6 +110,8 @@ pub struct JointServo<S> {
 
 impl<S: Float> JointServo<S> {
     /// Six servos with `config` (validated first).
+    // Cold (at enable, a stop, the park move; never in a tick): compiled for size.
+    #[cold]
     pub fn new(config: &ServoConfig<S>) -> Result<Self, ConfigError> {
         config.validate()?;
         let mut channels = [Channel {
@@ -118,7 +120,7 @@ impl<S: Float> JointServo<S> {
             tracking: TrackingMonitor::new(0, TrackingLimits::leg()),
         }; NUM_JOINTS];
         for ((j, ch), t) in channels.iter_mut().enumerate().zip(&config.tracking.joints) {
-            ch.tracking = TrackingMonitor::new(j, *t);
+            new_tracking(ch, j, t);
         }
         let mut servo = JointServo {
             config: *config,
@@ -140,9 +142,7 @@ impl<S: Float> JointServo<S> {
             .zip(&c.backlash.joints)
             .zip(&c.tracking.joints)
         {
-            ch.pid.set_gains(*p);
-            ch.backlash.set_params(*b);
-            ch.tracking.set_limits(*t);
+            configure(ch, p, b, t);
         }
     }
 
@@ -416,6 +416,25 @@ fn all_finite<S: Float>(
     let zero = S::zero();
     let sum = |x: &[S; NUM_JOINTS]| x.iter().fold(zero, |acc, v| acc + *v * zero);
     sum(a) + sum(b) + sum(c) + sum(d) == zero
+}
+
+// Construction and reconfiguration are cold: one call per channel, not the body unrolled
+// six times over (the board image's text; the control tick never calls them).
+#[inline(never)]
+fn new_tracking<S: Float>(ch: &mut Channel<S>, j: usize, t: &TrackingLimits<S>) {
+    ch.tracking = TrackingMonitor::new(j, *t);
+}
+
+#[inline(never)]
+fn configure<S: Float>(
+    ch: &mut Channel<S>,
+    p: &PidGains<S>,
+    b: &BacklashParams<S>,
+    t: &TrackingLimits<S>,
+) {
+    ch.pid.set_gains(*p);
+    ch.backlash.set_params(*b);
+    ch.tracking.set_limits(*t);
 }
 
 #[cfg(test)]

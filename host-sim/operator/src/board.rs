@@ -498,6 +498,8 @@ impl Board {
                     })
                 })
             }
+            // The console sends no `Commission` (`host-sim commission` does).
+            BoardToMaster::Commissioning(_) => None,
             BoardToMaster::Ack { seq } => answer(&mut self.pending, &|p| p.0 == seq, Outcome::Ack),
             BoardToMaster::Nack { seq, reason } => {
                 answer(&mut self.pending, &|p| p.0 == seq, Outcome::Refused(reason))
@@ -1016,6 +1018,7 @@ pub fn request_name(msg: &MasterToBoard) -> &'static str {
         MasterToBoard::FaultLogRequest { .. } => "Fault log",
         MasterToBoard::StoreGeometry(_) => "Store geometry",
         MasterToBoard::EventLogRequest { .. } => "Event log",
+        MasterToBoard::Commission { .. } => "Commission",
     }
 }
 

@@ -245,6 +245,7 @@ pub fn state_of(s: &StatusReport, refused_at_accept: Option<u32>) -> IgtlState {
         RobotState::Boot => (Condition::NotReady, "booting".to_string()),
         RobotState::Homing => (Condition::NotReady, "homing".to_string()),
         RobotState::Enabling => (Condition::NotReady, "enabling (brake check)".to_string()),
+        RobotState::Commissioning => (Condition::NotReady, "commissioning".to_string()),
         RobotState::Disabled => (
             Condition::Disabled,
             "drives off, not homed: home it".to_string(),

@@ -10,6 +10,7 @@
 //! | `Disabled` (not homed), `Ready` (homed, drives off) | `DISABLED` | no |
 //! | `Homing` (drives on, moving to the switches) | `ENABLED` | yes |
 //! | `Enabling` (brake check) | `DISABLED` | yes |
+//! | `Commissioning` (a joint's wiring test, open loop) | `ENABLED` | yes |
 //! | `Enabled`, following | `ENABLED` | while a stop decelerates |
 //! | `Enabled`, holding under SS2 (clutch, `pause`) | `PAUSED` | while it decelerates |
 //! | `Fault` | `FAULT` | while its stop decelerates or brakes |
@@ -20,7 +21,8 @@
 //! brake check), `disable` sends `Disable`, `home` sends `Home` (never a re-home: on a homed
 //! robot it is a no-op, as CRTK's `home` is), `pause` engages the clutch (the board holds
 //! under SS2 and refuses targets), `resume` releases it. CRTK's `unhome` has no counterpart
-//! on the board (homing is lost only with power) and is refused with that reason.
+//! on the board (homing is lost only with power, or by commissioning) and is refused with
+//! that reason.
 
 use master_link::{MasterToBoard, RobotState, StatusReport, StopStatus, Warnings};
 use std::fmt;
@@ -73,7 +75,7 @@ pub fn operating_state(s: &StatusReport) -> Operating {
     let (state, is_busy) = match s.state {
         RobotState::Boot | RobotState::Enabling => (MetaState::Disabled, true),
         RobotState::Disabled | RobotState::Ready => (MetaState::Disabled, false),
-        RobotState::Homing => (MetaState::Enabled, true),
+        RobotState::Homing | RobotState::Commissioning => (MetaState::Enabled, true),
         RobotState::Enabled => {
             let holding = matches!(
                 s.stop,
@@ -154,7 +156,9 @@ impl StateCommand {
             StateCommand::Disable => MasterToBoard::Disable,
             StateCommand::Home => MasterToBoard::Home { rehome: false },
             StateCommand::Unhome => {
-                return Err("the board cannot unhome: homing is lost only with power")
+                return Err(
+                    "the board cannot unhome: homing is lost only with power or by commissioning",
+                )
             }
             StateCommand::Pause => MasterToBoard::Clutch { engaged: true },
             StateCommand::Resume => MasterToBoard::Clutch { engaged: false },
@@ -191,6 +195,7 @@ mod tests {
             (RobotState::Ready, S::SafeStop1Done, Disabled, false),
             (RobotState::Homing, S::None, Enabled, true),
             (RobotState::Enabling, S::None, Disabled, true),
+            (RobotState::Commissioning, S::None, Enabled, true),
             (RobotState::Enabled, S::None, Enabled, false),
             (RobotState::Enabled, S::SafeStop2Decelerating, Paused, true),
             (RobotState::Enabled, S::SafeOperatingStop, Paused, false),

@@ -64,6 +64,8 @@ pub struct SimMaster {
     pub fault_logs: Vec<FaultLogPage>,
     /// Event-log pages received.
     pub event_logs: Vec<EventLogPage>,
+    /// The commissioning records received (answers to `Commission`), in order.
+    pub commissioning: Vec<master_link::CommissionRecord>,
     /// Every refused target, with what refused it.
     pub refused: Vec<master_link::RefusedTarget>,
 }
@@ -88,6 +90,7 @@ impl SimMaster {
             hellos: 0,
             fault_logs: Vec::new(),
             event_logs: Vec::new(),
+            commissioning: Vec::new(),
             refused: Vec::new(),
         }
     }
@@ -132,6 +135,7 @@ impl SimMaster {
                 }
                 BoardToMaster::FaultLog(page) => self.fault_logs.push(page),
                 BoardToMaster::EventLog(page) => self.event_logs.push(page),
+                BoardToMaster::Commissioning(record) => self.commissioning.push(record),
                 BoardToMaster::TargetRefused(r) => {
                     if let Some(seq) = r.reply_to {
                         self.replies.insert(seq, (t_us, msg));

@@ -89,6 +89,9 @@ pub struct BoardSimConfig {
     /// The board has the second position channel fitted (it reads the plant's absolute
     /// position sensors, and `Home` restores the references from them).
     pub position_channel: bool,
+    /// How the robot is wired to the board (straight, or the miswirings commissioning
+    /// finds: `board_on_plant::Wiring`).
+    pub wiring: board_on_plant::Wiring,
 }
 
 /// The simulated board's reserved flash sector for the calibrated geometry (16 slots of
@@ -277,6 +280,7 @@ impl BoardSimConfig {
             wall: None,
             telemetry_us: 20_000,
             position_channel: false,
+            wiring: board_on_plant::Wiring::straight(),
             event_flash: (2, 128 * 1024),
             key: None,
         })
@@ -388,6 +392,7 @@ impl BoardSim {
         });
         let mut hw = BoardOnPlant::at_rest(plant, rest)?.with_layout(&layout);
         hw.position_channel = cfg.position_channel;
+        hw.wiring = cfg.wiring;
         let mut rt = Runtime::new(robot, cfg.runtime, 0).map_err(BoardSimError::Runtime)?;
         let (event_store, events) = control::event_log::boot(&mut flash.events, None);
         rt.restore_events(events);

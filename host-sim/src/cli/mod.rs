@@ -8,6 +8,7 @@
 pub mod board;
 pub mod board_session;
 pub mod calibrate;
+pub mod commission;
 pub mod describe;
 pub mod design;
 pub mod identify;
@@ -296,6 +297,13 @@ pub enum Command {
     /// repeats, the last reset; then every event the flash kept (faults, stops, resets,
     /// masters, geometries, the relay test) with its boot and time, in plain words.
     Faultlog(board::FaultLogArgs),
+    /// Commissioning a robot just built: the board's commissioning mode tests each joint's
+    /// wiring (motor and encoder direction, swapped encoders, counts per unit against the
+    /// second channel, home switch, brake, current sense, driver fault line) with the others
+    /// braked, at most 3 mm or 3 deg of travel; prints each finding with its fix in words and
+    /// writes report.txt, board-profile.toml (the gear ratios measured) and wiring.toml (the
+    /// signs for the pin map) to --out (default target/commission/).
+    Commission(commission::CommissionArgs),
     /// Kinematic calibration from external measurements.
     ///
     /// --measurements FILE.csv: joint readings paired with the marker pose (or position)
@@ -363,6 +371,7 @@ impl Command {
             Command::Igtl(args) => operator::igtl(args),
             Command::Ros2(args) => ros2::run(args, selected, &limits.limits),
             Command::Faultlog(args) => board::faultlog(args),
+            Command::Commission(args) => commission::commission(args),
             Command::Calibrate(args) => calibrate::run(args, selected, limits),
             Command::Identify(args) => identify::run(args),
             Command::Describe(args) => describe::run(args, selected, &limits.limits),

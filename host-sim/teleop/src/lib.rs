@@ -432,5 +432,9 @@ pub fn request_name(msg: &master_link::MasterToBoard) -> String {
         MasterToBoard::FaultLogRequest { .. } => "fault log request".into(),
         MasterToBoard::StoreGeometry(_) => "store geometry".into(),
         MasterToBoard::EventLogRequest { .. } => "event log request".into(),
+        MasterToBoard::Commission { joint, .. } => format!(
+            "commission {}",
+            board_words::joint_name(*joint).unwrap_or_else(|| format!("joint {joint}"))
+        ),
     }
 }

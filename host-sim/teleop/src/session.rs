@@ -312,6 +312,15 @@ impl Session {
                     *reply = Some((r.t_s, r.msg));
                 }
             }
+            BoardToMaster::Commissioning(record) => {
+                // A record answers the oldest open `Commission` of its joint.
+                if let Some((_, reply)) = self.requests.values_mut().find(|(req, reply)| {
+                    reply.is_none()
+                        && matches!(req, MasterToBoard::Commission { joint, .. } if *joint == record.joint)
+                }) {
+                    *reply = Some((r.t_s, r.msg));
+                }
+            }
         }
     }
 
@@ -396,6 +405,22 @@ impl Session {
             BoardToMaster::GeometryRefused { reason, .. } => GeometryAnswer::Refused(reason),
             BoardToMaster::Nack { reason, .. } => GeometryAnswer::Nack(reason),
             other => GeometryAnswer::Unexpected(format!("{other:?}")),
+        })
+    }
+
+    /// Sends `Commission { joint, confirm }` and waits up to `timeout_s` for the joint's
+    /// record, or the refusal.
+    pub fn commission(
+        &mut self,
+        joint: u8,
+        confirm: bool,
+        timeout_s: f64,
+    ) -> Result<Result<master_link::CommissionRecord, NackReason>, TeleopError> {
+        let seq = self.send(MasterToBoard::Commission { joint, confirm })?;
+        Ok(match self.reply(seq, timeout_s)? {
+            BoardToMaster::Commissioning(record) => Ok(record),
+            BoardToMaster::Nack { reason, .. } => Err(reason),
+            _ => Err(NackReason::InvalidState),
         })
     }
 

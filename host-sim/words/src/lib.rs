@@ -258,6 +258,7 @@ pub fn state_label(s: RobotState) -> &'static str {
         RobotState::Enabled => "Enabled",
         RobotState::Fault => "Fault",
         RobotState::Enabling => "Enabling",
+        RobotState::Commissioning => "Commissioning",
     }
 }
 
@@ -284,6 +285,73 @@ pub fn state(s: RobotState) -> &'static str {
         RobotState::Enabled => "enabled (following targets)",
         RobotState::Fault => "fault",
         RobotState::Enabling => "enabling (checking the brakes)",
+        RobotState::Commissioning => "commissioning (testing the wiring)",
+    }
+}
+
+/// A commissioning finding in plain words: what the board found, and the fix it implies
+/// (`master_link::CommissionFindings`; the board profile's keys are named where the fix is
+/// a correction in it).
+pub fn commission_finding(f: master_link::CommissionFindings) -> (&'static str, &'static str) {
+    use master_link::CommissionFindings as F;
+    match f {
+        F::MOTOR_REVERSED => (
+            "the motor turns the wrong way: a positive duty moved the joint towards -q",
+            "swap the motor's two leads at the driver (or set invert_motor = true)",
+        ),
+        F::ENCODER_REVERSED => (
+            "the encoder counts the wrong way: it counts down as the joint moves towards +q",
+            "swap the encoder's A and B wires (or set invert_encoder = true)",
+        ),
+        F::DIRECTION_MISMATCH => (
+            "the encoder counted down under a positive duty (no second channel to tell whether the motor or the encoder is reversed)",
+            "watch the joint: if it moved towards -q, swap the motor's leads; otherwise swap the encoder's A and B",
+        ),
+        F::ENCODER_SWAPPED => (
+            "another joint's encoder counted this joint's motion: the encoder cables are swapped",
+            "swap the two encoder connectors (or set encoder_channel to the one that moved)",
+        ),
+        F::SCALE => (
+            "the encoder's counts per unit differ from the board profile's by more than 5 %",
+            "check the gear ratio and the encoder's lines; set gear_ratio to the measured value",
+        ),
+        F::SWITCH_INVERTED => (
+            "the home switch reads actuated where the joint is away from it",
+            "fit a normally closed switch (contact to GND, opens when actuated) or rewire it to its NC contact",
+        ),
+        F::SWITCH_ACTUATED => (
+            "the home switch reads actuated at rest (no second channel to tell whether the joint is at it)",
+            "if the joint is not at its switch, wire the switch's NC contact",
+        ),
+        F::BRAKE_INVERTED => (
+            "the joint moved with its brake applied and stood with it released: the brake is inverted",
+            "fit a spring-applied brake (holds unpowered) or correct its coil's output",
+        ),
+        F::BRAKE_NOT_HOLDING => (
+            "the joint moved with its brake applied and released alike: the brake does not hold",
+            "check the brake's air gap, its wiring and its holding torque",
+        ),
+        F::NO_MOTION => (
+            "nothing moved at the test's torque with the brake released",
+            "check that the brake releases (its coil's supply), the motor's connection and the encoder",
+        ),
+        F::CURRENT_OFFSET => (
+            "the current sense reads more than 20 mA at zero current",
+            "check the sense amplifier's reference (1.65 V at 0 A); apply the offset shown",
+        ),
+        F::CURRENT_SIGN => (
+            "the current sense reads against the duty",
+            "swap the sense amplifier's inputs (or invert the current's sign)",
+        ),
+        F::DRIVER_FAULT_LINE => (
+            "the drivers' fault line reads a fault with the drives off; nothing was driven",
+            "check the driver (its supply, its own fault) and the nFAULT line's pull-up",
+        ),
+        F::TRAVEL_EXCEEDED => (
+            "a joint moved beyond the test's travel limit; the test stopped at once",
+            "find out why before going on: a loose coupling, a runaway, a sensor on the wrong joint",
+        ),
+        _ => ("several findings", "see each"),
     }
 }
 

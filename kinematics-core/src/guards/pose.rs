@@ -86,15 +86,19 @@ impl<T: Real, M: Mechanism<T>> Guards<T, M> {
     /// Evaluates every pose guard at `pose`, handing each reading to `visit` (violations
     /// and fine ones alike). Returns the inverse-kinematics solution when there is one
     /// (the convenience form of [`Guards::evaluate_pose_into`], with a cold SVD).
+    // Off the control tick (a start, the park move's check, clearing a stop): out of line,
+    // the visitor a trait object, so that a firmware image holds one copy of the whole
+    // evaluation whatever its callers' closures (each closure type would be a copy).
+    #[inline(never)]
     pub fn evaluate_pose(
         &self,
         pose: &Pose<T>,
-        visit: &mut impl FnMut(&Reading<T>),
+        visit: &mut dyn FnMut(&Reading<T>),
     ) -> Option<Solution<T>> {
         let mut e = Evaluation::new(self.branch);
         match self.evaluate_pose_into(
             pose,
-            visit,
+            &mut |r: &Reading<T>| visit(r),
             &mut ConditionEstimator::new(),
             &mut e,
             Depth::Full,

@@ -11,6 +11,45 @@ use crate::layout::Layout;
 /// The step of [`BoardOnPlant::step_ms`], s (ten per millisecond).
 pub const STEP_S: f64 = 1e-4;
 
+/// How the robot's motors, encoders, switches and brakes are wired to the board: the
+/// straight wiring ([`Wiring::default`]) is the pin map's; each other value is a
+/// miswiring a robot just built may have, injectable on any joint (commissioning finds
+/// them, `control::commissioning`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Wiring {
+    /// The motor's leads reversed: a positive duty drives the joint towards -q (the
+    /// current sense, on the board's side of the leads, reads the duty's sign).
+    pub motor_reversed: [bool; NUM_JOINTS],
+    /// The encoder's channels A and B swapped: it counts down as its joint moves to +q.
+    pub encoder_reversed: [bool; NUM_JOINTS],
+    /// Two encoders' cables swapped: each counter reads the other joint's encoder.
+    pub encoders_swapped: Option<(usize, usize)>,
+    /// The encoder's counts per joint unit over the drawing's (a gear ratio off: 1.1 is
+    /// 10 % more motor turns per joint unit).
+    pub count_scale: [f64; NUM_JOINTS],
+    /// A normally open home switch where the firmware expects a normally closed one: it
+    /// reads actuated away from its switch point and released at it.
+    pub switch_normally_open: [bool; NUM_JOINTS],
+    /// The brake inverted (a power-to-engage brake, or its coil's output inverted): it
+    /// holds when the board releases it and releases when the board applies it.
+    pub brake_inverted: [bool; NUM_JOINTS],
+}
+
+impl Wiring {
+    /// The straight wiring.
+    pub fn straight() -> Self {
+        Wiring {
+            count_scale: [1.0; NUM_JOINTS],
+            ..Wiring::default()
+        }
+    }
+
+    /// Any miswiring at all.
+    pub fn is_straight(&self) -> bool {
+        *self == Wiring::straight()
+    }
+}
+
 /// Which hard stop a joint stands at.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum AtStop {
@@ -67,6 +106,11 @@ pub struct BoardOnPlant {
     pub disables: u32,
     /// Plant steps each joint stood at a stop.
     pub steps_at_stop: [u64; NUM_JOINTS],
+    /// How the robot is wired to the board ([`Wiring::straight`] unless a test miswires it).
+    pub wiring: Wiring,
+    /// The plant's encoder counts as last read, and each counter's count as wired (the
+    /// scale of [`Wiring::count_scale`] accumulates on them).
+    wired: Option<([u16; NUM_JOINTS], [f64; NUM_JOINTS])>,
     at_stop: [Option<AtStop>; NUM_JOINTS],
     last_counts: [u16; NUM_JOINTS],
 }
@@ -95,6 +139,8 @@ impl BoardOnPlant {
             position_channel_failed: false,
             disables: 0,
             steps_at_stop: [0; NUM_JOINTS],
+            wiring: Wiring::straight(),
+            wired: None,
             at_stop: [None; NUM_JOINTS],
             last_counts,
         };
@@ -155,8 +201,42 @@ impl BoardOnPlant {
     pub fn switch_levels(&self) -> [bool; NUM_JOINTS] {
         let q = self.plant.joint_positions();
         std::array::from_fn(|j| {
-            self.switch_forced[j].unwrap_or_else(|| self.switch_below[j].is_some_and(|s| q[j] <= s))
+            self.switch_forced[j].unwrap_or_else(|| {
+                self.switch_below[j].is_some_and(|s| q[j] <= s)
+                    != self.wiring.switch_normally_open[j]
+            })
         })
+    }
+
+    /// The counters as wired: the plant's encoders with their counts scaled, reversed and
+    /// swapped as [`BoardOnPlant::wiring`] says (the straight wiring reads the plant's).
+    fn wired_counts(&mut self) -> [u16; NUM_JOINTS] {
+        let plant = self.plant.encoder_counts();
+        let w = self.wiring;
+        if w.is_straight() {
+            self.wired = None;
+            return plant;
+        }
+        let (last, mut acc) = self.wired.unwrap_or((plant, plant.map(f64::from)));
+        for j in 0..NUM_JOINTS {
+            let delta = f64::from(plant[j].wrapping_sub(last[j]) as i16);
+            acc[j] += delta * w.count_scale[j];
+        }
+        self.wired = Some((plant, acc));
+        let mut c: [u16; NUM_JOINTS] = std::array::from_fn(|j| {
+            let n = (acc[j].round() as i64).rem_euclid(65536) as u16;
+            if w.encoder_reversed[j] {
+                n.wrapping_neg()
+            } else {
+                n
+            }
+        });
+        if let Some((a, b)) = w.encoders_swapped {
+            if a < NUM_JOINTS && b < NUM_JOINTS {
+                c.swap(a, b);
+            }
+        }
+        c
     }
 
     /// What the MCU drives and the safety chain allows, to the plant: the bridges' enable
@@ -166,8 +246,10 @@ impl BoardOnPlant {
         self.plant.set_bridges_enabled(self.enabled && powered);
         let legs = self.brakes_released && powered;
         let links = self.link_brakes_released && powered;
-        self.plant
-            .set_brakes_released(std::array::from_fn(|j| if j < 3 { legs } else { links }));
+        let inverted = self.wiring.brake_inverted;
+        self.plant.set_brakes_released(std::array::from_fn(|j| {
+            (if j < 3 { legs } else { links }) != inverted[j]
+        }));
     }
 
     /// One plant step of `dt` s with the hard stops: a load side driven into a stop (at or
@@ -255,7 +337,7 @@ impl BoardOnPlant {
 
 impl QuadratureCounter for BoardOnPlant {
     fn counts(&mut self) -> [u16; NUM_JOINTS] {
-        let mut c = self.plant.encoder_counts();
+        let mut c = self.wired_counts();
         for (c, o) in c.iter_mut().zip(self.count_offset) {
             *c = c.wrapping_add_signed(o);
         }
@@ -291,6 +373,8 @@ impl MotorOutputs<f64> for BoardOnPlant {
         } else {
             [0.0; NUM_JOINTS]
         };
+        let reversed = self.wiring.motor_reversed;
+        let d: [f64; NUM_JOINTS] = std::array::from_fn(|j| if reversed[j] { -d[j] } else { d[j] });
         // Finite duties in [-1, 1]: the plant accepts them.
         let _ = self.plant.set_duty(d);
     }
@@ -351,7 +435,10 @@ impl LimitSwitches for BoardOnPlant {
 
 impl CurrentSense<f64> for BoardOnPlant {
     fn currents(&mut self) -> [f64; NUM_JOINTS] {
+        // The sense amplifier sits on the board's side of the motor's leads: it reads the
+        // board's duty sign whichever way the leads go.
         let i = self.plant.currents();
-        std::array::from_fn(|j| i[j] + self.current_offset_a[j])
+        let reversed = self.wiring.motor_reversed;
+        std::array::from_fn(|j| (if reversed[j] { -i[j] } else { i[j] }) + self.current_offset_a[j])
     }
 }

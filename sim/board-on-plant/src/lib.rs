@@ -31,6 +31,6 @@ pub mod board;
 pub mod layout;
 pub mod platform;
 
-pub use board::{AtStop, BoardOnPlant, STEP_S};
+pub use board::{AtStop, BoardOnPlant, Wiring, STEP_S};
 pub use layout::{Layout, ReferenceMechanics, LEG_STOP_BEYOND_RANGE_M, LINK_SWITCH_ABOVE_STOP_RAD};
 pub use platform::{Platform, PlatformError, Tool, Wall, GRAVITY_M_S2};

@@ -8,11 +8,12 @@ use servo::NUM_JOINTS;
 
 use crate::absolute::{ChannelCalibration, ChannelConfig};
 use crate::brakes::BrakeCheckConfig;
+use crate::commissioning::CommissionConfig;
 use crate::controller::ControllerConfig;
 use crate::current::CurrentConfig;
 use crate::drive::to_array;
 use crate::heartbeat::{HeartbeatConfig, HeartbeatConfigError};
-use crate::homing::{HomingConfig, HomingError, HomingSetupError, Mechanics};
+use crate::homing::{HomeMethod, HomingConfig, HomingError, HomingSetupError, Mechanics};
 use crate::monitors::{EncoderCheckConfig, PowerConfig};
 use crate::park::ParkConfig;
 use crate::scalar::Scalar;
@@ -53,6 +54,8 @@ pub struct RuntimeConfig<S: Scalar> {
     pub channel_calibration: ChannelCalibration<S>,
     /// The second position channel's monitor against the encoders.
     pub channel: ChannelConfig<S>,
+    /// Commissioning's test of a joint.
+    pub commission: CommissionConfig<S>,
 }
 
 /// Why the runtime refuses its settings: each concern's own error.
@@ -154,7 +157,19 @@ pub fn reference_config_for<S: Scalar, M: Mechanism<S>>(
             + at(&channel.backlash)
             + channel.scale * at(&homing.verify.distance);
     }
+    let brakes = BrakeCheckConfig::default();
+    // The home switches the test may find actuated: those homing drives down onto.
+    let home_switch = homing.joints.map(|h| {
+        (h.method == HomeMethod::Switch && !h.towards_positive)
+            .then_some((h.home_position, h.switch_travel_max))
+    });
+    let commission = CommissionConfig::reference(
+        brakes.duty,
+        home_switch,
+        controller.encoders.counts_per_unit,
+    );
     Ok(RuntimeConfig {
+        commission,
         encoder_check,
         controller,
         homing,
@@ -163,7 +178,7 @@ pub fn reference_config_for<S: Scalar, M: Mechanism<S>>(
         targets: TargetClockConfig::default(),
         fk_failures_to_fault: 10,
         stops: StopConfig::default(),
-        brakes: BrakeCheckConfig::default(),
+        brakes,
         current,
         power: PowerConfig::default(),
         relay_debounce_ticks: 20,

@@ -26,6 +26,7 @@
 //! ```
 //! Every change of mode goes through [`crate::modes::next`] (`transitions.rs`).
 
+mod commission;
 mod config;
 mod interlocks;
 mod mode;
@@ -476,6 +477,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             } => self
                 .target(timestamp_us, position_m, rotation_vector_rad, now_us)
                 .map(|()| Answer::Ack),
+            MasterToBoard::Commission { joint, confirm } => self.commission(joint, confirm, now_us),
             // The link hands a geometry to the target's store, never to the tick.
             MasterToBoard::StoreGeometry(_) => Err(NackReason::InvalidState),
         }

@@ -6,6 +6,7 @@ use master_link::{FaultCause, FaultRecord, Faults, StopStatus};
 use servo::NUM_JOINTS;
 
 use crate::brakes::BrakeCheck;
+use crate::commissioning::JointTest;
 use crate::controller::Controller;
 use crate::homing::Homing;
 use crate::modes::ModeKind;
@@ -195,6 +196,8 @@ pub enum Mode<S: Scalar, M: Mechanism<S> + Clone> {
         /// The homing is trusted (the mode it ends in: `Ready`, else `Disabled`).
         homed: bool,
     },
+    /// Commissioning: one joint's wiring test, or its record waiting to be read.
+    Commissioning(JointTest<S>),
     /// A latched fault and its stop.
     Fault {
         /// The fault.
@@ -220,6 +223,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Mode<S, M> {
             Mode::Holding { .. } => ModeKind::Holding,
             Mode::Stopping { .. } => ModeKind::Stopping,
             Mode::Fault { .. } => ModeKind::Fault,
+            Mode::Commissioning(_) => ModeKind::Commissioning,
         }
     }
 

@@ -61,6 +61,23 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
     /// The mode's work of this tick, when the outputs allow torque at its start.
     pub(super) fn step_mode<H: Hardware<S>>(&mut self, hw: &mut H, now_us: u64) -> Step<S> {
         let mut step = Step::idle();
+        // Commissioning's test runs with torque off too (it reads the driver fault line
+        // first, and ends with torque off).
+        if let Mode::Commissioning(test) = &mut self.mode {
+            let m = self.sensing.measured();
+            let r = crate::commissioning::Readings {
+                motor: m.motor,
+                absolute: m.absolute,
+                current: self.inputs.currents,
+                switches: self.inputs.switches,
+                driver_fault: self.inputs.driver_fault,
+            };
+            test.step(&r, now_us);
+            if test.outputs().0 {
+                step.duty = test.duty(now_us);
+            }
+            return step;
+        }
         if !self.output_request().torque {
             return step;
         }
@@ -105,7 +122,9 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
                 }
                 After::Nothing
             }
-            Mode::Boot | Mode::Disabled | Mode::Ready { .. } => After::Nothing,
+            Mode::Boot | Mode::Disabled | Mode::Ready { .. } | Mode::Commissioning(_) => {
+                After::Nothing
+            }
         };
         if let Some(report) = step.control {
             self.control_faults(&report, now_us);

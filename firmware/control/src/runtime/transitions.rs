@@ -110,6 +110,8 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
                 self.stop_complete_in_fault();
                 Ok(())
             }
+            // The `Commission` command starts the joint's test (`commission.rs`).
+            ModeKind::Commissioning => Ok(()),
             ModeKind::Boot => Err(Refusal::NotAllowed),
         }
     }
@@ -330,7 +332,9 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
                 Some(ctl) => (fresh(StopDrive::Controller(ctl)), true),
                 None => (fresh(StopDrive::ZeroDuty), false),
             },
-            Mode::Homing(_) | Mode::Parking { .. } => (fresh(StopDrive::ZeroDuty), false),
+            Mode::Homing(_) | Mode::Parking { .. } | Mode::Commissioning(_) => {
+                (fresh(StopDrive::ZeroDuty), false)
+            }
             Mode::Enabling { ctl, .. } | Mode::Following { ctl, .. } => {
                 (fresh(StopDrive::Controller(ctl)), true)
             }
@@ -556,7 +560,9 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         match mode {
             Mode::Boot | Mode::Disabled => fresh(StopDrive::Off(None)),
             Mode::Ready { held } => fresh(StopDrive::Off(held)),
-            Mode::Homing(_) | Mode::Parking { .. } => fresh(StopDrive::ZeroDuty),
+            Mode::Homing(_) | Mode::Parking { .. } | Mode::Commissioning(_) => {
+                fresh(StopDrive::ZeroDuty)
+            }
             Mode::Enabling { ctl, .. } | Mode::Following { ctl, .. } => {
                 fresh(StopDrive::Controller(ctl))
             }

@@ -15,6 +15,10 @@
 //! * USART3 and its DMA (P4);
 //! * `link_rx`, `link_tx` in thread mode.
 
+use core::cell::UnsafeCell;
+use core::mem::MaybeUninit;
+use core::sync::atomic::{AtomicBool, Ordering};
+
 use crate::{board, event_flash, geometry_flash, hw, safe_halt};
 use board_tasks::{firmware_version, run_control, run_link_rx, run_link_tx, Shared};
 use control::estop::emergency_stop_isr;
@@ -213,6 +217,37 @@ fn control_service(
     TickService::new(rt, cfg)
 }
 
+/// The control task's tick service: a static of its own, not a value in the task's future.
+/// Built on the task's first poll by [`boot_service`].
+struct ServiceSlot(UnsafeCell<MaybeUninit<TickService<f32, PerChainGeometry<f32>>>>);
+// SAFETY: written once and then lent as the one `&mut` (`SERVICE_TAKEN`), to the control
+// task only.
+unsafe impl Sync for ServiceSlot {}
+static SERVICE: ServiceSlot = ServiceSlot(UnsafeCell::new(MaybeUninit::uninit()));
+static SERVICE_TAKEN: AtomicBool = AtomicBool::new(false);
+
+/// The tick service booted (`control_service`) into its static, lent to the control task.
+///
+/// Its own function, never inlined: booting the runtime builds the configuration, the
+/// runtime and the service as temporaries (tens of KiB on the stack). Inlined into the
+/// task's poll they would be part of that poll's frame, which is on the stack under every
+/// control tick; here they are gone once the service is built.
+#[inline(never)]
+fn boot_service(
+    board: &mut hw::Control,
+    reset: ResetCause,
+    log: Option<FaultLog>,
+    events: EventLog,
+) -> &'static mut TickService<f32, PerChainGeometry<f32>> {
+    if SERVICE_TAKEN.swap(true, Ordering::AcqRel) {
+        halt("control service booted twice");
+    }
+    let service = control_service(board, reset, log, events);
+    // SAFETY: `SERVICE_TAKEN` was false: no reference to the slot exists, and this is the
+    // only one ever made.
+    unsafe { (*SERVICE.0.get()).write(service) }
+}
+
 #[embassy_executor::task]
 async fn control(
     board: Owned<hw::Control>,
@@ -221,8 +256,8 @@ async fn control(
     events: Owned<EventLog>,
 ) {
     let mut board = board.0;
-    let mut service = control_service(&mut board, reset, log, events.0);
-    run_control(&SHARED, &mut board, &mut service).await
+    let service = boot_service(&mut board, reset, log, events.0);
+    run_control(&SHARED, &mut board, service).await
 }
 
 #[embassy_executor::task]

@@ -75,9 +75,10 @@ pub fn master_variant(m: &MasterToBoard) -> usize {
         FaultLogRequest { .. } => 13,
         StoreGeometry(_) => 14,
         EventLogRequest { .. } => 15,
+        Commission { .. } => 16,
     }
 }
-pub const MASTER_VARIANTS: usize = 16;
+pub const MASTER_VARIANTS: usize = 17;
 
 pub fn board_variant(m: &BoardToMaster) -> usize {
     use BoardToMaster::*;
@@ -92,9 +93,10 @@ pub fn board_variant(m: &BoardToMaster) -> usize {
         EventLog(_) => 7,
         HelloRefused { .. } => 8,
         TargetRefused(_) => 9,
+        Commissioning(_) => 10,
     }
 }
-pub const BOARD_VARIANTS: usize = 10;
+pub const BOARD_VARIANTS: usize = 11;
 
 /// Every geometry refusal.
 pub const ALL_GEOMETRY_REFUSALS: [GeometryRefusal; 11] = [
@@ -149,13 +151,15 @@ pub const ALL_NACK_REASONS: [NackReason; 23] = [
     NackReason::ReplayedHello,
 ];
 
-pub const ALL_STATES: [RobotState; 6] = [
+pub const ALL_STATES: [RobotState; 8] = [
     RobotState::Boot,
     RobotState::Disabled,
     RobotState::Homing,
     RobotState::Ready,
     RobotState::Enabled,
     RobotState::Fault,
+    RobotState::Enabling,
+    RobotState::Commissioning,
 ];
 
 /// Status with every varint at its maximum: the largest board message.
@@ -312,6 +316,10 @@ pub fn master_samples() -> Vec<MasterToBoard> {
         MasterToBoard::FaultLogRequest { first: u16::MAX },
         MasterToBoard::StoreGeometry(max_geometry()),
         MasterToBoard::EventLogRequest { first: u16::MAX },
+        MasterToBoard::Commission {
+            joint: 5,
+            confirm: true,
+        },
     ]
 }
 
@@ -375,6 +383,24 @@ pub fn board_samples() -> Vec<BoardToMaster> {
             value: 0.177,
             limit: 0.175,
         },
+    }));
+    // A commissioning record with every field set (finite: the round trip compares).
+    v.push(BoardToMaster::Commissioning(CommissionRecord {
+        joint: 5,
+        done: true,
+        reference: true,
+        findings: CommissionFindings(u16::MAX),
+        moved_encoder: 255,
+        encoder_motion: -1.5e-3,
+        reference_motion: f32::MAX,
+        scale: 1.1,
+        current_offset_a: -0.02,
+        current_a: 3.5,
+        applied_motion: 6e-6,
+        peak_travel: 0.5,
+        breakaway_duty: 0.069,
+        switch: 3,
+        switch_position: 0.143,
     }));
     v.push(BoardToMaster::TargetRefused(master_link::RefusedTarget {
         reply_to: None,
@@ -448,6 +474,8 @@ pub fn arb_master() -> impl Strategy<Value = MasterToBoard> {
                 })
             }),
         any::<u16>().prop_map(|first| MasterToBoard::EventLogRequest { first }),
+        (any::<u8>(), any::<bool>())
+            .prop_map(|(joint, confirm)| MasterToBoard::Commission { joint, confirm }),
     ]
 }
 

@@ -411,6 +411,7 @@ pub fn run_all(firmware: &Path, options: Options) -> Result<Outcome, ScenarioErr
         run.check("the run", false, format!("stopped: {e}"));
     }
     pins_exercised(&mut run);
+    stack_depth(&mut run, "over the whole run");
     let virtual_s = run.now_s();
     let digest = run.rig.lock().bench.last.digest;
     if let Some(out) = &run.options.out {
@@ -431,6 +432,30 @@ pub fn run_all(firmware: &Path, options: Options) -> Result<Outcome, ScenarioErr
     })
 }
 
+/// The deepest the image's stack went so far (the emulator's painted stack,
+/// `board_emulator::stack`), against its budget: after the boot, and after every scenario
+/// (the deepest paths: the end of the park move, a stop or a fault from inside a
+/// transition, the e-stop's interrupt on top). The budget must also fit the region the
+/// image leaves for the stack.
+fn stack_depth(run: &mut Run, when: &str) {
+    let name = format!("the stack stays within its budget {when}");
+    let used = run.rig.lock().bench.stack_use();
+    let budget = board_emulator::stack::STACK_BUDGET;
+    match used {
+        Err(e) => run.check(&name, false, format!("not measured: {e}")),
+        Ok(Some(u)) => run.check(
+            &name,
+            u.depth() <= budget && budget <= u.region.room() && !u.overflowed(),
+            format!("{u}; budget {budget} B"),
+        ),
+        Ok(None) => run.check(
+            &name,
+            false,
+            "the image names no stack region (_stack_end, _stack_start)".into(),
+        ),
+    }
+}
+
 /// The scenarios in their order.
 fn scenarios(run: &mut Run) -> Result<(), ScenarioError> {
     if run.options.list == List::Wiring {
@@ -440,6 +465,7 @@ fn scenarios(run: &mut Run) -> Result<(), ScenarioError> {
     boot::pins(run)?;
     boot::hello(run)?;
     wiring::supply_step(run)?;
+    stack_depth(run, "to the first session");
     watchdog::starved(run)?;
     watchdog::acknowledge(run)?;
     if !motion::home(run)? {

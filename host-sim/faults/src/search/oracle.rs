@@ -451,7 +451,10 @@ impl Oracle {
         }
         let allowed = matches!(
             s.state,
-            RobotState::Homing | RobotState::Enabling | RobotState::Enabled
+            RobotState::Homing
+                | RobotState::Enabling
+                | RobotState::Enabled
+                | RobotState::Commissioning
         ) || matches!(
             s.stop,
             StopStatus::SafeStop1Decelerating

@@ -1,0 +1,233 @@
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::needless_range_loop
+)]
+//! Commissioning on the plant with the board around it (`sim/board-on-plant`, the second
+//! position channel fitted, the switches and stops of the reference mechanics): every
+//! miswiring of `board_on_plant::Wiring` injected on any joint is found and named with
+//! the joint (and the fix it implies: the finding's bit), no joint of the plant moves
+//! beyond the test's stated travel limit (3 mm, 3 deg) from where it stood, measured on the
+//! plant's load side; the straight wiring reports nothing.
+
+use board_on_plant::Wiring;
+use control::modes::State;
+use control::runtime::Runtime;
+use hal::QuadratureCounter;
+use kinematics_core::RsprGeometry;
+use master_link::{
+    BoardToMaster, CommissionFindings as F, CommissionRecord, MasterToBoard, NackReason, ResetCause,
+};
+use proptest::prelude::*;
+
+use crate::common;
+use common::PlantHw;
+
+type Rt = Runtime<f64, RsprGeometry<f64>>;
+
+/// The test's travel limit (`CommissionConfig::reference`): 3 mm, 3 deg.
+const LIMIT: [f64; 6] = [0.003, 0.003, 0.003, 0.0524, 0.0524, 0.0524];
+
+/// A plant at rest near the central configuration (the legs at 160 mm, the links 0.2 rad
+/// above their hard stops' homing positions is not needed: near central), channel fitted,
+/// miswired as `wiring` says, and the runtime booted on it.
+fn booted(wiring: Wiring) -> (Rt, PlantHw, u64) {
+    let c = common::central_q();
+    let (mut hw, _, cfg) = common::homing_fixture([c[0], c[1] + 0.001, c[2] - 0.001], [0.0; 3]);
+    hw.plant.set_joint_positions(c).unwrap();
+    hw.position_channel = true;
+    hw.wiring = wiring;
+    let mut rt = Rt::new(RsprGeometry::reference(), cfg, 0).unwrap();
+    let t = 0;
+    rt.boot_done(hw.counts(), t, ResetCause::PowerOn, None)
+        .unwrap();
+    (rt, hw, t)
+}
+
+/// One tick with a heartbeat, then the plant over it.
+fn step(rt: &mut Rt, hw: &mut PlantHw, t: &mut u64) {
+    *t += 1000;
+    rt.command(&MasterToBoard::Heartbeat, *t).unwrap();
+    rt.tick(hw, *t);
+    hw.step_ms();
+}
+
+/// The board's answer to `Commission` as the master sees it.
+fn record(rt: &mut Rt, joint: u8, confirm: bool, t: u64) -> Result<CommissionRecord, NackReason> {
+    let a = rt.command(&MasterToBoard::Commission { joint, confirm }, t)?;
+    let req = control::link::Request {
+        seq: 1,
+        message: MasterToBoard::Commission { joint, confirm },
+        session: 0,
+    };
+    match req.reply(Ok(a), &rt.status(), Default::default()) {
+        BoardToMaster::Commissioning(r) => Ok(r),
+        other => panic!("unexpected reply {other:?}"),
+    }
+}
+
+/// What a run found: each joint's record, and the largest motion of each joint on the
+/// plant from where it stood, over the test's limit.
+struct Run {
+    records: Vec<CommissionRecord>,
+    travel: [f64; 6],
+}
+
+/// Commissions `joints` one after the other, as `host-sim commission` does.
+fn commission(wiring: Wiring, joints: &[u8]) -> Run {
+    let (mut rt, mut hw, mut t) = booted(wiring);
+    step(&mut rt, &mut hw, &mut t);
+    let q0 = hw.plant.joint_positions();
+    let mut travel = [0.0f64; 6];
+    let mut records = Vec::new();
+    for &j in joints {
+        let confirm = rt.status().state == State::Fault;
+        record(&mut rt, j, confirm, t).unwrap_or_else(|e| panic!("joint {j}: refused {e:?}"));
+        let mut r = None;
+        for _ in 0..3000 {
+            step(&mut rt, &mut hw, &mut t);
+            let q = hw.plant.joint_positions();
+            for k in 0..6 {
+                travel[k] = travel[k].max((q[k] - q0[k]).abs() / LIMIT[k]);
+            }
+            assert_ne!(
+                rt.status().state,
+                State::Fault,
+                "joint {j}: {:?}",
+                rt.status().fault
+            );
+            let rec = record(&mut rt, j, false, t).unwrap();
+            if rec.done {
+                r = Some(rec);
+                break;
+            }
+        }
+        records.push(r.unwrap_or_else(|| panic!("joint {j}: the test never ended")));
+    }
+    Run { records, travel }
+}
+
+const NAMES: [&str; 6] = ["l1", "l2", "l3", "theta1", "theta2", "theta3"];
+
+#[test]
+fn the_straight_wiring_reports_nothing_and_stays_within_the_travel() {
+    let run = commission(Wiring::straight(), &[0, 1, 2, 3, 4, 5]);
+    for (j, r) in run.records.iter().enumerate() {
+        assert!(r.findings.is_empty(), "{}: {r:?}", NAMES[j]);
+        assert_eq!(usize::from(r.moved_encoder), j, "{}: {r:?}", NAMES[j]);
+        assert!(r.reference, "{}: no reference", NAMES[j]);
+        assert!((r.scale - 1.0).abs() < 0.05, "{}: scale {r:?}", NAMES[j]);
+    }
+    for k in 0..6 {
+        assert!(
+            run.travel[k] <= 1.0,
+            "{} moved {:.2} of its limit",
+            NAMES[k],
+            run.travel[k]
+        );
+    }
+}
+
+/// The miswirings of the issue, on joint `j` (a swap pairs it with `other`).
+#[derive(Clone, Copy, Debug)]
+enum Miswiring {
+    MotorReversed,
+    EncoderReversed,
+    EncodersSwapped { other: usize },
+    GearOff,
+    SwitchNormallyOpen,
+    BrakeInverted,
+}
+
+fn wiring_of(m: Miswiring, j: usize) -> Wiring {
+    let mut w = Wiring::straight();
+    match m {
+        Miswiring::MotorReversed => w.motor_reversed[j] = true,
+        Miswiring::EncoderReversed => w.encoder_reversed[j] = true,
+        Miswiring::EncodersSwapped { other } => w.encoders_swapped = Some((j, other)),
+        Miswiring::GearOff => w.count_scale[j] = 1.1,
+        Miswiring::SwitchNormallyOpen => w.switch_normally_open[j] = true,
+        Miswiring::BrakeInverted => w.brake_inverted[j] = true,
+    }
+    w
+}
+
+/// The finding that names the miswiring (on the joint tested).
+fn expected(m: Miswiring) -> F {
+    match m {
+        Miswiring::MotorReversed => F::MOTOR_REVERSED,
+        Miswiring::EncoderReversed => F::ENCODER_REVERSED,
+        Miswiring::EncodersSwapped { .. } => F::ENCODER_SWAPPED,
+        Miswiring::GearOff => F::SCALE,
+        Miswiring::SwitchNormallyOpen => F::SWITCH_INVERTED,
+        Miswiring::BrakeInverted => F::BRAKE_INVERTED,
+    }
+}
+
+fn check(m: Miswiring, j: usize) -> Result<(), TestCaseError> {
+    let run = commission(wiring_of(m, j), &[0, 1, 2, 3, 4, 5]);
+    for k in 0..6 {
+        prop_assert!(
+            run.travel[k] <= 1.0,
+            "{m:?} on {}: {} moved {:.2} of its limit",
+            NAMES[j],
+            NAMES[k],
+            run.travel[k]
+        );
+    }
+    let r = &run.records[j];
+    prop_assert_eq!(r.findings, expected(m), "{:?} on {}: {:?}", m, NAMES[j], r);
+    if let Miswiring::EncodersSwapped { other } = m {
+        prop_assert_eq!(usize::from(r.moved_encoder), other);
+        let o = &run.records[other];
+        prop_assert_eq!(
+            o.findings,
+            F::ENCODER_SWAPPED,
+            "partner {}: {:?}",
+            NAMES[other],
+            o
+        );
+        prop_assert_eq!(usize::from(o.moved_encoder), j);
+    }
+    if let Miswiring::GearOff = m {
+        prop_assert!((r.scale - 1.1).abs() < 0.02, "scale {}", r.scale);
+    }
+    for (k, o) in run.records.iter().enumerate() {
+        let partner = matches!(m, Miswiring::EncodersSwapped { other } if other == k);
+        if k != j && !partner {
+            prop_assert!(
+                o.findings.is_empty(),
+                "{:?} on {}: {} found {:?}",
+                m,
+                NAMES[j],
+                NAMES[k],
+                o
+            );
+        }
+    }
+    Ok(())
+}
+
+fn miswiring() -> impl Strategy<Value = (Miswiring, usize)> {
+    (0usize..6, 0usize..6, 0usize..6).prop_map(|(kind, j, o)| {
+        let other = if o == j { (j + 1) % 6 } else { o };
+        let m = match kind {
+            0 => Miswiring::MotorReversed,
+            1 => Miswiring::EncoderReversed,
+            2 => Miswiring::EncodersSwapped { other },
+            3 => Miswiring::GearOff,
+            4 => Miswiring::SwitchNormallyOpen,
+            _ => Miswiring::BrakeInverted,
+        };
+        (m, j)
+    })
+}
+
+proptest! {
+    #![proptest_config(proptest_config::cases(64))]
+    #[test]
+    fn every_miswiring_on_any_joint_is_found_within_the_travel((m, j) in miswiring()) {
+        check(m, j)?;
+    }
+}
