@@ -125,7 +125,26 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         let Ok(mut homing) = Homing::new(&self.cfg.homing, &self.cfg.controller.servo) else {
             return Err(Refusal::NotAllowed);
         };
-        let known = self.mode.homed().then_some(self.sensing.measured().q);
+        // Where the joints are: a homed robot's measured joints; before any reference, the
+        // configured rest positions (where the brakes held them when the board started,
+        // its encoders' counts 0) moved by what each encoder counted since (a
+        // commissioning test, a homing that failed on the way).
+        let known = if self.mode.homed() {
+            self.sensing.measured().q
+        } else {
+            let enc = self.sensing.encoders();
+            core::array::from_fn(|j| {
+                let rest = self
+                    .cfg
+                    .homing
+                    .joints
+                    .get(j)
+                    .map_or(S::zero(), |h| h.rest_position);
+                enc.joint(j).map_or(rest, |e| {
+                    rest + S::from(e.count()).unwrap_or_else(S::zero) / e.counts_per_unit()
+                })
+            })
+        };
         self.session.rearm(now_us);
         self.sensing.lose_reference();
         let m = *self.sensing.measured();
@@ -136,7 +155,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
                 true
             }
             _ => {
-                homing.start(&m.q, &m.motor, &counts, known.as_ref(), now_us);
+                homing.start(&m.q, &m.motor, &counts, Some(&known), now_us);
                 false
             }
         };
@@ -146,7 +165,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             if restore {
                 Ok(())
             } else {
-                self.check_homing_load(known.as_ref())
+                self.check_homing_load(&known)
             }
         });
         self.mode = Mode::Homing(homing);
@@ -163,13 +182,10 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
 
     /// With a declared tool, its loads along the homing's path (`homing_load`): a homing
     /// they do not allow is refused before it moves anything.
-    fn check_homing_load(&self, known: Option<&[S; NUM_JOINTS]>) -> Result<(), HomingError> {
+    fn check_homing_load(&self, rest: &[S; NUM_JOINTS]) -> Result<(), HomingError> {
         let Some(tool) = self.cfg.controller.tool else {
             return Ok(());
         };
-        let rest = known
-            .copied()
-            .unwrap_or_else(|| self.cfg.homing.joints.map(|h| h.rest_position));
         // The push's effort at the supply measured now, or at the lowest it may be.
         let [lo, _] = self.cfg.power.supply_v;
         let supply = if self.monitors.power.supply_in_range(self.inputs.supply_v) {
@@ -182,7 +198,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             self.cfg.controller.branch,
             &self.cfg.controller.fk,
             &self.cfg.homing,
-            &rest,
+            rest,
             &tool,
             &self.cfg.current.motors,
             &self.cfg.current.limits,
