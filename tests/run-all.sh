@@ -21,11 +21,12 @@
 # The masters of the Rust tests and the warm-up run on the board's clock
 # (teleop::pacing); wall-clock bounds are failure detectors only.
 #
-# The order: the builds and the board's own tests one after the other (each keeps both
-# cores busy), then two lanes side by side: the host's tests (cargo-nextest, six at a time)
-# with the fuzz and Python stages, and the front ends on boards; that is how the run fits
-# CI's 25 minutes on two cores. Each section prints the seconds since the start and the CPU
-# seconds used so far.
+# The order: the builds and the board's own tests one after the other (the fuzz targets'
+# and the Python wheel's builds beside them, at low priority), then three lanes side by
+# side: the host's tests (cargo-nextest, six at a time) with the fuzz and Python runs, the
+# front ends on the emulated board, and those on simulated boards; that is how the run
+# fits CI's 25 minutes on two cores. Each section prints the seconds since the start and
+# the CPU seconds used so far.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 source firmware/cortex-m/scripts.sh
@@ -131,12 +132,13 @@ fi
 cargo nextest --version
 cargo test --workspace --no-run
 
-# Two lanes side by side from here. The builds above are done: the first lane is the
-# host's tests (nextest: tests of different binaries side by side) and the two stages that
-# still compile (the Python wheel, the fuzz targets); the second, the front ends on a
-# board (simulated or emulated), which run in the board's time and wait on sockets most of
-# the time. Each lane's output goes to its own log; the second lane's is printed after the
-# first's, whole. A lane stops at its first failing stage; both lanes always finish.
+# Three lanes side by side from here. The builds above are done: the first lane is the
+# host's tests (nextest: tests of different binaries side by side), the fuzz runs and the
+# Python module's tests; the second, the front ends on the emulated board; the third, the
+# front ends on simulated boards. The boards' lanes run in the boards' time and wait on
+# sockets most of the time. The first lane's output streams; the others' are kept in
+# files and printed after it, whole. A lane stops at its first failing stage; every lane
+# always finishes.
 section "the background builds (fuzz targets, Python wheel): waiting for them, their output"
 soak_status=0
 wait "$soaker" || soak_status=$?
@@ -154,7 +156,7 @@ lane_tests() {
     cargo nextest run --workspace --profile ci
     cargo test --workspace --doc
 
-    # Built in the background already; what is left yields the cores to the boards' lane
+    # Built in the background already; what is left yields the cores to the boards' lanes
     # (nice +10): the emulated board stands for a processor of its own.
     section "fuzzing: the link's frame decoder and the board's command handling (libFuzzer, fixed seed)"
     (cd fuzz && nice -n 10 cargo test --release --quiet)
@@ -163,10 +165,11 @@ lane_tests() {
     section "the analysis from Python: the rspr wheel (maturin, PyO3) against the CLI, pytest"
     nice -n 10 bash host-sim/python/tests/run.sh
 }
-lane_boards() {
+lane_emulated() {
     section "the operator's front ends on the emulated board (the release image): scripted operator, latency, OpenIGTLink; the console in tmux, through a serial device on a board not homed"
     bash host-sim/operator/tests/against-emulator.sh
-
+}
+lane_simulated() {
     section "the operator's front ends on the simulated board: OpenIGTLink clients (pyigtl, libopenigtlink), spacenavd"
     bash host-sim/operator/tests/igtl-board.sh
     bash host-sim/masters/tests/spacenavd-daemon.sh
@@ -178,21 +181,27 @@ lane_boards() {
     section "ROS 2 on the simulated board: a CycloneDDS (Python) peer with the ROS 2 type names, on the loopback"
     bash host-sim/ros2/tests/ros2-board.sh
 }
-# Each lane in a subshell of its own with errexit on; neither is run where bash would test
-# its status (`|| ...`), which would turn errexit off inside it.
-(set -euo pipefail; lane_boards) >"$lanes/boards.log" 2>&1 &
-boards=$!
+# Each lane in a subshell of its own with errexit on; none is run where bash would test its
+# status (`|| ...`), which would turn errexit off inside it.
+(set -euo pipefail; lane_emulated) >"$lanes/emulated.log" 2>&1 &
+emulated=$!
+(set -euo pipefail; lane_simulated) >"$lanes/simulated.log" 2>&1 &
+simulated=$!
 set +e
 (set -euo pipefail; lane_tests)
 tests_status=$?
-wait "$boards"
-boards_status=$?
+wait "$emulated"
+emulated_status=$?
+wait "$simulated"
+simulated_status=$?
 set -e
-printf '\n==> the front ends on a board (the second lane), its output (%d s)\n' "$(( $(date +%s) - started ))"
-cat "$lanes/boards.log"
+section "the front ends on the emulated board (the second lane): its output"
+cat "$lanes/emulated.log"
+section "the front ends on simulated boards (the third lane): its output"
+cat "$lanes/simulated.log"
 rm -rf "$lanes"
-if [ "$tests_status" -ne 0 ] || [ "$boards_status" -ne 0 ]; then
-    section "FAILED: the tests' lane exit $tests_status, the front ends' lane exit $boards_status"
+if [ "$tests_status" -ne 0 ] || [ "$emulated_status" -ne 0 ] || [ "$simulated_status" -ne 0 ]; then
+    section "FAILED: the tests' lane exit $tests_status, the emulated board's $emulated_status, the simulated boards' $simulated_status"
     exit 1
 fi
 
