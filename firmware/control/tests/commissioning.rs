@@ -231,3 +231,63 @@ proptest! {
         check(m, j)?;
     }
 }
+
+/// Property: a commissioned robot homes from where the tests left it. Each test leaves its
+/// joint 1.5 mm or 1.5 deg from its rest; on a board without the second channel the homing
+/// starts from the rest positions moved by what the encoders counted since boot, so a leg
+/// and a link commissioned first still reach their references (estimated from the rest
+/// alone, the link's estimate left its homing range before its stop: NotFound).
+#[test]
+fn a_commissioned_robot_homes_from_where_the_tests_left_it() {
+    let c = common::central_q();
+    let (mut hw, _, cfg) = common::homing_fixture([c[0], c[1] + 0.001, c[2] - 0.001], [0.2; 3]);
+    let mut rt = Rt::new(RsprGeometry::reference(), cfg, 0).unwrap();
+    let mut t = 0;
+    rt.boot_done(hw.counts(), t, ResetCause::PowerOn, None)
+        .unwrap();
+    step(&mut rt, &mut hw, &mut t);
+    let q0 = hw.plant.joint_positions();
+    for j in [0u8, 3] {
+        record(&mut rt, j, false, t).unwrap_or_else(|e| panic!("joint {j}: refused {e:?}"));
+        let mut done = false;
+        for _ in 0..3000 {
+            step(&mut rt, &mut hw, &mut t);
+            if record(&mut rt, j, false, t).unwrap().done {
+                done = true;
+                break;
+            }
+        }
+        assert!(done, "joint {j}: the test never ended");
+    }
+    let q1 = hw.plant.joint_positions();
+    assert!(
+        (q1[0] - q0[0]).abs() > 0.001,
+        "leg 1 did not move: {q0:?} -> {q1:?}"
+    );
+    assert!(
+        (q1[3] - q0[3]).abs() > 0.02,
+        "link 1 did not move: {q0:?} -> {q1:?}"
+    );
+    // Commissioning ends by Disable (a stop to torque off); Busy while that stop runs.
+    rt.command(&MasterToBoard::Disable, t).unwrap();
+    let mut asked = 0;
+    while rt.command(&MasterToBoard::Home { rehome: false }, t) == Err(NackReason::Busy) {
+        asked += 1;
+        assert!(asked < 2000, "Home refused Busy for 2 s: {:?}", rt.status());
+        step(&mut rt, &mut hw, &mut t);
+    }
+    assert!(
+        rt.state() == State::Homing,
+        "Home refused: {:?}",
+        rt.status()
+    );
+    let mut ms = 0;
+    while !rt.homed() && ms < 120_000 {
+        step(&mut rt, &mut hw, &mut t);
+        ms += 1;
+        assert_ne!(rt.status().state, State::Fault, "{:?}", rt.status().fault);
+    }
+    assert!(rt.homed(), "not homed after 120 s: {:?}", rt.status());
+    // A sweep of every joint to its switch or stop, not a reference taken at once.
+    assert!(ms > 5_000, "homed after {ms} ms");
+}
