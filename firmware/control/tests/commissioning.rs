@@ -291,3 +291,50 @@ fn a_commissioned_robot_homes_from_where_the_tests_left_it() {
     // A sweep of every joint to its switch or stop, not a reference taken at once.
     assert!(ms > 5_000, "homed after {ms} ms");
 }
+
+/// Property (a restart interlock): a stop a person asked for (the `EmergencyStop` message)
+/// is ended only by `ClearFault`. `Commission { confirm }`, which starts a test that moves
+/// a joint, is refused with `Faulted` after it, and no joint of the plant moves in the
+/// second after the refusal; after `ClearFault` the same command is taken.
+#[test]
+fn an_emergency_stop_is_not_ended_by_a_commissioning_test() {
+    let (mut rt, mut hw, mut t) = booted(Wiring::default());
+    step(&mut rt, &mut hw, &mut t);
+    record(&mut rt, 0, false, t).unwrap();
+    for _ in 0..50 {
+        step(&mut rt, &mut hw, &mut t);
+    }
+    rt.command(&MasterToBoard::EmergencyStop, t).unwrap();
+    step(&mut rt, &mut hw, &mut t);
+    assert_eq!(rt.state(), State::Fault);
+    // The stop ends at torque off (the joint under test was pushed: at most its brake's
+    // engage time).
+    for _ in 0..1000 {
+        step(&mut rt, &mut hw, &mut t);
+    }
+    let q0 = hw.plant.joint_positions();
+    for j in 0..6u8 {
+        assert_eq!(
+            record(&mut rt, j, true, t).map(|_| ()),
+            Err(NackReason::Faulted),
+            "joint {j}: Commission {{ confirm }} after an emergency stop"
+        );
+    }
+    for _ in 0..1000 {
+        step(&mut rt, &mut hw, &mut t);
+    }
+    assert_eq!(rt.state(), State::Fault);
+    let q1 = hw.plant.joint_positions();
+    for k in 0..6 {
+        assert!(
+            (q1[k] - q0[k]).abs() < 1e-9,
+            "joint {k} moved {} after the refusal",
+            q1[k] - q0[k]
+        );
+    }
+    rt.command(&MasterToBoard::ClearFault, t).unwrap();
+    step(&mut rt, &mut hw, &mut t);
+    record(&mut rt, 1, false, t).unwrap();
+    step(&mut rt, &mut hw, &mut t);
+    assert_eq!(rt.state(), State::Commissioning);
+}
