@@ -106,8 +106,11 @@ impl Requirement {
             }
             Requirement::Detection => {
                 "A fault is detected within its stated time of showing, logged with its \
-                 cause (the first fault logged names it), and the platform moves at most the \
-                 tip speed times that time before"
+                 cause (the first fault logged names it; without the second position channel \
+                 a joint's current and encoder cannot tell an encoder that counts less than \
+                 its motor turns from an open or a shorted winding within the monitors' \
+                 windows, and either may be named for the other), and the platform moves at \
+                 most the tip speed times that time before"
             }
             Requirement::Authority => {
                 "No motion follows a command from anyone but the owning master: a second \

@@ -92,12 +92,51 @@ pub struct Spec {
     pub shows: Shows,
 }
 
-const ENCODER: &[FaultCause] = &[
+const HOMING: &[FaultCause] = &[FaultCause::HomingFailed];
+
+// The causes one current sensor and one encoder per joint (the board without the second
+// position channel) cannot tell apart within the monitors' windows: one sample gives one
+// equation, `i = (V·d − Ke·ω)/R`, for two unknowns, the speed and the circuit. Each set is
+// its fault's own causes and those whose samples it produces (`control::safety`, SR-5).
+
+/// An encoder that counts less than the motor turns (stuck, dead, losing counts):
+/// * driven, the motor turns freely and draws only what its friction and load take, which
+///   can be under the open-circuit floor (legs 0.173 A, links 0.05 A), while the model at
+///   the encoder's standstill expects `V·d/R` (a 0.02 duty: 1.38 A on a leg): the samples
+///   of an open circuit, `MotorOpen`;
+/// * braking (`V·d` near 0), the motor draws `Ke·ω/R` where the model at the encoder's
+///   lower speed expects less (a dead encoder's tenth of the speed: a tenth of the
+///   current): three times the model's current or more is the samples of a shorted
+///   winding, `CurrentImplausible`.
+const ENCODER_SEEN: &[FaultCause] = &[
     FaultCause::EncoderDead,
     FaultCause::FollowingError,
     FaultCause::NoMotion,
+    FaultCause::MotorOpen,
+    FaultCause::CurrentImplausible,
 ];
-const HOMING: &[FaultCause] = &[FaultCause::HomingFailed];
+
+/// Open motor leads: no current, and `V·d` reads as back-EMF. For the first 100 ticks the
+/// circuit drew current in (`EncoderCheckConfig::current_memory_ticks`) those are the
+/// samples of a motor turning at `V·d/Ke` whose encoder is dead (`EncoderDead`).
+const OPEN_SEEN: &[FaultCause] = &[
+    FaultCause::MotorOpen,
+    FaultCause::FollowingError,
+    FaultCause::NoMotion,
+    FaultCause::EncoderDead,
+];
+
+/// A shorted winding without its current regulation: at a small duty it draws a small
+/// current (under twice the floor, 0.1 A: what the back-EMF check takes as explained by
+/// the model) that `V·d − R·i` reads as back-EMF of a motor turning against the
+/// encoder's standstill (a link at 0.075 A: 0.16 V, 7 rad/s of the motor, 0.19 rad/s),
+/// the samples of a dead encoder (`EncoderDead`).
+const SHORT_SEEN: &[FaultCause] = &[
+    FaultCause::Overcurrent,
+    FaultCause::CurrentImplausible,
+    FaultCause::DriverFault,
+    FaultCause::EncoderDead,
+];
 
 /// The speed above which a joint's motion shows a fault that needs motion: three times
 /// the speed below which the back-EMF check never trusts its estimate (3 rad/s of the
@@ -150,7 +189,7 @@ impl Injection {
         let j = self.joint();
         let joint = |x: u8| Some(x % 6);
         match self {
-            I::EncoderStuck(x) => s(ENCODER, ENCODER, 100, moving(x), joint(x)),
+            I::EncoderStuck(x) => s(ENCODER_SEEN, ENCODER_SEEN, 100, moving(x), joint(x)),
             I::EncoderJump(x) => s(
                 &[C::EncoderJump],
                 &[C::EncoderJump],
@@ -159,15 +198,9 @@ impl Injection {
                 joint(x),
             ),
             I::EncoderDead(x) | I::EncoderLosesCounts(x) => {
-                s(ENCODER, ENCODER, 150, moving(x), joint(x))
+                s(ENCODER_SEEN, ENCODER_SEEN, 150, moving(x), joint(x))
             }
-            I::MotorOpen(x) => s(
-                &[C::MotorOpen, C::FollowingError, C::NoMotion],
-                &[C::MotorOpen, C::FollowingError, C::NoMotion],
-                30,
-                moving(x),
-                joint(x),
-            ),
+            I::MotorOpen(x) => s(OPEN_SEEN, OPEN_SEEN, 30, moving(x), joint(x)),
             I::MotorShorted(x) => s(
                 &[C::DriverFault],
                 &[C::DriverFault],
@@ -186,8 +219,8 @@ impl Injection {
                 None,
             ),
             I::Overcurrent(x) => s(
-                &[C::Overcurrent, C::CurrentImplausible, C::DriverFault],
-                &[C::Overcurrent, C::CurrentImplausible, C::DriverFault],
+                SHORT_SEEN,
+                SHORT_SEEN,
                 50,
                 Shows::Current(usize::from(x % 6), 0.05),
                 None,

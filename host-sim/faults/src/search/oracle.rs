@@ -120,7 +120,12 @@ pub struct Oracle {
     /// A welded safety relay was found (not repaired since).
     relay_found: bool,
     pending: Vec<Pending>,
+    /// The injected faults detected (or judged late) and not repaired: they are still
+    /// there, and a fault latched again after a ClearFault may name any of them.
+    standing: Vec<Pending>,
     explained: Vec<FaultCause>,
+    /// Where each joint last rested against a hard stop (m, rad), while it stays there.
+    rest: [Option<f64>; 6],
     foreign: bool,
     cleared: bool,
 }
@@ -173,7 +178,9 @@ impl Oracle {
             owns: None,
             relay_found: false,
             pending: Vec::new(),
+            standing: Vec::new(),
             explained: Vec::new(),
+            rest: [None; 6],
             foreign: false,
             cleared: false,
         }
@@ -210,6 +217,13 @@ impl Oracle {
         }
         match a {
             Action::Fault(i) => {
+                // A switch forced to a new reading is no longer forced to the old one: the
+                // earlier injection on that switch is gone (it never showed if no tick ran).
+                if let Injection::SwitchClosed(j) | Injection::SwitchDead(j) = *i {
+                    let same_switch = |pd: &Pending| matches!(pd.injection, Injection::SwitchClosed(k) | Injection::SwitchDead(k) if k % 6 == j % 6);
+                    self.pending.retain(|pd| !same_switch(pd));
+                    self.standing.retain(|pd| !same_switch(pd));
+                }
                 let homing = probe::state(board) == RobotState::Homing;
                 self.pending.push(Pending {
                     injection: *i,
@@ -227,7 +241,7 @@ impl Oracle {
             // latch): its causes stay explained.
             Action::Repair => {
                 self.relay_found = false;
-                for pd in self.pending.drain(..) {
+                for pd in self.pending.drain(..).chain(self.standing.drain(..)) {
                     for c in pd.spec.causes.iter().chain(pd.spec.homing_causes) {
                         if !self.explained.contains(c) {
                             self.explained.push(*c);
@@ -274,7 +288,8 @@ impl Oracle {
         } else {
             0.0
         };
-        self.range(now, &snap);
+        let (q, _) = probe::joints(board);
+        self.range(now, &snap, &q);
         self.authority(now, &snap, delivered, replies);
         self.torque(now, board, &snap, delivered, replies);
         self.not_weakened(now, &snap, board);
@@ -285,10 +300,25 @@ impl Oracle {
     }
 
     /// SR-1: a leg never meets its end stop; a link meets its hard stop only while homing.
-    fn range(&mut self, now: u64, s: &Snap) {
+    ///
+    /// A joint arrives at a hard stop when it touches it after it had moved off it: the
+    /// plant's contact flag of a joint resting against its stop (where homing put a link)
+    /// comes and goes with the push of its drive, and the joint has not moved.
+    fn range(&mut self, now: u64, s: &Snap, q: &[f64; 6]) {
         let before = self.prev.map_or([false; 6], |p| p.at_stop);
         for (j, (now_at, was_at)) in s.at_stop.iter().zip(before).enumerate() {
-            let arrived = *now_at && !was_at;
+            // Within a hundredth of an encoder count (legs 1.5 µm a count, links 87 µrad):
+            // it has not moved off the stop.
+            let still = if j < 3 { 1.5e-8 } else { 8.7e-7 };
+            let rested = self.rest[j].is_some_and(|r| (q[j] - r).abs() <= still);
+            if *now_at {
+                if !rested {
+                    self.rest[j] = Some(q[j]);
+                }
+            } else if !rested {
+                self.rest[j] = None;
+            }
+            let arrived = *now_at && !was_at && !rested;
             if arrived && (j < 3 || s.state != RobotState::Homing) {
                 self.violate(
                     Requirement::Range,
@@ -709,7 +739,7 @@ impl Oracle {
             self.prev.is_some_and(|pr| pr.fault == FaultCause::None) && s.fault != FaultCause::None;
         if entered && !self.pending.is_empty() {
             let c = s.fault;
-            let named = self.pending.iter().any(|pd| {
+            let named = self.pending.iter().chain(self.standing.iter()).any(|pd| {
                 let on_joint = pd.spec.joint.is_none_or(|j| j == joint);
                 let homing = pd.homing || homing_now;
                 (pd.spec.causes.contains(&c) || (homing && pd.spec.homing_causes.contains(&c)))
@@ -749,6 +779,7 @@ impl Oracle {
             .filter(|pd| matches!(pd.injection, Injection::MotorOpen(_)))
             .map(|pd| pd.injection.joint())
             .collect();
+        let mut gone = Vec::new();
         self.pending.retain_mut(|pd| {
             let masked = !matches!(pd.injection, Injection::MotorOpen(_))
                 && pd.injection.joint().is_some()
@@ -762,6 +793,7 @@ impl Oracle {
                 .chain(if homing { pd.spec.homing_causes } else { &[] })
                 .any(|c| s.faults.intersects(c.bit()));
             if detected {
+                gone.push(pd.clone());
                 return false;
             }
             let shows = !masked
@@ -796,6 +828,7 @@ impl Oracle {
                     pd.shown_us / 1000,
                     pd.spec.bound_ms
                 ));
+                gone.push(pd.clone());
                 return false;
             }
             if let Some(p0) = pd.first_show {
@@ -808,11 +841,13 @@ impl Oracle {
                         d * 1e3,
                         allowed * 1e3
                     ));
+                    gone.push(pd.clone());
                     return false;
                 }
             }
             true
         });
+        self.standing.extend(gone);
         for f in found {
             self.violate(Requirement::Detection, now, f);
         }
