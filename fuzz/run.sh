@@ -77,6 +77,18 @@ echo "==> seeds build and generation: $(elapsed "$t0") s"
 [ "$mode" = build ] && exit 0
 
 # --- runs --------------------------------------------------------------------------------
+# Reproducible runs: the same binary, seed and seeds give the same executions, so a crash
+# in CI is found again by the same command anywhere. Two things made the commands target's
+# runs differ: the comparisons libFuzzer traces for its dictionary (CMP) include pointers,
+# whose values change with address-space randomisation (stack addresses 0x7ffe... entered
+# the mutations), and -reload (the corpus directory re-read every second, by the clock).
+# So: -reload=0, and the run without randomisation (setarch -R) where the machine allows
+# it (a container may refuse the personality call: then the run says so).
+no_aslr=()
+if setarch "$(uname -m)" -R true 2>/dev/null; then
+    no_aslr=(setarch "$(uname -m)" -R)
+fi
+
 # One target: its run, its figures (into $log.summary), exit status 1 on a crash.
 run_target() {
     local t=$1 corpus artifacts log rc=0 wall user sys maxrss_kb cpu execs rate rss slow
@@ -91,9 +103,12 @@ run_target() {
     log=$target_dir/fuzz-$mode-$t.log
     {
         echo "==> $t: $runs executions, -seed=$seed, corpus $corpus, log $log"
+        if [ ${#no_aslr[@]} -eq 0 ]; then
+            echo "    (address-space randomisation on: setarch -R refused here; the run may not repeat exactly)"
+        fi
         /usr/bin/time -o "$log.time" -f "%e %U %S %M" \
-            "$bin_dir/$t" "$corpus" "$seeds/$t" \
-            -dict="$seeds/link.dict" -seed="$seed" -runs="$runs" -max_len=$max_len \
+            "${no_aslr[@]}" "$bin_dir/$t" "$corpus" "$seeds/$t" \
+            -dict="$seeds/link.dict" -seed="$seed" -runs="$runs" -reload=0 -max_len=$max_len \
             -timeout=$timeout_s -rss_limit_mb=2048 -print_final_stats=1 \
             -artifact_prefix="$artifacts/" >"$log" 2>&1 || rc=$?
         # (GNU time writes "Command exited with non-zero status N" first after a crash.)

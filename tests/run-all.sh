@@ -120,7 +120,7 @@ bash firmware/cortex-m/board/build-and-size.sh
 section "on-target tests and instructions per control tick (QEMU mps2-an386)"
 bash firmware/cortex-m/on-target/run.sh
 
-section "the board's release image in the STM32F4 emulator (rigless), in closed loop with the plant and the master"
+section "the board's release image in the STM32F4 emulator (rigless), in closed loop with the plant and the master; commissioning a miswired robot on it"
 bash firmware/board-emulator/run.sh
 bash host-sim/board-scenarios/run.sh
 

@@ -8,7 +8,9 @@
 #   2. this crate (its own workspace and Cargo.lock), release profile, --locked, into the
 #      emulator's target directory (.cargo/config.toml): rigless and cranelift as the
 #      emulator's stage built them;
-#   3. its tests (the figures the scenarios compute, e.g. the best-fitting delay);
+#   3. its tests (the figures the scenarios compute, e.g. the best-fitting delay; and
+#      tests/commissioning.rs: the image with the second position channel, miswired in
+#      the emulator's mechanics, commissioned by host-sim commission's loop);
 #   4. every closed-loop scenario, twice at once (this process and a child process), each
 #      check printed with its figures, the two runs' digests compared; at the same time
 #   5. the NUCLEO-F429ZI's release image (built by the same build-and-size.sh) on its own
@@ -30,6 +32,8 @@ ELF="$(target_dir)/$TARGET/release/rspr-board"
 NUCLEO_ELF="$(target_dir)/$TARGET/release/rspr-nucleo-f429zi"
 export RSPR_BOARD_ELF="$ELF"
 export RSPR_NUCLEO_ELF="$NUCLEO_ELF"
+# The image with the second position channel: the commissioning test (tests/commissioning.rs).
+export RSPR_BOARD_PC_ELF="$(target_dir)/$TARGET/release/rspr-board-position-channel"
 
 cd "$HERE"
 TARGET_DIR="$(cargo metadata --format-version 1 --no-deps |

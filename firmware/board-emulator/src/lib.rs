@@ -20,6 +20,7 @@ pub mod flash;
 pub mod image;
 pub mod mcu;
 pub mod mechanics;
+pub mod miswiring;
 pub mod pins;
 pub mod position_channel;
 pub mod stack;

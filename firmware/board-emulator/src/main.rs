@@ -22,6 +22,7 @@ use std::time::{Duration, Instant};
 
 use board_emulator::bench::{Action, Bench, BenchConfig};
 use board_emulator::image::{default_path, Firmware};
+use board_emulator::miswiring;
 use clap::{Parser, Subcommand};
 use master_link::{shared_clock, BoardToMaster, MasterDecoder};
 
@@ -100,6 +101,17 @@ enum Command {
         /// its bytes (`--master-lead-ms`), or not at all. Default: no shared clock.
         #[arg(long, value_name = "MS")]
         clock_lead_ms: Option<f64>,
+        /// The image has the second position channel (built with `--features
+        /// position-channel`, `rspr-board-position-channel`): the plant's potentiometers on
+        /// ADC3.
+        #[arg(long)]
+        position_channel: bool,
+        /// Miswire the robot (repeat for several; see `board_emulator::miswiring`):
+        /// motor-reversed=J, encoder-reversed=J, encoders-swapped=J,K, gear-scale=J:1.1,
+        /// switch-normally-open=J, brake-inverted=J; J is l1, l2, l3, theta1, theta2,
+        /// theta3 or 0..5. Default: wired as the pin map says.
+        #[arg(long = "miswire", value_name = "KIND=JOINT")]
+        miswire: Vec<String>,
     },
     /// Check that the image fits the STM32F405; exit 1 when it does not.
     Fit,
@@ -119,15 +131,19 @@ fn main() -> ExitCode {
             master_lead_ms,
             master_wait_ms,
             clock_lead_ms,
-        } => serve(
-            firmware,
-            &socket,
-            speed,
-            seconds,
-            !without_tool,
-            Pacing::new(speed, catch_up_ms, report_lag_ms),
-            MasterLead::new(master_lead_ms, clock_lead_ms, master_wait_ms),
-        ),
+            position_channel,
+            miswire,
+        } => board_config(firmware, position_channel, &miswire).and_then(|config| {
+            serve(
+                config,
+                &socket,
+                speed,
+                seconds,
+                !without_tool,
+                Pacing::new(speed, catch_up_ms, report_lag_ms),
+                MasterLead::new(master_lead_ms, clock_lead_ms, master_wait_ms),
+            )
+        }),
         Command::Fit => fit(&firmware),
     };
     match result {
@@ -148,8 +164,21 @@ fn fit(firmware: &Path) -> Result<bool, String> {
     Ok(fit.fits())
 }
 
-fn serve(
+/// The bench of `serve`: the reference robot, the image at `firmware`, with the position
+/// channel where the image has it, wired as `miswire` says.
+fn board_config(
     firmware: PathBuf,
+    position_channel: bool,
+    miswire: &[String],
+) -> Result<BenchConfig, String> {
+    let mut config = BenchConfig::reference(firmware).map_err(|e| e.to_string())?;
+    config.position_channel = position_channel;
+    config.mechanics.wiring = miswiring::parse(miswire).map_err(|e| format!("--miswire: {e}"))?;
+    Ok(config)
+}
+
+fn serve(
+    config: BenchConfig,
     socket: &Path,
     speed: f64,
     seconds: Option<f64>,
@@ -174,7 +203,10 @@ fn serve(
     listener
         .set_nonblocking(true)
         .map_err(|e| format!("{}: {e}", socket.display()))?;
-    let config = BenchConfig::reference(firmware).map_err(|e| e.to_string())?;
+    let miswired = miswiring::describe(&config.mechanics.wiring);
+    if !miswired.is_empty() {
+        println!("the robot is miswired: {}", miswired.join(" "));
+    }
     let mut bench = Bench::start(config).map_err(|e| e.to_string())?;
     println!(
         "board on {} (virtual time paced to {speed}x the wall clock{}); connect with: host-sim teleop --connect {}",

@@ -29,11 +29,20 @@
 //!   parked: homing moves one joint at a time far from the others (a link 85 deg), where
 //!   the joints' loads would need the platform's coupling, which this model lacks.
 //!
+//! * **The wiring** ([`MechanicsConfig::wiring`], `board_on_plant::Wiring`, straight unless
+//!   a test miswires the robot: [`crate::miswiring`]): a motor's leads reversed (the
+//!   current sense still reads the board's duty sign), an encoder's A and B swapped, two
+//!   encoders' cables swapped, the counts per joint unit scaled (a gear ratio off), a
+//!   normally open home switch, a brake's coil inverted; the pins see the counters, the
+//!   currents and the switches as wired, the bridges and brakes act as wired.
+//!
 //! Not modelled: switch bounce and hysteresis; the joints' coupling through the platform
 //! other than the tool's static loads (inertia of the platform, friction in the passive
 //! joints).
 
 use board_on_plant::{BoardOnPlant, Layout, Platform, ReferenceMechanics};
+
+pub use board_on_plant::Wiring;
 use kinematics_core::guards::Limits;
 use kinematics_core::{Branch, Pose, RsprGeometry};
 use plant::{Plant, PlantConfig, PlantError, NUM_JOINTS};
@@ -74,6 +83,9 @@ pub struct MechanicsConfig {
     pub layout: Layout,
     /// The tool, if carried.
     pub tool: Option<Tool>,
+    /// How the motors, encoders, switches and brakes are wired to the board
+    /// ([`Wiring::straight`]: as the pin map says).
+    pub wiring: Wiring,
 }
 
 /// The reference robot's central configuration (outer branch), joint order, m and rad.
@@ -101,6 +113,7 @@ impl MechanicsConfig {
                 range: mech.range,
             }),
             tool,
+            wiring: Wiring::straight(),
         })
     }
 }
@@ -139,6 +152,9 @@ pub struct Mechanics {
     platform: Platform,
     cfg: MechanicsConfig,
     surroundings: Surroundings,
+    /// The counters as wired, read after every step (the wiring's count scale accumulates
+    /// over the reads: once per step).
+    counts: [u16; NUM_JOINTS],
     /// Time, s.
     t_s: f64,
 }
@@ -149,7 +165,9 @@ impl Mechanics {
     pub fn new(cfg: MechanicsConfig) -> Result<Self, MechanicsError> {
         let config = PlantConfig::shipped().map_err(|e| MechanicsError::Config(e.to_string()))?;
         let plant = Plant::new(&config).map_err(|e| MechanicsError::Config(e.to_string()))?;
-        let board = BoardOnPlant::at_rest(plant, cfg.start_q)?.with_layout(&cfg.layout);
+        let mut board = BoardOnPlant::at_rest(plant, cfg.start_q)?.with_layout(&cfg.layout);
+        board.wiring = cfg.wiring;
+        let counts = board.read_counts();
         let mut platform =
             Platform::new(cfg.start_q, 0.0).map_err(|e| MechanicsError::Central(e.to_string()))?;
         platform.tool = cfg.tool;
@@ -158,6 +176,7 @@ impl Mechanics {
             platform,
             cfg,
             surroundings: Surroundings::default(),
+            counts,
             t_s: 0.0,
         };
         m.refresh_loads()?;
@@ -237,6 +256,7 @@ impl Mechanics {
             &outputs.signed_duty(),
         );
         self.board.step(dt)?;
+        self.counts = self.board.read_counts();
         self.t_s += dt;
         Ok(())
     }
@@ -251,14 +271,15 @@ impl Mechanics {
     /// position sensor that sticks, ...), from now on.
     pub fn inject(&mut self, joint: usize, fault: plant::Fault) -> Result<(), MechanicsError> {
         self.board.plant.inject(joint, fault)?;
+        self.counts = self.board.read_counts();
         Ok(())
     }
 
     /// What the board's inputs see now.
     pub fn signals(&self) -> Signals {
         Signals {
-            encoder_counts: self.board.plant.encoder_counts(),
-            currents_a: self.board.plant.currents(),
+            encoder_counts: self.counts,
+            currents_a: self.board.sensed_currents(),
             switches_actuated: self.board.switch_levels(),
             estop_pressed: self.surroundings.estop_pressed,
             relay_open: self.board.relay_open(),
@@ -360,6 +381,66 @@ mod tests {
         m.step(&outputs([0.5; 6], [true; 6], true, true), 1e-4)?;
         assert_eq!(m.plant().bridges_on(), [false; 6]);
         assert!(m.signals().relay_open);
+        Ok(())
+    }
+
+    /// The wiring reaches the pins: with every miswiring on some joint and every joint
+    /// driven towards +q with the brakes released, the reversed motor's joint runs to -q
+    /// and its current still reads the duty's sign, the reversed encoder counts down, the
+    /// swapped counters read each other's encoders, the scaled one counts 1.1 times the
+    /// plant's, the normally open switch reads actuated away from its point, and the
+    /// inverted brake holds its joint.
+    #[test]
+    fn the_wiring_reaches_the_pins() -> Result<(), MechanicsError> {
+        let mut cfg = MechanicsConfig::reference(None)?;
+        cfg.wiring = crate::miswiring::parse(&[
+            "motor-reversed=l1",
+            "encoders-swapped=l2,theta2",
+            "gear-scale=l3:1.1",
+            "encoder-reversed=theta1",
+            "brake-inverted=theta3",
+            "switch-normally-open=l1",
+        ])
+        .map_err(|e| MechanicsError::Config(e.to_string()))?;
+        let mut m = Mechanics::new(cfg)?;
+        let (q0, plant0, pins0) = (
+            m.plant().joint_positions(),
+            m.plant().encoder_counts(),
+            m.signals().encoder_counts,
+        );
+        // Away from its switch point (the leg's switch is at 143 mm, the joint at rest
+        // well above): the normally open contact reads actuated.
+        assert!(m.signals().switches_actuated[0]);
+        let drive = outputs([0.3; 6], [true; 6], true, true);
+        for _ in 0..2_000 {
+            m.step(&drive, 1e-4)?;
+        }
+        let q = m.plant().joint_positions();
+        let dq: Vec<f64> = q.iter().zip(q0).map(|(a, b)| a - b).collect();
+        assert!(dq[0] < -1e-4, "l1 reversed: {dq:?}");
+        assert!(
+            dq[1] > 1e-4 && dq[2] > 1e-4 && dq[3] > 1e-3 && dq[4] > 1e-3,
+            "{dq:?}"
+        );
+        assert!(dq[5].abs() < 1e-4, "theta3's brake holds: {dq:?}");
+        let i = m.signals().currents_a;
+        assert!(i[0] > 0.0, "l1's current reads the duty's sign: {i:?}");
+        let (plant, pins) = (m.plant().encoder_counts(), m.signals().encoder_counts);
+        let d = |a: [u16; 6], b: [u16; 6], k: usize| f64::from(a[k].wrapping_sub(b[k]) as i16);
+        assert_eq!(
+            d(pins, pins0, 1),
+            d(plant, plant0, 4),
+            "counter 1 reads theta2's"
+        );
+        assert_eq!(
+            d(pins, pins0, 4),
+            d(plant, plant0, 1),
+            "counter 4 reads l2's"
+        );
+        assert!(d(pins, pins0, 3) < 0.0 && d(plant, plant0, 3) > 0.0);
+        let scaled = d(pins, pins0, 2) / d(plant, plant0, 2);
+        // Rounded to whole counts over hundreds of counts.
+        assert!((scaled - 1.1).abs() < 0.01, "l3 scaled by {scaled}");
         Ok(())
     }
 

@@ -19,10 +19,21 @@
 //!    stall): the push ends when any sensor has seen [`CommissionConfig::target`] of
 //!    motion, or at the ramp's end. The encoder that moved most (each in its own joint's
 //!    units over its target), the sign of its motion, the second position channel's motion
-//!    (the reference, where fitted), the ratio of the two between two points on the same
-//!    flank of the backlash (from [`SCALE_FROM`] of the target to the end), the current's
-//!    sign and the duty at which it moved.
-//! 5. **Settle** (zero duty, brakes applied for their engage time), then torque off: done.
+//!    (the reference, where fitted), the scale of the two on the same flank of the
+//!    backlash (the least-squares slope of the channel against the encoder over every tick
+//!    from [`SCALE_FROM`] of the target to the end), the current's sign and the duty at
+//!    which it moved.
+//! 5. **Settle** (zero duty, brakes applied for their engage time).
+//! 6. **Return** (where the push moved the joint and did not go beyond the limit): brakes
+//!    released, the duty ramped as in the push but towards -q, open loop, until the sensor
+//!    that measured the push (the joint's second channel where fitted, else the encoder
+//!    that moved) is back where the test began, less the distance the joint coasted after
+//!    the push (the return's coast, at about the push's speed, covers it), or at the
+//!    ramp's end. The reversed duty moves the joint back whatever the wiring: the push
+//!    showed which way that sensor runs. Then settle again, and torque off: done. The
+//!    joint rests where it stood before the test (within the channel's resolution and the
+//!    two coasts' difference; without the channel, within the backlash too), so the
+//!    encoders' counts since boot still say where each joint is.
 //!
 //! Every tick, in every phase, every encoder and every channel reading is watched against
 //! [`CommissionConfig::limit`] from where the test began: beyond it the test ends at once
@@ -121,6 +132,7 @@ pub struct Readings<S> {
     pub driver_fault: bool,
 }
 
+// `Settle`'s `back`: the return follows it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Phase {
     Driver,
@@ -128,7 +140,8 @@ enum Phase {
     Applied { until_us: u64 },
     Releasing { until_us: u64 },
     Ramp { since_us: u64 },
-    Settle { until_us: u64 },
+    Settle { until_us: u64, back: bool },
+    Return { since_us: u64 },
     Done,
 }
 
@@ -147,6 +160,11 @@ pub struct JointTest<S> {
     moving_n: u32,
     /// The scale's first point (encoder, channel), once the channel saw `SCALE_FROM`.
     scale_from: Option<(S, S)>,
+    /// The encoder the scale is measured on (the one that moved most at the first point).
+    scale_k: usize,
+    /// The least-squares sums of the channel (y) against that encoder (x) from the first
+    /// point, each from it: n, Σx, Σy, Σx², Σxy.
+    fit: [S; 5],
     applied_motion: S,
     peak: S,
     breakaway: S,
@@ -154,6 +172,14 @@ pub struct JointTest<S> {
     switch_position: S,
     findings: F,
     record: CommissionRecord,
+    /// The encoders and the channel where the test began (the return's goal).
+    origin_motor: [S; NUM_JOINTS],
+    origin_abs: Option<[S; NUM_JOINTS]>,
+    /// The return's sensor (0..5 an encoder, 6 the joint's channel), the sign of the push's
+    /// motion on it, and where it read at the push's end.
+    back: Option<(usize, S, S)>,
+    /// The distance the joint coasted after the push, on the return's sensor.
+    coast: S,
 }
 
 impl<S: Float> JointTest<S> {
@@ -173,12 +199,18 @@ impl<S: Float> JointTest<S> {
             moving_sum: S::zero(),
             moving_n: 0,
             scale_from: None,
+            scale_k: j,
+            fit: [S::zero(); 5],
             applied_motion: S::zero(),
             peak: S::zero(),
             breakaway: S::zero(),
             switch_start: r.switches.get(j).copied().unwrap_or(false),
             switch_position: S::nan(),
             findings: F::NONE,
+            origin_motor: r.motor,
+            origin_abs: r.absolute,
+            back: None,
+            coast: S::zero(),
             record: CommissionRecord {
                 joint: j as u8,
                 moved_encoder: 255,
@@ -214,7 +246,7 @@ impl<S: Float> JointTest<S> {
         match self.phase {
             Phase::Driver | Phase::Done => (false, false),
             Phase::Offset { .. } | Phase::Settle { .. } | Phase::Applied { .. } => (true, false),
-            Phase::Releasing { .. } | Phase::Ramp { .. } => (true, true),
+            Phase::Releasing { .. } | Phase::Ramp { .. } | Phase::Return { .. } => (true, true),
         }
     }
 
@@ -225,6 +257,7 @@ impl<S: Float> JointTest<S> {
         let d = match self.phase {
             Phase::Applied { .. } => at(&self.cfg.applied_duty, self.joint),
             Phase::Ramp { since_us } => self.ramp_duty(since_us, now_us),
+            Phase::Return { since_us } => -self.ramp_duty(since_us, now_us),
             _ => S::zero(),
         };
         if let Some(x) = duty.get_mut(self.joint) {
@@ -337,19 +370,53 @@ impl<S: Float> JointTest<S> {
                         >= lit::<S>(SCALE_FROM) * at(&self.cfg.target, j)
                     {
                         let (_, k, _) = self.motions(r, &self.cfg.target);
-                        let k = k.min(NUM_JOINTS - 1);
-                        self.scale_from = Some((at(&r.motor, k), at(&a, j)));
+                        self.scale_k = k.min(NUM_JOINTS - 1);
+                        self.scale_from = Some((at(&r.motor, self.scale_k), at(&a, j)));
                     }
+                }
+                if let (Some((m1, p1)), Some(a)) = (self.scale_from, r.absolute) {
+                    let (x, y) = (at(&r.motor, self.scale_k) - m1, at(&a, j) - p1);
+                    let f = &mut self.fit;
+                    *f = [
+                        f[0] + S::one(),
+                        f[1] + x,
+                        f[2] + y,
+                        f[3] + x * x,
+                        f[4] + x * y,
+                    ];
                 }
                 let ramp_end = now_us.saturating_sub(since_us) >= self.cfg.ramp_us;
                 if m >= S::one() || ramp_end {
                     self.finish(r, now_us);
                 }
             }
-            Phase::Settle { until_us } => {
+            Phase::Settle { until_us, back } => {
                 if now_us >= until_us {
-                    self.phase = Phase::Done;
-                    self.record.done = true;
+                    match (back, self.back) {
+                        (true, Some((k, sign, end))) => {
+                            self.coast = (self.sensor(r, k) - end) * sign;
+                            self.phase = Phase::Return { since_us: now_us };
+                        }
+                        _ => {
+                            self.phase = Phase::Done;
+                            self.record.done = true;
+                        }
+                    }
+                }
+            }
+            Phase::Return { since_us } => {
+                // Back where the test began, less the coast to come (or the ramp's end).
+                let left = self.back.map_or(S::zero(), |(k, sign, _)| {
+                    (self.sensor(r, k) - self.origin(k)) * sign
+                });
+                // A reading not a number ends it too.
+                if !(left > self.coast.max(S::zero()))
+                    || now_us.saturating_sub(since_us) >= self.cfg.ramp_us
+                {
+                    self.phase = Phase::Settle {
+                        until_us: now_us + self.cfg.release_us,
+                        back: false,
+                    };
                 }
             }
             Phase::Done => {}
@@ -395,15 +462,33 @@ impl<S: Float> JointTest<S> {
         }
         self.record.findings = self.findings;
         // Beyond the travel limit, or before anything was pushed: torque off now. After
-        // the push: zero duty while the brakes engage, then torque off.
+        // the push: zero duty while the brakes engage, then the return (where the push
+        // moved the joint), then torque off.
         self.phase = if self.findings.contains(F::TRAVEL_EXCEEDED) || !pushed {
             self.record.done = true;
             Phase::Done
         } else {
             Phase::Settle {
                 until_us: now_us + cfg.release_us,
+                back: self.back.is_some(),
             }
         };
+    }
+
+    /// The reading of the return's sensor `k` (0..5 an encoder, 6 the joint's channel).
+    fn sensor(&self, r: &Readings<S>, k: usize) -> S {
+        match r.absolute {
+            Some(a) if k == NUM_JOINTS => at(&a, self.joint),
+            _ => at(&r.motor, k),
+        }
+    }
+
+    /// Where the return's sensor `k` read when the test began.
+    fn origin(&self, k: usize) -> S {
+        match self.origin_abs {
+            Some(a) if k == NUM_JOINTS => at(&a, self.joint),
+            _ => at(&self.origin_motor, k),
+        }
     }
 
     /// The released push's findings: what moved, which way, by how much.
@@ -429,6 +514,15 @@ impl<S: Float> JointTest<S> {
             return;
         }
         self.record.moved_encoder = k as u8;
+        // The return's sensor: the joint's channel where both ends read it, else the
+        // encoder that moved; the push's sign on it from where the test began.
+        let b = if self.origin_abs.is_some() && r.absolute.is_some() {
+            NUM_JOINTS
+        } else {
+            k
+        };
+        let (x, x0) = (self.sensor(r, b), self.origin(b));
+        self.back = Some((b, if x < x0 { -S::one() } else { S::one() }, x));
         let dm = at(&r.motor, k) - at(&self.start_motor, k);
         self.record.encoder_motion = f32_of(dm);
         if k != j {
@@ -454,12 +548,17 @@ impl<S: Float> JointTest<S> {
                 }
                 // The scale of this joint's own encoder (another's is checked once the
                 // cables are put right).
-                if let (Some((m1, p1)), true) = (self.scale_from, k == j) {
-                    let (em, ep) = (at(&r.motor, k) - m1, at(&a, j) - p1);
-                    // Over half the target at least: the channel's resolution and noise
-                    // stay well inside the tolerance.
+                if let (Some((_, p1)), true) = (self.scale_from, k == j && self.scale_k == j) {
+                    let ep = at(&a, j) - p1;
+                    // Over half the target at least, the slope of the channel against the
+                    // encoder by least squares over every tick of it: the channel's
+                    // quantisation and noise average out over the steps it crosses (a
+                    // 12-bit converter's step is 5.5 % of a link's half target), where
+                    // the ratio of two readings carries a step's error whole.
                     if ep.abs() >= lit::<S>(0.5) * at(&cfg.target, j) {
-                        let scale = (em / ep).abs();
+                        let [n, sx, sy, sxx, sxy] = self.fit;
+                        // Counts per unit over the profile's: dx/dy, the inverse slope.
+                        let scale = ((n * sxx - sx * sx) / (n * sxy - sx * sy)).abs();
                         self.record.scale = f32_of(scale);
                         if !((scale - S::one()).abs() <= cfg.scale_tolerance) {
                             self.findings.insert(F::SCALE);

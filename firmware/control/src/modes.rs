@@ -448,6 +448,10 @@ pub struct Context {
     pub reset_pending: bool,
     /// The safety chain is not trusted: a relay test is pending.
     pub chain_untrusted: bool,
+    /// `Fault`: a person stopped the robot (the emergency-stop button or message is among
+    /// the latched causes). Only `ClearFault` ends such a stop: no command that moves a
+    /// joint also resets it (ISO 13850's restart interlock).
+    pub emergency_stop: bool,
 }
 
 /// The transition table: the mode after `event` in `mode`, or why the event is refused.
@@ -521,6 +525,15 @@ pub const fn next(mode: ModeKind, event: Event, cx: Context) -> Result<ModeKind,
         (E::Commission { .. }, M::Disabled) => Ok(M::Commissioning),
         (E::Commission { confirm: true }, M::Ready) => Ok(M::Commissioning),
         (E::Commission { confirm: false }, M::Ready) => Err(Refusal::AlreadyHomed),
+        (E::Commission { confirm: true }, M::Fault) if !cx.powered && cx.emergency_stop => {
+            Err(Refusal::Faulted)
+        }
+        (E::Commission { confirm: true }, M::Fault) if !cx.powered && cx.reset_pending => {
+            Err(Refusal::ResetNotAcknowledged)
+        }
+        (E::Commission { confirm: true }, M::Fault) if !cx.powered && cx.chain_untrusted => {
+            Err(Refusal::SafetyRelayMismatch)
+        }
         (E::Commission { confirm: true }, M::Fault) if !cx.powered => Ok(M::Commissioning),
         (E::Commission { .. }, M::Fault) => Err(Refusal::Faulted),
         (E::Commission { .. }, M::Homing | M::Parking | M::Stopping) => Err(Refusal::Busy),
@@ -621,6 +634,7 @@ fn contexts(mode: ModeKind, event: Event) -> &'static [(Context, &'static str)] 
         },
         reset_pending: false,
         chain_untrusted: false,
+        emergency_stop: false,
     };
     const RESET: Context = Context {
         reset_pending: true,
@@ -680,7 +694,16 @@ fn contexts(mode: ModeKind, event: Event) -> &'static [(Context, &'static str)] 
                 },
                 "stop under power",
             ),
-            (BASE, "torque off"),
+            (
+                Context {
+                    emergency_stop: true,
+                    ..BASE
+                },
+                "after an emergency stop",
+            ),
+            (RESET, "reset not acknowledged"),
+            (CHAIN, "relay test pending"),
+            (BASE, "otherwise, torque off"),
         ],
         (ModeKind::Disabled | ModeKind::Ready, Event::Commission { .. }) => &[
             (RESET, "reset not acknowledged"),

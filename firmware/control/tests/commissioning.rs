@@ -67,12 +67,23 @@ fn record(rt: &mut Rt, joint: u8, confirm: bool, t: u64) -> Result<CommissionRec
     }
 }
 
-/// What a run found: each joint's record, and the largest motion of each joint on the
-/// plant from where it stood, over the test's limit.
+/// What a run found: each joint's record, the largest motion of each joint on the plant
+/// from where it stood, over the test's limit, and where each joint tested came to rest
+/// after its test from where it stood before it, over its [`RETURN`].
 struct Run {
     records: Vec<CommissionRecord>,
     travel: [f64; 6],
+    returned: [f64; 6],
+    /// The status a second after the Disable that ends commissioning.
+    after: master_link::StatusReport,
 }
+
+/// How far from where it stood a joint may rest after its test: a tenth of the push's
+/// 1.5 mm or 1.5 deg (the return ends where the channel reads the start less the push's
+/// coast; what is left is the two coasts' difference and the channel's resolution, 1.5 um
+/// or 0.005 deg). A homing from the encoders' counts since boot then starts within a tenth
+/// of a push of the truth, where a test left in place put it a whole push away.
+const RETURN: [f64; 6] = [0.15e-3, 0.15e-3, 0.15e-3, 0.0026, 0.0026, 0.0026];
 
 /// Commissions `joints` one after the other, as `host-sim commission` does.
 fn commission(wiring: Wiring, joints: &[u8]) -> Run {
@@ -80,8 +91,10 @@ fn commission(wiring: Wiring, joints: &[u8]) -> Run {
     step(&mut rt, &mut hw, &mut t);
     let q0 = hw.plant.joint_positions();
     let mut travel = [0.0f64; 6];
+    let mut returned = [0.0f64; 6];
     let mut records = Vec::new();
     for &j in joints {
+        let before = hw.plant.joint_positions()[usize::from(j)];
         let confirm = rt.status().state == State::Fault;
         record(&mut rt, j, confirm, t).unwrap_or_else(|e| panic!("joint {j}: refused {e:?}"));
         let mut r = None;
@@ -104,8 +117,20 @@ fn commission(wiring: Wiring, joints: &[u8]) -> Run {
             }
         }
         records.push(r.unwrap_or_else(|| panic!("joint {j}: the test never ended")));
+        let after = hw.plant.joint_positions()[usize::from(j)];
+        returned[usize::from(j)] = (after - before).abs() / RETURN[usize::from(j)];
     }
-    Run { records, travel }
+    // Out of the mode as `host-sim commission` leaves it: Disable, then a second.
+    rt.command(&MasterToBoard::Disable, t).unwrap();
+    for _ in 0..1000 {
+        step(&mut rt, &mut hw, &mut t);
+    }
+    Run {
+        records,
+        travel,
+        returned,
+        after: rt.status(),
+    }
 }
 
 const NAMES: [&str; 6] = ["l1", "l2", "l3", "theta1", "theta2", "theta3"];
@@ -126,7 +151,18 @@ fn the_straight_wiring_reports_nothing_and_stays_within_the_travel() {
             NAMES[k],
             run.travel[k]
         );
+        assert!(
+            run.returned[k] <= 1.0,
+            "{} rested {:.2} of its return tolerance from where it stood",
+            NAMES[k],
+            run.returned[k]
+        );
     }
+    // Every joint back where it stood: the monitors that resume after the mode (the
+    // channel against the encoders, the motor models) find nothing.
+    assert_ne!(run.after.state, State::Fault, "{:?}", run.after.fault);
+    println!("travel / limit {:.2?}", run.travel);
+    println!("rest after / return tolerance {:.2?}", run.returned);
 }
 
 /// The miswirings of the issue, on joint `j` (a swap pairs it with `other`).
@@ -174,6 +210,13 @@ fn check(m: Miswiring, j: usize) -> Result<(), TestCaseError> {
             NAMES[j],
             NAMES[k],
             run.travel[k]
+        );
+        prop_assert!(
+            run.returned[k] <= 1.0,
+            "{m:?} on {}: {} rested {:.2} of its return tolerance from where it stood",
+            NAMES[j],
+            NAMES[k],
+            run.returned[k]
         );
     }
     let r = &run.records[j];
@@ -232,11 +275,13 @@ proptest! {
     }
 }
 
-/// Property: a commissioned robot homes from where the tests left it. Each test leaves its
-/// joint 1.5 mm or 1.5 deg from its rest; on a board without the second channel the homing
-/// starts from the rest positions moved by what the encoders counted since boot, so a leg
-/// and a link commissioned first still reach their references (estimated from the rest
-/// alone, the link's estimate left its homing range before its stop: NotFound).
+/// Property: a commissioned robot homes from where the tests left it. Each test pushes its
+/// joint 1.5 mm or 1.5 deg and drives it back; on a board without the second channel the
+/// return ends on the encoder (the joint rests within the backlash of where it stood:
+/// within [`RETURN`]) and the homing starts from the rest positions moved by what the
+/// encoders counted since boot, so a leg and a link commissioned first still reach their
+/// references (a test that left its joint 1.5 mm or 1.5 deg away, with a homing estimated
+/// from the rest alone, took the link's estimate out of its homing range: NotFound).
 #[test]
 fn a_commissioned_robot_homes_from_where_the_tests_left_it() {
     let c = common::central_q();
@@ -260,14 +305,15 @@ fn a_commissioned_robot_homes_from_where_the_tests_left_it() {
         assert!(done, "joint {j}: the test never ended");
     }
     let q1 = hw.plant.joint_positions();
-    assert!(
-        (q1[0] - q0[0]).abs() > 0.001,
-        "leg 1 did not move: {q0:?} -> {q1:?}"
-    );
-    assert!(
-        (q1[3] - q0[3]).abs() > 0.02,
-        "link 1 did not move: {q0:?} -> {q1:?}"
-    );
+    for j in [0, 3] {
+        let rested = (q1[j] - q0[j]).abs();
+        println!("{} rests {rested:.6} from where it stood", NAMES[j]);
+        assert!(
+            rested <= RETURN[j],
+            "{} not back where it stood: {q0:?} -> {q1:?}",
+            NAMES[j]
+        );
+    }
     // Commissioning ends by Disable (a stop to torque off); Busy while that stop runs.
     rt.command(&MasterToBoard::Disable, t).unwrap();
     let mut asked = 0;
@@ -290,4 +336,51 @@ fn a_commissioned_robot_homes_from_where_the_tests_left_it() {
     assert!(rt.homed(), "not homed after 120 s: {:?}", rt.status());
     // A sweep of every joint to its switch or stop, not a reference taken at once.
     assert!(ms > 5_000, "homed after {ms} ms");
+}
+
+/// Property (a restart interlock): a stop a person asked for (the `EmergencyStop` message)
+/// is ended only by `ClearFault`. `Commission { confirm }`, which starts a test that moves
+/// a joint, is refused with `Faulted` after it, and no joint of the plant moves in the
+/// second after the refusal; after `ClearFault` the same command is taken.
+#[test]
+fn an_emergency_stop_is_not_ended_by_a_commissioning_test() {
+    let (mut rt, mut hw, mut t) = booted(Wiring::default());
+    step(&mut rt, &mut hw, &mut t);
+    record(&mut rt, 0, false, t).unwrap();
+    for _ in 0..50 {
+        step(&mut rt, &mut hw, &mut t);
+    }
+    rt.command(&MasterToBoard::EmergencyStop, t).unwrap();
+    step(&mut rt, &mut hw, &mut t);
+    assert_eq!(rt.state(), State::Fault);
+    // The stop ends at torque off (the joint under test was pushed: at most its brake's
+    // engage time).
+    for _ in 0..1000 {
+        step(&mut rt, &mut hw, &mut t);
+    }
+    let q0 = hw.plant.joint_positions();
+    for j in 0..6u8 {
+        assert_eq!(
+            record(&mut rt, j, true, t).map(|_| ()),
+            Err(NackReason::Faulted),
+            "joint {j}: Commission {{ confirm }} after an emergency stop"
+        );
+    }
+    for _ in 0..1000 {
+        step(&mut rt, &mut hw, &mut t);
+    }
+    assert_eq!(rt.state(), State::Fault);
+    let q1 = hw.plant.joint_positions();
+    for k in 0..6 {
+        assert!(
+            (q1[k] - q0[k]).abs() < 1e-9,
+            "joint {k} moved {} after the refusal",
+            q1[k] - q0[k]
+        );
+    }
+    rt.command(&MasterToBoard::ClearFault, t).unwrap();
+    step(&mut rt, &mut hw, &mut t);
+    record(&mut rt, 1, false, t).unwrap();
+    step(&mut rt, &mut hw, &mut t);
+    assert_eq!(rt.state(), State::Commissioning);
 }

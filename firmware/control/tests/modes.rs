@@ -840,6 +840,7 @@ fn context_of(b: &Bench) -> Context {
         hold: b.rt.session().hold(),
         reset_pending: !b.rt.reset().acknowledged,
         chain_untrusted: b.rt.relay_test_pending(),
+        emergency_stop: b.rt.emergency_stop_latched(),
     }
 }
 

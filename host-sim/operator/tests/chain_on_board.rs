@@ -193,6 +193,42 @@ struct Played {
     start: Vector3<f64>,
 }
 
+/// Waits, in the board's time, until five statuses in a row carry the same setpoint
+/// (within 1 nm); fails after 2 s of the board's time with the setpoint still moving.
+fn settle(board: &mut operator::Board) {
+    let t0 = board.now_s();
+    let end = t0 + 2.0;
+    let mut seen = board.statuses_received();
+    let (mut last, mut same, mut moved) = (None::<Vector3<f64>>, 0, 0.0f64);
+    while board.now_s() < end {
+        let next = board.now_s() + 0.01;
+        board.poll_until(next).unwrap();
+        if board.statuses_received() == seen {
+            continue;
+        }
+        seen = board.statuses_received();
+        let p = setpoint_cp(&board.status().unwrap().1).unwrap().position_m;
+        match last {
+            Some(l) if (p - l).norm() <= 1e-9 => same += 1,
+            Some(l) => {
+                moved = (p - l).norm();
+                same = 0;
+            }
+            None => {}
+        }
+        if same >= 4 {
+            eprintln!(
+                "at rest after {:.3} s of the board's time (the last step before: {:.2} µm)",
+                board.now_s() - t0,
+                moved * 1e6
+            );
+            return;
+        }
+        last = Some(p);
+    }
+    panic!("the board's setpoint still moving after 2 s of its time (last step {moved} m)");
+}
+
 fn play(
     board: &mut operator::Board,
     scenario: &Scenario,
@@ -212,6 +248,10 @@ fn play(
         duration_s: Some(scenario.duration_s() + if scenario.tail { 0.5 } else { 0.05 }),
         ..TeleoperationSettings::default()
     };
+    // Each run starts from a robot at rest, as an operator's session does: after the run
+    // before it, the board's setpoint may still be on its way to the last target, and a
+    // mapping anchored at a moving setpoint anchors at the one its latest status carried.
+    settle(board);
     // The setpoint the run starts from (`run` starts the mapping at the latest status's).
     let start = setpoint_cp(&board.status().unwrap().1).unwrap().position_m;
     let report = run(

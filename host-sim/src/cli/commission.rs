@@ -10,7 +10,7 @@
 use crate::error::CliError;
 use board_profile::BoardProfile;
 use clap::Args;
-use master_link::{CommissionFindings as F, CommissionRecord, NackReason, RobotState};
+use master_link::{CommissionFindings as F, CommissionRecord};
 use robot_config::output;
 use std::fmt::Write as _;
 use std::io::BufRead;
@@ -44,13 +44,42 @@ pub struct CommissionArgs {
     pub key: super::KeyArgs,
 }
 
-const NAMES: [&str; 6] = ["l1", "l2", "l3", "theta1", "theta2", "theta3"];
+use teleop::commission::{Person, NAMES};
 
-/// The test's stated limits, as the person at the robot reads them
-/// (`CommissionConfig::reference`).
-const LIMITS: &str = "each joint moves at most 3 mm (a leg) or 3 deg (a link); the push stops \
-                      once anything has moved 1.5 mm or 1.5 deg, and at 90 % of the motor's \
-                      continuous rating";
+/// The person at the robot on this terminal: Enter before each joint, asked which way a
+/// joint moved where the board cannot tell; with `--yes` nothing is asked.
+struct Terminal {
+    yes: bool,
+    lines: std::io::Lines<std::io::StdinLock<'static>>,
+}
+
+impl Person for Terminal {
+    fn ready(&mut self, _joint: u8) {
+        if !self.yes {
+            println!("Press Enter when the joint is clear (Ctrl-C to stop).");
+            let _ = self.lines.next();
+        }
+    }
+    fn moved_towards_plus(&mut self, joint: u8) -> Option<bool> {
+        if self.yes {
+            return None;
+        }
+        let name = board_words::joint_name(joint).unwrap_or_default();
+        println!(
+            "Did {name} move towards +q ({})? [y/n]",
+            if joint < 3 {
+                "extend"
+            } else {
+                "counter-clockwise"
+            }
+        );
+        let answer = self.lines.next().and_then(Result::ok).unwrap_or_default();
+        Some(answer.trim().starts_with('y'))
+    }
+    fn say(&mut self, text: &str) {
+        println!("{text}");
+    }
+}
 
 /// Runs commissioning joint by joint and writes the report and the corrections.
 pub fn commission(args: &CommissionArgs) -> Result<(), CliError> {
@@ -73,86 +102,25 @@ pub fn commission(args: &CommissionArgs) -> Result<(), CliError> {
     let mut s = teleop::session::Session::new(link);
     s.hello(10.0)?;
     println!("Commissioning: one joint at a time, the others unpowered with their brakes applied;");
-    println!("{LIMITS}.");
+    println!("{}.", teleop::commission::LIMITS);
     println!("Before you start: power the drives from a current-limited supply, keep the e-stop");
     println!("within reach, and keep hands and tools clear of the robot.");
-    let mut records: Vec<CommissionRecord> = Vec::new();
-    let mut lines = std::io::stdin().lock().lines();
-    let mut confirm = args.confirm;
-    for &j in &joints {
-        let name = board_words::joint_name(j).unwrap_or_default();
-        println!();
-        println!(
-            "{} ({name}): watch it; it will be pushed {} (towards +q).",
-            NAMES[usize::from(j)],
-            if j < 3 {
-                "to extend"
-            } else {
-                "counter-clockwise seen from above"
-            }
-        );
-        if !args.yes {
-            println!("Press Enter when the joint is clear (Ctrl-C to stop).");
-            let _ = lines.next();
-        }
-        let mut rec = match s.commission(j, confirm, 2.0)? {
-            Ok(r) => r,
-            Err(reason) => return Err(refused(reason)),
-        };
-        // Only the first joint enters the mode; the confirmation is not needed again.
-        confirm = false;
-        let end = s.now_s() + 10.0;
-        while !rec.done {
-            if s.now_s() > end {
-                return Err(CliError::Commission(format!(
-                    "{}: the board's test did not end within 10 s",
-                    NAMES[usize::from(j)]
-                )));
-            }
-            s.wait(0.05)?;
-            if let Some(st) = s.last_status() {
-                if st.status.state == RobotState::Fault {
-                    let f = st.status.fault;
-                    return Err(CliError::Commission(format!(
-                        "{}: the board stopped with a fault: {:?} on joint {} (value {}); \
-                         the monitors stopped the test: find its cause (host-sim faultlog) \
-                         before going on",
-                        NAMES[usize::from(j)],
-                        f.cause,
-                        f.joint,
-                        f.value
-                    )));
-                }
-            }
-            rec = match s.commission(j, false, 2.0)? {
-                Ok(r) => r,
-                Err(reason) => return Err(refused(reason)),
-            };
-        }
-        if rec.findings.contains(F::DIRECTION_MISMATCH) && !args.yes {
-            println!(
-                "Did {name} move towards +q ({})? [y/n]",
-                if j < 3 { "extend" } else { "counter-clockwise" }
-            );
-            let answer = lines.next().and_then(Result::ok).unwrap_or_default();
-            rec.findings = F(rec.findings.0 & !F::DIRECTION_MISMATCH.0);
-            rec.findings.insert(if answer.trim().starts_with('y') {
-                F::ENCODER_REVERSED
-            } else {
-                F::MOTOR_REVERSED
-            });
-        }
-        print!("{}", joint_text(&rec));
-        records.push(rec);
-    }
-    // Drives off, out of the commissioning mode.
-    let _ = s.request(master_link::MasterToBoard::Disable, 1.0)?;
+    let mut person = Terminal {
+        yes: args.yes,
+        lines: std::io::stdin().lock().lines(),
+    };
+    let records = teleop::commission::run(&mut s, &joints, args.confirm, &mut person).map_err(
+        |e| match e {
+            teleop::commission::CommissionError::Teleop(e) => CliError::from(e),
+            e => CliError::Commission(e.to_string()),
+        },
+    )?;
     let out = output::out_dir(args.out.as_deref(), &["commission"]);
     std::fs::create_dir_all(&out).map_err(|source| CliError::CreateDir {
         path: out.display().to_string(),
         source,
     })?;
-    let report = report_text(&records);
+    let report = teleop::commission::report_text(&records);
     let profile = profile_toml(&BoardProfile::REFERENCE, &records);
     let wiring = wiring_toml(&records);
     for (file, text) in [
@@ -180,98 +148,6 @@ pub fn commission(args: &CommissionArgs) -> Result<(), CliError> {
         out.join("wiring.toml").display()
     );
     Ok(())
-}
-
-fn refused(reason: NackReason) -> CliError {
-    let hint = match reason {
-        NackReason::AlreadyHomed | NackReason::Faulted => {
-            " (the robot is homed or has a fault latched: once a person at the robot \
-             confirms it may move, run again with --confirm)"
-        }
-        NackReason::Busy => " (the board is homing, stopping or testing a joint)",
-        _ => "",
-    };
-    CliError::Commission(format!(
-        "the board refused commissioning: {}{hint}",
-        board_words::reason(reason)
-    ))
-}
-
-/// A value of joint `j` at the edge (mm, deg).
-fn edge(j: usize, x: f32) -> String {
-    let x = f64::from(x);
-    if x.is_nan() {
-        return "-".into();
-    }
-    if j < 3 {
-        format!("{:.3} mm", x * 1e3)
-    } else {
-        format!("{:.3} deg", x.to_degrees())
-    }
-}
-
-/// One joint's result in words: what was measured, each finding and its fix.
-pub fn joint_text(r: &CommissionRecord) -> String {
-    let j = usize::from(r.joint).min(5);
-    let mut t = String::new();
-    let moved = match r.moved_encoder {
-        255 => "none".to_string(),
-        k => NAMES[usize::from(k).min(5)].to_string(),
-    };
-    let _ = writeln!(
-        t,
-        "  {}: encoder that moved {moved} ({}), reference {} ({}), scale {}, current offset {:.3} A, current while moving {:.3} A, push {:.3} duty at breakaway, largest travel {:.0} % of the limit",
-        NAMES[j],
-        edge(usize::from(r.moved_encoder).min(5), r.encoder_motion),
-        if r.reference { "second channel" } else { "none" },
-        edge(j, r.reference_motion),
-        if r.scale.is_nan() { "-".to_string() } else { format!("{:.4}", r.scale) },
-        r.current_offset_a,
-        r.current_a,
-        r.breakaway_duty,
-        f64::from(r.peak_travel) * 100.0,
-    );
-    if r.findings.is_empty() {
-        let _ = writeln!(t, "  {}: OK (wired as the pin map says)", NAMES[j]);
-    }
-    for f in F::ALL {
-        if r.findings.contains(f) {
-            let (what, fix) = board_words::commission_finding(f);
-            let _ = writeln!(t, "  {}: FOUND {what}", NAMES[j]);
-            let _ = writeln!(t, "  {}:   fix: {fix}", NAMES[j]);
-            if f == F::SCALE {
-                let _ = writeln!(
-                    t,
-                    "  {}:   measured counts per unit / profile's = {:.4}",
-                    NAMES[j], r.scale
-                );
-            }
-            if f == F::ENCODER_SWAPPED {
-                let _ = writeln!(
-                    t,
-                    "  {}:   its motion was counted on {moved}'s counter",
-                    NAMES[j]
-                );
-            }
-        }
-    }
-    t
-}
-
-/// The commissioning report: every joint's result.
-pub fn report_text(records: &[CommissionRecord]) -> String {
-    let mut t = String::from("commissioning report (host-sim commission)\n");
-    let _ = writeln!(t, "limits: {LIMITS}\n");
-    for r in records {
-        t.push_str(&joint_text(r));
-    }
-    let found = records.iter().filter(|r| !r.findings.is_empty()).count();
-    let _ = writeln!(
-        t,
-        "\n{} joint(s) tested, {found} with findings",
-        records.len()
-    );
-    t
 }
 
 /// `profile` with each joint's gear ratio scaled by the measured counts per unit where

@@ -21,6 +21,7 @@
 //! exits non-zero when a check fails.
 
 pub mod ci;
+pub mod commission;
 pub mod error;
 pub mod faultlog;
 pub mod link;

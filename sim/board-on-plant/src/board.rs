@@ -239,6 +239,28 @@ impl BoardOnPlant {
         c
     }
 
+    /// The counters as the MCU reads them now: the plant's encoders as wired
+    /// ([`BoardOnPlant::wiring`]), with [`BoardOnPlant::count_offset`] added (what
+    /// [`QuadratureCounter::counts`] answers; a board's emulator reads them at its pins).
+    pub fn read_counts(&mut self) -> [u16; NUM_JOINTS] {
+        let mut c = self.wired_counts();
+        for (c, o) in c.iter_mut().zip(self.count_offset) {
+            *c = c.wrapping_add_signed(o);
+        }
+        self.last_counts = c;
+        c
+    }
+
+    /// The motor currents as the board's sense amplifiers read them (what
+    /// [`CurrentSense::currents`] answers): the amplifier sits on the board's side of the
+    /// motor's leads, so it reads the board's duty sign whichever way the leads go, plus
+    /// [`BoardOnPlant::current_offset_a`].
+    pub fn sensed_currents(&self) -> [f64; NUM_JOINTS] {
+        let i = self.plant.currents();
+        let reversed = self.wiring.motor_reversed;
+        std::array::from_fn(|j| (if reversed[j] { -i[j] } else { i[j] }) + self.current_offset_a[j])
+    }
+
     /// What the MCU drives and the safety chain allows, to the plant: the bridges' enable
     /// and each brake group's coils.
     fn apply(&mut self) {
@@ -337,12 +359,7 @@ impl BoardOnPlant {
 
 impl QuadratureCounter for BoardOnPlant {
     fn counts(&mut self) -> [u16; NUM_JOINTS] {
-        let mut c = self.wired_counts();
-        for (c, o) in c.iter_mut().zip(self.count_offset) {
-            *c = c.wrapping_add_signed(o);
-        }
-        self.last_counts = c;
-        c
+        self.read_counts()
     }
 }
 
@@ -435,10 +452,6 @@ impl LimitSwitches for BoardOnPlant {
 
 impl CurrentSense<f64> for BoardOnPlant {
     fn currents(&mut self) -> [f64; NUM_JOINTS] {
-        // The sense amplifier sits on the board's side of the motor's leads: it reads the
-        // board's duty sign whichever way the leads go.
-        let i = self.plant.currents();
-        let reversed = self.wiring.motor_reversed;
-        std::array::from_fn(|j| (if reversed[j] { -i[j] } else { i[j] }) + self.current_offset_a[j])
+        self.sensed_currents()
     }
 }

@@ -12,7 +12,8 @@
 //! while it is disabled and releases it when enabled again, so the line says nothing until
 //! the next enable, whose brake check runs with the drivers on and the power stage
 //! monitored). They are cleared, and those that make the reference doubtful have lost the
-//! homing.
+//! homing. A stop a person asked for (the emergency-stop button or message) is ended only
+//! by `ClearFault`: no command that moves a joint also ends it.
 
 use kinematics_core::Mechanism;
 use master_link::FaultCause;
@@ -33,6 +34,20 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             .copied()
             .filter(|c| latched.raised & cause_bit(*c) != 0)
             .find(|c| self.present(*c, now_us))
+    }
+
+    /// In `Fault`: a person stopped the robot (the emergency-stop button or message is
+    /// among the latched causes); the table lets only `ClearFault` end that stop.
+    pub fn emergency_stop_latched(&self) -> bool {
+        let Mode::Fault { latched, .. } = &self.mode else {
+            return false;
+        };
+        [
+            FaultCause::EmergencyStopButton,
+            FaultCause::EmergencyStopMessage,
+        ]
+        .iter()
+        .any(|c| latched.raised & cause_bit(*c) != 0)
     }
 
     /// Whether the condition of `cause` holds now.

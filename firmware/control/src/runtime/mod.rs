@@ -347,6 +347,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             hold: self.session.hold(),
             reset_pending: !self.reset.acknowledged,
             chain_untrusted: !self.monitors.chain.trusted(),
+            emergency_stop: self.emergency_stop_latched(),
         }
     }
 
