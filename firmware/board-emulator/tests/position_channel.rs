@@ -210,6 +210,10 @@ fn the_plants_potentiometers_reach_the_image_through_the_ad7689() {
         }
     }
     println!(
+        "worst control tick since boot: {} us",
+        m.status.unwrap().tick_exec_max_us
+    );
+    println!(
         "AD7689: {} ticks of six frames in 5 ms, the first {:?}",
         ticks.len(),
         ticks[0]
