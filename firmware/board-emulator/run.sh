@@ -7,7 +7,7 @@
 #   3. its tests: the added register models against RM0090, the pin maps against the
 #      board.rs tables, the image's fit on the STM32F405, the board and mechanics models,
 #      the NUCLEO-F429ZI's image booting on its pins (tests/nucleo_boot.rs), the second
-#      position channel's image on ADC3 (tests/position_channel.rs) and StoreGeometry's
+#      position channel's image with its AD7689 on SPI3 (tests/position_channel.rs) and StoreGeometry's
 #      flash write on the pins (tests/store_geometry.rs).
 #
 # The closed-loop scenarios with the host's master come after it, from

@@ -71,6 +71,23 @@ fn the_plant_model_is_the_profile() {
     }
 }
 
+/// Property: the plant's second position channel is the profile's
+/// (`board_profile::position_channel::PositionChannel::REFERENCE`): the potentiometers'
+/// travel, and the converter's 16 bits (one count of the plant's 65536 a step).
+#[test]
+fn the_plant_position_channel_is_the_profile() {
+    use board_profile::position_channel::{PositionChannel, READING_COUNTS};
+    let plant = plant::PlantConfig::shipped().unwrap();
+    let ps = &plant.position_sensor;
+    let p = PositionChannel::REFERENCE;
+    assert!((ps.leg_travel_mm * 1e-3 - p.leg_travel_m).abs() < 1e-12);
+    assert!((ps.link_travel_deg.to_radians() - p.link_travel_rad).abs() < 1e-12);
+    assert!((ps.leg_counts_per_m() - p.counts_per_unit(0)).abs() < 1e-6);
+    assert!((ps.link_counts_per_rad() - p.counts_per_unit(3)).abs() < 1e-9);
+    assert_eq!(p.step_counts(), 1.0);
+    assert_eq!(READING_COUNTS, f64::from(plant::position_sensor::FULL_SCALE) + 1.0);
+}
+
 /// Every source and build file of the repository that is not the profile's own.
 fn sources(dir: &Path, out: &mut Vec<PathBuf>) {
     let Ok(entries) = std::fs::read_dir(dir) else {

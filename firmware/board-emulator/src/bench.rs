@@ -65,6 +65,14 @@ pub enum BenchError {
     /// The emulator's thread ended (the run failed or finished) while the master waited.
     #[error("the emulator stopped: {0}")]
     Stopped(String),
+    /// The second position channel asked of a board without it, or the other way round.
+    #[error("bench setting position_channel = {position_channel} on the board {board:?}, which {}", if *position_channel { "has no second position channel (use pins::POSITION_CHANNEL)" } else { "has the second position channel (set position_channel)" })]
+    PositionChannel {
+        /// The setting.
+        position_channel: bool,
+        /// The board's name.
+        board: &'static str,
+    },
     /// A setting is out of range.
     #[error("bench setting {what}: {value}")]
     Setting {
@@ -95,8 +103,8 @@ pub struct BenchConfig {
     /// programming", x32: 16 µs typical, 100 µs at most).
     pub flash_word_ns: u64,
     /// The board has the second position channel (the image built with
-    /// `--features position-channel`): the plant's potentiometers on ADC3
-    /// ([`crate::position_channel`]).
+    /// `--features position-channel`, `board` = [`crate::pins::POSITION_CHANNEL`]): the
+    /// plant's potentiometers on the AD7689 on SPI3 ([`crate::position_channel`]).
     pub position_channel: bool,
 }
 
@@ -783,7 +791,16 @@ impl Bench {
         let firmware = Firmware::read(&config.firmware)?;
         let rtt_block = firmware.symbol("_SEGGER_RTT").ok();
         let mechanics = Mechanics::new(config.mechanics)?;
-        let board = RsprBoard::for_target(&config.board)?;
+        if config.position_channel != config.board.position_channel {
+            return Err(BenchError::PositionChannel {
+                position_channel: config.position_channel,
+                board: config.board.name,
+            });
+        }
+        let mut board = RsprBoard::for_target(&config.board)?;
+        if config.position_channel {
+            crate::position_channel::attach(&mut board.mcu);
+        }
         let flash = Arc::new(Mutex::new(FlashShadow::new(config.flash.as_deref())));
         let mailbox = firmware.symbol(crate::flash::MAILBOX_SYMBOL).ok();
         let geometry_mailbox = firmware.symbol(crate::flash::GEOMETRY_MAILBOX_SYMBOL).ok();

@@ -7,10 +7,12 @@
 //! robot of `sim/` ([`mechanics`]: the plant and the board's surroundings of
 //! `sim/board-on-plant` at pin level; [`bench`]) in virtual time, with the event log's
 //! flash kept across a power cycle ([`flash`]); on the board built with the second
-//! position channel, its potentiometers on ADC3 ([`position_channel`]). A master drives it through the bench's
+//! position channel, its potentiometers on an AD7689 on SPI3 ([`position_channel`],
+//! [`ad7689`]). A master drives it through the bench's
 //! handle: `host-sim/board-scenarios` runs the host's master against it, `serve` a master
 //! on a socket. See README.md.
 
+pub mod ad7689;
 pub mod bench;
 pub mod board;
 pub mod exti;

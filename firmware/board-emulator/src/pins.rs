@@ -372,6 +372,8 @@ pub struct BoardTarget {
     pub map: PinMap,
     /// Current sense: amps per volt away from [`CURRENT_SENSE_ZERO_V`].
     pub current_sense_a_per_v: f64,
+    /// The board has the second position channel ([`crate::position_channel`]).
+    pub position_channel: bool,
 }
 
 /// The reference board (STM32F405RG).
@@ -379,6 +381,23 @@ pub const REFERENCE: BoardTarget = BoardTarget {
     name: "reference",
     map: BOARD,
     current_sense_a_per_v: CURRENT_SENSE_A_PER_V,
+    position_channel: false,
+};
+
+/// The reference board with the second position channel (STM32F405ZG,
+/// `--features position-channel`): [`BOARD`] with SPI3 on PC10..PC12 for the channel's
+/// converter, so the legs' home switches on PD3..PD5 ([`crate::position_channel`]).
+pub const POSITION_CHANNEL_MAP: PinMap = PinMap {
+    home_switch: [p(D, 3), p(D, 4), p(D, 5), p(D, 2), p(A, 4), p(B, 1)],
+    ..BOARD
+};
+
+/// The reference board with the second position channel.
+pub const POSITION_CHANNEL: BoardTarget = BoardTarget {
+    name: "position-channel",
+    map: POSITION_CHANNEL_MAP,
+    current_sense_a_per_v: CURRENT_SENSE_A_PER_V,
+    position_channel: true,
 };
 
 /// The NUCLEO-F429ZI with its Hall current sensors (ACS711, 90 mV/A at 3.3 V), as the
@@ -387,6 +406,7 @@ pub const NUCLEO_F429ZI: BoardTarget = BoardTarget {
     name: "nucleo-f429zi",
     map: NUCLEO_F429ZI_MAP,
     current_sense_a_per_v: 1.0 / 0.090,
+    position_channel: false,
 };
 
 /// Every board the emulator runs.

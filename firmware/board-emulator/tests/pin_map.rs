@@ -176,8 +176,9 @@ fn the_emulator_nucleo_pin_map_is_its_documented_table() {
 }
 
 /// Every pin of the board's documented table is the emulator's, row by row (the second
-/// position channel's ADC3 inputs of the `position-channel` boards, F405ZG, against
-/// `position_channel::POTENTIOMETERS`, pins and channels), and every row the emulator
+/// position channel's converter on SPI3 and the legs' switches it moves, on the
+/// `position-channel` boards, F405ZG, against `pins::POSITION_CHANNEL_MAP` and
+/// `position_channel`), and every row the emulator
 /// drives or reads is covered (only SWD, the crystal and the time driver, which have no
 /// board-side signal to model, are left out).
 #[test]
@@ -195,25 +196,41 @@ fn the_emulator_pin_map_is_the_boards_documented_table() {
         assert_eq!(&pin, doc_pin, "{function}");
         covered.push(function.to_string());
     }
-    let pots = "position sensor l1..theta3 (second channel, `position-channel` boards only)";
-    let p = &board_emulator::position_channel::POTENTIOMETERS;
-    let pot_channels = p
-        .iter()
-        .map(|a| format!("IN{}", a.channel))
-        .collect::<Vec<_>>()
-        .join(", ");
+    // The `position-channel` boards (F405ZG): the converter on SPI3 and its CNV, the legs'
+    // switches moved off SPI3's pins (`pins::POSITION_CHANNEL_MAP`,
+    // `position_channel::{SPI3_PINS, CNV}`).
+    use board_emulator::pins::POSITION_CHANNEL_MAP as PC;
+    use board_emulator::position_channel::{CNV, SPI3_AF, SPI3_PINS};
+    let rows = [
+        (
+            "position channel converter SCK / MISO / MOSI (`position-channel` boards only)",
+            pins(&SPI3_PINS, " / "),
+            format!("SPI3 (AF{SPI3_AF}), AD7689"),
+        ),
+        (
+            "position channel converter CNV (`position-channel` boards only)",
+            CNV.to_string(),
+            "GPIO out".to_string(),
+        ),
+        (
+            "home switch l1, l2, l3 (`position-channel` boards: SPI3 has PC10..PC12)",
+            pins(&PC.home_switch[..3], ", "),
+            "GPIO in".to_string(),
+        ),
+    ];
+    for (function, pin, peripheral) in rows {
+        assert_eq!(doc.get(function), Some(&(pin, peripheral)), "{function}");
+        covered.push(function.to_string());
+    }
+    assert_eq!(PC.home_switch[3..], BOARD.home_switch[3..]);
     assert_eq!(
-        doc.get(pots),
-        Some(&(
-            format!("{}..{}", p[0].pin, p[5].pin),
-            format!("ADC3 {pot_channels}")
-        )),
-        "{pots}"
+        PC,
+        board_emulator::pins::PinMap {
+            home_switch: PC.home_switch,
+            ..BOARD
+        },
+        "the channel's board moves only the legs' switches"
     );
-    assert!(p
-        .windows(2)
-        .all(|w| w[1].pin.port == w[0].pin.port && w[1].pin.number == w[0].pin.number + 1));
-    covered.push(pots.to_string());
     let left: Vec<&String> = doc.keys().filter(|k| !covered.contains(k)).collect();
     assert_eq!(
         left,

@@ -1,7 +1,8 @@
 //! The board with the second position channel (the image built with `--no-default-features
-//! --features position-channel`: STM32F405ZG, a potentiometer per joint on ADC3, PF3..PF8)
-//! on the emulated board, in the board's time, with the master of `link_master`: the plant's
-//! potentiometers through rigless's ADC3 (`board_emulator::position_channel`). The image is
+//! --features position-channel`: STM32F405ZG, a potentiometer per joint on an AD7689 on SPI3,
+//! `CNV` on PD0) on the emulated board, in the board's time, with the master of
+//! `link_master`: the plant's potentiometers through the emulated converter
+//! (`board_emulator::position_channel`, `board_emulator::ad7689`). The image is
 //! `$RSPR_BOARD_PC_ELF`, else `rspr-board-position-channel` in the Cortex-M workspace's
 //! default target directory (`firmware/cortex-m/board/build-and-size.sh` copies it there;
 //! `run.sh` sets the variable).
@@ -12,7 +13,9 @@ mod link_master;
 use std::path::{Path, PathBuf};
 
 use board_emulator::bench::{Action, Bench, BenchConfig};
-use board_emulator::position_channel::POTENTIOMETERS;
+use board_emulator::pins::{PinId, Port, POSITION_CHANNEL};
+use board_emulator::position_channel::{CNV, INPUTS, SPI3_AF, SPI3_PINS};
+use board_profile::position_channel::{ad7689, PositionChannel};
 use link_master::{Master, MS};
 use master_link::{BoardToMaster, FaultCause, MasterToBoard, RobotState};
 
@@ -27,13 +30,58 @@ fn image() -> PathBuf {
     )
 }
 
-/// `GPIOF_MODER` (RM0090 rev 19 section 8.4.1).
-const GPIOF_MODER: u64 = 0x4002_1400;
+/// A port's `MODER`, `AFRH` (RM0090 rev 19 sections 8.4.1, 8.4.10): GPIOA's base and
+/// 0x400 a port.
+fn moder(port: Port) -> u64 {
+    0x4002_0000 + 0x400 * port.index() as u64
+}
+fn afrh(port: Port) -> u64 {
+    moder(port) + 0x24
+}
 
-/// A leg's potentiometer: 100 mm over 65536 counts (`sim/plant/plant.toml`), so one step
-/// of the 12-bit converter (16 counts) is 24.4 µm; a link's: 340 deg, 0.083 deg a step.
-const LEG_STEP_M: f64 = 0.1 / 4096.0;
-const LINK_STEP_RAD: f64 = 340.0 * std::f64::consts::PI / 180.0 / 4096.0;
+/// The converter's step in joint units (the profile's: 1.53 µm on a leg, 0.0052 deg on a
+/// link).
+fn step(j: usize) -> f64 {
+    PositionChannel::REFERENCE.step_unit(j)
+}
+
+/// The bench for the position-channel image on its board.
+fn config() -> BenchConfig {
+    let mut config = BenchConfig::reference(image()).unwrap_or_else(|e| {
+        panic!(
+            "{e}: build it with `firmware/cortex-m/board/build-and-size.sh board-position-channel`"
+        )
+    });
+    config.board = POSITION_CHANNEL;
+    config.position_channel = true;
+    config
+}
+
+/// Checks the channel's pins as the image sets them: SPI3's on AF6, `CNV` an output.
+fn check_pins(m: &mut Master) {
+    let addresses = vec![moder(Port::C), afrh(Port::C), moder(Port::D)];
+    m.bench.act(Action::Peek(addresses.clone()));
+    m.run_ms(1).unwrap();
+    let peek = |a: u64| {
+        m.bench
+            .peeked
+            .iter()
+            .find(|(x, _)| *x == a)
+            .and_then(|(_, v)| *v)
+            .unwrap()
+    };
+    let (mc, af, md) = (peek(addresses[0]), peek(addresses[1]), peek(addresses[2]));
+    let pin = |p: PinId| u64::from(p.number);
+    for p in SPI3_PINS {
+        assert_eq!((mc >> (2 * pin(p))) & 0b11, 0b10, "{p} alternate");
+        assert_eq!(
+            (af >> (4 * (pin(p) - 8))) & 0xF,
+            u64::from(SPI3_AF),
+            "{p} AF{SPI3_AF}"
+        );
+    }
+    assert_eq!((md >> (2 * pin(CNV))) & 0b11, 0b01, "{CNV} output");
+}
 
 /// `Home` until `Ready`, with each joint's largest travel from where it started.
 fn home(m: &mut Master) -> [f64; 6] {
@@ -66,26 +114,27 @@ fn home(m: &mut Master) -> [f64; 6] {
     travel
 }
 
-/// ADC3's registers (RM0090 rev 19 section 13.13): `SQR3` (the regular sequence's first
-/// channel) and `DR` (the data register), at ADC3's base 0x4001_2200.
-const ADC3_SQR3: u64 = 0x4001_2234;
-const ADC3_DR: u64 = 0x4001_224C;
+/// The causes that name a joint's encoder: its disagreement with the second channel, and
+/// the encoder's own checks (no counts while its motor turns, a jump).
+const ENCODER_CAUSES: [FaultCause; 3] = [
+    FaultCause::EncoderDisagree,
+    FaultCause::EncoderDead,
+    FaultCause::EncoderJump,
+];
 
-/// Property (the plant's potentiometers reach the real image's ADC3 driver): the image
-/// built with the channel boots with the channel fitted in its status and PF3..PF8 in
-/// analog mode, and every control tick converts the six inputs in joint order
-/// (IN9, IN14, IN15, IN4, IN5, IN6 in `SQR3`), each word in `DR` the plant's reading of
-/// its joint at rest through the 12-bit converter: within the floors of the reading's
-/// ideal count (its offset included) plus and minus the noise's bound (3.47 x
-/// `noise_lsb`, `plant::PositionSensor`), times 4095/65536.
+/// SPI3's data register (RM0090 rev 19 section 28.5.4; SPI3 at 0x4000_3C00).
+const SPI3_DR: u64 = 0x4000_3C0C;
+
+/// Property (the plant's potentiometers reach the real image's AD7689 driver): the image
+/// built with the channel boots with the channel fitted in its status, SPI3's pins on AF6
+/// and `CNV` an output, and every control tick reads six frames on SPI3 whose fifth carries
+/// the converter's configuration (the profile's `CFG`: the sequencer over IN0..IN5) and the
+/// others none, each answer the plant's reading of its joint at rest (joint order): within
+/// the reading's ideal count (its offset included) plus and minus the noise's bound
+/// (3.47 x `noise_lsb`, `plant::PositionSensor`), rounded.
 #[test]
-fn the_plants_potentiometers_reach_the_image_through_adc3() {
-    let mut config = BenchConfig::reference(image()).unwrap_or_else(|e| {
-        panic!(
-            "{e}: build it with `firmware/cortex-m/board/build-and-size.sh board-position-channel`"
-        )
-    });
-    config.position_channel = true;
+fn the_plants_potentiometers_reach_the_image_through_the_ad7689() {
+    let config = config();
     let start_q = config.mechanics.start_q;
     let mut m = Master::new(Bench::start(config).unwrap());
     m.hello(0xadc3_0000).unwrap();
@@ -94,79 +143,102 @@ fn the_plants_potentiometers_reach_the_image_through_adc3() {
         m.status.unwrap().position_channel,
         "the status says the channel is fitted"
     );
-    m.bench.act(Action::Peek(vec![GPIOF_MODER]));
+    check_pins(&mut m);
     m.bench.act(Action::Record(5 * MS));
     m.run_ms(6).unwrap();
-    let moder = m
-        .bench
-        .peeked
-        .iter()
-        .find(|(a, _)| *a == GPIOF_MODER)
-        .and_then(|(_, v)| *v);
-    for p in POTENTIOMETERS {
-        let mode = moder.map(|v| (v >> (2 * p.pin.number)) & 0b11);
-        assert_eq!(mode, Some(0b11), "{} analog", p.pin);
-    }
     let plant = plant::Plant::new(&plant::PlantConfig::shipped().unwrap()).unwrap();
-    let expected: Vec<(u8, std::ops::RangeInclusive<u64>)> = POTENTIOMETERS
-        .iter()
-        .enumerate()
-        .map(|(j, p)| {
+    let expected: Vec<std::ops::RangeInclusive<u64>> = (0..6)
+        .map(|j| {
             let s = plant.position_sensor(j).unwrap();
             let ideal = s.ideal_counts(start_q[j]);
             let spread = 3.47 * s.noise_lsb;
-            let word = |c: f64| (c.round().clamp(0.0, 65535.0) * 4095.0 / 65536.0).floor() as u64;
-            (p.channel, word(ideal - spread)..=word(ideal + spread))
+            let c = |x: f64| x.round().clamp(0.0, 65535.0) as u64;
+            c(ideal - spread)..=c(ideal + spread)
         })
         .collect();
-    // Each DR read with the channel the last SQR3 write selected.
-    let mut channel = None;
-    let mut words: Vec<(u8, u64)> = Vec::new();
+    // The frames in order: (what the image wrote, what it read).
+    let mut frames: Vec<(u64, u64)> = Vec::new();
+    let mut read_at: Vec<u64> = Vec::new();
+    let mut written = None;
     for r in std::mem::take(&mut m.bench.recorded) {
-        if r.write && r.address == ADC3_SQR3 {
-            channel = Some((r.value & 0x1F) as u8);
+        if r.address != SPI3_DR {
+            continue;
         }
-        if !r.write && r.address == ADC3_DR {
-            words.push((channel.expect("SQR3 before DR"), r.value & 0xFFFF));
+        if r.write {
+            written = Some(r.value & 0xFFFF);
+        } else {
+            frames.push((
+                written.take().expect("a write before each read"),
+                r.value & 0xFFFF,
+            ));
+            read_at.push(r.at.0);
         }
     }
-    assert!(words.len() >= 6 * 4, "six conversions a tick: {words:?}");
-    let order: Vec<u8> = words.iter().take(6).map(|(c, _)| *c).collect();
-    let first = expected.iter().position(|(c, _)| *c == order[0]).unwrap();
-    for (k, (c, w)) in words.iter().enumerate() {
-        let (want, range) = &expected[(first + k) % 6];
-        assert_eq!(c, want, "the joint order: {order:?}");
-        assert!(range.contains(w), "IN{c}: {w} not in {range:?}");
+    let cfg = u64::from(ad7689::frame(ad7689::CFG));
+    // A tick's six frames: the one with the configuration is the fifth.
+    let first = frames
+        .iter()
+        .position(|(w, _)| *w == cfg)
+        .expect("the configuration")
+        + 2;
+    let ticks: Vec<&[(u64, u64)]> = frames[first..].chunks_exact(6).collect();
+    assert!(ticks.len() >= 4, "six frames a tick: {frames:?}");
+    // Within a tick the conversions are at least `tCYC` apart (the driver's timing), and
+    // the six take the tick's busy time: from the first read to the last.
+    let spans: Vec<u64> = read_at[first..]
+        .chunks_exact(6)
+        .map(|t| {
+            for w in t.windows(2) {
+                assert!(w[1] - w[0] >= u64::from(ad7689::T_CYC_NS), "reads at {t:?}");
+            }
+            t[5] - t[0]
+        })
+        .collect();
+    println!(
+        "a tick's six reads span {spans:?} ns (5 x tCYC = {} ns)",
+        5 * ad7689::T_CYC_NS
+    );
+    for tick in &ticks {
+        for (k, (w, r)) in tick.iter().enumerate() {
+            assert_eq!(*w, if k == 4 { cfg } else { 0 }, "frame {k} wrote {w:#x}");
+            let j = INPUTS.iter().position(|i| usize::from(*i) == k).unwrap();
+            assert!(
+                expected[j].contains(r),
+                "joint {j}: {r} not in {:?}",
+                expected[j]
+            );
+        }
     }
     println!(
-        "ADC3: {} conversions in 5 ms, words {:?}",
-        words.len(),
-        &words[..6]
+        "worst control tick since boot: {} us",
+        m.status.unwrap().tick_exec_max_us
+    );
+    println!(
+        "AD7689: {} ticks of six frames in 5 ms, the first {:?}",
+        ticks.len(),
+        ticks[0]
     );
     let _ = m.bench.finish();
 }
 
-/// Property (the second channel on the real image and its ADC3 driver):
-/// * the status says the channel is fitted, and the image puts PF3..PF8 in analog mode;
+/// Property (the second channel on the real image and its AD7689 driver):
+/// * the status says the channel is fitted, and the image puts SPI3's pins on AF6 and
+///   `CNV` (PD0) as an output;
 /// * `Home` restores the position from the channel and only verifies it: no joint travels
 ///   more than the verification's move (1 mm or 1 deg out and back) and 0.1 mm or 0.1 deg
 ///   more, and the measured joints read the true ones within 0.1 mm (legs) and 0.05 deg
-///   plus one converter step (links: 16 counts of the plant's 65536, 0.083 deg);
+///   plus one converter step (links: one count of the AD7689's 65536, 0.0052 deg);
 /// * a leg jogged at 2 mm/s for 0.4 s with both channels healthy: no fault;
 /// * its encoder stuck while it is jogged: the drivers off (PA10 low: the fault's STO)
-///   within 20 ms of board time and 0.1 mm of the leg's motion, the fault
-///   `EncoderDisagree` on that joint in the status and the fault log read over the link;
+///   within 20 ms of board time and 0.1 mm of the leg's motion, a fault naming that
+///   joint's encoder in the status and the fault log read over the link (while the leg
+///   moves the channel's window allows the backlash, 0.2 mm, so the encoder's own check,
+///   `EncoderDead`: its motor turns and it does not count, may name it first);
 /// * a power cycle with the robot where the fault left it: `Home` restores it again with
 ///   no sweep.
 #[test]
-#[ignore = "fails on today's firmware: a healthy link's channel trips EncoderDisagree (value 0.00088 rad) during Home's verify move; the channel's bounds (control::absolute::ChannelConfig::reference) assume a 16-bit converter, the board's driver reads ADC3's 12 bits (a step of 16 counts, 0.083 deg on a link)"]
 fn the_second_channel_cross_checks_the_encoder_and_restores_the_position() {
-    let mut config = BenchConfig::reference(image()).unwrap_or_else(|e| {
-        panic!(
-            "{e}: build it with `firmware/cortex-m/board/build-and-size.sh board-position-channel`"
-        )
-    });
-    config.position_channel = true;
+    let mut config = config();
     let mut m = Master::new(Bench::start(config.clone()).unwrap());
     m.hello(0xadc3_0001).unwrap();
     assert!(m.run_until(500, |m| m.status.is_some()).unwrap());
@@ -174,18 +246,7 @@ fn the_second_channel_cross_checks_the_encoder_and_restores_the_position() {
         m.status.unwrap().position_channel,
         "the status says the channel is fitted"
     );
-    m.bench.act(Action::Peek(vec![GPIOF_MODER]));
-    m.run_ms(1).unwrap();
-    let moder = m
-        .bench
-        .peeked
-        .iter()
-        .find(|(a, _)| *a == GPIOF_MODER)
-        .and_then(|(_, v)| *v);
-    for p in POTENTIOMETERS {
-        let mode = moder.map(|v| (v >> (2 * p.pin.number)) & 0b11);
-        assert_eq!(mode, Some(0b11), "{} analog", p.pin);
-    }
+    check_pins(&mut m);
 
     let t0 = m.now();
     let travel = home(&mut m);
@@ -197,7 +258,7 @@ fn the_second_channel_cross_checks_the_encoder_and_restores_the_position() {
         let (travel_max, error_max) = if j < 3 {
             (1.1e-3, 0.1e-3)
         } else {
-            (1.1f64.to_radians(), 0.05f64.to_radians() + LINK_STEP_RAD)
+            (1.1f64.to_radians(), 0.05f64.to_radians() + step(j))
         };
         let error = (f64::from(measured[j]) - truth[j]).abs();
         assert!(travel[j] < travel_max, "joint {j} travelled {:?}", travel);
@@ -209,8 +270,8 @@ fn the_second_channel_cross_checks_the_encoder_and_restores_the_position() {
     println!(
         "restored in {homing_s:.2} s, travel {travel:?}, error {:?} (converter step {:.1} um, {:.3} deg)",
         (0..6).map(|j| (f64::from(measured[j]) - truth[j]).abs()).collect::<Vec<_>>(),
-        LEG_STEP_M * 1e6,
-        LINK_STEP_RAD.to_degrees()
+        step(0) * 1e6,
+        step(3).to_degrees()
     );
 
     // Enable, then jog leg 1: both channels healthy.
@@ -235,6 +296,12 @@ fn the_second_channel_cross_checks_the_encoder_and_restores_the_position() {
         m.status.map(|s| s.fault)
     );
     assert!(moved > 0.5e-3, "the leg moved {moved} m");
+    // The tick's worst execution time so far (the AD7689's six conversions in it).
+    println!(
+        "worst control tick so far: {} us (jitter {} us)",
+        m.status.unwrap().tick_exec_max_us,
+        m.status.unwrap().tick_jitter_max_us
+    );
 
     // The encoder sticks while the leg moves.
     m.bench.act(Action::PlantFault {
@@ -269,8 +336,13 @@ fn the_second_channel_cross_checks_the_encoder_and_restores_the_position() {
     m.run_ms(100).unwrap();
     let fault = m.status.unwrap().fault;
     let after = (m.bench.last.q[0] - q_injected).abs();
+    println!(
+        "stuck encoder: {fault:?}, the drivers off {detected_ms:.1} ms after, the leg moved {:.1} um before and {:.1} um in all",
+        before * 1e6,
+        after * 1e6,
+    );
     assert_eq!(m.state(), Some(RobotState::Fault));
-    assert_eq!(fault.cause, FaultCause::EncoderDisagree, "{fault:?}");
+    assert!(ENCODER_CAUSES.contains(&fault.cause), "{fault:?}");
     assert_eq!(fault.joint, 0, "{fault:?}");
     assert!(
         detected_ms <= 20.0,
@@ -292,14 +364,8 @@ fn the_second_channel_cross_checks_the_encoder_and_restores_the_position() {
     assert!(
         page.entries[..usize::from(page.count)]
             .iter()
-            .any(|e| e.record.cause == FaultCause::EncoderDisagree && e.record.joint == 0),
+            .any(|e| ENCODER_CAUSES.contains(&e.record.cause) && e.record.joint == 0),
         "{page:?}"
-    );
-    println!(
-        "stuck encoder: EncoderDisagree on l1, the drivers off {detected_ms:.1} ms after, the leg moved {:.1} um before and {:.1} um in all, value {}",
-        before * 1e6,
-        after * 1e6,
-        fault.value
     );
 
     // A power cycle where the robot stands now: restored again, no sweep.

@@ -54,6 +54,7 @@
 //! the two channels, stated there with their sources. The channel's calibration (counts to
 //! joint units) is [`ChannelCalibration`], the sensing's.
 
+use board_profile::position_channel::PositionChannel;
 use master_link::FaultCause;
 use num_traits::Float;
 use servo::NUM_JOINTS;
@@ -72,18 +73,28 @@ pub struct ChannelCalibration<S> {
     pub counts_per_unit: [S; NUM_JOINTS],
     /// The joint position at mid-scale (m, rad).
     pub mid: [S; NUM_JOINTS],
+    /// One step of the converter, in counts of the 16-bit readings (1 for a 16-bit
+    /// converter; a converter of fewer bits is scaled up to 16).
+    pub step_counts: S,
 }
 
 impl<S: Float> ChannelCalibration<S> {
-    /// The reference robot's potentiometers: the legs' linear ones (100 mm electrical
-    /// travel), the links' single-turn ones (340 deg), each with its mid-travel at the middle
-    /// of its joint's monitored range `range` (m, rad; the board's mechanics).
+    /// The reference robot's potentiometers and converter
+    /// (`board_profile::position_channel::PositionChannel::REFERENCE`: the legs' linear
+    /// ones, 100 mm of electrical travel, the links' single-turn ones, 340 deg, an AD7689's
+    /// 16 bits), each with its mid-travel at the middle of its joint's monitored range
+    /// `range` (m, rad; the board's mechanics).
     pub fn reference(range: &[[S; 2]; NUM_JOINTS]) -> Self {
-        let leg: S = lit(65536.0 / 0.1);
-        let link: S = lit(65536.0 / 340f64.to_radians());
+        Self::of(&PositionChannel::REFERENCE, range)
+    }
+
+    /// The calibration of the channel `channel` (its converter and its sensors' travel),
+    /// mid-travel at the middle of each joint's range `range`.
+    pub fn of(channel: &PositionChannel, range: &[[S; 2]; NUM_JOINTS]) -> Self {
         ChannelCalibration {
-            counts_per_unit: core::array::from_fn(|j| if j < 3 { leg } else { link }),
+            counts_per_unit: core::array::from_fn(|j| lit(channel.counts_per_unit(j))),
             mid: range.map(|[lo, hi]| (lo + hi) * lit(0.5)),
+            step_counts: lit(channel.step_counts()),
         }
     }
 
@@ -148,8 +159,9 @@ impl<S: Float> ChannelConfig<S> {
     ///   (1.53 um on a leg, 0.0052 deg on a link: [`ChannelCalibration::reference`]);
     /// * its noise: 1 count rms (the converter's transition noise, 0.5 counts rms by its
     ///   data sheet, and the wiper's and the cable's pickup behind each input's 1.6 kHz
-    ///   filter; `sim/plant/plant.toml`, `[position_sensor] noise_lsb`), 1.04 counts with
-    ///   the quantisation (1/12 count squared). Both channels go through a first-order
+    ///   filter; `sim/plant/plant.toml`, `[position_sensor] noise_lsb`), `sqrt(1 + step^2/12)`
+    ///   counts with the converter's quantisation (`cal.step_counts`): 1.04 counts with
+    ///   the AD7689's one-count step (4.73 with a 12-bit converter's 16). Both channels go through a first-order
     ///   filter of weight 1/2 (a lag of one tick), which leaves `sqrt(1/3)` of it; a
     ///   disagreement is the difference of two filtered readings (now and at the anchor):
     ///   `sigma_e = 1.04 sqrt(2/3)` = 0.85 counts; five of them, 4.2 counts;
@@ -168,7 +180,7 @@ impl<S: Float> ChannelConfig<S> {
     /// * the scale: 0.2 % (the potentiometers' linearity class, 0.1 %, at the anchor and now),
     ///   over at most `reanchor` = 2 mm or 2 deg between anchors;
     /// * the jump: the joint's top speed `top_speed` (m/s, rad/s: its motor's no-load speed)
-    ///   times 1.5 over one tick `dt`, and 8 counts of noise;
+    ///   times 1.5 over one tick `dt`, and 8 counts of noise (7 and one converter step);
     /// * the drift speed: 0.5 mm/s on a leg, 0.5 deg/s on a link, a hundred times less
     ///   than a homing's approach and far above any drift of a healthy ratiometric
     ///   potentiometer (nothing but the noise);
@@ -199,14 +211,18 @@ impl<S: Float> ChannelConfig<S> {
                 .map_or(S::zero(), |c| S::one() / *c)
         };
         let at = |a: &[S; NUM_JOINTS], j: usize| a.get(j).copied().unwrap_or_else(S::zero);
-        let sigma_e = lit::<S>(1.04) * (lit::<S>(2.0 / 3.0)).sqrt();
+        // A reading's deviation: the noise (1 count rms) and the converter's quantisation
+        // (`step^2 / 12`): 1.04 counts with the AD7689's one-count step, 4.73 counts with a
+        // 12-bit converter's 16.
+        let sigma = (S::one() + cal.step_counts * cal.step_counts / lit(12.0)).sqrt();
+        let sigma_e = sigma * (lit::<S>(2.0 / 3.0)).sqrt();
         let leg = |j: usize| j < 3;
         ChannelConfig {
             rails: [512, 65535 - 512],
             filter: lit(0.5),
             filter_slow: lit(0.25),
             agree_slow: core::array::from_fn(|j| {
-                lit::<S>(5.0 * 1.04) * lit::<S>(2.0 / 7.0).sqrt() * lsb(j) + enc(j)
+                lit::<S>(5.0) * sigma * lit::<S>(2.0 / 7.0).sqrt() * lsb(j) + enc(j)
             }),
             agree: core::array::from_fn(|j| lit::<S>(5.0) * sigma_e * lsb(j) + enc(j)),
             backlash: core::array::from_fn(|j| {
@@ -233,7 +249,7 @@ impl<S: Float> ChannelConfig<S> {
                 }
             }),
             jump: core::array::from_fn(|j| {
-                at(top_speed, j) * lit(1.5) * dt + lit::<S>(8.0) * lsb(j)
+                at(top_speed, j) * lit(1.5) * dt + (lit::<S>(7.0) + cal.step_counts) * lsb(j)
             }),
             standstill: core::array::from_fn(|j| if leg(j) { lit(0.25e-3) } else { lit(0.005) }),
             push_current: continuous_a.map(|a| a * lit(0.05)),

@@ -290,9 +290,10 @@ impl Bounds {
     }
 }
 
-/// w: the standstill windows mapped to o_p, the largest over the task box's centre and
-/// corners (see the module documentation); NaN where a pose has no Jacobian.
-fn standstill_platform<S: Scalar, M: Mechanism<S>>(
+/// Joint windows `window` (m, rad per joint) mapped to o_p, the largest over the task box's
+/// centre and corners (w for the standstill windows, see the module documentation); NaN
+/// where a pose has no Jacobian.
+pub fn standstill_platform<S: Scalar, M: Mechanism<S>>(
     cfg: &RuntimeConfig<S>,
     robot: &M,
     window: &[f64; NUM_JOINTS],

@@ -15,6 +15,7 @@ mod geometry_store;
 mod link;
 mod modes;
 mod monitors;
+mod position_channel_resolution;
 mod readme;
 mod session;
 mod state;

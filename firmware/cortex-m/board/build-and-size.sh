@@ -13,7 +13,7 @@
 #
 # board-position-channel is the board package built for the board with the second position
 # channel (`--no-default-features --features position-channel`: the STM32F405ZG, a
-# potentiometer per joint on ADC3), measured against the same budgets; its ELF is copied to
+# potentiometer per joint on an AD7689 on SPI3), measured against the same budgets; its ELF is copied to
 # `rspr-board-position-channel` beside the others (the board emulator's tests run it), and
 # the default build then puts `rspr-board` back (cargo keeps both builds' artifacts: the
 # chip's feature gives them different hashes, so that is a link at most).

@@ -10,6 +10,8 @@
 //! checks the two are the same profile).
 #![cfg_attr(not(feature = "std"), no_std)]
 
+pub mod position_channel;
+
 /// The number of joints, in the order `l1, l2, l3, theta1, theta2, theta3`.
 pub const NUM_JOINTS: usize = 6;
 

@@ -32,7 +32,9 @@
 //! | SWD                      | PA13 / PA14| debug (keep free)     |
 //! | HSE 8 MHz crystal        | PH0 / PH1  | RCC                   |
 //! | time driver              | -          | TIM12 (no pins)       |
-//! | position sensor l1..theta3 (second channel, `position-channel` boards only) | PF3..PF8 | ADC3 IN9, IN14, IN15, IN4, IN5, IN6 |
+//! | position channel converter SCK / MISO / MOSI (`position-channel` boards only) | PC10 / PC11 / PC12 | SPI3 (AF6), AD7689 |
+//! | position channel converter CNV (`position-channel` boards only) | PD0 | GPIO out |
+//! | home switch l1, l2, l3 (`position-channel` boards: SPI3 has PC10..PC12) | PD3, PD4, PD5 | GPIO in |
 //!
 //! The six PWM channels fit exactly on TIM9 (2 channels) + TIM10/11/13/14 (1 each):
 //! sign-magnitude drive, one PWM and one direction pin per H-bridge.
@@ -53,17 +55,21 @@
 //!
 //! **Second position channel (absolute position sensors).** A board with the channel has a
 //! conductive-plastic potentiometer per joint on the load side (a linear one per leg, a
-//! single-turn one per link), supplied from the ADC's reference (ratiometric: the reference
-//! cancels) and read through a 1.6 kHz RC filter per input. The STM32F405RG (LQFP64) has no
-//! analog input left for them: its sixteen ADC inputs (PA0..PA7, PB0, PB1, PC0..PC5) carry
-//! encoders, PWM, switches, the LED, the supply and the currents, and only PB2 is free.
-//! The channel is therefore fitted on the STM32F405ZG (LQFP144: the same die, memory and
-//! firmware, every pin above in the same place) whose port F brings ADC3's inputs out:
-//! PF3..PF8, ADC3 IN9, IN14, IN15, IN4, IN5, IN6, joint order. The image for it is built
-//! with `--no-default-features --features position-channel` (the chip's feature and the
-//! pins); the default image is the prototype's board, without the channel, and says so
-//! (`hal::AbsolutePositions::absolute_fitted`, the status report's `position_channel`).
-//! The 12-bit readings are scaled to the hal's 16 bits (`<< 4`).
+//! single-turn one per link), each on an input of an AD7689 (16 bits, 8 channels, SPI;
+//! IN0..IN5 in joint order) whose reference supplies them (ratiometric: the reference
+//! cancels), each input behind a 1.6 kHz RC filter. Sixteen bits because the channel's
+//! cross-check needs them: the STM32F405's own 12-bit ADC would make a link's step
+//! 0.083 deg, three times the check's bound (`board_profile::position_channel`).
+//! The STM32F405RG (LQFP64) has no SPI whose pins are all free: SPI1 (PA5..PA7 or
+//! PB3..PB5), SPI2 (PB10/PB13, PB14/PC2, PB15/PC3) and SPI3 (PB3..PB5 or PC10..PC12) each
+//! meet an encoder, a PWM, a direction pin, a current sense, the link or the switches. The
+//! channel is therefore fitted on the STM32F405ZG (LQFP144: the same die, memory and
+//! firmware) with SPI3 on PC10..PC12 and the legs' home switches moved to PD3..PD5 (port D
+//! is brought out on the LQFP144), the converter's `CNV` on PD0; every other pin as above.
+//! The image for it is built with `--no-default-features --features position-channel` (the
+//! chip's feature and the pins); the default image is the prototype's board, without the
+//! channel, and says so (`hal::AbsolutePositions::absolute_fitted`, the status report's
+//! `position_channel`).
 //!
 //! **Safety relay feedback.** The relay's force-guided auxiliary contact is closed to
 //! ground while the relay holds its main contacts closed (drivers powered); with the
@@ -74,7 +80,7 @@ use embassy_stm32::adc::{Adc, AdcChannel, AnyAdcChannel};
 use embassy_stm32::flash::{Blocking, Flash};
 use embassy_stm32::gpio::{Input, Level, Output, OutputType, Pull, Speed};
 use embassy_stm32::peripherals::{
-    ADC1, ADC3, IWDG, TIM1, TIM10, TIM11, TIM13, TIM14, TIM2, TIM3, TIM4, TIM5, TIM8, TIM9,
+    ADC1, IWDG, TIM1, TIM10, TIM11, TIM13, TIM14, TIM2, TIM3, TIM4, TIM5, TIM8, TIM9,
 };
 use embassy_stm32::time::Hertz;
 use embassy_stm32::timer::low_level::CountingMode;
@@ -165,11 +171,9 @@ pub struct Motors {
     pub brakes: [Output<'static>; 2],
 }
 
-/// The second position channel: a potentiometer per joint on ADC3 (joint order).
-pub struct Potentiometers {
-    pub adc: Adc<'static, ADC3>,
-    pub channels: [AnyAdcChannel<'static, ADC3>; 6],
-}
+/// The second position channel: a potentiometer per joint on the AD7689's IN0..IN5 (joint
+/// order), the converter on SPI3.
+pub type Potentiometers = crate::ad7689::Ad7689;
 
 /// Home switches, motor currents, the supply, the drivers' fault line, the relay feedback,
 /// and the second position channel where the board has it.
@@ -294,10 +298,21 @@ impl Board {
             Pull::Down
         };
         let sensors = Sensors {
+            #[cfg(not(feature = "position-channel"))]
             switches: [
                 Input::new(p.PC10, sw_pull),
                 Input::new(p.PC11, sw_pull),
                 Input::new(p.PC12, sw_pull),
+                Input::new(p.PD2, sw_pull),
+                Input::new(p.PA4, sw_pull),
+                Input::new(p.PB1, sw_pull),
+            ],
+            // SPI3 takes PC10..PC12: the legs' switches move to PD3..PD5.
+            #[cfg(feature = "position-channel")]
+            switches: [
+                Input::new(p.PD3, sw_pull),
+                Input::new(p.PD4, sw_pull),
+                Input::new(p.PD5, sw_pull),
                 Input::new(p.PD2, sw_pull),
                 Input::new(p.PA4, sw_pull),
                 Input::new(p.PB1, sw_pull),
@@ -315,17 +330,11 @@ impl Board {
             driver_fault: Input::new(p.PC15, Pull::Up),
             relay_feedback: Input::new(p.PC14, Pull::Up),
             #[cfg(feature = "position-channel")]
-            absolute: Some(Potentiometers {
-                adc: Adc::new(p.ADC3),
-                channels: [
-                    p.PF3.degrade_adc(),
-                    p.PF4.degrade_adc(),
-                    p.PF5.degrade_adc(),
-                    p.PF6.degrade_adc(),
-                    p.PF7.degrade_adc(),
-                    p.PF8.degrade_adc(),
-                ],
-            }),
+            absolute: Some(crate::ad7689::Ad7689::new(Output::new(
+                p.PD0,
+                Level::Low,
+                Speed::VeryHigh,
+            ))),
             #[cfg(not(feature = "position-channel"))]
             absolute: None,
         };

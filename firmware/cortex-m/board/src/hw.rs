@@ -172,18 +172,13 @@ impl AbsolutePositions for Hardware {
     fn absolute_fitted(&self) -> bool {
         self.sensors.absolute.is_some()
     }
-    /// The six potentiometers, one conversion each (56 ADC cycles of sampling: the RC
-    /// filter's capacitor charges the sampling capacitor), scaled from 12 to 16 bits.
+    /// The six potentiometers through the AD7689, one conversion each
+    /// (`ad7689::Ad7689::read`).
     fn absolute_counts(&mut self) -> Option<[u16; 6]> {
-        let pots = self.sensors.absolute.as_mut()?;
+        let raw = self.sensors.absolute.as_mut()?.read();
         let mut out = [0u16; 6];
-        for ((o, ch), inv) in out
-            .iter_mut()
-            .zip(pots.channels.iter_mut())
-            .zip(board::INVERT_POSITION_SENSOR)
-        {
-            let raw = pots.adc.blocking_read(ch, SampleTime::CYCLES56) << 4;
-            *o = if inv { u16::MAX - raw } else { raw };
+        for ((o, r), inv) in out.iter_mut().zip(raw).zip(board::INVERT_POSITION_SENSOR) {
+            *o = if inv { u16::MAX - r } else { r };
         }
         Some(out)
     }

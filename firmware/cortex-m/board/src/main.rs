@@ -5,6 +5,7 @@
 #![no_std]
 #![no_main]
 
+mod ad7689;
 mod app;
 mod board;
 mod event_flash;

@@ -62,7 +62,7 @@ use embassy_stm32::adc::{Adc, AdcChannel, AnyAdcChannel};
 use embassy_stm32::flash::{Blocking, Flash};
 use embassy_stm32::gpio::{Input, Level, Output, OutputType, Pull, Speed};
 use embassy_stm32::peripherals::{
-    ADC1, ADC3, IWDG, TIM1, TIM10, TIM11, TIM13, TIM14, TIM2, TIM3, TIM4, TIM5, TIM8, TIM9,
+    ADC1, IWDG, TIM1, TIM10, TIM11, TIM13, TIM14, TIM2, TIM3, TIM4, TIM5, TIM8, TIM9,
 };
 use embassy_stm32::time::Hertz;
 use embassy_stm32::timer::low_level::CountingMode;
@@ -155,10 +155,7 @@ pub struct Motors {
 }
 
 /// The second position channel's type (never fitted on this board).
-pub struct Potentiometers {
-    pub adc: Adc<'static, ADC3>,
-    pub channels: [AnyAdcChannel<'static, ADC3>; 6],
-}
+pub type Potentiometers = crate::ad7689::Ad7689;
 
 /// Home switches, motor currents, the supply, the drivers' fault line, the relay feedback.
 pub struct Sensors {

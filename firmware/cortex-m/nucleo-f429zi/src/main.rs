@@ -7,6 +7,8 @@
 #![no_std]
 #![no_main]
 
+#[path = "../../board/src/ad7689.rs"]
+mod ad7689;
 #[path = "../../board/src/app.rs"]
 mod app;
 mod board;

@@ -88,14 +88,11 @@ impl PlantStub {
     }
 }
 
-/// Counts of the second channel's converter per joint unit: 100 mm over 65536 counts on a
-/// leg, 340 deg on a link (`control::absolute::ChannelCalibration::reference`).
+/// Counts of the second channel's readings per joint unit: the board profile's
+/// (`board_profile::position_channel::PositionChannel::REFERENCE`: 100 mm over 65536 counts
+/// on a leg, 340 deg on a link).
 pub fn absolute_counts_per_unit(j: usize) -> f64 {
-    if j < 3 {
-        65536.0 / 0.1
-    } else {
-        65536.0 / 340f64.to_radians()
-    }
+    board_profile::position_channel::PositionChannel::REFERENCE.counts_per_unit(j)
 }
 
 /// The second position channel: a potentiometer per joint on the load side, at mid-scale

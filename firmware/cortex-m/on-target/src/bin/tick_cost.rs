@@ -145,6 +145,8 @@ fn full_tick() {
     let calibration = ChannelCalibration {
         counts_per_unit: core::array::from_fn(|j| absolute_counts_per_unit(j) as f32),
         mid: q0,
+        step_counts: board_profile::position_channel::PositionChannel::REFERENCE.step_counts()
+            as f32,
     };
     sensing.set_channel(calibration);
     let mut channel = ChannelCheck::new(ChannelConfig::reference(
