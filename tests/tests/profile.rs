@@ -85,7 +85,10 @@ fn the_plant_position_channel_is_the_profile() {
     assert!((ps.leg_counts_per_m() - p.counts_per_unit(0)).abs() < 1e-6);
     assert!((ps.link_counts_per_rad() - p.counts_per_unit(3)).abs() < 1e-9);
     assert_eq!(p.step_counts(), 1.0);
-    assert_eq!(READING_COUNTS, f64::from(plant::position_sensor::FULL_SCALE) + 1.0);
+    assert_eq!(
+        READING_COUNTS,
+        f64::from(plant::position_sensor::FULL_SCALE) + 1.0
+    );
 }
 
 /// Every source and build file of the repository that is not the profile's own.

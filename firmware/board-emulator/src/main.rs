@@ -172,6 +172,11 @@ fn board_config(
     miswire: &[String],
 ) -> Result<BenchConfig, String> {
     let mut config = BenchConfig::reference(firmware).map_err(|e| e.to_string())?;
+    if position_channel {
+        // The position-channel image's board: the converter on SPI3, the legs' switches
+        // moved to make room for it.
+        config.board = board_emulator::pins::POSITION_CHANNEL;
+    }
     config.position_channel = position_channel;
     config.mechanics.wiring = miswiring::parse(miswire).map_err(|e| format!("--miswire: {e}"))?;
     Ok(config)

@@ -1,5 +1,6 @@
 //! Commissioning on the emulated board: the release image of the board with the second
-//! position channel (`rspr-board-position-channel`, its potentiometers on ADC3), miswired
+//! position channel (`rspr-board-position-channel`, its potentiometers read by an AD7689 on
+//! SPI3), miswired
 //! in the emulator's mechanics (`board_emulator::miswiring`), commissioned by the master
 //! of `host-sim commission` (`teleop::commission::run`, the same call, nobody at the
 //! robot) in the board's time. Each case boots the image once and tests every joint; the
@@ -13,15 +14,10 @@
 //! * no joint moves further from where it stood than the test's stated travel (3 mm on a
 //!   leg, 3 deg on a link: `teleop::commission::LIMITS`);
 //! * each joint rests, after its test, where it stood before it, within a tenth of the
-//!   push (the return: `control::commissioning`) plus one step of the 12-bit converter
-//!   the return ends on (24.4 µm on a leg, 0.083 deg on a link).
-//!
-//! Printed, not checked: the status a second after the Disable that ends commissioning.
-//! On this image the straight robot then latches `EncoderDisagree` on a link, by less than
-//! one step of the converter: the channel's cross-check takes its bounds from a 16-bit
-//! converter (`firmware/board-emulator/README.md`, "Figures", the open item of the
-//! channel); on the simulated board's 16-bit channel nothing is latched
-//! (`firmware/control/tests/commissioning.rs`).
+//!   push (the return: `control::commissioning`) plus one step of the channel's converter
+//!   the return ends on;
+//! * a second after the Disable that ends commissioning, the straight robot has latched no
+//!   fault (the two channels agree at rest).
 //!
 //! The image is `$RSPR_BOARD_PC_ELF`, else `rspr-board-position-channel` in the Cortex-M
 //! workspace's default target directory (`firmware/cortex-m/board/build-and-size.sh`
@@ -38,6 +34,8 @@ use std::time::Instant;
 
 use board_emulator::bench::{Bench, BenchConfig};
 use board_emulator::miswiring;
+use board_emulator::pins::POSITION_CHANNEL;
+use board_profile::position_channel::PositionChannel;
 use board_scenarios::master::{Rig, SharedRig};
 use master_link::{CommissionFindings as F, CommissionRecord};
 use teleop::commission::{joint_text, Person, NAMES};
@@ -57,15 +55,12 @@ fn image() -> PathBuf {
 const LIMIT: [f64; 6] = [0.003, 0.003, 0.003, 0.05236, 0.05236, 0.05236];
 
 /// Where a joint may rest after its test from where it stood: a tenth of the push (1.5 mm,
-/// 1.5 deg) plus one step of the 12-bit converter (0.1 m / 4096, 340 deg / 4096).
-const RETURN: [f64; 6] = [
-    0.15e-3 + 0.1 / 4096.0,
-    0.15e-3 + 0.1 / 4096.0,
-    0.15e-3 + 0.1 / 4096.0,
-    0.002618 + 0.001449,
-    0.002618 + 0.001449,
-    0.002618 + 0.001449,
-];
+/// 1.5 deg) plus one step of the channel's converter (the AD7689: 1.5 µm on a leg,
+/// 0.0052 deg on a link), the sensor the return ends on.
+fn return_tolerance(joint: usize) -> f64 {
+    let tenth = if joint < 3 { 0.15e-3 } else { 0.002618 };
+    tenth + PositionChannel::REFERENCE.step_unit(joint)
+}
 
 /// Nobody at the robot; notes where the joints stand as each test is about to start.
 struct Watcher {
@@ -87,9 +82,11 @@ impl Person for Watcher {
 
 /// A case's outcome: each joint's record, each joint's largest motion from where it stood
 /// at the start over [`LIMIT`], and where each rested after its test from where it stood
-/// before it over [`RETURN`].
+/// before it over [`return_tolerance`].
 struct Outcome {
     records: Vec<CommissionRecord>,
+    /// The state and the latched fault a second after the Disable that ends commissioning.
+    after: Option<(master_link::RobotState, master_link::FaultRecord)>,
     travel: [f64; 6],
     rested: [f64; 6],
 }
@@ -98,6 +95,7 @@ struct Outcome {
 fn commission(texts: &[&str]) -> Outcome {
     let wall = Instant::now();
     let mut config = BenchConfig::reference(image()).unwrap();
+    config.board = POSITION_CHANNEL;
     config.position_channel = true;
     config.mechanics.wiring = miswiring::parse(texts).unwrap();
     let rig = SharedRig::new(Rig::new(Bench::start(config).unwrap()));
@@ -132,7 +130,7 @@ fn commission(texts: &[&str]) -> Outcome {
     let mut rested = [0.0f64; 6];
     for j in 0..6 {
         let after = watcher.before.get(j + 1).copied().unwrap_or(end);
-        rested[j] = (after[j] - watcher.before[j][j]).abs() / RETURN[j];
+        rested[j] = (after[j] - watcher.before[j][j]).abs() / return_tolerance(j);
     }
     println!(
         "{texts:?}: confirmed {confirm}; scales {:.4?}",
@@ -145,6 +143,7 @@ fn commission(texts: &[&str]) -> Outcome {
     );
     Outcome {
         records,
+        after,
         travel,
         rested,
     }
@@ -194,6 +193,12 @@ fn a_straight_robot_reports_nothing() {
     let o = commission(&[]);
     within(&o, "straight");
     found(&o, "straight", [F::NONE; 6]);
+    let (state, fault) = o.after.expect("a status after the Disable");
+    assert_ne!(
+        state,
+        master_link::RobotState::Fault,
+        "straight: a fault latched after commissioning: {fault:?}"
+    );
 }
 
 /// Property: a motor reversed (l1), two encoders swapped (l2 with theta2), a gear ratio
@@ -241,7 +246,7 @@ fn five_miswirings_on_one_robot_are_each_found() {
 /// Property: a normally open home switch (l1, which latches a fault at boot: confirmed),
 /// and the kinds above on the other kind of joint (an inverted brake on l2, an encoder
 /// reversed on l3, a motor reversed on theta1, a gear ratio 10 % off the other way on
-/// theta2, through the 12-bit converter's 0.083 deg steps) are each found on their joint,
+/// theta2) are each found on their joint,
 /// theta3 wired straight reports nothing, within the travel, every joint back where it
 /// stood.
 #[test]
