@@ -295,8 +295,8 @@ pub fn summary(s: &Session, checks: &ci::Checks) -> String {
         let c = last.status.link;
         let _ = writeln!(
             o,
-            "board's receive counters: frames ok {}, bad checksum {}, malformed {}, oversized {}, wrong version {}, out of order {}, dropped {}",
-            c.frames_ok, c.bad_checksum, c.malformed, c.oversized, c.wrong_version, c.out_of_order, c.dropped
+            "board's receive counters: frames ok {}, bad checksum {}, malformed {}, oversized {}, wrong version {}, out of order {}, wrong session {}, bad tag {}, dropped {}",
+            c.frames_ok, c.bad_checksum, c.malformed, c.oversized, c.wrong_version, c.out_of_order, c.wrong_session, c.bad_tag, c.dropped
         );
         let _ = writeln!(
             o,
