@@ -207,8 +207,10 @@ start_emulator() {
 # emulated core, and its virtual clock falls behind the wall clock by up to 1.9 s
 # (measured here), which a master on the wall clock sees as a board that stops answering
 # for that long. A real board has no such thing. Before the tests, `host-sim teleop` (a
-# master paced by the board's telemetry, made for an emulated board that its host stalls)
-# homes, enables, streams a 10 mm line and back and disables, which runs those paths
+# master paced by the board's telemetry, made for an emulated board that its host stalls;
+# it reads the board's own time in $RSPR_BOARD_SOCKET.clock from its first message on, so
+# that while the image boots its `Hello` retries and heartbeats follow the board's time
+# rather than piling up on the host's and reaching the board all at once) homes, enables, streams a 10 mm line and back and disables, which runs those paths
 # once. Not a verdict: its own checks run through those stalls; it must leave the board
 # homed and Ready, which the tests then check for themselves.
 warm_up() {

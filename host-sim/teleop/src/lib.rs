@@ -70,7 +70,8 @@ pub enum PathChoice {
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum ClockChoice {
     /// Paced by the board's telemetry (20 ms per status): follows an emulated board that
-    /// its host stalls.
+    /// its host stalls; the board's own clock when an emulated board shares it beside its
+    /// socket (`Session::share_board_clock`).
     Board,
     /// The host's clock.
     Host,
@@ -174,6 +175,9 @@ pub fn run(args: &Settings, stop: &Arc<AtomicBool>) -> Result<(), TeleopError> {
     let link = link::open_with_key(&args.connect, args.baud, timeout, args.key.clone())?;
     let mut s = Session::new(link);
     s.paced = args.clock == ClockChoice::Board;
+    if s.paced {
+        s.share_board_clock(&args.connect);
+    }
     s.stop = Some(Arc::clone(stop));
     let mut checks = ci::Checks::default();
     let result = steps(
@@ -291,8 +295,8 @@ pub fn summary(s: &Session, checks: &ci::Checks) -> String {
         let c = last.status.link;
         let _ = writeln!(
             o,
-            "board's receive counters: frames ok {}, bad checksum {}, malformed {}, oversized {}, wrong version {}, out of order {}, dropped {}",
-            c.frames_ok, c.bad_checksum, c.malformed, c.oversized, c.wrong_version, c.out_of_order, c.dropped
+            "board's receive counters: frames ok {}, bad checksum {}, malformed {}, oversized {}, wrong version {}, out of order {}, wrong session {}, bad tag {}, dropped {}",
+            c.frames_ok, c.bad_checksum, c.malformed, c.oversized, c.wrong_version, c.out_of_order, c.wrong_session, c.bad_tag, c.dropped
         );
         let _ = writeln!(
             o,

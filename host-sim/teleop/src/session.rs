@@ -10,13 +10,14 @@
 
 use crate::error::TeleopError;
 use crate::link::{Link, Received};
-use crate::pacing::{BoardClock, SILENCE_LIMIT_S};
+use crate::pacing::{BoardClock, SharedClock, SILENCE_LIMIT_S};
 use kinematics_core::Pose;
 use master_link::{
     BoardToMaster, FirmwareVersion, GeometryRecord, GeometryRefusal, MasterToBoard, NackReason,
     Seq, StatusReport,
 };
 use std::collections::HashMap;
+use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
@@ -136,6 +137,25 @@ impl Session {
             last_stamp_us: 0,
             hello_refused: None,
             stop: None,
+        }
+    }
+
+    /// Takes the board's own clock from the file an emulated board shares beside its
+    /// socket `socket` (`board-emulator serve --clock-lead-ms`), when there is one: paced,
+    /// this session's clock is then the board's from the first reading on, before the
+    /// first status too. Without it the paced clock runs on the host's time until the
+    /// first status, and an emulated board that its host holds up while it boots (the
+    /// emulator translating the image's code) receives the `Hello`s and heartbeats of that
+    /// host time all at once: a second `Hello` of the same connection is a reconnect that
+    /// opens a new session, and the requests sent in the first are refused. Returns
+    /// whether the board shares its clock.
+    pub fn share_board_clock(&mut self, socket: &Path) -> bool {
+        match SharedClock::beside(socket) {
+            Some(shared) => {
+                self.clock = BoardClock::with_shared(shared);
+                true
+            }
+            None => false,
         }
     }
 
@@ -487,5 +507,118 @@ impl Session {
             let step = (self.now_s() + 0.01).min(end);
             self.poll_until(step)?;
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, clippy::expect_used)]
+    use super::*;
+    use crate::link::Medium;
+    use master_link::{shared_clock, LinkCounters};
+    use std::fs::File;
+    use std::os::unix::fs::FileExt;
+    use std::sync::Mutex;
+
+    /// A board that says nothing, on a host clock the test sets; it counts the frames
+    /// written to it.
+    struct Silent {
+        host_s: Arc<Mutex<f64>>,
+        writes: Arc<Mutex<usize>>,
+    }
+
+    impl Medium for Silent {
+        fn write_all(&mut self, _bytes: &[u8]) -> std::io::Result<()> {
+            *self.writes.lock().unwrap() += 1;
+            Ok(())
+        }
+        fn recv(&mut self, _timeout: Duration) -> Result<Option<Received>, TeleopError> {
+            Ok(None)
+        }
+        fn now_s(&self) -> f64 {
+            *self.host_s.lock().unwrap()
+        }
+        fn counters(&self) -> LinkCounters {
+            LinkCounters::default()
+        }
+    }
+
+    /// The board's clock shared beside a socket of this test's own, at `board_us`.
+    fn shared_clock_at(name: &str, board_us: u64) -> (std::path::PathBuf, File) {
+        let socket =
+            std::env::temp_dir().join(format!("rspr-session-{}-{name}.sock", std::process::id()));
+        let mut path = socket.as_os_str().to_owned();
+        path.push(shared_clock::SUFFIX);
+        let f = File::options()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(true)
+            .open(path)
+            .unwrap();
+        f.set_len(shared_clock::LEN).unwrap();
+        f.write_all_at(&shared_clock::encode(board_us), shared_clock::BOARD_US)
+            .unwrap();
+        (socket, f)
+    }
+
+    /// Before the board's first status (while an emulated board boots), a paced session
+    /// that takes the board's shared clock sends its heartbeats by the board's time: two
+    /// seconds of host time while the board stands send nothing more (on the host's time
+    /// they would send 100 heartbeats and four `Hello` retries that reach the board all at
+    /// once), and the next heartbeat is due one period of the board's time later.
+    #[test]
+    fn before_any_status_a_shared_clock_paces_the_heartbeats_by_the_boards_time() {
+        for share in [true, false] {
+            let (socket, f) = shared_clock_at(&format!("beats-{share}"), 1_000);
+            let host_s = Arc::new(Mutex::new(0.0));
+            let writes = Arc::new(Mutex::new(0));
+            let medium = Silent {
+                host_s: Arc::clone(&host_s),
+                writes: Arc::clone(&writes),
+            };
+            let mut s = Session::new(Link::over(Box::new(medium), 7));
+            if share {
+                assert!(s.share_board_clock(&socket));
+            }
+            let now = s.now_s();
+            s.poll_until(now).unwrap();
+            assert_eq!(*writes.lock().unwrap(), 1, "the first heartbeat at once");
+            // The host runs 2 s; the board stands (still booting).
+            *host_s.lock().unwrap() = 2.0;
+            let now = s.now_s();
+            s.poll_until(now).unwrap();
+            let beats = *writes.lock().unwrap();
+            if share {
+                assert_eq!(now, 0.0, "the board's clock stood");
+                assert_eq!(beats, 1, "no heartbeat while the board stands");
+                // The board runs one heartbeat period.
+                let period_us = (HEARTBEAT_PERIOD_S * 1e6).round() as u64;
+                f.write_all_at(
+                    &shared_clock::encode(1_000 + period_us),
+                    shared_clock::BOARD_US,
+                )
+                .unwrap();
+                let now = s.now_s();
+                assert!((now - HEARTBEAT_PERIOD_S).abs() < 1e-9);
+                s.poll_until(now).unwrap();
+                assert_eq!(*writes.lock().unwrap(), 2, "the next heartbeat on time");
+            } else {
+                assert_eq!(now, 2.0, "the host's clock");
+                assert_eq!(beats, 2, "a heartbeat due on the host's time");
+            }
+            drop(f);
+            let mut path = socket.as_os_str().to_owned();
+            path.push(shared_clock::SUFFIX);
+            let _ = std::fs::remove_file(path);
+        }
+        // No shared clock beside a socket: none taken.
+        let socket =
+            std::env::temp_dir().join(format!("rspr-session-{}-none.sock", std::process::id()));
+        let medium = Silent {
+            host_s: Arc::new(Mutex::new(0.0)),
+            writes: Arc::new(Mutex::new(0)),
+        };
+        assert!(!Session::new(Link::over(Box::new(medium), 7)).share_board_clock(&socket));
     }
 }
