@@ -37,12 +37,15 @@ started=$(date +%s)
 # Each section prints the wall-clock seconds since the start and the CPU seconds (user +
 # system) its shell's finished children used so far: the measure of what a stage costs.
 cpu_file="$(mktemp)"
-trap 'rm -f "$cpu_file"' EXIT
+trap 'rm -f "$cpu_file" "$cpu_file".*' EXIT
 cpu_seconds() {
-    # `times` in this shell, not in a subshell (a fork starts its children's count at 0).
-    local _u _s cu cs t m sec ms=0
-    times >"$cpu_file"
-    { read -r _u _s; read -r cu cs; } <"$cpu_file"
+    # `times` in this shell, not in a subshell (a fork starts its children's count at 0),
+    # into a file of this shell's own: the lanes call it at the same time, and a read of
+    # a file another lane had just truncated ended a lane silently (errexit on `read`).
+    local _u _s cu cs t m sec ms=0 f="$cpu_file.$BASHPID"
+    times >"$f"
+    { read -r _u _s; read -r cu cs; } <"$f"
+    rm -f "$f"
     for t in "$cu" "$cs"; do # 1m2.345s
         m=${t%%m*}
         sec=${t#*m}
@@ -75,7 +78,7 @@ setsid -w nice -n 10 bash -c 'set -euo pipefail
     bash fuzz/run.sh build
     bash host-sim/python/tests/run.sh build' >"$soak_log" 2>&1 &
 soaker=$!
-trap 'rm -f "$cpu_file"; if [ -n "$soaker" ]; then kill -- -"$soaker" 2>/dev/null || true; fi' EXIT
+trap 'rm -f "$cpu_file" "$cpu_file".*; if [ -n "$soaker" ]; then kill -- -"$soaker" 2>/dev/null || true; fi' EXIT
 
 section "format (every workspace: host, Cortex-M, board emulator, board scenarios, fuzz)"
 cargo fmt --all -- --check

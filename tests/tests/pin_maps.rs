@@ -164,18 +164,48 @@ fn rows<'a>(table: &'a [Row], prefix: &str) -> Vec<&'a Row> {
         .collect()
 }
 
+/// The lines of the board without the second position channel: an item after
+/// `#[cfg(feature = "position-channel")]` (up to where its brackets close) left out.
+fn without_position_channel<'a>(lines: impl Iterator<Item = &'a str>) -> Vec<&'a str> {
+    let mut out = Vec::new();
+    let (mut skipping, mut depth) = (false, 0i32);
+    for l in lines {
+        if l.trim() == "#[cfg(feature = \"position-channel\")]" {
+            skipping = true;
+            depth = 0;
+            continue;
+        }
+        if skipping {
+            for c in l.chars() {
+                match c {
+                    '(' | '[' | '{' => depth += 1,
+                    ')' | ']' | '}' => depth -= 1,
+                    _ => {}
+                }
+            }
+            if depth <= 0 && (l.trim_end().ends_with(',') || l.trim_end().ends_with(';')) {
+                skipping = false;
+            }
+            continue;
+        }
+        out.push(l);
+    }
+    out
+}
+
 /// What `Board::new` does with each pin, from its code: `(pin, role)` where role is
 /// `enc:TIMx:ch`, `pwm:TIMx:ch`, `out`, `in`, `adc`, `uart:TX`/`uart:RX`.
 fn code_pins(board_rs: &str) -> Vec<(String, String)> {
     let start = board_rs
         .find("pub fn new(p: Peripherals)")
         .expect("Board::new");
-    let code: String = board_rs[start..]
-        .lines()
-        .take_while(|l| !l.starts_with("}"))
-        .map(|l| l.split("//").next().unwrap_or(""))
-        .collect::<Vec<_>>()
-        .join(" ");
+    let code: String = without_position_channel(
+        board_rs[start..]
+            .lines()
+            .take_while(|l| !l.starts_with("}"))
+            .map(|l| l.split("//").next().unwrap_or("")),
+    )
+    .join(" ");
     let code: String = code.split_whitespace().collect::<Vec<_>>().join("");
     let mut out = Vec::new();
     // Encoders: Qei::new(p.TIMx,p.A,p.B,
@@ -233,15 +263,28 @@ fn check_target(board_rs_path: &Path) -> Vec<Row> {
         table.len()
     );
 
-    // No pin has two jobs in the table (the position channel's rows are another board's).
-    let mut seen: BTreeMap<String, String> = BTreeMap::new();
-    for r in table
+    // No pin has two jobs on either board the table describes: the board without the
+    // second position channel (the rows not marked for `position-channel` boards), and the
+    // board with it (those rows, in place of the rows of the same function they replace).
+    let (channel, table): (Vec<Row>, Vec<Row>) = table
+        .into_iter()
+        .partition(|r| r.function.contains("`position-channel` boards"));
+    let base = |f: &str| f.split(" (").next().unwrap_or(f).trim().to_string();
+    let replaced: BTreeSet<String> = channel.iter().map(|r| base(&r.function)).collect();
+    let with_channel = table
         .iter()
-        .filter(|r| !r.function.contains("second channel"))
-    {
-        for p in &r.pins {
-            if let Some(prev) = seen.insert(p.clone(), r.function.clone()) {
-                panic!("{name}: {p} is both '{prev}' and '{}'", r.function);
+        .filter(|r| !replaced.contains(&base(&r.function)))
+        .chain(channel.iter());
+    for (board, rows) in [
+        ("", table.iter().collect::<Vec<_>>()),
+        (" (position-channel board)", with_channel.collect()),
+    ] {
+        let mut seen: BTreeMap<String, String> = BTreeMap::new();
+        for r in rows {
+            for p in &r.pins {
+                if let Some(prev) = seen.insert(p.clone(), r.function.clone()) {
+                    panic!("{name}{board}: {p} is both '{prev}' and '{}'", r.function);
+                }
             }
         }
     }
