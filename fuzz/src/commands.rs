@@ -1326,8 +1326,10 @@ mod tests {
         };
         b.act(&commission);
         b.act(&ticks(0));
-        // Within the harness's ticks (`MAX_TICKS`), with room for the stop after it.
-        while !record(&b).done && b.outcome.ticks < MAX_TICKS / 2 {
+        // Within the harness's ticks (`MAX_TICKS`), with room for the stop after it (20
+        // heartbeats 10 ms apart: 220 ticks). The test pushes the joint, then returns it to
+        // where it stood (561 ticks on the fake).
+        while !record(&b).done && b.outcome.ticks < MAX_TICKS - 250 {
             b.act(&frame(Msg::Any(MasterToBoard::Heartbeat)));
             b.act(&ticks(per_10ms));
         }
