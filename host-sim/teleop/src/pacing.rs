@@ -220,7 +220,7 @@ impl BoardClock {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     #![allow(clippy::unwrap_used, clippy::expect_used)]
     use super::*;
 
@@ -330,7 +330,7 @@ mod tests {
     }
 
     /// A board's shared clock in a fresh temporary file: (the socket's path, the file).
-    fn shared_file(name: &str, board_us: u64) -> (std::path::PathBuf, File) {
+    pub(crate) fn shared_file(name: &str, board_us: u64) -> (std::path::PathBuf, File) {
         let socket =
             std::env::temp_dir().join(format!("rspr-pacing-{}-{name}.sock", std::process::id()));
         let mut path = socket.as_os_str().to_owned();

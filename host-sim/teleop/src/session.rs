@@ -516,7 +516,6 @@ mod tests {
     use super::*;
     use crate::link::Medium;
     use master_link::{shared_clock, LinkCounters};
-    use std::fs::File;
     use std::os::unix::fs::FileExt;
     use std::sync::Mutex;
 
@@ -543,25 +542,6 @@ mod tests {
         }
     }
 
-    /// The board's clock shared beside a socket of this test's own, at `board_us`.
-    fn shared_clock_at(name: &str, board_us: u64) -> (std::path::PathBuf, File) {
-        let socket =
-            std::env::temp_dir().join(format!("rspr-session-{}-{name}.sock", std::process::id()));
-        let mut path = socket.as_os_str().to_owned();
-        path.push(shared_clock::SUFFIX);
-        let f = File::options()
-            .read(true)
-            .write(true)
-            .create(true)
-            .truncate(true)
-            .open(path)
-            .unwrap();
-        f.set_len(shared_clock::LEN).unwrap();
-        f.write_all_at(&shared_clock::encode(board_us), shared_clock::BOARD_US)
-            .unwrap();
-        (socket, f)
-    }
-
     /// Before the board's first status (while an emulated board boots), a paced session
     /// that takes the board's shared clock sends its heartbeats by the board's time: two
     /// seconds of host time while the board stands send nothing more (on the host's time
@@ -570,7 +550,7 @@ mod tests {
     #[test]
     fn before_any_status_a_shared_clock_paces_the_heartbeats_by_the_boards_time() {
         for share in [true, false] {
-            let (socket, f) = shared_clock_at(&format!("beats-{share}"), 1_000);
+            let (socket, f) = crate::pacing::tests::shared_file(&format!("beats-{share}"), 1_000);
             let host_s = Arc::new(Mutex::new(0.0));
             let writes = Arc::new(Mutex::new(0));
             let medium = Silent {
