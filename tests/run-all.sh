@@ -22,7 +22,7 @@
 # (teleop::pacing); wall-clock bounds are failure detectors only.
 #
 # The order: the builds and the board's own tests one after the other (the fuzz targets'
-# and the Python wheel's builds beside them, at low priority), then three lanes side by
+# and the Python wheel's builds beside them), then three lanes side by
 # side: the host's tests (cargo-nextest, six at a time) with the fuzz and Python runs, the
 # front ends on the emulated board, and those on simulated boards; that is how the run
 # fits CI's 25 minutes on two cores. Each section prints the seconds since the start and
@@ -67,13 +67,16 @@ section "what the stages need from Debian and PyPI (tests/requirements.sh)"
 source tests/requirements.sh
 install_requirements
 
-section "in the background, ten steps of nice below the rest: the fuzz targets' and the Python wheel's builds"
+section "in the background: the fuzz targets' and the Python wheel's builds"
 # They use the cores the stages below leave idle (each waits on one crate at times, runs
 # QEMU on one core, links); their tests run in the first lane below, once both are built.
+# At the run's own priority, not below it: on a machine that other work keeps busy, a
+# build at nice +10 gets about a tenth of the share of each busy process beside it (the
+# scheduler's weights, 110 against 1024), and the run then waits on it.
 # Their own target directories or profiles: no stage below waits on their cargo locks.
 # A session of their own (setsid), ended with the run if it stops early.
 soak_log="$(mktemp)"
-setsid -w nice -n 10 bash -c 'set -euo pipefail
+setsid -w bash -c 'set -euo pipefail
     (cd fuzz && cargo test --release --no-run --quiet)
     bash fuzz/run.sh build
     bash host-sim/python/tests/run.sh build' >"$soak_log" 2>&1 &
@@ -159,14 +162,14 @@ lane_tests() {
     cargo nextest run --workspace --profile ci
     cargo test --workspace --doc
 
-    # Built in the background already; what is left yields the cores to the boards' lanes
-    # (nice +10): the emulated board stands for a processor of its own.
+    # Built in the background already. At the run's priority (see the background builds);
+    # the emulated board raises its own where allowed: it stands for a processor of its own.
     section "fuzzing: the link's frame decoder and the board's command handling (libFuzzer, fixed seed)"
-    (cd fuzz && nice -n 10 cargo test --release --quiet)
-    FUZZ_RUNS=${FUZZ_RUNS:-300000} FUZZ_PARALLEL=${FUZZ_PARALLEL:-1} nice -n 10 bash fuzz/run.sh ci
+    (cd fuzz && cargo test --release --quiet)
+    FUZZ_RUNS=${FUZZ_RUNS:-300000} FUZZ_PARALLEL=${FUZZ_PARALLEL:-1} bash fuzz/run.sh ci
 
     section "the analysis from Python: the rspr wheel (maturin, PyO3) against the CLI, pytest"
-    nice -n 10 bash host-sim/python/tests/run.sh
+    bash host-sim/python/tests/run.sh
 }
 lane_emulated() {
     section "the operator's front ends on the emulated board (the release image): scripted operator, latency, OpenIGTLink; the console in tmux, through a serial device on a board not homed"

@@ -15,10 +15,12 @@
 #   --keep        keep the clones (default: each is removed after its run).
 #
 # The clone is of the committed HEAD (what CI would check out), built from nothing in its
-# own target directories: the run takes as long as a fresh CI run (about 40 min under four
-# burners on two cores). Each run's output is kept in the report folder
-# (target/under-load/ of this checkout, or $UNDER_LOAD_OUT), with runs.tsv: run, started,
-# seconds, exit status, result. Exits non-zero when any run failed.
+# own target directories: the run takes as long as a fresh CI run under that load (each
+# burner weighs as much as each process of the run, so beside four burners on two cores a
+# run with two busy processes gets a third of the machine). Every run checks out the commit
+# that was HEAD when the script started, whatever is committed meanwhile. Each run's output
+# is kept in the report folder (target/under-load/ of this checkout, or $UNDER_LOAD_OUT),
+# with runs.tsv: run, started, seconds, exit status, result. Exits non-zero when any run failed.
 set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
 runs=1
@@ -31,7 +33,7 @@ while [ $# -gt 0 ]; do
     --burners) burners="$2"; shift 2 ;;
     --stage) stage="$2"; shift 2 ;;
     --keep) keep=1; shift ;;
-    -h | --help) sed -n '2,22p' "$0"; exit 0 ;;
+    -h | --help) sed -n '2,23p' "$0"; exit 0 ;;
     *) echo "unknown option $1 (see --help)" >&2; exit 2 ;;
     esac
 done
@@ -68,12 +70,13 @@ start_burners() {
 }
 
 what="${stage:-.ci/run}"
-echo "under load: $runs run(s) of '$what' in a fresh clone of $(git -C "$here" rev-parse --short HEAD), beside $burners CPU burners on $(nproc) cores; report in $out"
+commit="$(git -C "$here" rev-parse HEAD)"
+echo "under load: $runs run(s) of '$what' in a fresh clone of ${commit:0:7}, beside $burners CPU burners on $(nproc) cores; report in $out"
 failed=0
 for run in $(seq "$runs"); do
     clone="$(mktemp -d "${TMPDIR:-/tmp}/rspr-under-load-XXXXXX")"
     git clone -q --no-hardlinks "$here" "$clone/repo"
-    git -C "$clone/repo" checkout -q "$(git -C "$here" rev-parse HEAD)"
+    git -C "$clone/repo" checkout -q "$commit"
     log="$out/run-$run.log"
     started="$(date -Is)"
     t0=$(date +%s)
