@@ -275,9 +275,10 @@ fn explore() {
 
 /// The counterexamples the long search found that were the oracles' (a fault counted as
 /// showing that could not show, a standing fault's repeat blamed on a later one, a contact
-/// flag taken for motion) or causes the board cannot tell apart (SR-5's row), each
+/// flag taken for motion, a stop that did its work and was then cleared taken for none)
+/// or causes the board cannot tell apart (SR-5's row), each
 /// replayed from the sequence the search printed, with no hole tolerated.
-/// (SR-1, SR-5: each case names the requirement it broke.)
+/// (SR-1, SR-5, SR-7: each case names the requirement it broke.)
 #[test]
 fn counterexamples_of_the_oracles_hold_now() {
     use Action as A;
@@ -285,6 +286,37 @@ fn counterexamples_of_the_oracles_hold_now() {
     use Foreign::*;
     use Injection::*;
     let cases: Vec<(&str, Start, Vec<Action>)> = vec![
+        (
+            "SR-7: the owner's ClearFault 2 ms after its EmergencyStop, taken after the STO \
+             had done its work (torque off and brakes applied at the first tick, 23.134 s, \
+             and the next), was judged a missing reaction at the second tick (the stop in \
+             force is None, the table's: Sto)",
+            Start::Following,
+            vec![
+                A::Wait(342),
+                A::Command(Clutch(false)),
+                A::Stream {
+                    x_mm: -11,
+                    z_mm: 1,
+                    speed_mm_s: 3,
+                    ms: 1490,
+                },
+                A::Stream {
+                    x_mm: 15,
+                    z_mm: -3,
+                    speed_mm_s: 27,
+                    ms: 1234,
+                },
+                A::Command(EStop),
+                A::Wait(2),
+                A::Command(ClearFault),
+                A::Wall {
+                    plus: false,
+                    ahead_um: 2928,
+                },
+                A::Repair,
+            ],
+        ),
         (
             "SR-1: a link resting against its stop where homing put it, the safety relay \
              opening: the stop's contact flag came back with no motion (joint 4 at its stop \

@@ -292,6 +292,8 @@ pub struct World {
     pub oracle: Oracle,
     /// The park pose (the owner's centre).
     centre: Vector3<f64>,
+    /// Called after every tick (and its oracles) with the board: a trace of a case.
+    pub watch: Option<fn(&BoardSim)>,
 }
 
 impl World {
@@ -316,6 +318,7 @@ impl World {
             last_stamp_us: 0,
             oracle,
             centre,
+            watch: None,
         };
         w.command(Cmd::Hello);
         w.run(50, true)?;
@@ -524,7 +527,12 @@ impl World {
             }
         }
         match stepped {
-            Ok(_) => self.oracle.tick(&self.board, &delivered, &replies),
+            Ok(_) => {
+                self.oracle.tick(&self.board, &delivered, &replies);
+                if let Some(watch) = self.watch {
+                    watch(&self.board);
+                }
+            }
             Err(e) => {
                 self.oracle.broken(&self.board, &e.to_string());
                 return Err(e.into());

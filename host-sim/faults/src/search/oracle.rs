@@ -105,6 +105,17 @@ struct Snap {
     at_stop: [bool; 6],
 }
 
+/// A fault latched and the stop it calls for (SR-7).
+#[derive(Clone, Copy, Debug)]
+struct Due {
+    /// The stop's strength the stop table asks for.
+    need: u8,
+    cause: FaultCause,
+    t_us: u64,
+    /// A stop at least that strong was in force at a tick of the window.
+    given: bool,
+}
+
 /// Every requirement's oracle.
 pub struct Oracle {
     bounds: Bounds,
@@ -113,7 +124,9 @@ pub struct Oracle {
     prev: Option<Snap>,
     episode: Option<(u8, Anchor)>,
     reaction: Option<Anchor>,
-    due: Option<(u8, FaultCause, u64)>,
+    /// A fault latched: the stop its table asks for, its cause, when, and whether a stop
+    /// that strong has been in force at a tick since.
+    due: Option<Due>,
     sto_latched: bool,
     /// The nonce of the master that owns the board, as the replies showed it.
     owns: Option<u32>,
@@ -662,18 +675,27 @@ impl Oracle {
 
     /// SR-7: a fault latched gets at least the stop table's stop within a tick, and the
     /// platform moves at most that stop's distance after it.
+    ///
+    /// The stop is given when it is in force at any tick from the one that shows the
+    /// fault latched to the first one more than a period after it: a stop that did its
+    /// work in that window (an STO: torque off, brakes applied) may be ended by the
+    /// owner's `ClearFault` before the window closes; what follows it is a fresh command's
+    /// (SR-3 judges the stop's end, SR-4 the torque after it).
     fn reaction(&mut self, now: u64, s: &Snap, p: Vector3<f64>, lag: f64) {
         let prev_faults = self.prev.map_or(Faults::NONE, |p| p.faults);
-        if let Some((need, cause, t)) = self.due {
-            if now > t + self.period_us {
-                if rank(s.stop) < need {
+        if let Some(mut due) = self.due {
+            due.given |= rank(s.stop) >= due.need;
+            self.due = Some(due);
+            if now > due.t_us + self.period_us {
+                if !due.given {
                     self.violate(
                         Requirement::Reaction,
                         now,
                         format!(
-                            "{cause:?} latched, the stop in force is {:?} (the table's: {:?})",
+                            "{:?} latched, the stop in force is {:?} (the table's: {:?})",
+                            due.cause,
                             s.stop,
-                            category_of(need)
+                            category_of(due.need)
                         ),
                     );
                 }
@@ -696,7 +718,12 @@ impl Oracle {
             })
             .max_by_key(|(r, _)| *r);
         if let Some((need, cause)) = need {
-            self.due = Some((need, cause, now));
+            self.due = Some(Due {
+                need,
+                cause,
+                t_us: now,
+                given: rank(s.stop) >= need,
+            });
             if self
                 .reaction
                 .is_none_or(|a| category_rank(a.category) < need)
