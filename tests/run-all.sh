@@ -22,7 +22,7 @@
 # (teleop::pacing); wall-clock bounds are failure detectors only.
 #
 # The order: the builds and the board's own tests one after the other (the fuzz targets'
-# and the Python wheel's builds beside them), then three lanes side by
+# and the Python wheel's builds beside them, at low priority), then three lanes side by
 # side: the host's tests (cargo-nextest, six at a time) with the fuzz and Python runs, the
 # front ends on the emulated board, and those on simulated boards; that is how the run
 # fits CI's 25 minutes on two cores. Each section prints the seconds since the start and
@@ -67,16 +67,17 @@ section "what the stages need from Debian and PyPI (tests/requirements.sh)"
 source tests/requirements.sh
 install_requirements
 
-section "in the background: the fuzz targets' and the Python wheel's builds"
+section "in the background, ten steps of nice below the rest: the fuzz targets' and the Python wheel's builds"
 # They use the cores the stages below leave idle (each waits on one crate at times, runs
 # QEMU on one core, links); their tests run in the first lane below, once both are built.
-# At the run's own priority, not below it: on a machine that other work keeps busy, a
-# build at nice +10 gets about a tenth of the share of each busy process beside it (the
-# scheduler's weights, 110 against 1024), and the run then waits on it.
+# When the run comes to wait on them they are raised to its own priority: on a machine
+# that other work keeps busy, a build at nice +10 gets about a tenth of the share of each
+# busy process beside it (the scheduler's weights, 110 against 1024), and the wait would
+# last as long as that work.
 # Their own target directories or profiles: no stage below waits on their cargo locks.
 # A session of their own (setsid), ended with the run if it stops early.
 soak_log="$(mktemp)"
-setsid -w bash -c 'set -euo pipefail
+setsid -w nice -n 10 bash -c 'set -euo pipefail
     (cd fuzz && cargo test --release --no-run --quiet)
     bash fuzz/run.sh build
     bash host-sim/python/tests/run.sh build' >"$soak_log" 2>&1 &
@@ -146,6 +147,9 @@ cargo test --workspace --no-run
 # files and printed after it, whole. A lane stops at its first failing stage; every lane
 # always finishes.
 section "the background builds (fuzz targets, Python wheel): waiting for them, their output"
+# Raised to the run's own priority (their session is their process group; renice -n sets
+# the value, util-linux). Where that is refused they go on as they are.
+renice -n "$(nice)" -g "$soaker" >/dev/null 2>&1 || true
 soak_status=0
 wait "$soaker" || soak_status=$?
 soaker=""
