@@ -31,10 +31,8 @@
 //!   wall time and the violations); `SEARCH_EXPLORE=N` runs N cases instead;
 //!   `RSPR_PROPTEST_FRESH=1 RSPR_PROPTEST_SCALE=20 cargo test --release -p faults --test
 //!   search` runs the property from fresh seeds with shrinking.
-//! - A case tick by tick: `SEARCH_TRACE_FROM_MS=.. SEARCH_TRACE_TO_MS=.. cargo test
-//!   --release -p faults --test search -- --ignored trace --nocapture` prints the named
-//!   cases of its `trace` test (each tick's state, stop, faults, driver enable, brakes,
-//!   currents and duties, through [`World::watch`]).
+//! - A case tick by tick: set [`World::watch`] to a function of the board, called after
+//!   every tick and its oracles, and replay the case's actions with [`World::act`].
 //! - Against an older board application: a worktree of that commit
 //!   (`git worktree add --detach ../old COMMIT`), `src/search/`, `tests/search.rs` and
 //!   `control/src/safety.rs` copied into it, [`probe`] and the `Hello`'s fields ported to
