@@ -870,3 +870,54 @@ fn counterexamples_found_once_hold_now() {
     }
     assert!(failed.is_empty(), "{}", failed.join("\n"));
 }
+
+/// Counterexamples of the searches from homing whose causes were the board's, replayed
+/// with no hole tolerated. (SR-5: each case names the requirement it
+/// broke.)
+#[test]
+fn counterexamples_from_homing_hold_now() {
+    use Action as A;
+    use Cmd::*;
+    use Foreign::*;
+    use Injection::*;
+    let stream = |x_mm, z_mm, speed_mm_s, ms| A::Stream {
+        x_mm,
+        z_mm,
+        speed_mm_s,
+        ms,
+    };
+    let cases: Vec<(&str, Start, Vec<Action>)> = vec![(
+        "SR-5: a Disable while l1 backed off its home switch latched LimitSwitch on \
+             joint 0 (the switch where the homing had just referenced the leg), then no \
+             ClearFault could end it (after EncoderDead(3) + EncoderDead(4))",
+        Start::Homing,
+        vec![
+            stream(0, 3, 10, 824),
+            A::Wait(297),
+            A::Fault(EncoderDead(3)),
+            A::Foreign(FarAhead(Home { rehome: true })),
+            A::Wait(187),
+            A::Fault(EncoderDead(4)),
+            A::Command(Disable),
+            A::Jog {
+                joint: 0,
+                velocity: 2,
+                ms: 550,
+            },
+            stream(-11, -2, 15, 1408),
+            stream(13, 0, 20, 153),
+            A::Wait(210),
+            A::Wait(109),
+            stream(5, -1, 20, 1450),
+            A::Silence(104),
+        ],
+    )];
+    let mut failed = Vec::new();
+    for (what, start, actions) in &cases {
+        let r = run_case(*start, actions, &[]);
+        if let Some(v) = r.first() {
+            failed.push(format!("{what}: {v}"));
+        }
+    }
+    assert!(failed.is_empty(), "{}", failed.join("\n"));
+}

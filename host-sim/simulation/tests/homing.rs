@@ -218,6 +218,46 @@ fn a_switch_stuck_after_it_closed_is_found_within_its_travel() {
     assert!(high <= switch + 0.003 + 0.022e-3, "{high}");
 }
 
+/// Property: a homing stopped by `Disable` while a leg rests on its home switch (just
+/// referenced there, backing off) latches no fault: the board knows the leg is at its
+/// switch (its counts since the start put it within the switch's travel of the home
+/// position), so the closed switch is not an end of travel. It ends `Disabled`, and the
+/// next `Home` leaves the switch and homes to `Ready`. (Latched as a limit switch, the
+/// switch still closed would refuse every `ClearFault`, and `Home` is refused in `Fault`:
+/// the robot locked out until someone moved the leg by hand.)
+#[test]
+fn a_homing_stopped_on_a_home_switch_can_home_again() {
+    let mut b = bench(reference());
+    b.request(&b.hello_msg(), 100).unwrap();
+    b.command(&MasterToBoard::Home { rehome: false }).unwrap();
+    b.run_until("l1 on its switch", 60_000, |s| s.hw.switch_levels()[0])
+        .unwrap();
+    b.run_ms(5).unwrap();
+    b.command(&MasterToBoard::Disable).unwrap();
+    b.run_ms(300).unwrap();
+    let st = b.board.runtime().status();
+    assert!(
+        b.board.hw.switch_levels()[0],
+        "the leg left its switch: the case does not test what it says"
+    );
+    assert_eq!(
+        (st.state, st.fault.cause),
+        (RobotState::Disabled, FaultCause::None),
+        "stopped on its home switch"
+    );
+    b.command(&MasterToBoard::Home { rehome: false }).unwrap();
+    b.run_until("the homing ends", 60_000, |s| {
+        s.runtime().state() != RobotState::Homing
+    })
+    .unwrap();
+    b.run_ms(500).unwrap();
+    let st = b.board.runtime().status();
+    assert_eq!(
+        (st.state, st.fault.cause),
+        (RobotState::Ready, FaultCause::None)
+    );
+}
+
 /// Property: with the thesis's tool declared to the board (1.2 kg on a 0.1 m lever), a
 /// homing the tool's weight does not allow (it pulls a link against its approach with
 /// more than half the push) is refused at `Home`, before anything moves, naming the joint.

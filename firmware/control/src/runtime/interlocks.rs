@@ -66,7 +66,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
                 i.safety_chain_tripped() || !self.monitors.chain.trusted()
             }
             FaultCause::HeartbeatTimeout => self.session.heartbeat_is_late(now_us),
-            FaultCause::LimitSwitch => i.switches.iter().any(|s| *s),
+            FaultCause::LimitSwitch => self.limit_switches(&i.switches).iter().any(|s| *s),
             FaultCause::JointLimit => {
                 let q = self.sensing.measured().q;
                 let range = &self.cfg.mechanics.range;

@@ -150,10 +150,11 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         let kind = self.mode.kind();
         let homing = matches!(kind, ModeKind::Homing | ModeKind::Parking);
         let referenced = self.mode.homed() || kind == ModeKind::Parking;
+        let switches = self.limit_switches(&i.switches);
         let ranges = check_ranges(
             &q,
             &self.cfg.mechanics.range,
-            &i.switches,
+            &switches,
             referenced,
             homing || commissioning,
         );

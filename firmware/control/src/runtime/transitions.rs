@@ -116,6 +116,56 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         }
     }
 
+    /// Where the joints are: a homed robot's measured joints; before any reference, the
+    /// configured rest positions (where the brakes held them when the board started, its
+    /// encoders' counts 0) moved by what each encoder counted since (a commissioning test,
+    /// a homing that failed or was stopped on the way).
+    pub(super) fn known_joints(&self) -> [S; NUM_JOINTS] {
+        if self.mode.homed() {
+            return self.sensing.measured().q;
+        }
+        let enc = self.sensing.encoders();
+        core::array::from_fn(|j| {
+            let rest = self
+                .cfg
+                .homing
+                .joints
+                .get(j)
+                .map_or(S::zero(), |h| h.rest_position);
+            enc.joint(j).map_or(rest, |e| {
+                rest + S::from(e.count()).unwrap_or_else(S::zero) / e.counts_per_unit()
+            })
+        })
+    }
+
+    /// The switches as the limit-switch check reads them (`monitors::check_ranges`): once
+    /// homed, every actuated switch is the end of travel (the supervisor keeps every
+    /// setpoint inside the switches: a leg's 1 mm, a link's degrees). Before the
+    /// references, a switch that reads actuated where the board knows its joint to be at
+    /// it ([`Runtime::known_joints`] within the switch's travel of the joint's home
+    /// position: a leg's home switch, a link's switch beside the hard stop it homes
+    /// against) is where a stopped or failed homing left the joint: nothing but a homing
+    /// or a commissioning test moves an unhomed joint, and the homing leaves such a
+    /// switch first (`HomingPhase::LeaveSwitch`; a link's sweep ignores it). Latched,
+    /// that reading would refuse every `ClearFault` for as long as the joint rests there
+    /// (no `Home` from `Fault`): the robot locked out. A switch actuated where its joint
+    /// cannot be is a fault as before.
+    pub(super) fn limit_switches(&self, switches: &[bool; NUM_JOINTS]) -> [bool; NUM_JOINTS] {
+        if self.mode.homed() || self.mode.kind() == ModeKind::Parking {
+            return *switches;
+        }
+        let known = self.known_joints();
+        core::array::from_fn(|j| {
+            let closed = switches.get(j).copied().unwrap_or(false);
+            let at_home = self.cfg.homing.joints.get(j).is_some_and(|h| {
+                known
+                    .get(j)
+                    .is_some_and(|q| Float::abs(*q - h.home_position) <= h.switch_travel_max)
+            });
+            closed && !at_home
+        })
+    }
+
     /// `Home`: the homing starts from where the joints are (a homed robot's known joints
     /// start the travel windows); the master just spoke, so the heartbeat restarts. Where
     /// the board has the second position channel and it reads, the references are restored
@@ -125,26 +175,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         let Ok(mut homing) = Homing::new(&self.cfg.homing, &self.cfg.controller.servo) else {
             return Err(Refusal::NotAllowed);
         };
-        // Where the joints are: a homed robot's measured joints; before any reference, the
-        // configured rest positions (where the brakes held them when the board started,
-        // its encoders' counts 0) moved by what each encoder counted since (a
-        // commissioning test, a homing that failed on the way).
-        let known = if self.mode.homed() {
-            self.sensing.measured().q
-        } else {
-            let enc = self.sensing.encoders();
-            core::array::from_fn(|j| {
-                let rest = self
-                    .cfg
-                    .homing
-                    .joints
-                    .get(j)
-                    .map_or(S::zero(), |h| h.rest_position);
-                enc.joint(j).map_or(rest, |e| {
-                    rest + S::from(e.count()).unwrap_or_else(S::zero) / e.counts_per_unit()
-                })
-            })
-        };
+        let known = self.known_joints();
         self.session.rearm(now_us);
         self.sensing.lose_reference();
         let m = *self.sensing.measured();
