@@ -834,6 +834,7 @@ impl Board {
         let before = (
             self.service.runtime().state(),
             self.service.runtime().homed(),
+            self.service.runtime().latched_fault().cause,
         );
         let tick = self.service.tick(&mut self.hw, now);
         self.outcome.ticks += 1;
@@ -928,8 +929,9 @@ impl Board {
         }
     }
 
-    /// The outputs after a tick (`before`: the state and whether homed as the tick began).
-    fn check_tick(&mut self, tick: &RuntimeTick<f64>, before: (State, bool)) {
+    /// The outputs after a tick (`before`: the state, whether homed and the latched fault's
+    /// cause as the tick began).
+    fn check_tick(&mut self, tick: &RuntimeTick<f64>, before: (State, bool, FaultCause)) {
         let rt = self.service.runtime();
         let (state, phase, hw) = (rt.state(), rt.stop_phase(), &self.hw);
         if !self.outcome.states.contains(&state) {
@@ -1067,7 +1069,21 @@ impl Board {
         // Homing drives onto its switches; commissioning tests their sense.
         let switches_tested = matches!(before.0, State::Homing | State::Commissioning)
             || state == State::Commissioning;
-        let switch = !switches_tested && hw.inputs.switches.iter().any(|s| *s);
+        // Before the references, a switch closed where the board's counts put its joint
+        // within the switch's travel of its home position is where a stopped or failed
+        // homing left the joint, not the end of travel (firmware README, SR-1).
+        let known = rt.known_joints();
+        let left_by_homing = |j: usize| {
+            !before.1
+                && cfg.homing.joints.get(j).is_some_and(|h| {
+                    known
+                        .get(j)
+                        .is_some_and(|q| (q - h.home_position).abs() <= h.switch_travel_max)
+                })
+        };
+        let switch = !switches_tested
+            && (0..NUM_JOINTS)
+                .any(|j| hw.inputs.switches.get(j).copied().unwrap_or(false) && !left_by_homing(j));
         let q = rt.measured().q;
         let outside = before.1
             && q.iter()
@@ -1089,6 +1105,18 @@ impl Board {
                 self.outcome.masked_stops += 1;
             }
         }
+        // And the converse, outside homing: a switch that homing left closed is not latched
+        // as a limit (it would refuse every `ClearFault` while the joint rests there: the
+        // robot locked out).
+        let new_limit_fault = rt.latched_fault().cause == FaultCause::LimitSwitch
+            && before.2 != FaultCause::LimitSwitch;
+        let explained = switches_tested || switch || jump.is_some() || outside;
+        assert!(
+            !new_limit_fault || explained,
+            "LimitSwitch latched with no switch a limit (known joints {known:?}; homed {}): {}",
+            before.1,
+            ctx()
+        );
         if hw.inputs.estop {
             assert!(
                 state == State::Fault
@@ -1250,11 +1278,12 @@ mod tests {
         assert_eq!(o.states, vec![State::Fault], "{o:?}");
     }
 
-    /// The libFuzzer inputs that found the three findings, byte for byte as the fuzzer
-    /// wrote them (a new finding's input goes here: `xxd -i` prints it), parse as the
-    /// target parses them and pass every check strict: the product's fixes hold on the
+    /// The libFuzzer inputs that found the three findings, and the one where the harness
+    /// read a closed switch that a stopped homing left as a limit, byte for byte as the
+    /// fuzzer wrote them (a new finding's input goes here: `xxd -i` prints it), parse as
+    /// the target parses them and pass every check strict: the product's fixes hold on the
     /// inputs that found them.
-    const REGRESSION_INPUTS: [(&str, &[u8]); 3] = [
+    const REGRESSION_INPUTS: [(&str, &[u8]); 4] = [
         (
             "commands-finding-1-duty",
             &[
@@ -1283,6 +1312,25 @@ mod tests {
                 0xfe, 0x99, 0xae, 0xcd, 0xd5, 0xcc, 0x2f, 0x21, 0x00, 0x33, 0xda, 0x5f, 0xe9, 0xe9,
                 0xba, 0x3c, 0x49, 0x91, 0x91, 0x91, 0x91, 0x91, 0x91, 0x91, 0x91, 0x91, 0x91, 0x91,
                 0x26, 0x00, 0x00, 0x00, 0x3e, 0x91,
+            ],
+        ),
+        (
+            "commands-switch-left-by-homing",
+            &[
+                0x3d, 0x93, 0xa9, 0x44, 0xc2, 0xed, 0x89, 0x1d, 0x29, 0x0d, 0x8a, 0xaf, 0x3a, 0x6e,
+                0x96, 0xdf, 0x01, 0x07, 0x54, 0xbf, 0x1a, 0x23, 0xf9, 0x1e, 0xf9, 0xb4, 0x9c, 0x0a,
+                0x25, 0x22, 0xf1, 0xbb, 0xec, 0x2e, 0x66, 0xc2, 0x42, 0x3c, 0xa7, 0x83, 0xdc, 0xc6,
+                0x19, 0x36, 0x8d, 0x1e, 0x08, 0x91, 0x1a, 0x80, 0xc9, 0x5b, 0x44, 0xdb, 0x73, 0x37,
+                0xd2, 0x98, 0xd0, 0x13, 0xf9, 0x2e, 0x66, 0xc2, 0x42, 0x3c, 0xa7, 0x83, 0xdc, 0xc6,
+                0x36, 0x8d, 0x1e, 0x08, 0x91, 0x1a, 0x80, 0xc9, 0x5b, 0x98, 0xdb, 0x73, 0x44, 0xf5,
+                0x1b, 0x26, 0xcd, 0x59, 0x3e, 0x07, 0xad, 0xa8, 0x04, 0xf4, 0x45, 0x27, 0x1a, 0x09,
+                0x1e, 0xf9, 0xb4, 0x9c, 0x0a, 0x25, 0x22, 0xf1, 0xbb, 0xec, 0x2e, 0x07, 0x09, 0x11,
+                0x10, 0x55, 0x5e, 0x07, 0x07, 0x06, 0x01, 0xc9, 0x48, 0x8f, 0xfa, 0x00, 0x66, 0xc2,
+                0x42, 0x3c, 0xa7, 0x83, 0xdc, 0xc6, 0x36, 0x8d, 0x1e, 0x08, 0x91, 0x1a, 0x80, 0xc9,
+                0x5b, 0x98, 0xdb, 0x77, 0x44, 0xd2, 0x37, 0xd0, 0x13, 0x52, 0x66, 0xc2, 0x42, 0x8d,
+                0x83, 0xa7, 0x36, 0xc6, 0x3c, 0xdc, 0x1e, 0x08, 0x91, 0x1a, 0x80, 0xc9, 0x5b, 0x98,
+                0xdb, 0x73, 0x44, 0xd2, 0x37, 0xd0, 0x13, 0xff, 0x01, 0xb7, 0x98, 0x17, 0x6c, 0x45,
+                0x85, 0x54, 0xd0,
             ],
         ),
     ];

@@ -681,6 +681,44 @@ fn counterexamples_of_the_oracles_hold_now() {
                 },
             ],
         ),
+        (
+            "SR-5: a short (Overcurrent(2)) on leg joint 2 holding against a seized joint 3 drew \
+             0.17 to 0.27 A, over a twentieth of its peak current on 51 scattered ticks of \
+             630 ms, its filtered current never at the twentieth the board judges from: \
+             judged a detection 1 ms late; it shows from a tenth (every such sample is judged)",
+            Start::Following,
+            vec![
+                A::Fault(LoadSeized(3)),
+                A::Wait(139),
+                A::Fault(Overcurrent(2)),
+                A::Stream {
+                    x_mm: -5,
+                    z_mm: 1,
+                    speed_mm_s: 7,
+                    ms: 808,
+                },
+                A::Foreign(SecondTarget),
+                A::Wall {
+                    plus: true,
+                    ahead_um: 953,
+                },
+                A::Command(ClearFault),
+                A::Foreign(FutureTarget { ahead_ms: 730 }),
+                A::Wait(8),
+                A::Foreign(FutureTarget { ahead_ms: 2088 }),
+                A::Jog {
+                    joint: 1,
+                    velocity: -9,
+                    ms: 267,
+                },
+                A::Stream {
+                    x_mm: 0,
+                    z_mm: 5,
+                    speed_mm_s: 24,
+                    ms: 1069,
+                },
+            ],
+        ),
     ];
     let mut failed = Vec::new();
     for (what, start, actions) in &cases {

@@ -120,7 +120,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
     /// configured rest positions (where the brakes held them when the board started, its
     /// encoders' counts 0) moved by what each encoder counted since (a commissioning test,
     /// a homing that failed or was stopped on the way).
-    pub(super) fn known_joints(&self) -> [S; NUM_JOINTS] {
+    pub fn known_joints(&self) -> [S; NUM_JOINTS] {
         if self.mode.homed() {
             return self.sensing.measured().q;
         }

@@ -138,6 +138,15 @@ const SHORT_SEEN: &[FaultCause] = &[
     FaultCause::EncoderDead,
 ];
 
+/// The fraction of its peak current from which a short shows: twice the fraction from
+/// which the board's short check judges its filtered current (`MotorCheck`, a twentieth).
+/// The filter weighs a new sample by a half, so a sample of twice that fraction puts the
+/// filtered current at the judging fraction or above whatever came before: every such
+/// tick is one the board judges. A sample between the two may not be (0.17 to 0.27 A on a
+/// leg holding a seized load showed the short on 51 scattered ticks of 630 ms, its
+/// filtered current never reaching the 0.26 A judged).
+const SHORT_SHOWS: f64 = 0.10;
+
 /// The speed above which a joint's motion shows a fault that needs motion: three times
 /// the speed below which the back-EMF check never trusts its estimate (3 rad/s of the
 /// motor, `EncoderCheckConfig::emf_floor_rad_s`: 1.43 mm/s on a leg, 0.083 rad/s on a
@@ -222,7 +231,7 @@ impl Injection {
                 SHORT_SEEN,
                 SHORT_SEEN,
                 50,
-                Shows::Current(usize::from(x % 6), 0.05),
+                Shows::Current(usize::from(x % 6), SHORT_SHOWS),
                 None,
             ),
             I::RelayWelded => s(
