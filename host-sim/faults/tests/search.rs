@@ -35,11 +35,6 @@ const OPEN: &[OpenHole] = &[
         involving: "EncoderLosesCounts",
         closed_by: "the second position channel: an encoder that loses one count in three is detected after 151 ms of showing against 150 ms (SR-5), and the joint runs faster and further than measured (SR-2, SR-7)",
     },
-    OpenHole {
-        requirements: &[Requirement::StopDistance, Requirement::Reaction],
-        involving: "BrakesWorn",
-        closed_by: "nobody yet (reported): the brakes are checked only at an enable; worn since, they let an STO coast past v t_e (0.76 mm against 0.75 mm with the tool and a push)",
-    },
 ];
 
 fn open() -> Vec<OpenHole> {
@@ -719,6 +714,27 @@ fn counterexamples_of_the_oracles_hold_now() {
                 },
             ],
         ),
+        (
+            "SR-2, SR-7: an STO (DriverFault(5)) with the tool on, its brakes worn to a fifth \
+             since the brake check that enabled the board, coasted 0.768 mm against v t_e, \
+             0.751 mm: the distance rests on brakes that passed the check; worn ones are the \
+             next enable's brake check's \
+             (brakes_worn_since_the_last_enable_fail_the_next_brake_check)",
+            Start::Following,
+            vec![
+                A::Tool(true),
+                A::Stream {
+                    x_mm: -11,
+                    z_mm: 2,
+                    speed_mm_s: 29,
+                    ms: 391,
+                },
+                A::Repair,
+                A::Fault(Overcurrent(1)),
+                A::Fault(BrakesWorn),
+                A::Fault(DriverFault(5)),
+            ],
+        ),
     ];
     let mut failed = Vec::new();
     for (what, start, actions) in &cases {
@@ -907,6 +923,54 @@ fn counterexamples_found_once_hold_now() {
         }
     }
     assert!(failed.is_empty(), "{}", failed.join("\n"));
+}
+
+/// SR-5, and the premise of SR-2's STO distance: brakes that wear to a fifth of their
+/// holding while the board is enabled are found by the brake check of the next enable,
+/// within its time (100 ms of enabling): the board latches `BrakeCheck` and never reaches
+/// `Enabled` with them.
+#[test]
+fn brakes_worn_since_the_last_enable_fail_the_next_brake_check() {
+    use faults::search::World;
+    use master_link::{FaultCause, RobotState};
+    let mut w = World::at(Start::Following).expect("the board follows");
+    let mut states = Vec::new();
+    for a in [
+        Action::Fault(Injection::BrakesWorn),
+        Action::Wait(50),
+        Action::Command(Cmd::Disable),
+        Action::Wait(300),
+        Action::Command(Cmd::Enable),
+    ] {
+        w.act(&a).expect("the case runs");
+    }
+    let enabled_at = w.now_us();
+    let mut found_at = None;
+    for _ in 0..600 {
+        w.tick(true).expect("the board ticks");
+        let s = w.board.runtime().status();
+        if states.last() != Some(&s.state) {
+            states.push(s.state);
+        }
+        if found_at.is_none() && s.fault.cause == FaultCause::BrakeCheck {
+            found_at = Some(w.now_us());
+        }
+    }
+    let found_at = found_at.unwrap_or_else(|| panic!("no BrakeCheck; states {states:?}"));
+    assert!(
+        found_at - enabled_at <= 100_000,
+        "BrakeCheck {} ms after the Enable",
+        (found_at - enabled_at) / 1000
+    );
+    assert!(
+        !states.contains(&RobotState::Enabled),
+        "the board enabled with worn brakes"
+    );
+    assert!(
+        w.oracle.violations().is_empty(),
+        "{:?}",
+        w.oracle.violations()
+    );
 }
 
 /// Counterexamples of the searches from homing whose causes were the board's, replayed
