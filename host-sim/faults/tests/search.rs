@@ -988,32 +988,66 @@ fn counterexamples_from_homing_hold_now() {
         speed_mm_s,
         ms,
     };
-    let cases: Vec<(&str, Start, Vec<Action>)> = vec![(
-        "SR-5: a Disable while l1 backed off its home switch latched LimitSwitch on \
+    let cases: Vec<(&str, Start, Vec<Action>)> = vec![
+        (
+            "SR-5: a Disable while l1 backed off its home switch latched LimitSwitch on \
              joint 0 (the switch where the homing had just referenced the leg), then no \
              ClearFault could end it (after EncoderDead(3) + EncoderDead(4))",
-        Start::Homing,
-        vec![
-            stream(0, 3, 10, 824),
-            A::Wait(297),
-            A::Fault(EncoderDead(3)),
-            A::Foreign(FarAhead(Home { rehome: true })),
-            A::Wait(187),
-            A::Fault(EncoderDead(4)),
-            A::Command(Disable),
-            A::Jog {
-                joint: 0,
-                velocity: 2,
-                ms: 550,
-            },
-            stream(-11, -2, 15, 1408),
-            stream(13, 0, 20, 153),
-            A::Wait(210),
-            A::Wait(109),
-            stream(5, -1, 20, 1450),
-            A::Silence(104),
-        ],
-    )];
+            Start::Homing,
+            vec![
+                stream(0, 3, 10, 824),
+                A::Wait(297),
+                A::Fault(EncoderDead(3)),
+                A::Foreign(FarAhead(Home { rehome: true })),
+                A::Wait(187),
+                A::Fault(EncoderDead(4)),
+                A::Command(Disable),
+                A::Jog {
+                    joint: 0,
+                    velocity: 2,
+                    ms: 550,
+                },
+                stream(-11, -2, 15, 1408),
+                stream(13, 0, 20, 153),
+                A::Wait(210),
+                A::Wait(109),
+                stream(5, -1, 20, 1450),
+                A::Silence(104),
+            ],
+        ),
+        (
+            "SR-5: a switch failed closed (SwitchClosed(3)) on joint 3 (a link) resting at its home \
+             position after a Disable stopped the homing reads as the link on its switch, \
+             which the board rightly takes for no limit before the references; the oracle \
+             judged it undetected after 3 ms",
+            Start::Homing,
+            vec![
+                A::Foreign(Replay { back: 22 }),
+                A::Jog {
+                    joint: 4,
+                    velocity: 21,
+                    ms: 533,
+                },
+                stream(5, 0, 21, 749),
+                stream(1, -4, 19, 640),
+                stream(15, 4, 11, 1023),
+                A::Wait(271),
+                A::Repair,
+                A::Command(Clutch(false)),
+                A::Wait(125),
+                A::Command(AckReset),
+                stream(11, -3, 25, 1152),
+                A::Command(StoreGeometry),
+                A::Wait(31),
+                A::Command(Status),
+                A::Wait(157),
+                A::Command(Disable),
+                A::Fault(SwitchClosed(3)),
+                A::Button(true),
+                A::Foreign(StampedMax),
+            ],
+        ),
+    ];
     let mut failed = Vec::new();
     for (what, start, actions) in &cases {
         let r = run_case(*start, actions, &[]);

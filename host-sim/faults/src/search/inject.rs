@@ -64,6 +64,12 @@ pub enum Shows {
     Driven(usize),
     /// Outside homing.
     NotHoming,
+    /// Joint's switch forced closed: outside homing, where the switch is implausible (the
+    /// robot homed, or the joint truly farther than its switch's travel from its home
+    /// position). Before the references a switch closed where its joint rests at its home
+    /// position is where a stopped homing left it: a switch failed closed there reads as
+    /// the joint resting on it, and the board rightly takes it for no limit.
+    SwitchImplausible(usize),
     /// While the board is enabling (the brake check).
     Enabling,
     /// While the safety relay disagrees with the e-stop button (pressed and closed, or
@@ -259,7 +265,7 @@ impl Injection {
                 &[C::LimitSwitch],
                 &[C::LimitSwitch],
                 2,
-                Shows::NotHoming,
+                Shows::SwitchImplausible(usize::from(x % 6)),
                 joint(x),
             ),
             I::SwitchDead(x) => s(&[C::HomingFailed], HOMING, 0, Shows::Unjudged, joint(x)),

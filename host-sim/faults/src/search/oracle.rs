@@ -140,6 +140,9 @@ pub struct Oracle {
     /// there, and a fault latched again after a ClearFault may name any of them.
     standing: Vec<Pending>,
     explained: Vec<FaultCause>,
+    /// Each joint's home position and its switch's travel (m, rad): where a switch
+    /// closed before the references is plausible.
+    home: [(f64, f64); 6],
     /// Where each joint last rested against a hard stop (m, rad), while it stays there.
     rest: [Option<f64>; 6],
     foreign: bool,
@@ -197,6 +200,12 @@ impl Oracle {
             pending: Vec::new(),
             standing: Vec::new(),
             explained: Vec::new(),
+            home: std::array::from_fn(|j| {
+                cfg.homing
+                    .joints
+                    .get(j)
+                    .map_or((f64::NAN, 0.0), |h| (h.home_position, h.switch_travel_max))
+            }),
             rest: [None; 6],
             foreign: false,
             cleared: false,
@@ -803,7 +812,8 @@ impl Oracle {
                 );
             }
         }
-        let (_, qdot) = probe::joints(board);
+        let (q, qdot) = probe::joints(board);
+        let homed = probe::homed(board);
         let currents = probe::current_fraction(board);
         let button = probe::button(board);
         let relay_open = probe::relay_open(board);
@@ -846,6 +856,10 @@ impl Oracle {
                     Shows::Current(j, f) => powered && currents[j] >= f,
                     Shows::Driven(j) => powered && duty[j] != 0.0,
                     Shows::NotHoming => !homing_now,
+                    Shows::SwitchImplausible(j) => {
+                        let (home, travel) = self.home[j];
+                        !homing_now && (homed || (q[j] - home).abs() > travel)
+                    }
                     Shows::Enabling => s.state == RobotState::Enabling,
                     Shows::RelayDisagrees => button != relay_open,
                     Shows::Unjudged => false,

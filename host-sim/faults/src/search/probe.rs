@@ -29,6 +29,12 @@ pub fn park_position(b: &BoardSim) -> Vector3<f64> {
     )
 }
 
+/// The board has its references (homed): what its `Ready` state and every state after
+/// it report.
+pub fn homed(b: &BoardSim) -> bool {
+    b.runtime().homed()
+}
+
 /// The MCU's driver enable output.
 pub fn drives_on(b: &BoardSim) -> bool {
     b.hw.enabled
