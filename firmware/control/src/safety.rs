@@ -381,7 +381,10 @@ fn write_bound(out: &mut impl fmt::Write, r: Requirement, b: &Bounds) -> fmt::Re
         ),
         Requirement::StopDistance => write!(
             out,
-            "STO: v t_e = {:.2} mm; SS1, SS2 (and the safe operating stop): v^2/(2a) + v dt + \
+            "STO: v t_e = {:.2} mm, with brakes that hold what the brake check of the last \
+             enable tested (brakes worn since are found by the next enable's check, SR-5; \
+             until then an STO's distance is theirs); SS1, SS2 (and the safe operating \
+             stop): v^2/(2a) + v dt + \
              w = {:.3} mm (w = {:.3} mm, the standstill windows {:.2} mm / {:.0} mrad at o_p) \
              + the platform's distance from its setpoint at the start; v = {:.0} mm/s, \
              a = {:.2} m/s^2, dt = {:.0} ms, t_e = {:.0} ms",

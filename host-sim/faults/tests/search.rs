@@ -911,6 +911,27 @@ fn counterexamples_found_once_hold_now() {
                 stream(5, 10, 400),
             ],
         ),
+        (
+            "SR-5: a short without current regulation (Overcurrent(2)) during the brake \
+             check pushed leg joint 2 through its applied brake, named BrakeCheck: the check \
+             knows the current its duty drives and names the short when thrice that flows",
+            Start::Following,
+            vec![
+                A::Command(Cmd::Disable),
+                A::Wait(358),
+                A::Command(Cmd::Enable),
+                A::Repair,
+                A::Command(Cmd::StoreGeometry),
+                A::Repair,
+                A::Fault(Injection::Overcurrent(2)),
+                A::Stream {
+                    x_mm: 1,
+                    z_mm: -4,
+                    speed_mm_s: 5,
+                    ms: 551,
+                },
+            ],
+        ),
     ];
     let mut failed = Vec::new();
     for (what, start, actions) in &cases {

@@ -4,6 +4,7 @@
 use hal::Hardware;
 use kinematics_core::Mechanism;
 use master_link::FaultCause;
+use num_traits::Float;
 use servo::NUM_JOINTS;
 
 use super::mode::{Mode, StopDrive};
@@ -18,7 +19,7 @@ use crate::modes::Event;
 use crate::monitors::Finding;
 use crate::park::ParkMove;
 use crate::park::ParkStep;
-use crate::scalar::Scalar;
+use crate::scalar::{lit, Scalar};
 use crate::sensing::{Measured, Sensing};
 use crate::stops::StopPhase;
 use crate::wire;
@@ -159,16 +160,43 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
                 return Step::idle();
             }
             After::BrakeCheckFailed { joint, motion } => {
-                self.fault(
-                    Finding::joint(FaultCause::BrakeCheck, joint, motion),
-                    now_us,
-                );
+                let finding = self.brake_check_finding(joint, motion);
+                self.fault(finding, now_us);
             }
             After::BrakesReleased => {
                 let _ = self.apply(Event::BrakesReleased, now_us);
             }
         }
         step
+    }
+
+    /// What a joint's motion against its closed brake during the brake check says. The
+    /// check pushed the joint at a known duty with the motor all but still, so the motor
+    /// model says what current that drives: `V·d/R`. A current above three times that
+    /// (the short check's factor, `MotorCheck`; a warm winding is 30 % off at most) is a
+    /// drive that pushed harder than asked (a shorted winding, a lost current
+    /// regulation), and the slip says nothing of the brake: the short is named
+    /// (`CurrentImplausible`). Otherwise the brake failed (`BrakeCheck`).
+    fn brake_check_finding(&self, joint: usize, motion: S) -> Finding {
+        let brake = Finding::joint(FaultCause::BrakeCheck, joint, motion);
+        let duty = self.outputs.last_duty();
+        let (Some(d), Some(i), Some(m), Some(floor)) = (
+            duty.get(joint),
+            self.inputs.currents.get(joint),
+            self.cfg.current.motors.get(joint),
+            self.monitors.motor.floor_a.get(joint),
+        ) else {
+            return brake;
+        };
+        let asked = Float::max(
+            Float::abs(self.inputs.supply_v * *d / m.resistance_ohm),
+            *floor,
+        );
+        if Float::abs(*i) > asked * lit(3.0) {
+            Finding::joint(FaultCause::CurrentImplausible, joint, Float::abs(*i))
+        } else {
+            brake
+        }
     }
 
     /// The faults the controller's tick reports: the servo's, the supervisor's stop.
