@@ -211,6 +211,14 @@ fn encoder_faults_in_a_held_stop_are_named_within_20_ms_and_0_1_mm() {
                         "{name} on joint {joint}: unnamed while the motor moved {motor_unnamed} > {x}"
                     );
                     let load = detected.map_or(moved, |(_, then)| then);
+                    if detected.is_some() {
+                        let first = rt.fault_log().page(0).entries[0].record;
+                        assert_eq!(
+                            (first.cause, usize::from(first.joint)),
+                            (FaultCause::EncoderDisagree, joint),
+                            "{name} on joint {joint}, named late"
+                        );
+                    }
                     assert!(
                         load <= bound,
                         "{name} on joint {joint}: unnamed, moved {load}"
