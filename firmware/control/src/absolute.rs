@@ -40,10 +40,16 @@
 //!   [`ChannelConfig::agree_slow`] on a second, slower filter (a joint pushed while its
 //!   encoder miscounts moves little: the servo still holds it); a motor that pushes
 //!   neither way allows the gap both ways. A stuck encoder under a push into the flank is
-//!   found within `agree` of motion. The flank is the current's, not the backlash
-//!   compensation's belief: a load it does not know of (an undeclared tool) may rest the
-//!   load on the other flank. While the robot holds, both channels also watch the joint's
-//!   standstill from where the hold began.
+//!   found within `agree` of motion. Once the motor has stood where it took the flank
+//!   for [`ChannelConfig::season_ticks`] readings, with `h` there, their mean is the
+//!   anchor: a quieter one than one filtered reading, so both bounds shrink
+//!   ([`ChannelConfig::agree_seasoned`], [`ChannelConfig::agree_slow_seasoned`]). The
+//!   fast filter's bounds must hold for [`ChannelConfig::persist_ticks`] ticks; the
+//!   slower filter's count from the first tick beyond them (its filter is its
+//!   persistence: one reading moves it by a quarter of its deviation). The flank is the
+//!   current's, not the backlash compensation's belief: a load it does not know of (an
+//!   undeclared tool) may rest the load on the other flank. While the robot holds, both
+//!   channels also watch the joint's standstill from where the hold began.
 //!
 //! The disagreement found names the channel that saw less motion (the encoder: the motor's
 //! motion `m - m0`; the sensor: `p - p0`); a motor that did not move while `h` walked away
@@ -125,6 +131,13 @@ pub struct ChannelConfig<S> {
     pub filter_slow: S,
     /// `agree` of the slower filter (m, rad per joint).
     pub agree_slow: [S; NUM_JOINTS],
+    /// Readings of `h` whose mean becomes the hold's anchor, once the motor stood that long
+    /// where it took its flank.
+    pub season_ticks: u16,
+    /// `agree` from that mean (m, rad per joint).
+    pub agree_seasoned: [S; NUM_JOINTS],
+    /// `agree_slow` from that mean (m, rad per joint).
+    pub agree_slow_seasoned: [S; NUM_JOINTS],
     /// What two channels that agree may differ by over a motion with no backlash in it
     /// (m, rad per joint): the filtered noise and both resolutions.
     pub agree: [S; NUM_JOINTS],
@@ -134,7 +147,7 @@ pub struct ChannelConfig<S> {
     pub scale: S,
     /// The motion after which a quiet moving check takes a new anchor (m, rad per joint).
     pub reanchor: [S; NUM_JOINTS],
-    /// Ticks a disagreement must last.
+    /// Ticks a disagreement of the fast filter must last (the slow filter's counts at once).
     pub persist_ticks: u16,
     /// A disagreement that grew slower than this (m/s, rad/s per joint) is the sensor's
     /// drift, not motion.
@@ -175,6 +188,14 @@ impl<S: Float> ChannelConfig<S> {
     ///   0.019 deg. A joint pushed while its encoder miscounts (the servo still holds
     ///   it, within a few hundredths of a millimetre) shows a disagreement of a third of
     ///   that: only the slow filter resolves it;
+    /// * a seasoned anchor: the mean of `season_ticks` = 24 raw readings of `h` (the
+    ///   motor standing on its flank that long: any motion before it has left both
+    ///   filters, 0.75^24 of it in the slow one), its variance a 24th of one reading's
+    ///   instead of the filtered reading's third (fast) or seventh (slow):
+    ///   `agree_seasoned` = 5 x 1.04
+    ///   `sqrt(1/3 + 1/24)` = 3.2 channel counts + 1 encoder count (6.4 um, 0.021 deg),
+    ///   `agree_slow_seasoned` = 5 x 1.04 `sqrt(1/7 + 1/24)` = 2.2 counts + 1 encoder
+    ///   count (4.9 um, 0.017 deg);
     /// * the backlash: the legs' largest by the thesis (0.2 mm; the servo compensates 0.12
     ///   mm), on the links twice the compensated 20 arcsec (`backlash_width`, the servo's);
     /// * the scale: 0.2 % (the potentiometers' linearity class, 0.1 %, at the anchor and now),
@@ -186,7 +207,17 @@ impl<S: Float> ChannelConfig<S> {
     ///   potentiometer (nothing but the noise);
     /// * the rails: 512 counts from either end (0.8 % of the travel; the reference
     ///   mechanics keep every joint 36 mm or 85 deg from its potentiometer's ends);
-    /// * two ticks of persistence: one reading beyond the bound is not a fault;
+    /// * two ticks of persistence on the fast filter: one reading beyond the bound is not a
+    ///   fault. The hold check's slower filter needs none: one reading moves it by a
+    ///   quarter of its deviation, so a lone reading crosses `agree_slow` only when more
+    ///   than 11 counts off (4 times its 2.8 channel counts; the noise is 1.04 counts rms,
+    ///   and the fast filter's two ticks let through a lone reading up to 17 counts off),
+    ///   while two ticks would cost a tick of motion on every finding. A miscounting
+    ///   encoder (one count lost in `n`) leaves a disagreement of an `n`-th of its motor's
+    ///   motion: a hold that keeps the motor
+    ///   within `n * agree` (24 um on a leg, 0.081 deg on a link, for `n` = 3) leaves it
+    ///   within what the channel resolves, and it may go unnamed (the safety
+    ///   requirements' SR-5);
     /// * the standstill windows of the safe operating stop (`monitors::Standstill`);
     /// * a motor pushes its load on one flank beyond 5 % of its continuous current
     ///   `continuous_a` (A): the motors' own friction at rest takes up to about 3.5 %
@@ -216,6 +247,9 @@ impl<S: Float> ChannelConfig<S> {
         // 12-bit converter's 16.
         let sigma = (S::one() + cal.step_counts * cal.step_counts / lit(12.0)).sqrt();
         let sigma_e = sigma * (lit::<S>(2.0 / 3.0)).sqrt();
+        // The variance of a seasoned anchor, the mean of `SEASON_TICKS` readings, in units
+        // of one reading's.
+        let season = S::one() / lit(f64::from(SEASON_TICKS));
         let leg = |j: usize| j < 3;
         ChannelConfig {
             rails: [512, 65535 - 512],
@@ -225,6 +259,13 @@ impl<S: Float> ChannelConfig<S> {
                 lit::<S>(5.0) * sigma * lit::<S>(2.0 / 7.0).sqrt() * lsb(j) + enc(j)
             }),
             agree: core::array::from_fn(|j| lit::<S>(5.0) * sigma_e * lsb(j) + enc(j)),
+            season_ticks: SEASON_TICKS,
+            agree_seasoned: core::array::from_fn(|j| {
+                lit::<S>(5.0) * sigma * (lit::<S>(1.0 / 3.0) + season).sqrt() * lsb(j) + enc(j)
+            }),
+            agree_slow_seasoned: core::array::from_fn(|j| {
+                lit::<S>(5.0) * sigma * (lit::<S>(1.0 / 7.0) + season).sqrt() * lsb(j) + enc(j)
+            }),
             backlash: core::array::from_fn(|j| {
                 if leg(j) {
                     lit(0.2e-3)
@@ -276,6 +317,10 @@ pub struct ChannelInputs<'a, S> {
     /// encoders at once, and the check starts over.
     pub epoch: u32,
 }
+
+/// Readings of `h` a hold's anchor is the mean of once seasoned (see
+/// [`ChannelConfig::reference`]).
+const SEASON_TICKS: u16 = 24;
 
 /// Ticks between two entries of a joint's history of `h` (the drift's rate is measured
 /// over the history: 4 entries, 24 to 32 ticks).
@@ -336,13 +381,17 @@ impl<S: Float> JointState<S> {
 
 /// A hold: where the channel stood when it began, and its anchor: the flank the motor
 /// holds the load on (+1: pushing towards +q, -1, 0: not known) and `h`, the channel and
-/// the motor when the motor took it; `h` of the slow filter once that filter settled there.
+/// the motor when the motor took it; `h` of the slow filter once that filter settled there;
+/// the readings of `h` summed while the motor stood where it took the flank (how many, their
+/// sum), and their mean once there are [`ChannelConfig::season_ticks`] of them.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Hold<S> {
     p0: S,
     flank: i8,
     anchor: [S; 3],
     anchor_slow: Option<S>,
+    season: (u16, S),
+    seasoned: Option<S>,
 }
 
 /// The monitor of the second channel (see the module documentation).
@@ -487,6 +536,8 @@ impl<S: Float> ChannelCheck<S> {
                     flank: push,
                     anchor: here,
                     anchor_slow: None,
+                    season: (0, S::zero()),
+                    seasoned: None,
                 });
                 // A motor that comes to push on the other flank (or on one where none was
                 // known), standing, with the channel settled: the flank from here on.
@@ -495,16 +546,43 @@ impl<S: Float> ChannelCheck<S> {
                     hold.flank = push;
                     hold.anchor = here;
                     hold.anchor_slow = None;
+                    hold.season = (0, S::zero());
+                    hold.seasoned = None;
                 }
                 if hold.anchor_slow.is_none() && slow_settled {
                     hold.anchor_slow = Some(h_slow);
                 }
                 let [ha, pa, ma] = hold.anchor;
+                // The anchor seasoned: `season_ticks` raw readings of `h` while the motor
+                // stood where it took the flank and `h` stayed there (the load on it), their
+                // mean a far quieter anchor than one filtered reading.
+                let (n, sum) = hold.season;
+                let on_flank = (m_raw - ma).abs() <= at(&c.still, j)
+                    && (h - ha).abs() <= agree * lit(0.5)
+                    && hold.flank != 0;
+                if hold.seasoned.is_none() && on_flank {
+                    let (n, sum) = (n.saturating_add(1), sum + (p_raw - m_raw));
+                    hold.season = (n, sum);
+                    if n >= c.season_ticks {
+                        hold.seasoned = S::from(n).map(|n| sum / n);
+                    }
+                }
+                let (ha, anchor_slow, agree, slow) = match hold.seasoned {
+                    Some(mean) => (
+                        mean,
+                        Some(mean),
+                        at(&c.agree_seasoned, j),
+                        at(&c.agree_slow_seasoned, j),
+                    ),
+                    None => (ha, hold.anchor_slow, agree, slow),
+                };
                 let de = h - ha;
-                let de_slow = hold.anchor_slow.map_or(S::zero(), |a| h_slow - a);
+                let de_slow = anchor_slow.map_or(S::zero(), |a| h_slow - a);
                 // Into the flank: h below its anchor on the +q flank, above it on the -q.
                 let side = S::from(-hold.flank).unwrap_or_else(S::zero);
                 let into = (de * side, de_slow * side);
+                // The slow filter's disagreement counts at once (see `persist_ticks`).
+                let slow_beyond = hold.flank != 0 && into.1 > slow;
                 let (beyond, half) = if hold.flank == 0 {
                     let both = agree + backlash;
                     (de.abs() > both, de.abs() > both * lit(0.5))
@@ -526,7 +604,7 @@ impl<S: Float> ChannelCheck<S> {
                     if dm.abs() < dp.abs() {
                         excess = Some(de);
                     }
-                    if s.over_hold >= c.persist_ticks {
+                    if s.over_hold >= c.persist_ticks || slow_beyond {
                         named = named.or(Some((de, dp, dm)));
                     }
                 }
@@ -580,4 +658,100 @@ fn sign<S: Float>(x: S, dead: S) -> i8 {
 
 fn at<S: Float>(a: &[S; NUM_JOINTS], j: usize) -> S {
     a.get(j).copied().unwrap_or_else(S::zero)
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::expect_used, clippy::indexing_slicing)]
+    use super::*;
+
+    /// Ticks the check runs before the hold begins.
+    const WARM: u32 = 20;
+    /// Encoder counts per metre of a leg (1.5 um per count, `servo::encoder`'s order).
+    const ENC: f64 = 1.0 / 1.5e-6;
+
+    fn config() -> (ChannelCalibration<f64>, ChannelConfig<f64>) {
+        let cal = ChannelCalibration::<f64>::reference(&[[0.141, 0.213]; NUM_JOINTS]);
+        let c = ChannelConfig::reference(
+            &cal,
+            &[ENC; NUM_JOINTS],
+            &[1e-4; NUM_JOINTS],
+            &[0.05; NUM_JOINTS],
+            &[1.0; NUM_JOINTS],
+            1e-3,
+        );
+        (cal, c)
+    }
+
+    /// Zero-mean noise of 1 count rms (four uniforms, as the plant's) from `state`.
+    fn noise(state: &mut u64) -> f64 {
+        let mut sum = 0.0;
+        for _ in 0..4 {
+            *state ^= *state << 13;
+            *state ^= *state >> 7;
+            *state ^= *state << 17;
+            sum += (*state >> 11) as f64 / (1u64 << 53) as f64;
+        }
+        (sum - 2.0) * 3f64.sqrt()
+    }
+
+    /// The check running for 20 ticks, then joint 0 held on its -q flank (the motor pushing
+    /// towards -q), standing `stand` ticks,
+    /// then moving with its load at `v` m per tick for `moving` ticks, its encoder counting
+    /// `kept` of the motion; the channel noisy (seed `seed`). The first finding and the
+    /// motor's motion then.
+    fn hold(seed: u64, stand: u32, v: f64, moving: u32, kept: f64) -> Option<(Finding, f64)> {
+        let (cal, c) = config();
+        let mut check = ChannelCheck::new(c);
+        let mut rng = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+        let q0 = 0.177 + 3.3e-7;
+        for k in 0..WARM + stand + moving {
+            let moved = v * f64::from(k.saturating_sub(WARM + stand));
+            let raw: [u16; NUM_JOINTS] = core::array::from_fn(|j| {
+                let q = if j == 0 { q0 + moved } else { q0 };
+                let x = MID_SCALE + (q - 0.177) * cal.counts_per_unit[j] + noise(&mut rng);
+                x.round() as u16
+            });
+            let p = cal.positions(&raw);
+            let m0 = ((q0 + moved * kept) * ENC).floor() / ENC;
+            let motor: [f64; NUM_JOINTS] =
+                core::array::from_fn(|j| if j == 0 { m0 } else { (q0 * ENC).floor() / ENC });
+            let current = [-1.0; NUM_JOINTS];
+            let found = check.check(&ChannelInputs {
+                raw: Some(&raw),
+                p: &p,
+                motor: &motor,
+                current: &current,
+                holding: k >= WARM,
+                epoch: 0,
+            });
+            if let Some(f) = found {
+                return Some((f, moved));
+            }
+        }
+        None
+    }
+
+    /// Property: a joint held on its flank, its encoder losing one count in three as a push
+    /// moves it 1 um per tick, is named as the encoder before its motor moved 3 times
+    /// `agree_seasoned` (the disagreement is a third of the motion; the slow filter's
+    /// seasoned bound is below it) and two ticks more; the same motion with a healthy
+    /// encoder, and a long hold, raise nothing.
+    #[test]
+    fn a_seasoned_hold_names_a_miscount_and_nothing_else() {
+        let (_, c) = config();
+        let v = 1e-6;
+        let x = 3.0 * c.agree_seasoned[0] + 2.0 * v;
+        for seed in 0..200 {
+            let (f, moved) = hold(seed, 30, v, 100, 2.0 / 3.0).expect("named");
+            assert_eq!(
+                (f.cause, f.joint),
+                (FaultCause::EncoderDisagree, Some(0)),
+                "seed {seed}"
+            );
+            assert!(moved <= x, "seed {seed}: moved {moved} > {x}");
+            assert_eq!(hold(seed, 30, v, 100, 1.0), None, "seed {seed}");
+            assert_eq!(hold(seed, 3000, 0.0, 0, 1.0), None, "seed {seed}");
+        }
+    }
 }

@@ -151,7 +151,11 @@ impl Requirement {
                 "firmware/control/tests/failsafe.rs::outputs_stay_off_outside_the_driving_states",
                 "firmware/control/tests/modes.rs::random_sequences_never_weaken_a_stop",
             ],
-            Requirement::Detection => &[SEARCH, CAMPAIGN],
+            Requirement::Detection => &[
+                SEARCH,
+                CAMPAIGN,
+                "firmware/control/tests/channel.rs::encoder_faults_in_a_held_stop_are_named_within_20_ms_and_0_1_mm",
+            ],
             Requirement::Authority => &[
                 SEARCH,
                 "host-sim/faults/tests/search.rs::a_foreign_frame_never_moves_the_robot",
@@ -225,6 +229,14 @@ pub fn write_guarded(out: &mut impl fmt::Write, cause: FaultCause) -> fmt::Resul
     Ok(())
 }
 
+/// An encoder fault in a held stop, the second channel fitted, is named within this time
+/// of showing (s; SR-5).
+pub const HELD_ENCODER_FAULT_S: f64 = 0.020;
+/// ... and before its joint moved this far (m on a leg, rad on a link; SR-5).
+pub const HELD_ENCODER_FAULT_M: [f64; 2] = [0.1e-3, 0.1 * core::f64::consts::PI / 180.0];
+/// The miscounting encoder the requirements state figures for: one count lost in this many.
+pub const MISCOUNT_ONE_IN: u32 = 3;
+
 /// The numbers the requirements' bounds are made of, from the settings (SI, f64).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Bounds {
@@ -245,6 +257,10 @@ pub struct Bounds {
     pub standstill_platform_m: f64,
     /// The heartbeat's hold and fault times, s.
     pub heartbeat_s: [f64; 2],
+    /// What the second position channel and the encoder may differ by with neither
+    /// failed, over a motion with no backlash in it (`absolute::ChannelConfig::agree`; m,
+    /// rad per joint).
+    pub channel_agree: [f64; NUM_JOINTS],
 }
 
 fn f64_of<S: Scalar>(x: S) -> f64 {
@@ -268,6 +284,7 @@ impl Bounds {
                 cfg.heartbeat.hold_after_us as f64 * 1e-6,
                 cfg.heartbeat.disable_after_us as f64 * 1e-6,
             ],
+            channel_agree: cfg.channel.agree.map(f64_of),
         }
     }
 
@@ -409,8 +426,22 @@ fn write_bound(out: &mut impl fmt::Write, r: Requirement, b: &Bounds) -> fmt::Re
         Requirement::Detection => write!(
             out,
             "each fault kind's time (the campaign's table: its monitor's window + 1 tick); \
-             before it, v x that time ({:.3} mm per ms)",
-            mm(b.tip_speed_m_s) * 1e-3
+             before it, v x that time ({:.3} mm per ms); with the second channel, an encoder \
+             stuck, dead or miscounting in a held stop: named within {:.0} ms and {:.1} mm \
+             ({:.1} deg), except a miscount (one count in n lost) that the hold keeps within \
+             n x agree of motor motion (n = {}: {:.0} um on a leg, {:.3} deg on a link; \
+             agree = {:.1} um, {:.3} deg: 5 sigma of the channel's filtered noise and one \
+             encoder count), a disagreement (an n-th of the motion) the channel cannot \
+             resolve",
+            mm(b.tip_speed_m_s) * 1e-3,
+            ms(HELD_ENCODER_FAULT_S),
+            mm(HELD_ENCODER_FAULT_M[0]),
+            HELD_ENCODER_FAULT_M[1].to_degrees(),
+            MISCOUNT_ONE_IN,
+            b.channel_agree[0] * MISCOUNT_ONE_IN as f64 * 1e6,
+            (b.channel_agree[3] * MISCOUNT_ONE_IN as f64).to_degrees(),
+            b.channel_agree[0] * 1e6,
+            b.channel_agree[3].to_degrees(),
         ),
         Requirement::Authority => write!(
             out,

@@ -1252,6 +1252,7 @@ fn safety_bounds() -> control::safety::Bounds {
             standstill: [f64::NAN; 6],
             standstill_platform_m: f64::NAN,
             heartbeat_s: [f64::NAN; 2],
+            channel_agree: [f64::NAN; 6],
         },
     }
 }
