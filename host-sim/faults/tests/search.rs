@@ -870,3 +870,61 @@ fn counterexamples_found_once_hold_now() {
     }
     assert!(failed.is_empty(), "{}", failed.join("\n"));
 }
+
+/// Counterexamples of the searches from homing whose causes were the plant's, replayed
+/// with no hole tolerated. (SR-5: each case names the requirement it
+/// broke.)
+#[test]
+fn counterexamples_from_homing_hold_now() {
+    use Action as A;
+    use Cmd::*;
+    use Foreign::*;
+    use Injection::*;
+    let stream = |x_mm, z_mm, speed_mm_s, ms| A::Stream {
+        x_mm,
+        z_mm,
+        speed_mm_s,
+        ms,
+    };
+    let cases: Vec<(&str, Start, Vec<Action>)> = vec![(
+        "SR-5: l1 backing off its switch was named EncoderDead on joint 0 (after \
+             MotorOpen(2)): the plant's motor landed on the flank of a load its stiction \
+             held and kept the velocity of its free step, drawing the current of a turning \
+             motor with a still encoder",
+        Start::Homing,
+        vec![
+            stream(-4, 3, 8, 309),
+            A::Command(Clutch(false)),
+            stream(1, -5, 16, 487),
+            A::Wall {
+                plus: true,
+                ahead_um: 2254,
+            },
+            A::Wait(242),
+            A::Fault(MotorOpen(2)),
+            A::Command(Operator(false)),
+            stream(-15, 5, 17, 447),
+            A::Fault(MotorOpen(2)),
+            stream(-12, -3, 13, 973),
+            stream(12, -3, 11, 1434),
+            A::Foreign(SecondTarget),
+            A::Command(Disable),
+            A::Fault(SupplySag),
+            A::Fault(BridgeStuckOn(3)),
+            A::Foreign(ReplayHelloEnable),
+            A::Fault(SwitchClosed(4)),
+            A::Foreign(FarAhead(Home { rehome: true })),
+            A::Command(Enable),
+            A::Command(ClearFault),
+            A::Wait(52),
+        ],
+    )];
+    let mut failed = Vec::new();
+    for (what, start, actions) in &cases {
+        let r = run_case(*start, actions, &[]);
+        if let Some(v) = r.first() {
+            failed.push(format!("{what}: {v}"));
+        }
+    }
+    assert!(failed.is_empty(), "{}", failed.join("\n"));
+}
