@@ -506,6 +506,11 @@ impl Joint {
         self.external = load;
     }
 
+    /// The external load (force or torque on the joint towards +q).
+    pub fn external_load(&self) -> f64 {
+        self.external
+    }
+
     /// Enables the H-bridge or turns it off (high-impedance: no current, the motor
     /// coasts). Enabling clears a latched driver fault (the cause may trip it again).
     pub fn set_bridge_enabled(&mut self, enabled: bool) {
