@@ -236,6 +236,11 @@ pub struct Cell {
 
 /// Milliseconds the cell runs after the injection (or after the probe starts).
 const AFTER_MS: u64 = 900;
+
+/// A setpoint moved by more than this from where it stood asks its joints to move, m
+/// (a micrometre: far below any motion a fault that needs motion is timed from, far
+/// above the rounding of a setpoint held still).
+const ASKED_M: f64 = 1e-6;
 /// Milliseconds the stream runs before the injection: slow, 0.6 s (2.2 mm/s); fast, one
 /// period of the sinusoid (1.51 s) plus the supervisor's lag: the platform at its peak
 /// speed, 25 mm/s.
@@ -965,6 +970,11 @@ fn staged_cell(kind: FaultKind, condition: Condition, b: &mut Bench) -> Result<C
     // A fault that needs motion shows from the first tick its joint moves under power at
     // three times the back-EMF check's floor (the search's threshold).
     let mut shows_at: Option<u64> = (!exp.needs_motion).then_some(t_inj);
+    // The first tick the setpoint moved from where it stood at the injection: from then on
+    // the joint is asked to move, and a fault that needs motion (a seized load, which
+    // never moves itself) can show.
+    let sp_inj = setpoint(b);
+    let mut asked_at: Option<u64> = None;
     loop {
         let now = b.now_us();
         let in_homing = b.board.runtime().state() == RobotState::Homing;
@@ -990,6 +1000,9 @@ fn staged_cell(kind: FaultKind, condition: Condition, b: &mut Bench) -> Result<C
         contacts.check(b);
         if let Some(sp) = setpoint(b) {
             last_sp = Some(sp);
+            if asked_at.is_none() && sp_inj.is_none_or(|s0| (sp - s0).norm() > ASKED_M) {
+                asked_at = Some(now);
+            }
         }
         let st = b.board.runtime().status();
         let r = stop_rank(st.stop);
@@ -1026,10 +1039,20 @@ fn staged_cell(kind: FaultKind, condition: Condition, b: &mut Bench) -> Result<C
             }
         }
     }
-    // Timed from when it showed (detected before it showed: from the injection).
+    // Timed from when it showed (detected before it showed: from the injection). A fault
+    // that needs motion, found where its joint never moved and the setpoint never asked
+    // it to (a load seized while a held stop keeps the platform still), could not show:
+    // found or not, its time is not judged (as a fault that needs motion and was not
+    // found there passes); what it was named and the reaction are.
     let t_ref = match (&detected, shows_at) {
         (Some((t, _)), Some(s)) if *t >= s => s,
         _ => t_inj,
+    };
+    let never_shown = match &detected {
+        Some((t, _)) => {
+            exp.needs_motion && shows_at.is_none_or(|s| s > *t) && asked_at.is_none_or(|a| a > *t)
+        }
+        None => false,
     };
     let detect_ms = detected
         .as_ref()
@@ -1092,7 +1115,7 @@ fn staged_cell(kind: FaultKind, condition: Condition, b: &mut Bench) -> Result<C
         may_not_show: exp.needs_motion,
         extra,
         bound_ms: exp.bound_ms,
-        judge_time: !homing,
+        judge_time: !homing && !never_shown,
     }))
 }
 

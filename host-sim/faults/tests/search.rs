@@ -994,7 +994,8 @@ fn brakes_worn_since_the_last_enable_fail_the_next_brake_check() {
     );
 }
 
-/// Counterexamples of the searches from homing whose causes were the board's, replayed
+/// Counterexamples of the searches from homing whose causes were the board's or the
+/// plant's, replayed
 /// with no hole tolerated. (SR-5: each case names the requirement it
 /// broke.)
 #[test]
@@ -1037,10 +1038,10 @@ fn counterexamples_from_homing_hold_now() {
             ],
         ),
         (
-            "SR-5: a switch failed closed (SwitchClosed(3)) on joint 3 (a link) resting at its home \
-             position after a Disable stopped the homing reads as the link on its switch, \
-             which the board rightly takes for no limit before the references; the oracle \
-             judged it undetected after 3 ms",
+            "SR-5: a switch failed closed (SwitchClosed(3)) on joint 3 (a link) resting at \
+             its home position after a Disable stopped the homing reads as the link on its \
+             switch, which the board rightly takes for no limit before the references; the \
+             oracle judged it undetected after 3 ms",
             Start::Homing,
             vec![
                 A::Foreign(Replay { back: 22 }),
@@ -1066,6 +1067,39 @@ fn counterexamples_from_homing_hold_now() {
                 A::Fault(SwitchClosed(3)),
                 A::Button(true),
                 A::Foreign(StampedMax),
+            ],
+        ),
+        (
+            "SR-5: l1 backing off its switch was named EncoderDead on joint 0 (after \
+             MotorOpen(2)): the plant's motor landed on the flank of a load its stiction \
+             held and kept the velocity of its free step, drawing the current of a turning \
+             motor with a still encoder",
+            Start::Homing,
+            vec![
+                stream(-4, 3, 8, 309),
+                A::Command(Clutch(false)),
+                stream(1, -5, 16, 487),
+                A::Wall {
+                    plus: true,
+                    ahead_um: 2254,
+                },
+                A::Wait(242),
+                A::Fault(MotorOpen(2)),
+                A::Command(Operator(false)),
+                stream(-15, 5, 17, 447),
+                A::Fault(MotorOpen(2)),
+                stream(-12, -3, 13, 973),
+                stream(12, -3, 11, 1434),
+                A::Foreign(SecondTarget),
+                A::Command(Disable),
+                A::Fault(SupplySag),
+                A::Fault(BridgeStuckOn(3)),
+                A::Foreign(ReplayHelloEnable),
+                A::Fault(SwitchClosed(4)),
+                A::Foreign(FarAhead(Home { rehome: true })),
+                A::Command(Enable),
+                A::Command(ClearFault),
+                A::Wait(52),
             ],
         ),
     ];

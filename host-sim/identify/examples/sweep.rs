@@ -36,7 +36,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                         ((r.measured.settling_time_s - r.predicted.settling_time_s)
                             / r.predicted.settling_time_s)
                             .abs(),
-                        r.measured_travel / r.excitation.travel_limit,
+                        r.joint_excursion / r.excitation.travel_limit,
                     ];
                     for i in 0..8 {
                         if e[i] > worst[i] {
@@ -69,7 +69,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             rig.name(), a.rms_load, b.rms_load, b.rms_load / a.rms_load, a.max_load, b.max_load
         );
     }
-    println!("worst over {n} plants x 6 joints: M {:.1}% Fc {:.1}% B {:.1}% k {:.1}% backlash {:.1}% overshoot {:.1}% settling {:.1}% travel/limit {:.2}; failures {fails}",
+    println!("worst over {n} plants x 6 joints: M {:.1}% Fc {:.1}% B {:.1}% k {:.1}% backlash {:.1}% overshoot {:.1}% settling {:.1}% joint travel/limit {:.3}; failures {fails}",
         100.0*worst[0],100.0*worst[1],100.0*worst[2],100.0*worst[3],100.0*worst[4],100.0*worst[5],100.0*worst[6],worst[7]);
     Ok(())
 }

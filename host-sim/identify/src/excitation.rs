@@ -27,11 +27,20 @@
 //! One staircase travels `(1 + 2 + 3 + 2 + 1) / 3 v_top T_seg = 3 v_top T_seg` plus the
 //! braking `v_top tau / 3`; a plant within the uncertainty runs up to `(1 + e) / (1 - e)`
 //! faster for the same duty (a smaller `k`), so `v_top` is chosen for that factor times
-//! the travel to stay within the limit. The motor effort `k |i|` (quasi-static
+//! the travel to stay within the part of the limit the encoder sees (the limit less the
+//! backlash, [`Excitation::unseen`]). The motor effort `k |i|` (quasi-static
 //! `|K_u u - k^2 v / R|`) is simulated on the prior over the whole sequence and `v_top`
-//! lowered until the same factor times its peak is within the effort limit. The run
-//! itself (see [`crate::rig::JointRig::record`]) stops the joint if either bound is
-//! crossed all the same.
+//! lowered until the same factor times its peak is within the effort limit.
+//!
+//! The plan cannot bound the travel alone: each level holds the breakaway duty, the
+//! static friction, while the joint slides on its Coulomb friction, lower by the
+//! breakaway ratio (1.2 on the reference robot); the surplus drives every level faster
+//! than planned, by `(u_break - u_coulomb) V / k`, a speed the factor above does not
+//! cover (on a link of the +-30 % plants, 0.0012 of duty: +0.05 rad/s on levels of 0.034,
+//! 0.067 and 0.101 rad/s). So the run watches its travel with the stopping distance at the
+//! measured speed ([`crate::rig::JointRig::record`]): a step that would leave the joint,
+//! braked, beyond the limit is braked instead, and the plan's steps that way end there.
+//! The current is watched against the effort limit likewise (the run stops beyond it).
 
 use plant::joint::{JointKind, JointModel};
 
@@ -55,6 +64,8 @@ pub struct Prior {
     pub viscous: f64,
     /// Bridge supply, V.
     pub supply_v: f64,
+    /// Backlash between the motor (the encoder) and the load, m or rad (0 without).
+    pub backlash: f64,
 }
 
 impl Prior {
@@ -77,10 +88,12 @@ impl Prior {
             coulomb: n * m.motor_friction.coulomb + mu1 * m.load_friction.coulomb,
             viscous: n * n * m.motor_friction.viscous + mu1 * m.load_friction.viscous,
             supply_v: m.bridge.supply,
+            backlash: m.backlash.width,
         }
     }
 
-    /// Checks that every value is finite and positive (the viscous term may be 0).
+    /// Checks that every value is finite and positive (the viscous term and the backlash
+    /// may be 0).
     pub fn validate(&self) -> Result<(), IdentifyError> {
         for (name, value, allow_zero) in [
             ("mass", self.mass, false),
@@ -89,6 +102,7 @@ impl Prior {
             ("coulomb", self.coulomb, true),
             ("viscous", self.viscous, true),
             ("supply_v", self.supply_v, false),
+            ("backlash", self.backlash, true),
         ] {
             let ok = value.is_finite() && (value > 0.0 || (allow_zero && value == 0.0));
             if !ok {
@@ -202,8 +216,28 @@ pub struct Excitation {
     pub predicted_effort: f64,
     /// The current the run stops at: the effort limit over the prior's `k`, A.
     pub current_limit_a: f64,
-    /// The travel the run stops at, m or rad.
+    /// The travel the joint must stay within, m or rad (the stated test travel).
     pub travel_limit: f64,
+    /// The longest time constant of the braked joint within the uncertainty,
+    /// `tau (1 + e)^2 / (1 - e)^2`, s: a joint braked at the speed `v` comes to rest
+    /// within `v` times it (see [`crate::rig::Watch`]).
+    pub stop_time_s: f64,
+    /// The joint's motion the encoder cannot see: the largest backlash within the
+    /// uncertainty, `(1 + e)` times the prior's, m or rad.
+    pub unseen: f64,
+}
+
+impl Excitation {
+    /// What the run watches: the travel and the current it must stay within, and how far
+    /// a braked joint may coast.
+    pub fn watch(&self) -> crate::rig::Watch {
+        crate::rig::Watch {
+            travel: self.travel_limit,
+            current_limit_a: self.current_limit_a,
+            stop_time_s: self.stop_time_s,
+            unseen: self.unseen,
+        }
+    }
 }
 
 /// Simulates the prior's quasi-static model over `duties` (period `period_s`): the
@@ -325,11 +359,22 @@ pub fn design(
         coulomb: friction[0].min(friction[1]) * prior.force_per_duty(),
         ..*prior
     };
-    let mut v_top = limits.travel / (factor * (3.0 * t_seg + tau_slow / 3.0));
+    // The encoder (motor side) reads the travel less what the backlash hides: the plan
+    // keeps to what it can see.
+    let unseen = (1.0 + design.uncertainty) * prior.backlash;
+    let travel = limits.travel - unseen;
+    if travel <= 0.0 {
+        return Err(IdentifyError::NoExcitation(format!(
+            "the test travel {} is within the joint's backlash {unseen}",
+            limits.travel
+        )));
+    }
+    let stop_time_s = prior.time_constant() * factor * factor;
+    let mut v_top = travel / (factor * (3.0 * t_seg + tau_slow / 3.0));
     for _ in 0..8 {
         let (duties, speeds, levels) = staircase(prior, design, v_top, seg, friction);
-        let (travel, effort) = simulate_prior(&simulated, &duties, period_s);
-        let over = (factor * travel / limits.travel).max(factor * effort / limits.effort);
+        let (predicted, effort) = simulate_prior(&simulated, &duties, period_s);
+        let over = (factor * predicted / travel).max(factor * effort / limits.effort);
         if over <= 1.0 {
             let top = levels[0][2].max(levels[1][2]);
             if top >= 1.0 {
@@ -342,10 +387,12 @@ pub fn design(
                 segment_ticks: seg,
                 speeds,
                 levels,
-                predicted_travel: travel,
+                predicted_travel: predicted,
                 predicted_effort: effort,
                 current_limit_a: limits.effort / prior.force_per_amp,
                 travel_limit: limits.travel,
+                stop_time_s,
+                unseen,
             });
         }
         // The excursion and (roughly) the effort grow with the speed: shrink and retry.

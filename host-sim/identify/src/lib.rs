@@ -36,7 +36,7 @@ pub use excitation::{Excitation, ExcitationDesign, ExcitationLimits, Prior};
 pub use lsq::Estimate;
 pub use recording::{Recording, Sample};
 pub use response::{StepResponse, Tracking};
-pub use rig::JointRig;
+pub use rig::{JointRig, Watch};
 pub use tuning::{Tuning, TuningSpec};
 
 use board_profile::BoardProfile;
@@ -126,8 +126,11 @@ pub struct Report {
     pub breakaway: [f64; 2],
     /// The excitation applied.
     pub excitation: Excitation,
-    /// The largest excursion measured during it, m or rad.
+    /// The largest excursion measured during it (the encoder), m or rad.
     pub measured_travel: f64,
+    /// The largest excursion of the joint itself (its load side) over the breakaway and
+    /// the excitation, braking to rest included (the plant's truth), m or rad.
+    pub joint_excursion: f64,
     /// The largest current measured during it, A.
     pub measured_peak_current_a: f64,
     /// The estimates.
@@ -161,7 +164,7 @@ pub fn identify_and_tune(
         rig.period_s(),
         Some(breakaway),
     )?;
-    let rec = bench.record(&exc.duties, exc.travel_limit, exc.current_limit_a)?;
+    let rec = bench.record(&exc.duties, &exc.watch())?;
     let x0 = rec.position(0);
     let measured_travel = (0..rec.samples.len())
         .map(|k| (rec.position(k) - x0).abs())
@@ -192,6 +195,7 @@ pub fn identify_and_tune(
         breakaway,
         excitation: exc,
         measured_travel,
+        joint_excursion: bench.joint_excursion(),
         measured_peak_current_a,
         identified,
         tuning,

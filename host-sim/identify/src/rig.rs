@@ -43,6 +43,23 @@ pub fn pwm_duty(d: f64) -> f64 {
     c.signum() * (c.abs() * PWM_STEPS).floor() / PWM_STEPS
 }
 
+/// What an excitation run watches, every control period (see [`JointRig::record`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Watch {
+    /// The stated test travel: the joint (its load side) stays within it of its start,
+    /// m or rad.
+    pub travel: f64,
+    /// The current the run stops at, A.
+    pub current_limit_a: f64,
+    /// The longest time constant of the braked joint, s: braked (duty 0, the bridge
+    /// shorts the motor) at the speed `v`, `M dv/dt = -B v - Fc sgn v` brings it to rest
+    /// within `v M / B` (the friction only shortens it).
+    pub stop_time_s: f64,
+    /// The joint's motion the encoder cannot see (the backlash: the load moves up to it
+    /// more than the motor side from one flank to the other), m or rad.
+    pub unseen: f64,
+}
+
 /// One sample of a closed-loop run.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TracePoint {
@@ -72,6 +89,7 @@ pub struct JointRig {
     time_s: f64,
     start_q: f64,
     start_count: i64,
+    excursion: f64,
 }
 
 impl JointRig {
@@ -120,6 +138,7 @@ impl JointRig {
             time_s: 0.0,
             start_q,
             start_count,
+            excursion: 0.0,
         })
     }
 
@@ -186,6 +205,9 @@ impl JointRig {
         let dt = self.period_s / f64::from(PLANT_STEPS_PER_TICK);
         for _ in 0..PLANT_STEPS_PER_TICK {
             self.joint.step(dt);
+            self.excursion = self
+                .excursion
+                .max((self.joint.position() - self.start_q).abs());
         }
         self.time_s += self.period_s;
         applied
@@ -204,38 +226,61 @@ impl JointRig {
     }
 
     /// Applies `duties`, one per control period, recording at each tick (before the
-    /// tick's duty is applied) the count, the current and the second channel; stopped with
-    /// an error when the encoder leaves `travel` (m or rad) of the start or the current
-    /// exceeds `current_limit_a`.
-    pub fn record(
-        &mut self,
-        duties: &[f64],
-        travel: f64,
-        current_limit_a: f64,
-    ) -> Result<Recording, IdentifyError> {
+    /// tick's duty is applied) the count, the current and the second channel, within what
+    /// `watch` states:
+    ///
+    /// * **the travel**: the encoder sees the joint's motion less what the backlash hides
+    ///   (`watch.unseen`) and within a count, so it keeps the joint within `travel` by
+    ///   keeping its own reading within `travel - unseen - 1 count`. Each tick, from the
+    ///   position `x` and the speed `v` over the last period (a period behind: the speed
+    ///   at the tick is up to a period's acceleration beyond it), the joint braked now
+    ///   comes to rest within `x + v (T + stop_time_s)`. Where that is beyond the reading's
+    ///   share of the travel and the tick's duty pushes that way, the run brakes instead
+    ///   (duty 0, recorded as applied), and keeps braking while the plan pushes that way:
+    ///   the excitation's steps in that direction end early, the plan's next steps the
+    ///   other way run as planned. A reading beyond its share all the same stops the run
+    ///   with an error (the bound on the braked coast did not hold: a prior far from the
+    ///   joint).
+    /// * **the current**: beyond `current_limit_a` the run stops with an error.
+    pub fn record(&mut self, duties: &[f64], watch: &Watch) -> Result<Recording, IdentifyError> {
+        let seen = watch.travel - watch.unseen - 1.0 / self.counts_per_unit;
         let mut samples = Vec::with_capacity(duties.len() + 1);
+        let mut last: Option<f64> = None;
+        // The direction the run brakes in instead of pushing (0: none).
+        let mut braking = 0.0f64;
         for (tick, u) in duties.iter().enumerate() {
             let (count, current, abs) = self.read();
-            let moved = self.measured_of(count).abs();
-            if moved > travel {
+            let x = self.measured_of(count);
+            if x.abs() > seen {
                 self.stop();
                 return Err(IdentifyError::TravelExceeded {
                     joint: self.name(),
-                    moved,
-                    limit: travel,
+                    moved: x.abs(),
+                    limit: seen,
                     tick,
                 });
             }
-            if current.abs() > current_limit_a {
+            if current.abs() > watch.current_limit_a {
                 self.stop();
                 return Err(IdentifyError::CurrentExceeded {
                     joint: self.name(),
                     current,
-                    limit: current_limit_a,
+                    limit: watch.current_limit_a,
                     tick,
                 });
             }
-            let applied = self.drive(*u);
+            let v = last.map_or(0.0, |p| (x - p) / self.period_s);
+            last = Some(x);
+            let rest = x + v * (self.period_s + watch.stop_time_s);
+            if braking * u < 0.0 {
+                // The plan turned: its steps the other way run.
+                braking = 0.0;
+            }
+            if braking == 0.0 && rest.abs() > seen && rest * u > 0.0 {
+                braking = u.signum();
+            }
+            let planned = if braking * u > 0.0 { 0.0 } else { *u };
+            let applied = self.drive(planned);
             samples.push(Sample {
                 duty: applied,
                 current_a: current,
@@ -372,6 +417,13 @@ impl JointRig {
             self.drive(duty);
         }
         Ok(trace)
+    }
+
+    /// The largest distance the joint (its load side, the plant's true position) has been
+    /// from where it started, over every plant step since: what the person at the robot
+    /// sees move, which no sensor of the board reads exactly (the simulation's truth).
+    pub fn joint_excursion(&self) -> f64 {
+        self.excursion
     }
 
     /// The position where the joint started, joint units (load side).

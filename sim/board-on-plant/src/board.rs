@@ -276,15 +276,23 @@ impl BoardOnPlant {
 
     /// One plant step of `dt` s with the hard stops: a load side driven into a stop (at or
     /// beyond it, its duty not pulling it away) is held there (`load_seized`: the motor
-    /// runs through the backlash onto it and stalls); driven back out, it is free again
-    /// from that step on.
+    /// runs through the backlash onto it and stalls); it is free again from the step its duty pulls it away with an effort
+    /// through the transmission that overcomes the external load pressing it in (a link
+    /// the tool's weight holds on its stop stays there while the drive cannot lift it).
     pub fn step(&mut self, dt: f64) -> Result<(), PlantError> {
         self.apply();
         let duty = self.plant.duty();
         for (j, d) in duty.iter().enumerate() {
+            // The net effort on the load side towards +q: what the transmission carries
+            // (the motor's drive while it pushes on the seized load, nothing while it
+            // crosses the backlash) and the external load.
+            let net = self
+                .plant
+                .joint(j)
+                .map_or(0.0, |jt| jt.transmitted_effort() + jt.external_load());
             let away = match self.at_stop[j] {
-                Some(AtStop::Lower) => *d > 0.0,
-                Some(AtStop::Upper) => *d < 0.0,
+                Some(AtStop::Lower) => *d > 0.0 && net > 0.0,
+                Some(AtStop::Upper) => *d < 0.0 && net < 0.0,
                 None => false,
             };
             if away {

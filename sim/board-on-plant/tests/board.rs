@@ -67,6 +67,53 @@ fn stops_catch_the_joints_driven_into_them_and_free_them_driven_out() -> TestRes
     Ok(())
 }
 
+/// Property: a stop holds the load pressed into it. A link on its lower stop, pressed
+/// into it by an external torque of 0.1 N m (a tool's weight), driven away at a duty
+/// whose stall effort cannot lift it (0.005: `n Kt eta V d / R` = 36 x 0.0234 x 0.9 x
+/// 0.12 V / 2.14 ohm = 0.043 N m), stays on its stop: it never passes the stop's
+/// position, and the stop holds it throughout. (A stop that let go whenever the duty
+/// pointed away let the weight carry the load through it.)
+#[test]
+fn a_stop_holds_a_load_pressed_into_it_against_a_weaker_drive() -> TestResult {
+    let q = [0.170, 0.170, 0.170, 0.0, 0.0, 0.0];
+    let stop = -0.02;
+    let mut l = Layout::NONE;
+    l.stop_below[3] = Some(stop);
+    let mut b = board_at(q)?.with_layout(&l);
+    b.enable();
+    b.set_brakes_released(true);
+    let mut d = [0.0; 6];
+    d[3] = -0.3;
+    b.set_duties(&d);
+    for _ in 0..500 {
+        b.step_ms();
+    }
+    assert_eq!(b.at_stop()[3], Some(AtStop::Lower));
+    let rest = b.plant.joint_positions()[3];
+    b.plant.set_external_load([0.0, 0.0, 0.0, -0.1, 0.0, 0.0])?;
+    d[3] = 0.005;
+    b.set_duties(&d);
+    let mut deepest = rest;
+    let mut let_go = 0;
+    for _ in 0..300 {
+        b.step_ms();
+        deepest = deepest.min(b.plant.joint_positions()[3]);
+        if b.at_stop()[3].is_none() {
+            let_go += 1;
+        }
+    }
+    assert!(
+        deepest >= rest.min(stop) - 1e-9,
+        "the link went {} rad past where it rested on its stop",
+        rest.min(stop) - deepest
+    );
+    assert_eq!(
+        let_go, 0,
+        "the stop let go of the pressed link for {let_go} ms"
+    );
+    Ok(())
+}
+
 /// Property: the relay open (the button, unless welded; or failed open) takes the bridges'
 /// and the brakes' power whatever the MCU drives, and the MCU reads it; forcing the outputs
 /// safe applies the brakes and turns the drivers off.

@@ -506,6 +506,11 @@ impl Joint {
         self.external = load;
     }
 
+    /// The external load (force or torque on the joint towards +q).
+    pub fn external_load(&self) -> f64 {
+        self.external
+    }
+
     /// Enables the H-bridge or turns it off (high-impedance: no current, the motor
     /// coasts). Enabling clears a latched driver fault (the cause may trip it again).
     pub fn set_bridge_enabled(&mut self, enabled: bool) {
@@ -972,14 +977,24 @@ impl Joint {
         self.consts = StepConstants::new(&self.model, dt);
     }
 
-    /// Free flight inside the backlash.
+    /// Free flight inside the backlash. A motor side whose free step would carry it past
+    /// a flank (the contact's solution had the flanks pull: the load side held by its
+    /// stiction against a push it cannot transmit) stops on the flank: it moves by what
+    /// the gap's change and the load side's step leave it, and its velocity is that
+    /// motion's (the velocity the back-EMF and the encoder both read), not the free step's.
     fn fly(&mut self, free_m: VelocityStep, free_l: VelocityStep, predicted_gap: f64, dt: f64) {
         let h = self.model.backlash.half();
+        let gap = predicted_gap.clamp(-h, h);
+        let on_flank = gap != predicted_gap;
+        self.v_motor = if on_flank {
+            free_l.v + (gap - self.gap) / dt
+        } else {
+            free_m.v
+        };
         self.q += dt * free_l.v;
-        self.gap = predicted_gap.clamp(-h, h);
-        self.v_motor = free_m.v;
+        self.gap = gap;
         self.v_load = free_l.v;
-        self.stuck_motor = free_m.stuck;
+        self.stuck_motor = free_m.stuck && !on_flank;
         self.stuck_load = free_l.stuck;
         self.transmitted = 0.0;
     }

@@ -229,21 +229,25 @@ fn triangle_hysteresis(
 /// decelerates the motor side, so at each stop it coasts across the 20 arcsec and leans
 /// on the other flank (real behaviour of a low-friction link; the loop width is
 /// unaffected). The link's dead travel is therefore checked with a stiffer link bearing
-/// (0.2 N m).
+/// (0.2 N m), driven at a duty whose stall effort overcomes its breakaway and the motor
+/// side's (`n Kt eta V d / R`: 0.425 N m at 0.05 against 0.28 N m; at 0.015 the
+/// 0.127 N m could never move it, see
+/// `a_drive_weaker_than_the_loads_stiction_stalls_against_it`).
 #[test]
 fn backlash_shows_as_hysteresis_on_a_slow_triangle_wave() -> TestResult {
     let duty = [0.02, 0.02, 0.02, 0.015, 0.015, 0.015];
+    let sticky_duty = [0.02, 0.02, 0.02, 0.05, 0.05, 0.05];
     let mut sticky = PlantConfig::default();
     for r in &mut sticky.rotary {
         r.load_coulomb_friction_nm = 0.2;
     }
-    // (config, read counts?, joints whose dead travel is checked)
+    // (config, duty, read counts?, joints whose dead travel is checked)
     let cases = [
-        (PlantConfig::default(), true, 0..3),
-        (PlantConfig::default(), false, 0..0),
-        (sticky, false, 3..6),
+        (PlantConfig::default(), duty, true, 0..3),
+        (PlantConfig::default(), duty, false, 0..0),
+        (sticky, sticky_duty, false, 3..6),
     ];
-    for (cfg, use_counts, dead_joints) in cases {
+    for (cfg, duty, use_counts, dead_joints) in cases {
         let mut p = Plant::new(&cfg)?;
         p.set_joint_positions(HOME)?;
         let res = triangle_hysteresis(&mut p, duty, 0.3, use_counts, true)?;
@@ -423,6 +427,68 @@ fn zero_backlash_is_a_rigid_transmission() -> TestResult {
     for (j, (_, width)) in res.iter().enumerate() {
         assert_eq!(*width, 0.0, "joint {j}");
         assert_eq!(p.joint(j)?.gap(), 0.0, "joint {j}");
+    }
+    Ok(())
+}
+
+/// Property: a drive weaker than its load's stiction stalls against it, as one body. A
+/// link whose bearing holds 0.2 N m, driven back and forth on the half-sine duty of the
+/// hysteresis test at 0.015 (its stall effort `n Kt eta V d / R` = 36 x 0.0234 x 0.9 x
+/// 0.36 V / 2.14 ohm = 0.127 N m), crosses the backlash each time and stops on the
+/// flank: the load never moves by more than the backlash, and a motor side whose position
+/// stands still over a step has no velocity (the back-EMF and the encoder read the same
+/// motor). A motor side that kept the velocity of its free step while the flank held its
+/// position drew the current of a turning motor with a still encoder (the samples of a
+/// dead encoder) and pushed the load on by the momentum it never lost.
+#[test]
+fn a_drive_weaker_than_the_loads_stiction_stalls_against_it() -> TestResult {
+    let mut cfg = PlantConfig::default();
+    for r in &mut cfg.rotary {
+        r.load_coulomb_friction_nm = 0.2;
+    }
+    let mut p = Plant::new(&cfg)?;
+    p.set_joint_positions(HOME)?;
+    let d = 0.015;
+    let steps = (0.3 / DT) as usize;
+    let q0 = p.joint_positions();
+    let mut moved = [0.0f64; NUM_JOINTS];
+    let mut spinning = [0.0f64; NUM_JOINTS];
+    for cycle in 0..4 {
+        let sign = if cycle % 2 == 0 { 1.0 } else { -1.0 };
+        for k in 0..steps {
+            let shape = (std::f64::consts::PI * (k as f64 + 0.5) / steps as f64).sin();
+            p.set_duty([
+                0.0,
+                0.0,
+                0.0,
+                sign * d * shape,
+                sign * d * shape,
+                sign * d * shape,
+            ])?;
+            let before = p.motor_side_joint_positions();
+            p.step(DT)?;
+            let after = p.motor_side_joint_positions();
+            let v = p.motor_side_joint_velocities();
+            for j in 3..6 {
+                moved[j] = moved[j].max((p.joint_positions()[j] - q0[j]).abs());
+                if after[j] == before[j] {
+                    spinning[j] = spinning[j].max(v[j].abs());
+                }
+            }
+        }
+    }
+    for j in 3..6 {
+        let b = p.joint(j)?.model().backlash.width;
+        assert!(
+            moved[j] <= b,
+            "joint {j}: the load moved {} rad > the backlash {b} rad",
+            moved[j]
+        );
+        assert!(
+            spinning[j] == 0.0,
+            "joint {j}: the motor side stood still at {} rad/s",
+            spinning[j]
+        );
     }
     Ok(())
 }
