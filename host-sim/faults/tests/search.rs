@@ -735,6 +735,39 @@ fn counterexamples_of_the_oracles_hold_now() {
                 A::Fault(DriverFault(5)),
             ],
         ),
+        (
+            "SR-5: a welded safety relay shown twice, 18 ms with the button pressed, then \
+             21 ms from the next press to its detection (the chain's debounce restarts when \
+             the button and the relay agree), was judged as 24 ms of showing against 23 ms",
+            Start::Following,
+            vec![
+                A::Fault(RelayWelded),
+                A::Command(Disable),
+                A::Wait(18),
+                A::Button(false),
+                A::Foreign(ReplayHelloEnable),
+                A::Command(StoreGeometry),
+                A::Wait(384),
+                A::Command(Operator(true)),
+                A::Command(Hello),
+                A::Wait(244),
+                A::Wait(353),
+                A::Jog {
+                    joint: 3,
+                    velocity: -9,
+                    ms: 363,
+                },
+                A::Button(true),
+                A::Push {
+                    plus: true,
+                    depth_um: 120,
+                },
+                A::Wait(323),
+                A::Foreign(Replay { back: 39 }),
+                A::Fault(MotorOpen(4)),
+                A::Wait(226),
+            ],
+        ),
     ];
     let mut failed = Vec::new();
     for (what, start, actions) in &cases {
