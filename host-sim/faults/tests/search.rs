@@ -965,6 +965,64 @@ fn counterexamples_found_once_hold_now() {
                 },
             ],
         ),
+        (
+            "SR-3: the e-stop button's latch, the owner's ClearFault and Home { rehome } \
+             answered in one tick during a hold (SOS): the ClearFault, sent before the \
+             owner could know of the stop, ended the STO and the Home started homing under \
+             power",
+            Start::Following,
+            {
+                use Cmd::*;
+                use Foreign::*;
+                use Injection::*;
+                vec![
+                    A::Fault(EncoderLosesCounts(1)),
+                    A::Push {
+                        plus: true,
+                        depth_um: 136,
+                    },
+                    A::Command(Status),
+                    A::Foreign(FarAhead(Status)),
+                    A::Silence(465),
+                    A::Wait(0),
+                    A::Button(true),
+                    A::Command(ClearFault),
+                    A::Command(Home { rehome: true }),
+                    A::Repair,
+                    A::Fault(RelayStuckOpen),
+                    A::Push {
+                        plus: false,
+                        depth_um: 293,
+                    },
+                    A::Fault(SwitchDead(2)),
+                    A::Command(AckReset),
+                    A::Push {
+                        plus: true,
+                        depth_um: 239,
+                    },
+                    A::Button(false),
+                    A::Jog {
+                        joint: 5,
+                        velocity: 25,
+                        ms: 565,
+                    },
+                    A::Foreign(StampedMax),
+                ]
+            },
+        ),
+        (
+            "SR-3: the e-stop button pressed and released during a hold, the owner's \
+             ClearFault and Home { rehome } answered in the tick that latched it",
+            Start::Following,
+            vec![
+                A::Silence(200),
+                A::Button(true),
+                A::Button(false),
+                A::Command(Cmd::ClearFault),
+                A::Command(Cmd::Home { rehome: true }),
+                A::Wait(300),
+            ],
+        ),
     ];
     let mut failed = Vec::new();
     for (what, start, actions) in &cases {
