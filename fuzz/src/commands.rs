@@ -25,9 +25,12 @@
 //!   no stop in force, each duty within the check's) or in SS1's braking phase (IEC 61800-5-2:
 //!   the brakes engage while the drives still hold);
 //! * an `EmergencyStop` request leaves the runtime in `Fault` at once, and after the tick
-//!   that handled it the bridges are off and the brakes applied (unless a `ClearFault` was
-//!   acknowledged after it in the same tick); a pressed e-stop button gives, by the end of
-//!   the tick that read it, `Fault`, torque off and brakes applied.
+//!   that handled it the bridges are off and the brakes applied; a pressed e-stop button
+//!   gives, by the end of the tick that read it, `Fault`, torque off and brakes applied;
+//! * no request answered in a tick whose start took the e-stop latch (the button's ISR, an
+//!   `EmergencyStop` frame's receive path) leaves `Fault`: no status has reported the stop
+//!   yet, so the request was sent before its master could know of it and does not end it
+//!   (`control::modes`: a `ClearFault` of that tick is refused).
 
 use std::sync::OnceLock;
 
@@ -401,9 +404,10 @@ pub struct Board {
     master_rx: MasterDecoder,
     /// The central pose's height, m.
     hc: f32,
-    /// An `EmergencyStop` was handled and no `ClearFault` acknowledged since: the drives
-    /// must be off after this tick.
+    /// An `EmergencyStop` was handled in this tick: the drives must be off after it.
     estop_pending: bool,
+    /// This tick's start took the e-stop latch: no request of the tick leaves `Fault`.
+    estop_latched_now: bool,
     /// Which known findings fail the checks ([`Strict`]).
     strict: Strict,
     /// No tick since the boot: the encoder check has no earlier reading to compare with.
@@ -467,6 +471,7 @@ impl Board {
             master_rx: MasterDecoder::new(),
             hc,
             estop_pending: false,
+            estop_latched_now: false,
             strict,
             first_reading: matches!(start, Start::Booted | Start::Rebooted(_)),
             requests: 0,
@@ -796,6 +801,7 @@ impl Board {
         self.now += dt_us;
         let missed = (dt_us / PERIOD_US).saturating_sub(1);
         let now = self.now;
+        self.estop_latched_now = self.latch.is_tripped();
         self.service.begin(now, missed, self.latch.take());
         for req in std::mem::take(&mut self.queue) {
             let reply = self.service.request(&req, now);
@@ -919,13 +925,15 @@ impl Board {
         };
         assert!(fits, "{:?} answered {reply:?}", req.message);
         assert_eq!(rt.status().state, rt.state(), "status state");
-        match req.message {
-            Command::EmergencyStop => {
-                assert_eq!(rt.state(), State::Fault, "state after an EmergencyStop");
-                self.estop_pending = true;
-            }
-            Command::ClearFault if ack => self.estop_pending = false,
-            _ => {}
+        assert!(
+            !self.estop_latched_now || rt.state() == State::Fault,
+            "{:?} ({reply:?}) ended the emergency stop latched at the start of its tick: {:?}",
+            req.message,
+            rt.state()
+        );
+        if req.message == Command::EmergencyStop {
+            assert_eq!(rt.state(), State::Fault, "state after an EmergencyStop");
+            self.estop_pending = true;
         }
     }
 
@@ -1444,11 +1452,13 @@ mod tests {
     /// session open from the next tick on, as the board issues it); `EmergencyStop`,
     /// `ClearFault` and `Enable` arrive before the following tick. The receive path forces the
     /// outputs safe (`emergency_stop_message`: bridges off, brakes applied); the tick takes
-    /// the latch and the requests: `Fault`, cleared (`Ready`), `Enabling`. The runtime used
-    /// to believe its bridges still on and drove disabled bridges until the open-motor
-    /// monitor latched a `MotorOpen` the motors do not have. Property: with every check
-    /// strict, the torque flag and the bridges agree, the enable goes on without a fault,
-    /// and the message's e-stop is logged once, as the message's.
+    /// the latch and the requests: `Fault`, and the `ClearFault` and `Enable` of that tick
+    /// refused (sent before the master could know of the stop); sent again after it:
+    /// cleared (`Ready`), `Enabling`. The runtime used to believe its bridges still on and
+    /// drove disabled bridges until the open-motor monitor latched a `MotorOpen` the
+    /// motors do not have. Property: with every check strict, the torque flag and the
+    /// bridges agree, the enable goes on without a fault, and the message's e-stop is
+    /// logged once, as the message's.
     #[test]
     fn finding_3_estop_path_is_seen_by_the_next_enable() {
         let actions = [
@@ -1464,6 +1474,9 @@ mod tests {
             frame(Msg::Any(MasterToBoard::EmergencyStop)),
             frame(Msg::Any(MasterToBoard::ClearFault)),
             frame(Msg::Any(MasterToBoard::Enable)),
+            ticks(1),
+            frame(Msg::Any(MasterToBoard::ClearFault)),
+            frame(Msg::Any(MasterToBoard::Enable)),
             ticks(18),
         ];
         let mut b = Board::new(Start::Enabled, Strict::ALL);
@@ -1471,14 +1484,20 @@ mod tests {
             b.act(a);
         }
         let rt = b.service.runtime();
-        // Still enabled after the reconnect; enabling again after the stop and the clear.
+        // Still enabled after the reconnect; the stop's tick ends in `Fault`; enabling
+        // again after the clear.
         assert_eq!(
             b.outcome.states,
-            vec![State::Enabled, State::Enabling],
+            vec![State::Enabled, State::Fault, State::Enabling],
             "{:?}",
             b.outcome
         );
-        assert!(b.outcome.nacks.is_empty(), "{:?}", b.outcome);
+        assert_eq!(
+            b.outcome.nacks,
+            vec![NackReason::Busy, NackReason::Faulted],
+            "the ClearFault and the Enable of the stop's tick: {:?}",
+            b.outcome
+        );
         assert_eq!(b.outcome.stale_outputs, 0, "{:?}", b.outcome);
         let log = rt.fault_log().page(0);
         let causes: Vec<FaultCause> = log

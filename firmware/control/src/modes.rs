@@ -25,7 +25,9 @@
 //!
 //! **A stop in force is never weakened.** `Stopping` and `Fault` carry a stop: no command
 //! ends it early (`Home`, `Enable` and `StoreGeometry` are refused until it has ended,
-//! `ClearFault` of a stop under power continues it as an SS1 to rest), and a new stop
+//! `ClearFault` of a stop under power continues it as an SS1 to rest, and no command
+//! answered before a status reported the fault ends its stop: it was sent before its
+//! master could know of the stop), and a new stop
 //! replaces it only if it is stronger ([`crate::stops::Stopper::request`]). The holds of
 //! `Holding` are ended by their own cause going away (the clutch released, the operator's
 //! hand back, the heartbeat back).
@@ -452,6 +454,12 @@ pub struct Context {
     /// the latched causes). Only `ClearFault` ends such a stop: no command that moves a
     /// joint also resets it (ISO 13850's restart interlock).
     pub emergency_stop: bool,
+    /// `Fault`: a fault was latched since the last tick ended (the e-stop latch taken at
+    /// the start of the tick that answers the command, an earlier request of that tick).
+    /// No status has reported it yet, so the command was sent before its master could
+    /// know of the stop: it does not end that stop (`ClearFault`, `Commission { confirm }`
+    /// refused as `Busy`; the master sends it again once it has seen the fault).
+    pub unreported: bool,
 }
 
 /// The transition table: the mode after `event` in `mode`, or why the event is refused.
@@ -528,6 +536,9 @@ pub const fn next(mode: ModeKind, event: Event, cx: Context) -> Result<ModeKind,
         (E::Commission { confirm: true }, M::Fault) if !cx.powered && cx.emergency_stop => {
             Err(Refusal::Faulted)
         }
+        (E::Commission { confirm: true }, M::Fault) if !cx.powered && cx.unreported => {
+            Err(Refusal::Busy)
+        }
         (E::Commission { confirm: true }, M::Fault) if !cx.powered && cx.reset_pending => {
             Err(Refusal::ResetNotAcknowledged)
         }
@@ -576,6 +587,7 @@ pub const fn next(mode: ModeKind, event: Event, cx: Context) -> Result<ModeKind,
         (E::Target, M::Fault) => Err(Refusal::Faulted),
 
         (E::ClearFault, M::Fault) if cx.cause_active => Err(Refusal::FaultStillActive),
+        (E::ClearFault, M::Fault) if cx.unreported => Err(Refusal::Busy),
         (E::ClearFault, M::Fault) if cx.powered => Ok(M::Stopping),
         (E::ClearFault, M::Fault) if cx.homed => Ok(M::Ready),
         (E::ClearFault, M::Fault) => Ok(M::Disabled),
@@ -635,6 +647,11 @@ fn contexts(mode: ModeKind, event: Event) -> &'static [(Context, &'static str)] 
         reset_pending: false,
         chain_untrusted: false,
         emergency_stop: false,
+        unreported: false,
+    };
+    const NOW: Context = Context {
+        unreported: true,
+        ..BASE
     };
     const RESET: Context = Context {
         reset_pending: true,
@@ -701,6 +718,7 @@ fn contexts(mode: ModeKind, event: Event) -> &'static [(Context, &'static str)] 
                 },
                 "after an emergency stop",
             ),
+            (NOW, "not reported yet"),
             (RESET, "reset not acknowledged"),
             (CHAIN, "relay test pending"),
             (BASE, "otherwise, torque off"),
@@ -728,6 +746,7 @@ fn contexts(mode: ModeKind, event: Event) -> &'static [(Context, &'static str)] 
                 },
                 "cause present",
             ),
+            (NOW, "not reported yet"),
             (
                 Context {
                     powered: true,

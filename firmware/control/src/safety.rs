@@ -145,6 +145,7 @@ impl Requirement {
                 "firmware/control/tests/modes.rs::random_sequences_never_weaken_a_stop",
                 "firmware/control/tests/stops.rs::stops_only_escalate_and_a_lost_standstill_is_sto",
                 "host-sim/simulation/tests/stop_precedence.rs::home_and_store_geometry_never_weaken_a_stop",
+                "firmware/control/tests/failsafe.rs::no_command_of_the_tick_that_latched_an_emergency_stop_ends_it",
             ],
             Requirement::Torque => &[
                 SEARCH,

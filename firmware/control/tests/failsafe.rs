@@ -308,9 +308,11 @@ fn emergency_stop_from_every_state() {
 }
 
 /// Property: after the e-stop path forced the outputs safe behind the runtime's back, a
-/// fault cleared and an enable accepted before any tick ran with the torque off switch the
-/// bridges on again: the runtime never drives disabled bridges nor releases the brakes
-/// without torque (fuzz finding 3, `fuzz/regressions/commands-finding-3-*`).
+/// `ClearFault` and an `Enable` answered in the tick that latched the stop are refused
+/// (sent before the master could know of the stop, they do not end it); sent again after
+/// that tick, the fault is cleared and the enable switches the bridges on again: the
+/// runtime never drives disabled bridges nor releases the brakes without torque (fuzz
+/// finding 3, `fuzz/regressions/commands-finding-3-*`).
 #[test]
 fn the_estop_path_forcing_outputs_safe_is_seen_by_the_next_enable() {
     use hal::{Brakes, MotorOutputs};
@@ -331,6 +333,22 @@ fn the_estop_path_forcing_outputs_safe_is_seen_by_the_next_enable() {
     svc.begin(now, 0, latch.take());
     let rt = svc.runtime_mut();
     assert_eq!(rt.state(), State::Fault);
+    rt.command(&MasterToBoard::Heartbeat, now).unwrap();
+    assert_eq!(
+        rt.command(&MasterToBoard::ClearFault, now),
+        Err(NackReason::Busy),
+        "a ClearFault in the tick that latched the stop"
+    );
+    assert_eq!(
+        rt.command(&MasterToBoard::Enable, now),
+        Err(NackReason::Faulted)
+    );
+    let out = svc.tick(&mut hw, now);
+    assert!(!out.drives_on && !hw.enabled && !hw.brakes_released);
+    hw.step_ms();
+    let now = now + 1000;
+    svc.begin(now, 0, latch.take());
+    let rt = svc.runtime_mut();
     rt.command(&MasterToBoard::Heartbeat, now).unwrap();
     rt.command(&MasterToBoard::ClearFault, now).unwrap();
     rt.command(&MasterToBoard::Enable, now).unwrap();
@@ -357,6 +375,67 @@ fn the_estop_path_forcing_outputs_safe_is_seen_by_the_next_enable() {
     let st = svc.runtime().status();
     assert_eq!(svc.runtime().state(), State::Enabled, "{:?}", st.fault);
     assert!(st.faults.is_empty(), "{:?}", st.faults);
+}
+
+/// Property (SR-3): the commands answered in the tick whose start latched an emergency
+/// stop were sent before their master could know of the stop, and none ends it: from
+/// every state, the button's latch (the button released again before the tick) with
+/// `ClearFault`, `Home { rehome }`, `Enable` and `Commission { confirm }` queued, each is
+/// refused and the tick ends in `Fault` with STO, the drives off and the brakes applied;
+/// from `Enabled`, the `ClearFault` of the next tick is taken (the robot `Ready`).
+#[test]
+fn no_command_of_the_tick_that_latched_an_emergency_stop_ends_it() {
+    use hal::{Brakes, MotorOutputs};
+    for (state, rt, mut hw, t) in snapshots() {
+        if state == State::Boot {
+            continue;
+        }
+        let cfg = ServiceConfig::for_period(
+            PROFILE.control_period_us,
+            PROFILE.cpu_hz,
+            control::link::FIRMWARE_VERSION,
+        );
+        let mut svc = TickService::new(rt, cfg);
+        // The ISR: bridges off, brakes applied, the latch tripped.
+        let latch = EStopLatch::new();
+        MotorOutputs::disable(&mut hw);
+        Brakes::set_brakes_released(&mut hw, false);
+        latch.trip();
+        let now = t + 1000;
+        svc.begin(now, 0, latch.take());
+        for msg in [
+            MasterToBoard::Heartbeat,
+            MasterToBoard::ClearFault,
+            MasterToBoard::Home { rehome: true },
+            MasterToBoard::Enable,
+            MasterToBoard::Commission {
+                joint: 0,
+                confirm: true,
+            },
+        ] {
+            let r = svc.runtime_mut().command(&msg, now);
+            let refused = msg == MasterToBoard::Heartbeat || r.is_err();
+            assert!(refused, "{msg:?} from {state:?}: {r:?}");
+        }
+        svc.tick(&mut hw, now);
+        let st = svc.runtime().status();
+        assert_eq!(st.state, State::Fault, "from {state:?}");
+        assert_eq!(st.stop, StopStatus::SafeTorqueOff, "from {state:?}");
+        assert!(!hw.enabled && !hw.brakes_released, "from {state:?}");
+        if state == State::Enabled {
+            hw.step_ms();
+            let now = now + 1000;
+            svc.begin(now, 0, latch.take());
+            let rt = svc.runtime_mut();
+            rt.command(&MasterToBoard::Heartbeat, now).unwrap();
+            assert_eq!(
+                rt.command(&MasterToBoard::ClearFault, now),
+                Ok(control::link::Answer::Ack),
+                "the next tick's ClearFault"
+            );
+            assert_eq!(rt.state(), State::Ready);
+        }
+    }
 }
 
 /// Property: the button's hard-wired channel stops the robot without the MCU (the relay

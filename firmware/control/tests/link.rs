@@ -463,6 +463,8 @@ fn every_message_round_trips_with_its_reply() {
         page.entries[0].record.cause,
         FaultCause::EmergencyStopMessage
     );
+    // Cleared once a tick has reported the stop.
+    run(&mut b, 1);
     let (s, r) = exchange(&mut m, &mut b, &MasterToBoard::ClearFault);
     assert_eq!(r, ack(s));
     assert_eq!(b.rt.state(), State::Ready);
@@ -510,6 +512,8 @@ fn commands_before_hello_are_refused_except_the_emergency_stop() {
     assert_eq!(r, BoardToMaster::Ack { seq: s });
     assert_eq!(b.rt.state(), State::Fault);
     hello(&mut m, &mut b);
+    // Cleared once a tick has reported the stop.
+    run(&mut b, 1);
     let (s, r) = exchange(&mut m, &mut b, &MasterToBoard::ClearFault);
     assert_eq!(r, BoardToMaster::Ack { seq: s });
     assert_eq!(b.rt.state(), State::Disabled);
@@ -864,7 +868,9 @@ fn an_older_session_is_refused_but_never_an_emergency_stop() {
     assert_eq!(replies.len(), 1);
     assert_eq!(b.rt.state(), State::Fault);
     assert_eq!(b.rt.status().fault.cause, FaultCause::EmergencyStopMessage);
-    // And a replayed emergency stop of the current session, out of order: taken too.
+    // And a replayed emergency stop of the current session, out of order: taken too
+    // (after a tick has reported the first and the master cleared it).
+    run(&mut b, 1);
     let (s, r) = exchange(&mut m2, &mut b, &MasterToBoard::ClearFault);
     assert_eq!(r, BoardToMaster::Ack { seq: s });
     let replay = frame_in(&MasterToBoard::EmergencyStop, m2.session, 0);

@@ -841,6 +841,7 @@ fn context_of(b: &Bench) -> Context {
         reset_pending: !b.rt.reset().acknowledged,
         chain_untrusted: b.rt.relay_test_pending(),
         emergency_stop: b.rt.emergency_stop_latched(),
+        unreported: b.rt.fault_unreported(),
     }
 }
 
@@ -873,6 +874,8 @@ fn fault_bits_and_homing_validity() {
             );
             continue;
         }
+        // The master clears what a status has reported: after a tick.
+        b.tick(false);
         b.send(&MasterToBoard::ClearFault).unwrap();
         b.run_until(2_000, |rt| rt.mode().kind() != ModeKind::Stopping);
         let back = if loses { State::Disabled } else { State::Ready };

@@ -735,6 +735,39 @@ fn counterexamples_of_the_oracles_hold_now() {
                 A::Fault(DriverFault(5)),
             ],
         ),
+        (
+            "SR-5: a welded safety relay shown twice, 18 ms with the button pressed, then \
+             21 ms from the next press to its detection (the chain's debounce restarts when \
+             the button and the relay agree), was judged as 24 ms of showing against 23 ms",
+            Start::Following,
+            vec![
+                A::Fault(RelayWelded),
+                A::Command(Disable),
+                A::Wait(18),
+                A::Button(false),
+                A::Foreign(ReplayHelloEnable),
+                A::Command(StoreGeometry),
+                A::Wait(384),
+                A::Command(Operator(true)),
+                A::Command(Hello),
+                A::Wait(244),
+                A::Wait(353),
+                A::Jog {
+                    joint: 3,
+                    velocity: -9,
+                    ms: 363,
+                },
+                A::Button(true),
+                A::Push {
+                    plus: true,
+                    depth_um: 120,
+                },
+                A::Wait(323),
+                A::Foreign(Replay { back: 39 }),
+                A::Fault(MotorOpen(4)),
+                A::Wait(226),
+            ],
+        ),
     ];
     let mut failed = Vec::new();
     for (what, start, actions) in &cases {
@@ -930,6 +963,64 @@ fn counterexamples_found_once_hold_now() {
                     speed_mm_s: 5,
                     ms: 551,
                 },
+            ],
+        ),
+        (
+            "SR-3: the e-stop button's latch, the owner's ClearFault and Home { rehome } \
+             answered in one tick during a hold (SOS): the ClearFault, sent before the \
+             owner could know of the stop, ended the STO and the Home started homing under \
+             power",
+            Start::Following,
+            {
+                use Cmd::*;
+                use Foreign::*;
+                use Injection::*;
+                vec![
+                    A::Fault(EncoderLosesCounts(1)),
+                    A::Push {
+                        plus: true,
+                        depth_um: 136,
+                    },
+                    A::Command(Status),
+                    A::Foreign(FarAhead(Status)),
+                    A::Silence(465),
+                    A::Wait(0),
+                    A::Button(true),
+                    A::Command(ClearFault),
+                    A::Command(Home { rehome: true }),
+                    A::Repair,
+                    A::Fault(RelayStuckOpen),
+                    A::Push {
+                        plus: false,
+                        depth_um: 293,
+                    },
+                    A::Fault(SwitchDead(2)),
+                    A::Command(AckReset),
+                    A::Push {
+                        plus: true,
+                        depth_um: 239,
+                    },
+                    A::Button(false),
+                    A::Jog {
+                        joint: 5,
+                        velocity: 25,
+                        ms: 565,
+                    },
+                    A::Foreign(StampedMax),
+                ]
+            },
+        ),
+        (
+            "SR-3: the e-stop button pressed and released during a hold, the owner's \
+             ClearFault and Home { rehome } answered in the tick that latched it",
+            Start::Following,
+            vec![
+                A::Silence(200),
+                A::Button(true),
+                A::Button(false),
+                A::Command(Cmd::ClearFault),
+                A::Command(Cmd::Home { rehome: true }),
+                A::Wait(300),
             ],
         ),
     ];

@@ -106,6 +106,9 @@ pub struct Runtime<S: Scalar, M: Mechanism<S> + Clone> {
     last_target_us: u64,
     /// Targets refused with what was measured (see [`Refused`]).
     refused: Refused,
+    /// A fault was latched since the last tick ended (the e-stop latch taken at a tick's
+    /// start, a request): no status has reported it yet.
+    unreported: bool,
 }
 
 /// Target refusals for the link: the supervisor's refusal of the target being submitted
@@ -183,6 +186,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             refusals: 0,
             last_target_us: 0,
             refused: Refused::default(),
+            unreported: false,
             cfg,
         })
     }
@@ -348,6 +352,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             reset_pending: !self.reset.acknowledged,
             chain_untrusted: !self.monitors.chain.trusted(),
             emergency_stop: self.emergency_stop_latched(),
+            unreported: self.fault_unreported(),
         }
     }
 
@@ -514,12 +519,21 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
         }
         self.check_channel(now_us);
         self.update_warnings(now_us);
+        // The status of this tick reports every fault latched so far.
+        self.unreported = false;
         RuntimeTick {
             state: self.state(),
             control: step.control,
             homing: step.homing,
             drives_on: self.outputs.torque_on(),
         }
+    }
+
+    /// In `Fault`, with a fault latched since the last tick ended: no status has reported
+    /// it, so a command answered now was sent before its master could know of the stop,
+    /// and does not end it (`modes::Context::unreported`).
+    pub fn fault_unreported(&self) -> bool {
+        self.unreported && matches!(self.mode, Mode::Fault { .. })
     }
 
     /// The e-stop path put the outputs in their safe state behind the runtime's back

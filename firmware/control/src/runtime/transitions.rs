@@ -544,6 +544,7 @@ impl<S: Scalar, M: Mechanism<S> + Clone> Runtime<S, M> {
             stop,
             homed,
         };
+        self.unreported = true;
         if !homed {
             self.sensing.lose_reference();
         }

@@ -73,10 +73,23 @@ pub enum Shows {
     /// While the board is enabling (the brake check).
     Enabling,
     /// While the safety relay disagrees with the e-stop button (pressed and closed, or
-    /// released and open).
+    /// released and open); its time counts from the start of each unbroken disagreement
+    /// ([`Shows::restarts`]).
     RelayDisagrees,
     /// Its time is not judged (the consequences are: SR-1, SR-2).
     Unjudged,
+}
+
+impl Shows {
+    /// Its time of showing starts again whenever it stops showing: the detector judges
+    /// only an unbroken stretch. The safety chain's check is a debounce (the relay's
+    /// switching time, 20 control periods) that restarts whenever the button and the
+    /// relay agree: every press and release of a sound chain disagrees for the relay's
+    /// switching time, so a disagreement shorter than the debounce is not a fault, and
+    /// stretches broken by agreement do not add up.
+    pub fn restarts(self) -> bool {
+        matches!(self, Shows::RelayDisagrees)
+    }
 }
 
 /// What the board must make of an injected fault.

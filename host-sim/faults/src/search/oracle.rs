@@ -866,6 +866,8 @@ impl Oracle {
                 };
             if shows {
                 pd.shown_us += period;
+            } else if pd.spec.shows.restarts() {
+                pd.shown_us = 0;
             }
             // The motion before the detection is judged under the supervisor's speed
             // limit (homing moves at its own speeds, SR-1 judges it), over each stretch
