@@ -10,7 +10,8 @@
 #      emulator's stage built them;
 #   3. its tests (the figures the scenarios compute, e.g. the best-fitting delay; and
 #      tests/commissioning.rs: the image with the second position channel, miswired in
-#      the emulator's mechanics, commissioned by host-sim commission's loop);
+#      the emulator's mechanics (every kind of miswiring on every joint: a straight robot
+#      and six miswired ones), commissioned by host-sim commission's loop);
 #   4. every closed-loop scenario, twice at once (this process and a child process), each
 #      check printed with its figures, the two runs' digests compared; at the same time
 #   5. the NUCLEO-F429ZI's release image (built by the same build-and-size.sh) on its own
