@@ -395,7 +395,9 @@ fn write_bound(out: &mut impl fmt::Write, r: Requirement, b: &Bounds) -> fmt::Re
     match r {
         Requirement::Range => out.write_str(
             "no contact with an end stop (legs: 1 mm beyond `Mechanics::range`); a link's \
-             hard stop (central +- `link_stop_below_central_rad`) only while homing",
+             hard stop (central +- `link_stop_below_central_rad`) only while homing, or \
+             coasting on, torque off, within the brakes' engage time after a stop ended a \
+             homing that swept it there",
         ),
         Requirement::StopDistance => write!(
             out,

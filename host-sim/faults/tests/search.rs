@@ -768,6 +768,58 @@ fn counterexamples_of_the_oracles_hold_now() {
                 A::Wait(226),
             ],
         ),
+        (
+            "SR-1: homing swept link joint 3 towards its hard stop at 0.435 rad/s when a \
+             supply sag's STO cut the torque; the link coasted the last 2.7 mrad onto the \
+             stop at 0.35 rad/s, in Fault: the homing's own contact, slower",
+            Start::Homing,
+            vec![
+                A::Stream {
+                    x_mm: -2,
+                    z_mm: 1,
+                    speed_mm_s: 15,
+                    ms: 578,
+                },
+                A::Foreign(StampedMax),
+                A::Stream {
+                    x_mm: -11,
+                    z_mm: 0,
+                    speed_mm_s: 19,
+                    ms: 1209,
+                },
+                A::Stream {
+                    x_mm: 15,
+                    z_mm: 0,
+                    speed_mm_s: 24,
+                    ms: 1262,
+                },
+                A::Wait(14),
+                A::Foreign(ReplayHelloEnable),
+                A::Stream {
+                    x_mm: -2,
+                    z_mm: 5,
+                    speed_mm_s: 18,
+                    ms: 26,
+                },
+                A::Command(Status),
+                A::Foreign(Replay { back: 15 }),
+                A::Stream {
+                    x_mm: -13,
+                    z_mm: -4,
+                    speed_mm_s: 8,
+                    ms: 1061,
+                },
+                A::Foreign(FutureTarget { ahead_ms: 898 }),
+                A::Jog {
+                    joint: 4,
+                    velocity: 0,
+                    ms: 480,
+                },
+                A::Fault(SupplySag),
+                A::Command(Clutch(true)),
+                A::Wait(200),
+            ],
+        ),
     ];
     let mut failed = Vec::new();
     for (what, start, actions) in &cases {

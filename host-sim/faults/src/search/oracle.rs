@@ -143,6 +143,9 @@ pub struct Oracle {
     /// Each joint's home position and its switch's travel (m, rad): where a switch
     /// closed before the references is plausible.
     home: [(f64, f64); 6],
+    /// When the board last left `Homing` (µs): a link homing swept towards its hard stop
+    /// coasts on for up to the brakes' engage time after a stop cut its torque.
+    left_homing_us: Option<u64>,
     /// Where each joint last rested against a hard stop (m, rad), while it stays there.
     rest: [Option<f64>; 6],
     foreign: bool,
@@ -206,6 +209,7 @@ impl Oracle {
                     .get(j)
                     .map_or((f64::NAN, 0.0), |h| (h.home_position, h.switch_travel_max))
             }),
+            left_homing_us: None,
             rest: [None; 6],
             foreign: false,
             cleared: false,
@@ -327,13 +331,28 @@ impl Oracle {
         self.prev = Some(snap);
     }
 
-    /// SR-1: a leg never meets its end stop; a link meets its hard stop only while homing.
+    /// SR-1: a leg never meets its end stop; a link meets its hard stop only while homing,
+    /// or coasting on within the brakes' engage time after a stop ended a homing: its sweep
+    /// went towards that stop, which the homing meets anyway (under power, at the sweep's
+    /// speed; the coast only slows).
     ///
     /// A joint arrives at a hard stop when it touches it after it had moved off it: the
     /// plant's contact flag of a joint resting against its stop (where homing put a link)
     /// comes and goes with the push of its drive, and the joint has not moved.
     fn range(&mut self, now: u64, s: &Snap, q: &[f64; 6]) {
         let before = self.prev.map_or([false; 6], |p| p.at_stop);
+        if self
+            .prev
+            .is_some_and(|p| p.state == RobotState::Homing && s.state != RobotState::Homing)
+        {
+            self.left_homing_us = Some(now);
+        }
+        let engage_us = (self.bounds.brake_engage_s * 1e6) as u64;
+        let homing_coast = s.state == RobotState::Homing
+            || (!s.drives
+                && self
+                    .left_homing_us
+                    .is_some_and(|t| now.saturating_sub(t) <= engage_us));
         for (j, (now_at, was_at)) in s.at_stop.iter().zip(before).enumerate() {
             // Within a hundredth of an encoder count (legs 1.5 µm a count, links 87 µrad):
             // it has not moved off the stop.
@@ -347,7 +366,7 @@ impl Oracle {
                 self.rest[j] = None;
             }
             let arrived = *now_at && !was_at && !rested;
-            if arrived && (j < 3 || s.state != RobotState::Homing) {
+            if arrived && (j < 3 || !homing_coast) {
                 self.violate(
                     Requirement::Range,
                     now,
