@@ -268,6 +268,22 @@ fn explore() {
     );
 }
 
+/// Replays each `(what, start, actions)` case with the holes of `open` tolerated (printed):
+/// fails with every case that broke a requirement.
+fn replay(cases: &[(&str, Start, Vec<Action>)], open: &[OpenHole]) {
+    let mut failed = Vec::new();
+    for (what, start, actions) in cases {
+        let r = run_case(*start, actions, open);
+        for v in &r.tolerated {
+            println!("{what}: open: {v}");
+        }
+        if let Some(v) = r.first() {
+            failed.push(format!("{what}: {v}"));
+        }
+    }
+    assert!(failed.is_empty(), "{}", failed.join("\n"));
+}
+
 /// The counterexamples the long search found that were the oracles' (a fault counted as
 /// showing that could not show, a standing fault's repeat blamed on a later one, a contact
 /// flag taken for motion, a stop that did its work and was then cleared taken for none)
@@ -821,14 +837,7 @@ fn counterexamples_of_the_oracles_hold_now() {
             ],
         ),
     ];
-    let mut failed = Vec::new();
-    for (what, start, actions) in &cases {
-        let r = run_case(*start, actions, &[]);
-        if let Some(v) = r.first() {
-            failed.push(format!("{what}: {v}"));
-        }
-    }
-    assert!(failed.is_empty(), "{}", failed.join("\n"));
+    replay(&cases, &[]);
 }
 
 /// The counterexamples the search found, each replayed: the holes fixed hold now, the
@@ -1076,17 +1085,7 @@ fn counterexamples_found_once_hold_now() {
             ],
         ),
     ];
-    let mut failed = Vec::new();
-    for (what, start, actions) in &cases {
-        let r = run_case(*start, actions, OPEN);
-        for v in &r.tolerated {
-            println!("{what}: open: {v}");
-        }
-        if let Some(v) = r.first() {
-            failed.push(format!("{what}: {v}"));
-        }
-    }
-    assert!(failed.is_empty(), "{}", failed.join("\n"));
+    replay(&cases, OPEN);
 }
 
 /// SR-5, and the premise of SR-2's STO distance: brakes that wear to a fifth of their
@@ -1246,12 +1245,5 @@ fn counterexamples_from_homing_hold_now() {
             ],
         ),
     ];
-    let mut failed = Vec::new();
-    for (what, start, actions) in &cases {
-        let r = run_case(*start, actions, &[]);
-        if let Some(v) = r.first() {
-            failed.push(format!("{what}: {v}"));
-        }
-    }
-    assert!(failed.is_empty(), "{}", failed.join("\n"));
+    replay(&cases, &[]);
 }
