@@ -40,6 +40,15 @@ const HB: HeartbeatConfig = HeartbeatConfig {
     disable_after_us: 120_000,
 };
 
+/// The tick service's settings: the board profile's period and core clock.
+fn service_config() -> ServiceConfig {
+    ServiceConfig::for_period(
+        PROFILE.control_period_us,
+        PROFILE.cpu_hz,
+        control::link::FIRMWARE_VERSION,
+    )
+}
+
 fn tick(rt: &mut Rt, hw: &mut PlantHw, t: &mut u64, beat: bool) {
     *t += 1000;
     if beat {
@@ -261,11 +270,7 @@ fn emergency_stop_from_every_state() {
         emergency_stop_isr(&mut regs, &latch);
         assert!(!regs.pwm_on && !regs.driver_enable && !regs.brake_coils && regs.forced == 1);
         assert!(latch.is_tripped());
-        let cfg = ServiceConfig::for_period(
-            PROFILE.control_period_us,
-            PROFILE.cpu_hz,
-            control::link::FIRMWARE_VERSION,
-        );
+        let cfg = service_config();
         let mut svc = TickService::new(rt, cfg);
         svc.begin(t + 1000, 0, latch.take());
         assert_eq!(latch.take(), control::estop::EStopTrip::NONE, "taken once");
@@ -318,11 +323,7 @@ fn the_estop_path_forcing_outputs_safe_is_seen_by_the_next_enable() {
     use hal::{Brakes, MotorOutputs};
     let (rt, mut hw, t) = enabled();
     assert!(hw.enabled);
-    let cfg = ServiceConfig::for_period(
-        PROFILE.control_period_us,
-        PROFILE.cpu_hz,
-        control::link::FIRMWARE_VERSION,
-    );
+    let cfg = service_config();
     let mut svc = TickService::new(rt, cfg);
     // What `SafeOutputs::force_safe` does to the board: bridges off, brakes applied.
     let latch = EStopLatch::new();
@@ -390,11 +391,7 @@ fn no_command_of_the_tick_that_latched_an_emergency_stop_ends_it() {
         if state == State::Boot {
             continue;
         }
-        let cfg = ServiceConfig::for_period(
-            PROFILE.control_period_us,
-            PROFILE.cpu_hz,
-            control::link::FIRMWARE_VERSION,
-        );
+        let cfg = service_config();
         let mut svc = TickService::new(rt, cfg);
         // The ISR: bridges off, brakes applied, the latch tripped.
         let latch = EStopLatch::new();
@@ -594,11 +591,7 @@ fn outputs_stay_off_outside_the_driving_states() {
 /// is never fed again (it resets the board).
 #[test]
 fn a_missed_deadline_is_a_fault_and_starves_the_watchdog() {
-    let cfg = ServiceConfig::for_period(
-        PROFILE.control_period_us,
-        PROFILE.cpu_hz,
-        control::link::FIRMWARE_VERSION,
-    );
+    let cfg = service_config();
     let cycles = |us: u32| us * 168;
     // Late start.
     let (rt, mut hw, t0) = enabled();
@@ -662,11 +655,7 @@ fn a_missed_deadline_is_a_fault_and_starves_the_watchdog() {
 /// do not (SR-5: a missed deadline detected within its 3 ticks).
 #[test]
 fn overruns_are_counted_in_a_sliding_window() {
-    let cfg = ServiceConfig::for_period(
-        PROFILE.control_period_us,
-        PROFILE.cpu_hz,
-        control::link::FIRMWARE_VERSION,
-    );
+    let cfg = service_config();
     let cycles = |us: u32| us * (PROFILE.cpu_hz / 1_000_000);
     let run = |overrun_at: &[u32], ticks: u32| -> Option<u32> {
         let (rt, mut hw, t0) = enabled();
